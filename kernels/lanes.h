@@ -1,0 +1,102 @@
+// The lane abstraction that lets one estimator serve both integrators: every kernel is a
+// template on the lane type T, which is `float` for the scalar reference (one path) or
+// `xsimd::batch<float, Arch>` for the wavefront kernels (K paths at once). Masks are
+// `bool` or `xsimd::batch_bool<float, Arch>`; branches become `select` on a mask.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <type_traits>
+
+#include <xsimd/xsimd.hpp>
+
+namespace cierzo {
+
+// ---- Scalar lanes: the same vocabulary xsimd gives batches -------------------------
+inline float select(bool m, float a, float b) { return m ? a : b; }
+inline uint32_t select(bool m, uint32_t a, uint32_t b) { return m ? a : b; }
+inline int32_t select(bool m, int32_t a, int32_t b) { return m ? a : b; }
+inline bool any(bool m) { return m; }
+inline bool all(bool m) { return m; }
+inline bool none(bool m) { return !m; }
+inline float fma(float a, float b, float c) { return std::fma(a, b, c); }
+
+using std::abs;
+using std::cos;
+using std::max;
+using std::min;
+using std::sin;
+using std::sqrt;
+using xsimd::abs;
+using xsimd::all;
+using xsimd::any;
+using xsimd::cos;
+using xsimd::fma;
+using xsimd::max;
+using xsimd::min;
+using xsimd::none;
+using xsimd::select;
+using xsimd::sin;
+using xsimd::sqrt;
+
+// Mask type of a lane type: bool for float, batch_bool for a batch.
+template <class T>
+using Mask = decltype(std::declval<T>() < std::declval<T>());
+
+// Lane types of other element types with the same width: uint32 lanes for random-number
+// hashing, int32 lanes for indices.
+template <class T>
+struct LaneOf {
+    using u32 = uint32_t;
+    using i32 = int32_t;
+    static constexpr int width = 1;
+};
+template <class A>
+struct LaneOf<xsimd::batch<float, A>> {
+    using u32 = xsimd::batch<uint32_t, A>;
+    using i32 = xsimd::batch<int32_t, A>;
+    static constexpr int width = int(xsimd::batch<float, A>::size);
+};
+template <class T>
+using U32 = typename LaneOf<T>::u32;
+template <class T>
+using I32 = typename LaneOf<T>::i32;
+template <class T>
+inline constexpr int kWidth = LaneOf<T>::width;
+
+// Reinterpret and convert between lanes of one width.
+inline float to_float(uint32_t v) { return float(v); }
+inline float to_float(int32_t v) { return float(v); }
+template <class A>
+inline xsimd::batch<float, A> to_float(const xsimd::batch<uint32_t, A>& v) {
+    // Values used here stay below 2^31, so a signed conversion is exact enough.
+    return xsimd::batch_cast<float>(xsimd::bitwise_cast<xsimd::batch<int32_t, A>>(v));
+}
+template <class A>
+inline xsimd::batch<float, A> to_float(const xsimd::batch<int32_t, A>& v) {
+    return xsimd::batch_cast<float>(v);
+}
+
+// A mask of float lanes as a mask of 32-bit integer lanes of the same width. On AVX-512
+// both are the same k-register; on SSE/AVX the bits are reinterpreted, never recomputed.
+template <class I, class A>
+inline xsimd::batch_bool<I, A> mask_cast_to(const xsimd::batch_bool<float, A>& m) {
+    using IB = xsimd::batch_bool<I, A>;
+    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {  // one k-register for both
+        return IB(m.data);
+    } else {
+        return IB(xsimd::bitwise_cast<xsimd::batch<I, A>>(xsimd::batch<float, A>(m.data)).data);
+    }
+}
+inline bool mask_u32(bool m) { return m; }
+inline bool mask_i32(bool m) { return m; }
+template <class A>
+inline xsimd::batch_bool<uint32_t, A> mask_u32(const xsimd::batch_bool<float, A>& m) {
+    return mask_cast_to<uint32_t>(m);
+}
+template <class A>
+inline xsimd::batch_bool<int32_t, A> mask_i32(const xsimd::batch_bool<float, A>& m) {
+    return mask_cast_to<int32_t>(m);
+}
+
+}  // namespace cierzo

@@ -1,0 +1,21 @@
+// PLY mesh reader: ASCII, binary little-endian and binary big-endian; vertex positions,
+// optional vertex colours, faces of any size (fan-triangulated).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace cierzo {
+
+struct PlyMesh {
+    std::vector<float> positions;   // 3 floats per vertex
+    std::vector<float> colors;      // 3 floats per vertex in [0, 1], or empty
+    std::vector<uint32_t> indices;  // 3 per triangle, each < vertex count
+};
+
+// Throws InputError naming the file and what is wrong (truncated, lying counts, bad
+// indices, unsupported property types, absurd sizes) before any large allocation.
+PlyMesh read_ply(const std::filesystem::path& path);
+
+}  // namespace cierzo
