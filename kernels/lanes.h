@@ -4,13 +4,17 @@
 // `bool` or `xsimd::batch_bool<float, Arch>`; branches become `select` on a mask.
 #pragma once
 
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <type_traits>
 
 #include <xsimd/xsimd.hpp>
 
+#include "isa.h"
+
 namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
 
 // ---- Scalar lanes: the same vocabulary xsimd gives batches -------------------------
 inline float select(bool m, float a, float b) { return m ? a : b; }
@@ -79,17 +83,22 @@ inline xsimd::batch<float, A> to_float(const xsimd::batch<int32_t, A>& v) {
 
 // A mask of float lanes as a mask of 32-bit integer lanes of the same width. On AVX-512
 // both are the same k-register; on SSE/AVX the bits are reinterpreted, never recomputed.
-template <class I, class A>
-inline xsimd::batch_bool<I, A> mask_cast_to(const xsimd::batch_bool<float, A>& m) {
-    using IB = xsimd::batch_bool<I, A>;
+template <class To, class From, class A>
+inline xsimd::batch_bool<To, A> mask_cast_to(const xsimd::batch_bool<From, A>& m) {
+    using TB = xsimd::batch_bool<To, A>;
     if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {  // one k-register for both
-        return IB(m.data);
+        return TB(m.data);
     } else {
-        return IB(xsimd::bitwise_cast<xsimd::batch<I, A>>(xsimd::batch<float, A>(m.data)).data);
+        return TB(xsimd::bitwise_cast<xsimd::batch<To, A>>(xsimd::batch<From, A>(m.data)).data);
     }
 }
 inline bool mask_u32(bool m) { return m; }
 inline bool mask_i32(bool m) { return m; }
+inline bool mask_f32(bool m) { return m; }
+template <class A>
+inline xsimd::batch_bool<float, A> mask_f32(const xsimd::batch_bool<int32_t, A>& m) {
+    return mask_cast_to<float>(m);
+}
 template <class A>
 inline xsimd::batch_bool<uint32_t, A> mask_u32(const xsimd::batch_bool<float, A>& m) {
     return mask_cast_to<uint32_t>(m);
@@ -99,4 +108,22 @@ inline xsimd::batch_bool<int32_t, A> mask_i32(const xsimd::batch_bool<float, A>&
     return mask_cast_to<int32_t>(m);
 }
 
+// Bit reinterpretation between float and int32 lanes, and float -> int truncation.
+inline int32_t as_int(float v) { return std::bit_cast<int32_t>(v); }
+inline float as_float(int32_t v) { return std::bit_cast<float>(v); }
+inline int32_t to_int(float v) { return int32_t(v); }
+template <class A>
+inline xsimd::batch<int32_t, A> as_int(const xsimd::batch<float, A>& v) {
+    return xsimd::bitwise_cast<xsimd::batch<int32_t, A>>(v);
+}
+template <class A>
+inline xsimd::batch<float, A> as_float(const xsimd::batch<int32_t, A>& v) {
+    return xsimd::bitwise_cast<xsimd::batch<float, A>>(v);
+}
+template <class A>
+inline xsimd::batch<int32_t, A> to_int(const xsimd::batch<float, A>& v) {
+    return xsimd::batch_cast<int32_t>(v);
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
 }  // namespace cierzo

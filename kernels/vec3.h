@@ -5,6 +5,7 @@
 #include "lanes.h"
 
 namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
 
 template <class T>
 struct Vec3 {
@@ -69,4 +70,5 @@ struct Ray {
     Vec3<T> o, d;
 };
 
+}  // namespace CIERZO_ISA_NAMESPACE
 }  // namespace cierzo

@@ -1,0 +1,49 @@
+// Counter-based random numbers: every number is a hash of (seed, pixel, sample, bounce,
+// purpose), never state carried by a thread, so an image does not depend on how the work
+// was split and both integrators draw the same numbers for the same path vertex.
+#pragma once
+
+#include "lanes.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+// What a random number is for at one path vertex. Each gets its own hash stream.
+enum class Purpose : uint32_t {
+    kPixelX = 0,    // jitter inside the pixel (bounce 0 only)
+    kPixelY = 1,
+    kLobe = 2,      // Russian roulette: which lobe, or death
+    kDirection1 = 3,  // the two numbers that sample a direction in the chosen lobe
+    kDirection2 = 4,
+};
+inline constexpr uint32_t kPurposesPerBounce = 8;
+
+// A 32-bit integer hash with low bias ("lowbias32", C. Wellons, hash-prospector).
+template <class U>
+inline U hash32(U x) {
+    x ^= x >> 16;
+    x *= U(0x21f0aaadu);
+    x ^= x >> 15;
+    x *= U(0xd35a2d97u);
+    x ^= x >> 15;
+    return x;
+}
+
+// The key of one path: (seed, pixel, sample) hashed once when the path starts.
+template <class U>
+inline U path_key(uint32_t seed, const U& pixel, const U& sample) {
+    const U s(hash32(seed ^ 0x6a09e667u));
+    return hash32(hash32(pixel ^ s) + sample * U(0x9e3779b9u));
+}
+
+// A uniform number in [0, 1) with 24 random bits for (path, bounce, purpose).
+template <class T>
+inline T uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
+    using U = U32<T>;
+    const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
+    const U bits = hash32(key ^ hash32(counter * U(0x85ebca6bu)));
+    return to_float(bits >> 8) * T(0x1.0p-24f);
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo

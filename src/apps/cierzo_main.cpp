@@ -1,0 +1,187 @@
+// The `cierzo` program: renders a scene file to an HDR image (OpenEXR or PFM) and prints
+// time and throughput. A thin main over the render library; every option is in --help.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "integrators/render.h"
+#include "io/atomic_file.h"
+#include "io/image.h"
+#include "scene/scene_json.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace cierzo;
+
+// The limit on paths in one render (pixels × paths per pixel): well beyond any useful
+// experiment on a CPU, and refused before anything is allocated.
+constexpr double kMaxPaths = 1e12;
+
+struct RenderArgs {
+    fs::path scene;
+    std::optional<int64_t> spp;
+    std::optional<uint32_t> seed;
+    std::optional<int> width, height;
+    std::optional<float> survival_cap;
+    std::optional<std::string> diffuse_sampling;
+    int threads = 0;
+    std::string integrator = "scalar";
+    fs::path out;
+    fs::path stats;
+    bool variance = false;
+    bool quiet = false;
+};
+
+// Fails early, before a long render, if an output could never be written.
+void check_writable_folder(const fs::path& path, const char* what) {
+    const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec))
+        throw InputError(path.string() + ": cannot write " + what + ": folder '" + dir.string() +
+                         "' does not exist");
+    if (fs::is_directory(path, ec))
+        throw InputError(path.string() + ": cannot write " + what + ": it is a folder");
+}
+
+void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st) {
+    nlohmann::json j = {
+        {"scene", scene.source.string()},
+        {"integrator", st.integrator},
+        {"isa", st.isa},
+        {"threads", st.threads},
+        {"width", scene.settings.width},
+        {"height", scene.settings.height},
+        {"spp", scene.settings.spp},
+        {"spp_reached", st.spp_reached},
+        {"seed", scene.settings.seed},
+        {"seconds", st.seconds},
+        {"paths", st.paths},
+        {"rays", {{"camera", st.rays.camera}, {"extension", st.rays.extension},
+                  {"shadow", st.rays.shadow}, {"total", st.rays.total()}}},
+        {"rays_per_second", st.rays_per_second()},
+        {"rays_per_second_per_thread", st.rays_per_second() / st.threads},
+        {"nonfinite_samples", st.nonfinite_samples},
+        {"mean_relative_error", st.mean_relative_error},
+    };
+    write_stream_atomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+}
+
+int run_render(const RenderArgs& a) {
+    Scene scene = load_scene(a.scene);
+    // Command-line values override the scene file
+    RenderSettings& s = scene.settings;
+    if (a.spp) s.spp = *a.spp;
+    if (a.seed) s.seed = *a.seed;
+    if (a.width) s.width = *a.width;
+    if (a.height) s.height = *a.height;
+    if (a.survival_cap) s.estimator.survival_cap = *a.survival_cap;
+    if (a.diffuse_sampling) s.estimator.cosine_diffuse = *a.diffuse_sampling == "cosine";
+    if (!a.out.empty()) s.output = a.out;
+    if (double(s.width) * double(s.height) > double(int64_t(1) << 28))
+        throw InputError(fmt::format("--width/--height: {}x{} exceeds the limit of 2^28 pixels",
+                                     s.width, s.height));
+    if (double(s.width) * double(s.height) * double(s.spp) > kMaxPaths)
+        throw InputError(fmt::format("{}x{} pixels x {} paths per pixel exceeds the limit of "
+                                     "1e12 paths in one render",
+                                     s.width, s.height, s.spp));
+    const std::string ext = s.output.extension().string();
+    if (ext != ".exr" && ext != ".pfm")
+        throw InputError(s.output.string() + ": output must end in .exr or .pfm");
+    check_writable_folder(s.output, "the image");
+    if (!a.stats.empty()) check_writable_folder(a.stats, "the statistics");
+
+    RenderOptions options;
+    options.threads = a.threads;
+    options.integrator = a.integrator;
+    options.progress = !a.quiet;
+    const RenderResult result = render(scene, options);
+    const RenderStats& st = result.stats;
+
+    // The image, its metadata, and optionally the variance of each pixel's mean
+    ImageMetadata meta = {{"cierzo:scene", scene.source.string()},
+                          {"cierzo:integrator", st.integrator},
+                          {"cierzo:isa", st.isa},
+                          {"cierzo:spp", std::to_string(s.spp)},
+                          {"cierzo:spp_reached", std::to_string(st.spp_reached)},
+                          {"cierzo:seed", std::to_string(s.seed)}};
+    ImageLayers layers;
+    if (a.variance && ext == ".exr") {
+        const Image var = result.film.variance_of_mean();
+        const char* names[3] = {"variance.R", "variance.G", "variance.B"};
+        for (int c = 0; c < 3; ++c) {
+            std::vector<float> layer(size_t(var.width) * size_t(var.height));
+            for (size_t i = 0; i < layer.size(); ++i) layer[i] = var.rgb[i * 3 + size_t(c)];
+            layers[names[c]] = std::move(layer);
+        }
+    }
+    write_hdr(s.output, result.film.mean(), meta, layers);
+    if (!a.stats.empty()) write_stats(a.stats, scene, st);
+
+    std::fprintf(stderr,
+                 "%s: %dx%d, %lld spp, %s, %d threads: %.3f s, %.2f Mrays/s (%.2f per thread), "
+                 "relative error %.4f%s\n",
+                 s.output.string().c_str(), s.width, s.height, (long long)s.spp,
+                 st.integrator.c_str(), st.threads, st.seconds, st.rays_per_second() * 1e-6,
+                 st.rays_per_second() * 1e-6 / st.threads, st.mean_relative_error,
+                 st.nonfinite_samples
+                     ? fmt::format(", {} non-finite samples excluded", st.nonfinite_samples).c_str()
+                     : "");
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"cierzo: a data-oriented SIMD research path tracer"};
+    app.require_subcommand(1);
+    RenderArgs a;
+    CLI::App* r = app.add_subcommand("render", "Render a scene file to an HDR image");
+    r->add_option("scene", a.scene, "Scene file (JSON; see docs/scene-format.md)")
+        ->required()
+        ->check(CLI::ExistingFile);
+    r->add_option("--spp", a.spp, "Paths per pixel (overrides render.spp)")
+        ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)));
+    r->add_option("--threads", a.threads, "Worker threads; 0 = all hardware threads")
+        ->check(CLI::Range(0, 4096))
+        ->capture_default_str();
+    r->add_option("--seed", a.seed, "Random seed (overrides render.seed)");
+    r->add_option("--width", a.width, "Image width in pixels (overrides render.width)")
+        ->check(CLI::Range(1, 1 << 16));
+    r->add_option("--height", a.height, "Image height in pixels (overrides render.height)")
+        ->check(CLI::Range(1, 1 << 16));
+    r->add_option("--survival-cap", a.survival_cap,
+                  "Largest total survival probability of the lobe roulette, in (0, 1) "
+                  "(overrides render.survival_cap; default 0.9)")
+        ->check(CLI::Range(1e-6f, 0.999999f));
+    r->add_option("--diffuse-sampling", a.diffuse_sampling,
+                  "Diffuse directions: uniform (the report's) or cosine (overrides "
+                  "render.diffuse_sampling)")
+        ->check(CLI::IsMember({"uniform", "cosine"}));
+    r->add_option("--integrator", a.integrator, "Integrator: scalar (the reference)")
+        ->check(CLI::IsMember({"scalar"}))
+        ->capture_default_str();
+    r->add_option("--out", a.out, "Output image, .exr (float32) or .pfm (overrides render.output)");
+    r->add_option("--stats", a.stats,
+                  "Write run statistics as JSON: time, paths, rays by kind, rays/s, error");
+    r->add_flag("--variance", a.variance,
+                "Add the per-pixel variance of the mean as layers variance.R/G/B to the EXR");
+    r->add_flag("--quiet", a.quiet, "No progress line");
+    CLI11_PARSE(app, argc, argv);
+    try {
+        if (r->parsed()) return run_render(a);
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "cierzo: %s\n", e.what());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "cierzo: internal error: %s\n", e.what());
+        return 2;
+    }
+    return 0;
+}

@@ -1,0 +1,59 @@
+// The film: per-pixel sums of path radiance and of its square (for the variance and the
+// error estimate), and the count of finite samples; non-finite samples are counted and
+// left out, so no NaN or Inf ever reaches an image.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "io/image.h"
+#include "kernels/vec3.h"
+
+namespace cierzo {
+
+// One pixel's running sums, accumulated in double so long renders do not lose precision.
+struct PixelSums {
+    double sum[3] = {0, 0, 0};
+    double sum_sq[3] = {0, 0, 0};
+    uint64_t count = 0;       // finite samples
+    uint64_t nonfinite = 0;   // samples that were NaN or Inf, excluded
+
+    void add(const Vec3f& L) {
+        if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) {
+            ++nonfinite;
+            return;
+        }
+        const double v[3] = {L.x, L.y, L.z};
+        for (int c = 0; c < 3; ++c) {
+            sum[c] += v[c];
+            sum_sq[c] += v[c] * v[c];
+        }
+        ++count;
+    }
+};
+
+class Film {
+public:
+    Film(int width, int height);
+    int width() const { return width_; }
+    int height() const { return height_; }
+    PixelSums& at(int x, int y) { return pixels_[size_t(y) * size_t(width_) + size_t(x)]; }
+    const PixelSums& at(int x, int y) const {
+        return pixels_[size_t(y) * size_t(width_) + size_t(x)];
+    }
+
+    // The mean radiance per pixel.
+    Image mean() const;
+    // The variance of each pixel's mean (sample variance / count), per channel.
+    Image variance_of_mean() const;
+    // Mean over pixels of (standard error / |mean|), skipping pixels whose mean is ~0.
+    double mean_relative_error() const;
+    uint64_t nonfinite_samples() const;
+    uint64_t min_samples() const;
+
+private:
+    int width_, height_;
+    std::vector<PixelSums> pixels_;
+};
+
+}  // namespace cierzo

@@ -1,0 +1,146 @@
+// The render driver: tiles handed to TBB worker threads, a progress line on stderr, and
+// the statistics of the run. Integrators only fill tiles; they know nothing of threads.
+#include "integrators/render.h"
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+
+#include <oneapi/tbb/enumerable_thread_specific.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "integrators/scalar.h"
+#include "integrators/wavefront/wavefront.h"
+
+namespace cierzo {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::vector<Tile> make_tiles(int width, int height) {
+    std::vector<Tile> tiles;
+    for (int y = 0; y < height; y += kTileSize)
+        for (int x = 0; x < width; x += kTileSize)
+            tiles.push_back({x, y, std::min(x + kTileSize, width), std::min(y + kTileSize, height)});
+    return tiles;
+}
+
+// Prints "percent, ETA, Mrays/s" every half second until stopped.
+class Progress {
+public:
+    Progress(bool enabled, size_t total) : enabled_(enabled), total_(total) {
+        if (enabled_) thread_ = std::thread([this] { run(); });
+    }
+    ~Progress() { stop(); }
+    void tile_done(uint64_t rays) {
+        rays_.fetch_add(rays, std::memory_order_relaxed);
+        done_.fetch_add(1, std::memory_order_relaxed);
+    }
+    void stop() {
+        if (!thread_.joinable()) return;
+        {
+            std::lock_guard lock(mutex_);
+            stopping_ = true;
+        }
+        cv_.notify_all();
+        thread_.join();
+        print(true);
+    }
+
+private:
+    void run() {
+        std::unique_lock lock(mutex_);
+        while (!cv_.wait_for(lock, std::chrono::milliseconds(500), [&] { return stopping_; }))
+            print(false);
+    }
+    void print(bool last) {
+        const double s = std::chrono::duration<double>(Clock::now() - start_).count();
+        const double f = double(done_.load()) / double(std::max<size_t>(total_, 1));
+        const double eta = f > 0 ? s * (1.0 - f) / f : 0.0;
+        const double mrays = s > 0 ? double(rays_.load()) / s * 1e-6 : 0.0;
+        std::fprintf(stderr, "\r%5.1f%%  %6.1f s  ETA %6.1f s  %8.2f Mrays/s%s", 100.0 * f, s,
+                     eta, mrays, last ? "\n" : "");
+        std::fflush(stderr);
+    }
+
+    bool enabled_;
+    size_t total_;
+    std::atomic<uint64_t> rays_{0};
+    std::atomic<size_t> done_{0};
+    Clock::time_point start_ = Clock::now();
+    std::mutex mutex_;
+    std::condition_variable cv_;
+    bool stopping_ = false;
+    std::thread thread_;
+};
+
+}  // namespace
+
+RenderResult render(const Scene& scene, const RenderOptions& options) {
+    if (options.integrator != "scalar" && options.integrator != "wavefront")
+        throw InputError("unknown integrator '" + options.integrator +
+                         "' (valid: wavefront, scalar)");
+    std::unique_ptr<WavefrontRenderer> wavefront;
+    if (options.integrator == "wavefront")
+        wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
+                                                        options.pool_size);
+    const int threads =
+        options.threads > 0 ? options.threads : int(std::thread::hardware_concurrency());
+    const RenderSettings& rs = scene.settings;
+    RenderResult result{Film(rs.width, rs.height), {}};
+    const std::vector<Tile> tiles = make_tiles(rs.width, rs.height);
+
+    // Tiles in parallel; per-thread ray counters summed at the end
+    oneapi::tbb::enumerable_thread_specific<RayCounts> counts;
+    oneapi::tbb::enumerable_thread_specific<LaneStats> lane_stats;
+    const auto start = Clock::now();
+    {
+        Progress progress(options.progress && isatty(STDERR_FILENO), tiles.size());
+        oneapi::tbb::task_arena arena(threads);
+        arena.execute([&] {
+            oneapi::tbb::parallel_for(size_t(0), tiles.size(), [&](size_t i) {
+                RayCounts local;
+                if (wavefront) {
+                    wavefront->render_tile(tiles[i], result.film, local, lane_stats.local());
+                } else {
+                    render_tile_scalar(scene, tiles[i], result.film, local);
+                }
+                counts.local() += local;
+                progress.tile_done(local.total());
+            });
+        });
+    }
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+
+    // Statistics of the run
+    RenderStats& st = result.stats;
+    st.seconds = seconds;
+    st.threads = threads;
+    st.integrator = options.integrator;
+    for (const RayCounts& c : counts) st.rays += c;
+    st.paths = st.rays.camera;
+    st.nonfinite_samples = result.film.nonfinite_samples();
+    st.mean_relative_error = result.film.mean_relative_error();
+    st.spp_reached = int64_t(result.film.min_samples());
+    if (wavefront) {
+        LaneStats lanes;
+        for (const LaneStats& l : lane_stats) {
+            lanes.shade_active += l.shade_active, lanes.shade_total += l.shade_total;
+            lanes.isect_active += l.isect_active, lanes.isect_total += l.isect_total;
+        }
+        st.isa = isa_name(wavefront->isa());
+        st.shade_lane_utilisation = double(lanes.shade_active) / double(std::max<uint64_t>(lanes.shade_total, 1));
+        st.isect_lane_utilisation = double(lanes.isect_active) / double(std::max<uint64_t>(lanes.isect_total, 1));
+        st.pool_size = wavefront->pool_size();
+        st.pool_bytes = wavefront->pool_bytes();
+    }
+    return result;
+}
+
+}  // namespace cierzo

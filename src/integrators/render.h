@@ -1,0 +1,67 @@
+// Rendering a scene: the integrator choice, threads, progress, statistics. The image is
+// split into tiles that threads take in any order; each pixel's samples are summed in a
+// fixed order, so the image is bit-identical for every thread count.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+#include "integrators/film.h"
+#include "scene/scene.h"
+
+namespace cierzo {
+
+inline constexpr int kTileSize = 16;
+
+// Rays traced, by kind.
+struct RayCounts {
+    uint64_t camera = 0;
+    uint64_t extension = 0;
+    uint64_t shadow = 0;
+    uint64_t total() const { return camera + extension + shadow; }
+    RayCounts& operator+=(const RayCounts& o) {
+        camera += o.camera, extension += o.extension, shadow += o.shadow;
+        return *this;
+    }
+};
+
+struct RenderOptions {
+    int threads = 0;  // 0: all hardware threads
+    std::string integrator = "wavefront";  // or "scalar", the reference
+    std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2
+    int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
+    bool progress = true;                  // progress line on stderr
+};
+
+struct RenderStats {
+    double seconds = 0.0;
+    int threads = 1;
+    std::string integrator;
+    std::string isa = "scalar";
+    uint64_t paths = 0;
+    RayCounts rays;
+    uint64_t nonfinite_samples = 0;
+    double mean_relative_error = 0.0;
+    int64_t spp_reached = 0;
+    // Wavefront only: lane utilisation (live lanes / lanes computed) and the pool
+    double shade_lane_utilisation = 0.0, isect_lane_utilisation = 0.0;
+    int pool_size = 0;
+    size_t pool_bytes = 0;
+    double rays_per_second() const { return seconds > 0 ? double(rays.total()) / seconds : 0.0; }
+};
+
+struct RenderResult {
+    Film film;
+    RenderStats stats;
+};
+
+// A rectangle of pixels [x0, x1) × [y0, y1).
+struct Tile {
+    int x0, y0, x1, y1;
+};
+
+// Renders the scene with its settings (resolution, spp, seed) and the options.
+RenderResult render(const Scene& scene, const RenderOptions& options);
+
+}  // namespace cierzo

@@ -1,0 +1,100 @@
+// The scalar reference path tracer (see scalar.h): the report's estimator, one path at a
+// time, using the same templated kernels as the wavefront integrator with T = float.
+#include "integrators/scalar.h"
+
+#include "kernels/rng.h"
+
+namespace cierzo {
+
+namespace {
+
+// Point lights seen from a Phong vertex: f·cos θ·I/d² for each unoccluded light.
+Vec3f direct_point_lights(const Scene& scene, const Bsdf<float>& m, const Hit& hit,
+                          const Vec3f& d, const Vec3f& nf, float magnitude, RayCounts& rays) {
+    Vec3f sum(0.0f);
+    const Vec3f origin = offset_ray_origin(hit.p, nf, magnitude);
+    for (const PointLight& light : scene.lights) {
+        const Vec3f to = light.position - origin;
+        const float d2 = dot(to, to);
+        const float dist = std::sqrt(d2);
+        const Vec3f wi = to * (1.0f / dist);
+        const Vec3f f_cos = phong_f_cos(m, d, nf, wi);
+        if (!(max_component(f_cos) > 0.0f)) continue;
+        ++rays.shadow;
+        if (scene.occluded({origin, wi}, dist * (1.0f - 1e-5f))) continue;
+        sum += f_cos * light.intensity * (1.0f / d2);
+    }
+    return sum;
+}
+
+}  // namespace
+
+Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
+                 RayCounts& rays) {
+    const EstimatorSettings& est = scene.settings.estimator;
+    Vec3f radiance(0.0f);
+    Vec3f throughput(1.0f);
+    Ray<float> ray = camera_ray;
+    for (uint32_t bounce = 0;; ++bounce) {
+        Hit hit;
+        if (!scene.intersect(ray, kRayFar, hit)) break;
+        const Material& material = scene.materials[size_t(hit.material)];
+
+        // An emitter ends the path
+        if (material.is_emitter()) {
+            radiance += throughput * scene.emission_at(hit);
+            break;
+        }
+        const Bsdf<float> m = scene.bsdf_at(hit);
+        const Vec3f nf = facing_normal(hit.n, ray.d);
+        const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
+
+        // Point lights through shadow rays at every Phong vertex
+        if (material.has_phong() && !scene.lights.empty())
+            radiance += throughput * direct_point_lights(scene, m, hit, ray.d, nf, magnitude, rays);
+
+        // Russian roulette picks one lobe, or the path's death
+        float p = 0.0f;
+        const int32_t lobe = choose_lobe(m, uniform<float>(key, bounce, Purpose::kLobe),
+                                         est.survival_cap, p);
+        const float u1 = uniform<float>(key, bounce, Purpose::kDirection1);
+        const float u2 = uniform<float>(key, bounce, Purpose::kDirection2);
+        Scatter<float> s;
+        switch (lobe) {
+            case kLobeDiffuse: s = sample_diffuse(m, nf, u1, u2, p, est.cosine_diffuse); break;
+            case kLobeSpecular: s = sample_specular(m, ray.d, nf, u1, u2, p); break;
+            case kLobeMirror: s = sample_mirror(m, ray.d, nf, p); break;
+            case kLobeRefract: s = sample_refraction(m, ray.d, hit.n, scene.scene_ior, p); break;
+            default: return radiance;
+        }
+
+        // Continue with the lobe's weight from just off the surface, on the new side
+        throughput *= s.weight;
+        if (!(max_component(throughput) > 0.0f)) break;
+        ray.o = offset_ray_origin(hit.p, dot(s.dir, hit.n) > 0.0f ? hit.n : -hit.n, magnitude);
+        ray.d = s.dir;
+        ++rays.extension;
+    }
+    return radiance;
+}
+
+void render_tile_scalar(const Scene& scene, const Tile& tile, Film& film, RayCounts& rays) {
+    const RenderSettings& rs = scene.settings;
+    const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
+    for (int y = tile.y0; y < tile.y1; ++y) {
+        for (int x = tile.x0; x < tile.x1; ++x) {
+            PixelSums& px = film.at(x, y);
+            const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
+            for (int64_t s = 0; s < rs.spp; ++s) {
+                // A uniformly random point inside the pixel
+                const uint32_t key = path_key(rs.seed, pixel, uint32_t(s));
+                const float sx = float(x) + uniform<float>(key, 0u, Purpose::kPixelX);
+                const float sy = float(y) + uniform<float>(key, 0u, Purpose::kPixelY);
+                ++rays.camera;
+                px.add(trace_path(scene, scene.camera.generate(sx, sy, inv_w, inv_h), key, rays));
+            }
+        }
+    }
+}
+
+}  // namespace cierzo

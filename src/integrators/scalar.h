@@ -1,0 +1,17 @@
+// The scalar reference path tracer: one path at a time, depth first, exactly the report's
+// estimator. It is the oracle the wavefront kernels are checked against, and the baseline
+// they are measured against.
+#pragma once
+
+#include "integrators/render.h"
+
+namespace cierzo {
+
+// The radiance carried back along one camera path, keyed by (seed, pixel, sample).
+Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
+                 RayCounts& rays);
+
+// All samples of the tile's pixels, added to the film.
+void render_tile_scalar(const Scene& scene, const Tile& tile, Film& film, RayCounts& rays);
+
+}  // namespace cierzo

@@ -1,0 +1,107 @@
+// The scene as the per-ISA wavefront kernels see it: plain arrays and counts, no kernel types,
+// no standard containers, so the per-ISA objects share no inline code with the rest of the
+// program. Meshes and vertex colours are reached through callbacks into the scalar code.
+#pragma once
+
+#include <cstdint>
+
+namespace cierzo {
+
+// Primitive ids in hit records: kind in the top byte, index below.
+enum PrimKind : int32_t { kPrimSphere = 1, kPrimPlane = 2, kPrimQuadric = 3, kPrimMesh = 4 };
+inline constexpr int32_t kPrimShift = 24;
+inline constexpr int32_t kPrimIndexMask = (1 << kPrimShift) - 1;
+
+// The colour channels of a material, in this order.
+enum MaterialColor : int { kColEmission = 0, kColKd, kColKs, kColKr, kColKt, kColCount };
+
+// One colour source, flattened (same meaning as ColorSource in kernels/texture.h).
+struct FlatColor {
+    uint32_t kind;  // TextureKind
+    float a[3], b[3];
+    float frequency;
+    float axis[3], axis2[3];
+};
+
+// A closest hit on a mesh, from the scalar BVH.
+struct MeshHit {
+    float t;
+    float n[3];
+    int32_t mesh;
+    uint32_t triangle;
+};
+
+// Which stages and primitive loops a scene needs; the kernels skip everything else.
+struct FlatFeatures {
+    bool spheres, planes, quadrics, meshes;
+    bool lights, emitters;
+    bool diffuse, specular, mirror, refraction;
+    bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated
+    int lobe_kinds;  // how many of the four lobes occur (1: no lobe bucketing needed)
+};
+
+struct FlatScene {
+    // Spheres, planes (n·p + d = 0), quadrics (10 coefficients + box min + box max)
+    int32_t sphere_count;
+    const float *sphere_cx, *sphere_cy, *sphere_cz, *sphere_r;
+    const int32_t* sphere_material;
+    int32_t plane_count;
+    const float *plane_nx, *plane_ny, *plane_nz, *plane_d;
+    const int32_t* plane_material;
+    int32_t quadric_count;
+    const float* quadric;  // 16 floats each: A..J, box min xyz, box max xyz
+    const int32_t* quadric_material;
+    int32_t mesh_count;
+    const int32_t* mesh_material;
+
+    // Materials: solid colours as SoA [channel][component][material], flags, sources
+    int32_t material_count;
+    const float* color;         // kColCount * 3 * material_count
+    const float* shininess;     // material_count
+    const float* ior;           // material_count
+    const int32_t* emitter;     // material_count, 1 if the material emits (ends paths)
+    const int32_t* phong;       // material_count, 1 if kd or ks is non-zero
+    const int32_t* textured;    // material_count, 1 if any colour is not solid
+    const FlatColor* sources;   // material_count * kColCount
+
+    // Point lights: position xyz, intensity rgb
+    int32_t light_count;
+    const float* light;
+
+    // Camera frame and image
+    float cam_origin[3], cam_forward[3], cam_left[3], cam_up[3];
+    int32_t width, height;
+    uint32_t seed;
+    float survival_cap;
+    bool cosine_diffuse;
+    float scene_ior;
+    FlatFeatures features;
+
+    // Callbacks into the scalar code for what is not vectorised: BVH traversal of meshes and
+    // vertex colours (one ray or one hit at a time).
+    const void* scene;
+    bool (*intersect_meshes)(const void* scene, const float o[3], const float d[3], float tmax,
+                             MeshHit* hit);
+    bool (*occluded_meshes)(const void* scene, const float o[3], const float d[3], float tmax);
+    void (*vertex_color)(const void* scene, int32_t mesh, uint32_t triangle, const float p[3],
+                         const FlatColor* source, float out[3]);
+};
+
+// One tile of work and where its finished paths go.
+struct TileJob {
+    int32_t x0, y0, x1, y1;
+    int64_t spp;
+    void* film;
+    // Adds `count` finished paths (pixel index, radiance) to the film, in order.
+    void (*finish)(void* film, int32_t count, const uint32_t* pixel, const float* r,
+                   const float* g, const float* b);
+};
+
+// Counters a tile returns.
+struct WavefrontCounters {
+    uint64_t camera = 0, extension = 0, shadow = 0;
+    uint64_t lanes_active = 0, lanes_total = 0;  // shading lane utilisation
+    uint64_t isect_active = 0, isect_total = 0;  // intersection lane utilisation
+};
+
+}  // namespace cierzo

@@ -1,0 +1,58 @@
+// The wavefront's path states and work queues, structure of arrays, one block of memory per
+// thread. Every array holds `capacity` entries (a multiple of the widest SIMD width, 16) and
+// is 64-byte aligned; lanes past the live count are inert padding.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace cierzo {
+
+inline constexpr int kMaxLanes = 16;
+
+struct PathPool {
+    int32_t capacity = 0;
+
+    // Path state (survives from bounce to bounce; compacted when paths die)
+    float *ox, *oy, *oz, *dx, *dy, *dz;  // current ray
+    float *beta_r, *beta_g, *beta_b;     // throughput
+    float *rad_r, *rad_g, *rad_b;        // radiance gathered so far
+    uint32_t *key, *pixel, *bounce;
+
+    // Per-bounce scratch: the hit, the surface and its material
+    float* t;
+    int32_t* prim;
+    float *mesh_nx, *mesh_ny, *mesh_nz;
+    int32_t* mesh_id;
+    uint32_t* mesh_tri;
+    float *px, *py, *pz, *nx, *ny, *nz;
+    int32_t* material;
+    int32_t* alive;
+    float* col[5][3];  // evaluated emission, kd, ks, kr, kt
+    float *shininess, *ior;
+
+    // Lobe choice and the per-lobe buckets (indices into the pool)
+    int32_t* lobe;
+    float* probability;
+    int32_t* bucket[5];  // material sort / lobe buckets share these index lists
+    int32_t bucket_size[5];
+    int32_t* order;            // material-sorted indices
+    int32_t* material_starts;  // material_count + 1 group starts
+
+    // Shadow queue: origin, direction, distance, contribution, owner
+    float *sox, *soy, *soz, *sdx, *sdy, *sdz, *stmax, *sc_r, *sc_g, *sc_b;
+    int32_t* sowner;
+    int32_t shadow_capacity = 0;
+    int32_t shadow_count = 0;
+
+    // Finished paths, flushed to the film after every bounce
+    uint32_t* done_pixel;
+    float *done_r, *done_g, *done_b;
+};
+
+// Bytes of memory a pool of `capacity` paths uses with `lights` point lights.
+size_t path_pool_bytes(int32_t capacity, int32_t lights, int32_t materials);
+// Carves a pool out of `memory` (64-byte aligned, path_pool_bytes long).
+PathPool carve_path_pool(void* memory, int32_t capacity, int32_t lights, int32_t materials);
+
+}  // namespace cierzo

@@ -1,0 +1,225 @@
+// Wavefront stage 5, shading, with the estimator of kernels/estimator.h: emitters end their
+// paths; Phong vertices queue one shadow ray per point light; the roulette picks each path's
+// lobe; hits are bucketed by lobe and each lobe's kernel runs on full batches of its own
+// lanes (gathered by index), or on the pool in place when the scene has a single lobe.
+#pragma once
+
+#include "integrators/wavefront/wave.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+template <class F>
+Bsdf<F> load_bsdf(const PathPool& p, int32_t i) {
+    auto col = [&](int c) { return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i); };
+    return {col(kColKd), col(kColKs), col(kColKr), col(kColKt), F::load_aligned(p.shininess + i),
+            F::load_aligned(p.ior + i)};
+}
+template <class F, class I>
+Bsdf<F> gather_bsdf(const PathPool& p, const I& j) {
+    auto col = [&](int c) { return gather3<F>(p.col[c][0], p.col[c][1], p.col[c][2], j); };
+    return {col(kColKd), col(kColKs), col(kColKr), col(kColKt), F::gather(p.shininess, j),
+            F::gather(p.ior, j)};
+}
+
+// Emission, shadow rays and the roulette for K paths at a time.
+template <class A>
+void shade_vertices(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const FlatFeatures& f = s.features;
+    int32_t queued = 0;
+    const int32_t end = w.rounded_up(w.live);
+    for (int32_t i = 0; i < end; i += K) {
+        auto alive = mask_f32(I::load_aligned(p.alive + i) != I(0));
+        const I mat = I::load_aligned(p.material + i);
+        const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
+        Vec3<F> rad = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
+
+        // An emitter ends the path
+        if (f.emitters) {
+            const auto em = mask_f32(I::gather(s.emitter, mat) != I(0)) & alive;
+            const Vec3<F> le = load3<F>(p.col[kColEmission][0], p.col[kColEmission][1],
+                                        p.col[kColEmission][2], i);
+            rad = select(em, rad + beta * le, rad);
+            alive = alive & !em;
+        }
+        const Bsdf<F> m = load_bsdf<F>(p, i);
+        const Vec3<F> d = load3<F>(p.dx, p.dy, p.dz, i);
+        const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
+        const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
+
+        // Point lights through shadow rays at Phong vertices: queue f·cos θ·I/d² · β
+        if (f.lights) {
+            const auto phong = mask_f32(I::gather(s.phong, mat) != I(0)) & alive;
+            if (any(phong)) {
+                const Vec3<F> nf = facing_normal(n, d);
+                const F magnitude = max(max_abs(pos), max_abs(load3<F>(p.ox, p.oy, p.oz, i)));
+                const Vec3<F> origin = offset_ray_origin(pos, nf, magnitude);
+                for (int32_t j = 0; j < s.light_count; ++j) {
+                    const float* l = s.light + 6 * j;
+                    const Vec3<F> to = Vec3<F>(F(l[0]), F(l[1]), F(l[2])) - origin;
+                    const F d2 = dot(to, to);
+                    const F dist = sqrt(d2);
+                    const Vec3<F> wi = to * (F(1.0f) / dist);
+                    const Vec3<F> c = beta * phong_f_cos(m, d, nf, wi) *
+                                      Vec3<F>(F(l[3]), F(l[4]), F(l[5])) * (F(1.0f) / d2);
+                    uint32_t bits = mask_bits(phong & (max_component(c) > F(0.0f)));
+                    if (!bits) continue;
+                    alignas(64) float v[10][K];
+                    const F tmax = dist * F(1.0f - 1e-5f);
+                    const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x, &wi.y,
+                                        &wi.z,     &tmax,     &c.x,      &c.y,  &c.z};
+                    for (int k = 0; k < 10; ++k) src[k]->store_aligned(v[k]);
+                    float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy,
+                                      p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
+                    while (bits) {
+                        const int32_t l = std::countr_zero(bits);
+                        bits &= bits - 1;
+                        for (int k = 0; k < 10; ++k) dst[k][queued] = v[k][l];
+                        p.sowner[queued++] = i + l;
+                    }
+                }
+            }
+        }
+
+        // Russian roulette over the lobes
+        const U key = U::load_aligned(p.key + i);
+        const U bounce = U::load_aligned(p.bounce + i);
+        F probability;
+        I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe), s.survival_cap,
+                             probability);
+        lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
+        alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
+        lobe.store_aligned(p.lobe + i);
+        probability.store_aligned(p.probability + i);
+        select(mask_i32(alive), I(1), I(0)).store_aligned(p.alive + i);
+        store3(rad, p.rad_r, p.rad_g, p.rad_b, i);
+        w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
+        w.counters.lanes_total += uint64_t(K);
+    }
+    p.shadow_count = queued;
+    w.counters.shadow += uint64_t(queued);
+}
+
+// One lobe's continuation for K paths: new direction, throughput and origin.
+template <int kLobe, class A>
+struct LobeStep {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    Vec3<F> o, d, beta;
+    typename Wave<A>::M alive;
+
+    LobeStep(const FlatScene& s, const Bsdf<F>& m, const Vec3<F>& o0, const Vec3<F>& d0,
+             const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& beta0, const F& probability,
+             const U& key, const U& bounce) {
+        const Vec3<F> nf = facing_normal(n, d0);
+        const F u1 = uniform<F>(key, bounce, Purpose::kDirection1);
+        const F u2 = uniform<F>(key, bounce, Purpose::kDirection2);
+        Scatter<F> sc;
+        if constexpr (kLobe == kLobeDiffuse) {
+            sc = sample_diffuse(m, nf, u1, u2, probability, s.cosine_diffuse);
+        } else if constexpr (kLobe == kLobeSpecular) {
+            sc = sample_specular(m, d0, nf, u1, u2, probability);
+        } else if constexpr (kLobe == kLobeMirror) {
+            sc = sample_mirror(m, d0, nf, probability);
+        } else {
+            sc = sample_refraction(m, d0, n, F(s.scene_ior), probability);
+        }
+        beta = beta0 * sc.weight;
+        alive = max_component(beta) > F(0.0f);
+        const F magnitude = max(max_abs(pos), max_abs(o0));
+        o = offset_ray_origin(pos, select(dot(sc.dir, n) > F(0.0f), n, -n), magnitude);
+        d = sc.dir;
+    }
+};
+
+// A lobe's kernel over the pool in place (single-lobe scenes: no bucketing needed).
+template <int kLobe, class A>
+void run_lobe_in_place(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    const int32_t end = w.rounded_up(w.live);
+    for (int32_t i = 0; i < end; i += Wave<A>::K) {
+        const auto chosen = mask_f32(I::load_aligned(p.lobe + i) == I(kLobe));
+        if (none(chosen)) continue;
+        const Vec3<F> o = load3<F>(p.ox, p.oy, p.oz, i);
+        const Vec3<F> d = load3<F>(p.dx, p.dy, p.dz, i);
+        const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
+        const LobeStep<kLobe, A> step(w.scene, load_bsdf<F>(p, i), o, d,
+                                      load3<F>(p.px, p.py, p.pz, i), load3<F>(p.nx, p.ny, p.nz, i),
+                                      beta, F::load_aligned(p.probability + i),
+                                      U::load_aligned(p.key + i), U::load_aligned(p.bounce + i));
+        const auto alive = chosen & step.alive;
+        store3(select(chosen, step.o, o), p.ox, p.oy, p.oz, i);
+        store3(select(chosen, step.d, d), p.dx, p.dy, p.dz, i);
+        store3(select(chosen, step.beta, beta), p.beta_r, p.beta_g, p.beta_b, i);
+        const I was = I::load_aligned(p.alive + i);
+        select(mask_i32(chosen), select(mask_i32(alive), I(1), I(0)), was).store_aligned(p.alive + i);
+        w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
+    }
+}
+
+// A lobe's kernel over its bucket: full batches of gathered lanes.
+template <int kLobe, class A>
+void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    for (int32_t i = 0; i < size; i += K) {
+        alignas(64) int32_t idx[K];
+        for (int32_t l = 0; l < K; ++l) idx[l] = list[std::min(i + l, size - 1)];
+        const I j = I::load_aligned(idx);
+        const LobeStep<kLobe, A> step(
+            w.scene, gather_bsdf<F>(p, j), gather3<F>(p.ox, p.oy, p.oz, j),
+            gather3<F>(p.dx, p.dy, p.dz, j), gather3<F>(p.px, p.py, p.pz, j),
+            gather3<F>(p.nx, p.ny, p.nz, j), gather3<F>(p.beta_r, p.beta_g, p.beta_b, j),
+            F::gather(p.probability, j), U::gather(p.key, j), U::gather(p.bounce, j));
+        scatter3(step.o, p.ox, p.oy, p.oz, j);
+        scatter3(step.d, p.dx, p.dy, p.dz, j);
+        scatter3(step.beta, p.beta_r, p.beta_g, p.beta_b, j);
+        select(mask_i32(step.alive), I(1), I(0)).scatter(p.alive, j);
+        const int32_t lanes = std::min(K, size - i);
+        w.counters.extension +=
+            uint64_t(std::popcount(mask_bits(step.alive) & ((1u << lanes) - 1u)));
+        w.counters.lanes_active += uint64_t(lanes);
+        w.counters.lanes_total += uint64_t(K);
+    }
+}
+
+template <class A>
+void sample_lobes(Wave<A>& w) {
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    const FlatFeatures& f = w.scene.features;
+    if (f.lobe_kinds <= 1) {
+        if (f.diffuse) run_lobe_in_place<kLobeDiffuse>(w);
+        if (f.specular) run_lobe_in_place<kLobeSpecular>(w);
+        if (f.mirror) run_lobe_in_place<kLobeMirror>(w);
+        if (f.refraction) run_lobe_in_place<kLobeRefract>(w);
+        return;
+    }
+    // Bucket the paths by the lobe the roulette picked
+    for (int b = 0; b < kLobeCount; ++b) p.bucket_size[b] = 0;
+    const int32_t end = w.rounded_up(w.live);
+    for (int32_t i = 0; i < end; i += Wave<A>::K) {
+        const I lobe = I::load_aligned(p.lobe + i);
+        for (int b = 0; b < kLobeCount; ++b)
+            append_lanes(mask_bits(mask_f32(lobe == I(b))), i, p.bucket[b], p.bucket_size[b]);
+    }
+    if (f.diffuse) run_lobe_bucket<kLobeDiffuse>(w, p.bucket[0], p.bucket_size[0]);
+    if (f.specular) run_lobe_bucket<kLobeSpecular>(w, p.bucket[1], p.bucket_size[1]);
+    if (f.mirror) run_lobe_bucket<kLobeMirror>(w, p.bucket[2], p.bucket_size[2]);
+    if (f.refraction) run_lobe_bucket<kLobeRefract>(w, p.bucket[3], p.bucket_size[3]);
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo

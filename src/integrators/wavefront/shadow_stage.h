@@ -1,0 +1,42 @@
+// Wavefront stage 6, shadow rays: the queued rays towards point lights, K at a time, any-hit
+// against the analytic primitives (and meshes one ray at a time); an unblocked ray adds its
+// contribution to its path's radiance.
+#pragma once
+
+#include "integrators/wavefront/intersect_stage.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+template <class A>
+void trace_shadow_rays(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const int32_t count = p.shadow_count;
+    for (int32_t i = 0; i < count; i += K) {
+        const Ray<F> ray{load3<F>(p.sox, p.soy, p.soz, i), load3<F>(p.sdx, p.sdy, p.sdz, i)};
+        const F tmax = F::load_aligned(p.stmax + i);
+        // Lanes of this chunk that hold a queued ray and are not blocked
+        const int32_t lanes = std::min(K, count - i);
+        uint32_t open = ~mask_bits(occluded<A>(s, ray, tmax)) & ((1u << lanes) - 1u);
+        // Meshes and the radiance update, per unblocked ray (one path may own several rays)
+        while (open) {
+            const int32_t q = i + std::countr_zero(open);
+            open &= open - 1;
+            if (s.features.meshes) {
+                const float o[3] = {p.sox[q], p.soy[q], p.soz[q]};
+                const float d[3] = {p.sdx[q], p.sdy[q], p.sdz[q]};
+                if (s.occluded_meshes(s.scene, o, d, p.stmax[q])) continue;
+            }
+            const int32_t owner = p.sowner[q];
+            p.rad_r[owner] += p.sc_r[q];
+            p.rad_g[owner] += p.sc_g[q];
+            p.rad_b[owner] += p.sc_b[q];
+        }
+    }
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo

@@ -1,0 +1,71 @@
+// Wavefront stage 3, surface: for K hits at a time, the hit point, the outward geometric
+// normal of whichever primitive kind each lane hit (gathered by index), and the material id.
+// Lanes that missed everything, and padding lanes, are marked dead.
+#pragma once
+
+#include "integrators/wavefront/wave.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+template <class A>
+void resolve_surfaces(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const FlatFeatures& f = s.features;
+    const int32_t end = w.rounded_up(w.live);
+    for (int32_t i = 0; i < end; i += Wave<A>::K) {
+        const I prim = I::load_aligned(p.prim + i);
+        const auto hit = w.live_mask(i) & (to_float(prim) >= F(0.0f));
+        const I kind = prim >> kPrimShift;
+        const I index = prim & I(kPrimIndexMask);
+        const F t = F::load_aligned(p.t + i);
+        const Vec3<F> pos = fma(load3<F>(p.dx, p.dy, p.dz, i), t, load3<F>(p.ox, p.oy, p.oz, i));
+        Vec3<F> n(F(0.0f), F(0.0f), F(1.0f));
+        I material(0);
+
+        // Each primitive kind the scene has: gather its data where lanes hit that kind
+        if (f.spheres) {
+            const auto m = kind == I(kPrimSphere);
+            const I j = select(m, index, I(0));
+            const Vec3<F> c = gather3<F>(s.sphere_cx, s.sphere_cy, s.sphere_cz, j);
+            n = select(mask_f32(m), normalize(pos - c), n);
+            material = select(m, I::gather(s.sphere_material, j), material);
+        }
+        if (f.planes) {
+            const auto m = kind == I(kPrimPlane);
+            const I j = select(m, index, I(0));
+            n = select(mask_f32(m),
+                       gather3<F>(s.plane_nx, s.plane_ny, s.plane_nz, j), n);
+            material = select(m, I::gather(s.plane_material, j), material);
+        }
+        if (f.quadrics) {
+            const auto m = kind == I(kPrimQuadric);
+            const auto mf = mask_f32(m);
+            if (any(mf)) {
+                const I j = select(m, index, I(0));
+                const I base = j * I(16);
+                QuadricCoefficients<F> q;
+                F* c[10] = {&q.a, &q.b, &q.c, &q.d, &q.e, &q.f, &q.g, &q.h, &q.i, &q.j};
+                for (int k = 0; k < 10; ++k) *c[k] = F::gather(s.quadric, base + I(k));
+                n = select(mf, normalize(quadric_gradient(q, pos)), n);
+                material = select(m, I::gather(s.quadric_material, j), material);
+            }
+        }
+        if (f.meshes) {
+            const auto m = kind == I(kPrimMesh);
+            const I mesh = select(m, I::load_aligned(p.mesh_id + i), I(0));
+            n = select(mask_f32(m), load3<F>(p.mesh_nx, p.mesh_ny, p.mesh_nz, i), n);
+            material = select(m, I::gather(s.mesh_material, mesh), material);
+        }
+        store3(pos, p.px, p.py, p.pz, i);
+        store3(n, p.nx, p.ny, p.nz, i);
+        select(mask_i32(hit), material, I(0)).store_aligned(p.material + i);
+        select(mask_i32(hit), I(1), I(0)).store_aligned(p.alive + i);
+    }
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo

@@ -1,0 +1,89 @@
+// The context every wavefront stage works on: the flat scene, this thread's path pool, the
+// live path count and the counters, with lane types for one instruction set `A`. Included
+// only by the per-ISA objects; everything here lives in the per-ISA namespace.
+#pragma once
+
+#include <algorithm>
+#include <bit>
+
+#include "integrators/wavefront/flat_scene.h"
+#include "integrators/wavefront/path_pool.h"
+#include "kernels/estimator.h"
+#include "kernels/intersect.h"
+#include "kernels/rng.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+template <class A>
+struct Wave {
+    using F = xsimd::batch<float, A>;
+    using U = xsimd::batch<uint32_t, A>;
+    using I = xsimd::batch<int32_t, A>;
+    using M = xsimd::batch_bool<float, A>;
+    static constexpr int32_t K = int32_t(F::size);
+
+    const FlatScene& scene;
+    PathPool& pool;
+    WavefrontCounters& counters;
+    int32_t live = 0;  // paths in [0, live) are in flight
+
+    int32_t rounded_up(int32_t n) const { return (n + K - 1) / K * K; }
+
+    // Lane i of batch starting at `base` is a live path
+    M live_mask(int32_t base) const { return lane_index() < F(float(live - base)); }
+
+    // 0, 1, ..., K-1 as floats
+    static F lane_index() {
+        alignas(64) float idx[K];
+        for (int32_t l = 0; l < K; ++l) idx[l] = float(l);
+        return F::load_aligned(idx);
+    }
+    // base, base+1, ..., base+K-1
+    static I lane_ids(int32_t base) {
+        alignas(64) int32_t idx[K];
+        for (int32_t l = 0; l < K; ++l) idx[l] = base + l;
+        return I::load_aligned(idx);
+    }
+};
+
+// ---- Loads, stores, gathers of vectors of lanes -----------------------------------------
+template <class F>
+Vec3<F> load3(const float* x, const float* y, const float* z, int32_t i) {
+    return {F::load_aligned(x + i), F::load_aligned(y + i), F::load_aligned(z + i)};
+}
+template <class F>
+void store3(const Vec3<F>& v, float* x, float* y, float* z, int32_t i) {
+    v.x.store_aligned(x + i), v.y.store_aligned(y + i), v.z.store_aligned(z + i);
+}
+template <class F, class I>
+Vec3<F> gather3(const float* x, const float* y, const float* z, const I& idx) {
+    return {F::gather(x, idx), F::gather(y, idx), F::gather(z, idx)};
+}
+template <class F, class I>
+void scatter3(const Vec3<F>& v, float* x, float* y, float* z, const I& idx) {
+    v.x.scatter(x, idx), v.y.scatter(y, idx), v.z.scatter(z, idx);
+}
+
+// Bits of a mask, lane 0 in bit 0.
+template <class A>
+uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
+    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {
+        return uint32_t(m.data);
+    } else if constexpr (std::is_base_of_v<xsimd::avx, A>) {
+        return uint32_t(_mm256_movemask_ps(m.data));
+    } else {
+        return uint32_t(_mm_movemask_ps(m.data));
+    }
+}
+
+// Appends the indices base + l of the lanes set in `bits` to list[size...].
+inline void append_lanes(uint32_t bits, int32_t base, int32_t* list, int32_t& size) {
+    while (bits) {
+        list[size++] = base + std::countr_zero(bits);
+        bits &= bits - 1;
+    }
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo

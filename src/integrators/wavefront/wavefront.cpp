@@ -1,0 +1,253 @@
+// The wavefront integrator's scalar side: the flat view of the scene that the per-ISA
+// kernels read, the callbacks they make into the BVH, per-thread path pools, the choice of
+// instruction set, and the hand-over of finished paths to the film.
+#include "integrators/wavefront/wavefront.h"
+
+#include <cstdlib>
+#include <new>
+
+#include <oneapi/tbb/enumerable_thread_specific.h>
+
+#include "core/error.h"
+
+namespace cierzo {
+
+namespace {
+
+// ---- Callbacks the kernels make for what is not vectorised ------------------------------
+
+bool intersect_meshes(const void* scene, const float o[3], const float d[3], float tmax,
+                      MeshHit* out) {
+    const Scene& s = *static_cast<const Scene*>(scene);
+    const Ray<float> ray{{o[0], o[1], o[2]}, {d[0], d[1], d[2]}};
+    float best = tmax;
+    bool found = false;
+    for (size_t i = 0; i < s.meshes.size(); ++i) {
+        TriangleHit th;
+        if (!s.meshes[i].bvh.intersect(ray, best, th)) continue;
+        const Mesh& m = s.meshes[i];
+        const uint32_t* v = &m.indices[size_t(th.triangle) * 3];
+        const Vec3f n = normalize(cross(m.positions[v[1]] - m.positions[v[0]],
+                                        m.positions[v[2]] - m.positions[v[0]]));
+        best = th.t;
+        *out = {th.t, {n.x, n.y, n.z}, int32_t(i), th.triangle};
+        found = true;
+    }
+    return found;
+}
+
+bool occluded_meshes(const void* scene, const float o[3], const float d[3], float tmax) {
+    const Scene& s = *static_cast<const Scene*>(scene);
+    const Ray<float> ray{{o[0], o[1], o[2]}, {d[0], d[1], d[2]}};
+    for (const Mesh& m : s.meshes)
+        if (m.bvh.occluded(ray, tmax)) return true;
+    return false;
+}
+
+void vertex_color(const void* scene, int32_t mesh, uint32_t triangle, const float p[3],
+                  const FlatColor* source, float out[3]) {
+    const Scene& s = *static_cast<const Scene*>(scene);
+    const Mesh& m = s.meshes[size_t(mesh)];
+    if (m.colors.empty()) return;
+    const uint32_t* idx = &m.indices[size_t(triangle) * 3];
+    const Vec3f v[3] = {m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
+    const Vec3f col[3] = {m.colors[idx[0]], m.colors[idx[1]], m.colors[idx[2]]};
+    ColorSource c;
+    c.kind = TextureKind(source->kind);
+    c.a = {source->a[0], source->a[1], source->a[2]};
+    const Vec3f r = eval_vertex_color(c, Vec3f{p[0], p[1], p[2]}, v, col);
+    out[0] = r.x, out[1] = r.y, out[2] = r.z;
+}
+
+void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float* r,
+                  const float* g, const float* b) {
+    Film& f = *static_cast<Film*>(film);
+    const uint32_t width = uint32_t(f.width());
+    for (int32_t i = 0; i < count; ++i)
+        f.at(int(pixel[i] % width), int(pixel[i] / width)).add({r[i], g[i], b[i]});
+}
+
+FlatColor flatten(const ColorSource& c) {
+    return {uint32_t(c.kind), {c.a.x, c.a.y, c.a.z}, {c.b.x, c.b.y, c.b.z}, c.frequency,
+            {c.axis.x, c.axis.y, c.axis.z}, {c.axis2.x, c.axis2.y, c.axis2.z}};
+}
+
+// One thread's pool: an aligned block carved into SoA arrays.
+struct PoolMemory {
+    void* memory = nullptr;
+    PathPool pool;
+    PoolMemory(int32_t capacity, int32_t lights, int32_t materials) {
+        const size_t bytes = path_pool_bytes(capacity, lights, materials);
+        memory = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
+        if (!memory) throw std::bad_alloc();
+        pool = carve_path_pool(memory, capacity, lights, materials);
+    }
+    PoolMemory(const PoolMemory&) = delete;
+    PoolMemory& operator=(const PoolMemory&) = delete;
+    ~PoolMemory() { std::free(memory); }
+};
+
+}  // namespace
+
+// ---- Instruction sets ---------------------------------------------------------------------
+
+bool isa_supported(Isa isa) {
+    switch (isa) {
+        case Isa::kAvx512:
+            return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                   __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
+                   __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("fma");
+        case Isa::kAvx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+        case Isa::kSse42: return __builtin_cpu_supports("sse4.2");
+        case Isa::kAuto: return true;
+    }
+    return false;
+}
+
+Isa best_isa() {
+    for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
+        if (isa_supported(isa)) return isa;
+    return Isa::kSse42;
+}
+
+std::string isa_name(Isa isa) {
+    switch (isa) {
+        case Isa::kAvx512: return "avx512";
+        case Isa::kAvx2: return "avx2";
+        case Isa::kSse42: return "sse4.2";
+        case Isa::kAuto: return "auto";
+    }
+    return "?";
+}
+
+Isa parse_isa(const std::string& name) {
+    for (Isa isa : {Isa::kAuto, Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
+        if (name == isa_name(isa)) return isa;
+    throw InputError("unknown ISA '" + name + "' (valid: auto, avx512, avx2, sse4.2)");
+}
+
+int isa_width(Isa isa) { return isa == Isa::kAvx512 ? 16 : (isa == Isa::kAvx2 ? 8 : 4); }
+
+// ---- The renderer -----------------------------------------------------------------------------
+
+struct WavefrontRenderer::Data {
+    const Scene& scene;
+    FlatScene flat{};
+    std::vector<float> quadric, color, shininess, ior, light;
+    std::vector<int32_t> quadric_material, mesh_material, emitter, phong, textured;
+    std::vector<FlatColor> sources;
+    void (*entry)(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&) = nullptr;
+    int32_t pool_size;
+    mutable oneapi::tbb::enumerable_thread_specific<PoolMemory> pools;
+
+    Data(const Scene& s, int32_t size)
+        : scene(s),
+          pool_size(size),
+          pools(size, int32_t(s.lights.size()), int32_t(s.materials.size())) {}
+};
+
+WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size)
+    : isa_(isa == Isa::kAuto ? best_isa() : isa),
+      pool_size_(pool_size > 0 ? pool_size : kDefaultPoolSize) {
+    if (!isa_supported(isa_))
+        throw InputError("--isa " + isa_name(isa_) + ": this CPU does not support it");
+    if (pool_size_ % 16 != 0 || pool_size_ < 16 || pool_size_ > (1 << 22))
+        throw InputError("--pool: the path pool size must be a multiple of 16 in [16, 4194304]");
+    data_ = std::make_unique<Data>(scene, pool_size_);
+    Data& d = *data_;
+    FlatScene& f = d.flat;
+    d.entry = isa_ == Isa::kAvx512 ? render_tile_avx512
+                                   : (isa_ == Isa::kAvx2 ? render_tile_avx2 : render_tile_sse42);
+
+    // Analytic primitives: the scene's own SoA arrays, quadrics flattened to 16 floats
+    f.sphere_count = int32_t(scene.spheres.size());
+    f.sphere_cx = scene.spheres.cx.data(), f.sphere_cy = scene.spheres.cy.data();
+    f.sphere_cz = scene.spheres.cz.data(), f.sphere_r = scene.spheres.radius.data();
+    f.sphere_material = scene.spheres.material.data();
+    f.plane_count = int32_t(scene.planes.size());
+    f.plane_nx = scene.planes.nx.data(), f.plane_ny = scene.planes.ny.data();
+    f.plane_nz = scene.planes.nz.data(), f.plane_d = scene.planes.distance.data();
+    f.plane_material = scene.planes.material.data();
+    for (const Quadric& q : scene.quadrics) {
+        d.quadric.insert(d.quadric.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h,
+                                           q.q.i, q.q.j, q.box_min.x, q.box_min.y, q.box_min.z,
+                                           q.box_max.x, q.box_max.y, q.box_max.z});
+        d.quadric_material.push_back(q.material);
+    }
+    f.quadric_count = int32_t(scene.quadrics.size());
+    f.quadric = d.quadric.data();
+    f.quadric_material = d.quadric_material.data();
+    for (const Mesh& m : scene.meshes) d.mesh_material.push_back(m.material);
+    f.mesh_count = int32_t(scene.meshes.size());
+    f.mesh_material = d.mesh_material.data();
+
+    // Materials as SoA [channel][component][material]
+    const size_t mc = scene.materials.size();
+    d.color.assign(kColCount * 3 * mc, 0.0f);
+    for (size_t m = 0; m < mc; ++m) {
+        const Material& mat = scene.materials[m];
+        const ColorSource* ch[kColCount] = {&mat.emission, &mat.kd, &mat.ks, &mat.kr, &mat.kt};
+        bool tex = false;
+        for (int c = 0; c < kColCount; ++c) {
+            for (int k = 0; k < 3; ++k) d.color[(size_t(c) * 3 + size_t(k)) * mc + m] = ch[c]->a[k];
+            d.sources.push_back(flatten(*ch[c]));
+            tex |= ch[c]->kind != TextureKind::kSolid;
+        }
+        d.shininess.push_back(mat.shininess);
+        d.ior.push_back(mat.ior);
+        d.emitter.push_back(mat.is_emitter() ? 1 : 0);
+        d.phong.push_back(mat.has_phong() ? 1 : 0);
+        d.textured.push_back(tex ? 1 : 0);
+    }
+    f.material_count = int32_t(mc);
+    f.color = d.color.data(), f.shininess = d.shininess.data(), f.ior = d.ior.data();
+    f.emitter = d.emitter.data(), f.phong = d.phong.data(), f.textured = d.textured.data();
+    f.sources = d.sources.data();
+    for (const PointLight& l : scene.lights)
+        d.light.insert(d.light.end(), {l.position.x, l.position.y, l.position.z, l.intensity.x,
+                                       l.intensity.y, l.intensity.z});
+    f.light_count = int32_t(scene.lights.size());
+    f.light = d.light.data();
+
+    // Camera, settings, features, callbacks
+    const Camera& c = scene.camera;
+    for (int k = 0; k < 3; ++k) {
+        f.cam_origin[k] = c.origin[k], f.cam_forward[k] = c.forward[k];
+        f.cam_left[k] = c.left[k], f.cam_up[k] = c.up[k];
+    }
+    f.width = scene.settings.width, f.height = scene.settings.height;
+    f.seed = scene.settings.seed;
+    f.survival_cap = scene.settings.estimator.survival_cap;
+    f.cosine_diffuse = scene.settings.estimator.cosine_diffuse;
+    f.scene_ior = scene.scene_ior;
+    const SceneFeatures sf = scene.features();
+    f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, sf.point_lights, sf.emitters,
+                  sf.diffuse, sf.specular, sf.mirror, sf.refraction,
+                  sf.procedural_textures || sf.vertex_colors,
+                  int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction)};
+    f.scene = &scene;
+    f.intersect_meshes = intersect_meshes;
+    f.occluded_meshes = occluded_meshes;
+    f.vertex_color = vertex_color;
+}
+
+WavefrontRenderer::~WavefrontRenderer() = default;
+
+size_t WavefrontRenderer::pool_bytes() const {
+    return path_pool_bytes(pool_size_, int32_t(data_->scene.lights.size()),
+                           int32_t(data_->scene.materials.size()));
+}
+
+void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& rays,
+                                    LaneStats& lanes) const {
+    PathPool& pool = data_->pools.local().pool;
+    const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, data_->scene.settings.spp, &film,
+                      finish_paths};
+    WavefrontCounters c;
+    data_->entry(data_->flat, pool, job, c);
+    rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;
+    lanes.shade_active += c.lanes_active, lanes.shade_total += c.lanes_total;
+    lanes.isect_active += c.isect_active, lanes.isect_total += c.isect_total;
+}
+
+}  // namespace cierzo

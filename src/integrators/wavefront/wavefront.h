@@ -1,0 +1,39 @@
+// The wavefront integrator: paths advance in SoA batches through one stage at a time
+// (see wavefront_tile.h), with SIMD kernels chosen for this CPU at run time. Its public
+// face is this one class, which renders tiles into a film like the scalar reference.
+#pragma once
+
+#include <memory>
+
+#include "integrators/render.h"
+#include "integrators/wavefront/isa_entries.h"
+
+namespace cierzo {
+
+// Lane utilisation of a render: live lanes over lanes computed.
+struct LaneStats {
+    uint64_t shade_active = 0, shade_total = 0;
+    uint64_t isect_active = 0, isect_total = 0;
+};
+
+class WavefrontRenderer {
+public:
+    // pool_size: paths in flight per thread (0 picks the default, kDefaultPoolSize).
+    WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size = 0);
+    ~WavefrontRenderer();
+    static constexpr int32_t kDefaultPoolSize = 2048;
+
+    Isa isa() const { return isa_; }
+    int32_t pool_size() const { return pool_size_; }
+    size_t pool_bytes() const;
+    // Thread-safe: each calling thread uses its own path pool.
+    void render_tile(const Tile& tile, Film& film, RayCounts& rays, LaneStats& lanes) const;
+
+private:
+    struct Data;
+    std::unique_ptr<Data> data_;
+    Isa isa_;
+    int32_t pool_size_;
+};
+
+}  // namespace cierzo

@@ -1,0 +1,28 @@
+// The report's pinhole camera: an origin and an image-plane frame (forward, left, up); a
+// pixel's ray goes through a uniformly random point inside the pixel.
+#pragma once
+
+#include "kernels/camera.h"
+
+namespace cierzo {
+
+struct Camera {
+    Vec3f origin{0.0f};
+    Vec3f forward{0.0f, 0.0f, 1.0f};  // from the origin to the image plane's centre
+    Vec3f left{-1.0f, 0.0f, 0.0f};    // from the centre to the middle of the left edge
+    Vec3f up{0.0f, 1.0f, 0.0f};       // from the centre to the middle of the top edge
+
+    // Ray through image-plane point (sx, sy) in pixels, (0, 0) the top-left corner.
+    template <class T>
+    Ray<T> generate(const T& sx, const T& sy, float inv_width, float inv_height) const {
+        return pinhole_ray(origin, forward, left, up, sx, sy, inv_width, inv_height);
+    }
+};
+
+// The frame of a camera at `position` looking at `target` with vertical field of view
+// `vfov_degrees` and the given aspect ratio (width / height). With up = +y and looking
+// along +z, +x is to the right in the image, as in the report.
+Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& up_hint,
+                      float vfov_degrees, float aspect);
+
+}  // namespace cierzo

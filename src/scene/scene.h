@@ -1,0 +1,123 @@
+// The scene as the integrators see it: primitives grouped by kind in structure-of-arrays
+// form, materials, point lights, camera and render settings. Built by scene_json.cpp;
+// kernels read it, never write it.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "kernels/estimator.h"
+#include "scene/camera.h"
+#include "kernels/intersect.h"
+#include "scene/bvh.h"
+#include "scene/camera.h"
+
+namespace cierzo {
+
+struct Material {
+    std::string name;
+    ColorSource emission, kd, ks, kr, kt;
+    float shininess = 0.0f;
+    float ior = 1.0f;
+
+    bool is_emitter() const { return !emission.is_zero(); }
+    bool has_phong() const { return !kd.is_zero() || !ks.is_zero(); }
+};
+
+struct Spheres {
+    std::vector<float> cx, cy, cz, radius;
+    std::vector<int32_t> material;
+    size_t size() const { return radius.size(); }
+};
+
+struct Planes {
+    std::vector<float> nx, ny, nz, distance;  // unit normal n, plane n·p + distance = 0
+    std::vector<int32_t> material;
+    size_t size() const { return distance.size(); }
+};
+
+struct Quadric {
+    QuadricCoefficients<float> q;
+    Vec3f box_min, box_max;
+    int32_t material;
+};
+
+// A triangle mesh (from a PLY file, or the scene's loose triangles of one material), with
+// the report's bounding sphere as a first cull and a BVH inside it.
+struct Mesh {
+    std::string source;  // file name, for messages
+    std::vector<Vec3f> positions;
+    std::vector<Vec3f> colors;  // per vertex, or empty
+    std::vector<uint32_t> indices;
+    int32_t material = 0;
+    Vec3f sphere_center{0.0f};
+    float sphere_radius = 0.0f;
+    Bvh bvh;
+    size_t triangle_count() const { return indices.size() / 3; }
+};
+
+struct PointLight {
+    Vec3f position;
+    Vec3f intensity;  // radiant intensity, RGB; irradiance at distance d is I / d²
+};
+
+struct RenderSettings {
+    int width = 256;
+    int height = 256;
+    int64_t spp = 16;  // paths per pixel
+    uint32_t seed = 1;
+    std::filesystem::path output;  // resolved against the scene file's folder
+    EstimatorSettings estimator;
+};
+
+// Which features a scene uses, so a render pays only for those.
+struct SceneFeatures {
+    bool spheres = false, planes = false, quadrics = false, meshes = false;
+    bool point_lights = false, emitters = false;
+    bool diffuse = false, specular = false, mirror = false, refraction = false;
+    bool procedural_textures = false, vertex_colors = false;
+};
+
+// A closest hit as the scalar integrator records it.
+struct Hit {
+    float t = kRayFar;
+    Vec3f p, n;  // point and unit geometric normal (outward: sphere out, plane n, quadric ∇f)
+    int32_t material = -1;
+    int32_t mesh = -1;  // for vertex colours
+    uint32_t triangle = 0;
+};
+
+class Scene {
+public:
+    Camera camera;
+    RenderSettings settings;
+    float scene_ior = 1.0f;
+    std::vector<Material> materials;
+    Spheres spheres;
+    Planes planes;
+    std::vector<Quadric> quadrics;
+    std::vector<Mesh> meshes;
+    std::vector<PointLight> lights;
+    std::filesystem::path source;  // the scene file, for messages
+
+    // Call once after filling the arrays: builds BVHs and bounding spheres.
+    void finalize();
+
+    SceneFeatures features() const;
+
+    // Closest hit in (0, tmax); fills hit and returns true if there is one.
+    bool intersect(const Ray<float>& ray, float tmax, Hit& hit) const;
+    // Any hit in (0, tmax).
+    bool occluded(const Ray<float>& ray, float tmax) const;
+
+    // The material's colours at a hit (textures and vertex colours evaluated).
+    Bsdf<float> bsdf_at(const Hit& hit) const;
+    Vec3f emission_at(const Hit& hit) const;
+
+private:
+    Vec3f color_at(const ColorSource& c, const Hit& hit) const;
+};
+
+}  // namespace cierzo

@@ -1,0 +1,453 @@
+// The scene-file reader: strict JSON (comments allowed), every key checked, every value
+// range-checked, with messages of the form "FILE: objects[2] (sphere): radius must be > 0".
+#include "scene/scene_json.h"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "io/ply.h"
+
+namespace cierzo {
+
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+// Limits that refuse absurd requests before anything is allocated.
+constexpr int64_t kMaxDimension = 1 << 16;
+constexpr int64_t kMaxPixels = int64_t(1) << 28;
+
+// A JSON object being read: knows where it is for messages and which keys were used, so
+// that an unknown (misspelt) key is an error rather than silently ignored.
+class Reader {
+public:
+    Reader(const json& j, std::string where, const fs::path& file)
+        : j_(j), where_(std::move(where)), file_(file) {
+        if (!j_.is_object()) fail("must be a JSON object");
+    }
+
+    [[noreturn]] void fail(const std::string& what) const {
+        throw InputError(file_.string() + ": " + where_ + ": " + what);
+    }
+    bool has(const std::string& key) const { return j_.contains(key); }
+    const json& get(const std::string& key) {
+        used_.insert(key);
+        if (!j_.contains(key)) fail("missing required key '" + key + "'");
+        return j_.at(key);
+    }
+    std::string where(const std::string& key) const { return where_ + "." + key; }
+
+    double number(const std::string& key) {
+        const json& v = get(key);
+        if (!v.is_number()) fail("'" + key + "' must be a number");
+        const double d = v.get<double>();
+        if (!std::isfinite(d)) fail("'" + key + "' must be finite");
+        return d;
+    }
+    double number(const std::string& key, double fallback) {
+        return has(key) ? number(key) : (used_.insert(key), fallback);
+    }
+    int64_t integer(const std::string& key, int64_t fallback, int64_t lo, int64_t hi) {
+        if (!has(key)) return fallback;
+        const json& v = get(key);
+        if (!v.is_number_integer() && !(v.is_number() && v.get<double>() == std::floor(v.get<double>())))
+            fail("'" + key + "' must be an integer");
+        const double d = v.get<double>();
+        if (d < double(lo) || d > double(hi))
+            fail("'" + key + "' must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                 "], got " + v.dump());
+        return int64_t(d);
+    }
+    std::string string(const std::string& key) {
+        const json& v = get(key);
+        if (!v.is_string()) fail("'" + key + "' must be a string");
+        return v.get<std::string>();
+    }
+    std::string string(const std::string& key, const std::string& fallback) {
+        return has(key) ? string(key) : fallback;
+    }
+    Vec3f vec3(const std::string& key) {
+        const json& v = get(key);
+        if (!v.is_array() || v.size() != 3)
+            fail("'" + key + "' must be an array of 3 numbers, got " + v.dump());
+        Vec3f r;
+        float* out[3] = {&r.x, &r.y, &r.z};
+        for (int i = 0; i < 3; ++i) {
+            if (!v[size_t(i)].is_number()) fail("'" + key + "' must be an array of 3 numbers");
+            *out[i] = v[size_t(i)].get<float>();
+            if (!std::isfinite(*out[i])) fail("'" + key + "' must be finite");
+        }
+        return r;
+    }
+    Vec3f vec3(const std::string& key, const Vec3f& fallback) {
+        return has(key) ? vec3(key) : fallback;
+    }
+
+    // Every key of the object must have been read.
+    void finish() const {
+        for (auto it = j_.begin(); it != j_.end(); ++it) {
+            if (used_.count(it.key())) continue;
+            std::string valid;
+            for (const std::string& k : used_) valid += (valid.empty() ? "" : ", ") + k;
+            fail("unknown key '" + it.key() + "' (valid here: " + valid + ")");
+        }
+    }
+    // Mark keys as valid for this object without reading them (for the message above).
+    void allow(std::initializer_list<const char*> keys) {
+        for (const char* k : keys) used_.insert(k);
+    }
+
+private:
+    const json& j_;
+    std::string where_;
+    const fs::path& file_;
+    std::set<std::string> used_;
+};
+
+// ---- Colours and textures ----------------------------------------------------------
+
+Vec3f colour_value(Reader& r, const json& v, const std::string& key) {
+    if (v.is_number()) {
+        const float g = v.get<float>();
+        if (!std::isfinite(g) || g < 0.0f) r.fail("'" + key + "' must be finite and >= 0");
+        return Vec3f(g);
+    }
+    if (!v.is_array() || v.size() != 3) r.fail("'" + key + "' must be a number or [r, g, b]");
+    Vec3f c;
+    float* out[3] = {&c.x, &c.y, &c.z};
+    for (int i = 0; i < 3; ++i) {
+        if (!v[size_t(i)].is_number()) r.fail("'" + key + "' must be a number or [r, g, b]");
+        *out[i] = v[size_t(i)].get<float>();
+        if (!std::isfinite(*out[i]) || *out[i] < 0.0f)
+            r.fail("'" + key + "' components must be finite and >= 0, got " + v.dump());
+    }
+    return c;
+}
+
+ColorSource read_color(Reader& parent, const std::string& key, const fs::path& file) {
+    const json& v = parent.get(key);
+    ColorSource c;
+    if (!v.is_object()) {
+        c.a = colour_value(parent, v, key);
+        return c;
+    }
+    Reader r(v, parent.where(key), file);
+    const std::string kind = r.string("texture");
+    static const std::map<std::string, TextureKind> kinds = {
+        {"solid", TextureKind::kSolid},           {"sin", TextureKind::kSin},
+        {"sin2", TextureKind::kSin2},             {"sincos", TextureKind::kSinCos},
+        {"vertex_nearest", TextureKind::kVertexNearest},
+        {"vertex_weighted", TextureKind::kVertexWeighted}};
+    const auto it = kinds.find(kind);
+    if (it == kinds.end())
+        r.fail("unknown texture '" + kind +
+               "' (valid: solid, sin, sin2, sincos, vertex_nearest, vertex_weighted)");
+    c.kind = it->second;
+    if (c.is_vertex()) {
+        c.a = r.has("scale") ? colour_value(r, r.get("scale"), "scale") : Vec3f(1.0f);
+    } else {
+        c.a = colour_value(r, r.get("a"), "a");
+        if (c.kind != TextureKind::kSolid) {
+            c.b = colour_value(r, r.get("b"), "b");
+            c.frequency = float(r.number("frequency", 1.0));
+            c.axis = r.vec3("axis", c.axis);
+            c.axis2 = r.vec3("axis2", c.axis2);
+        }
+    }
+    r.finish();
+    return c;
+}
+
+Material read_material(const json& j, const std::string& where, const std::string& name,
+                       const fs::path& file) {
+    Reader r(j, where, file);
+    Material m;
+    m.name = name;
+    for (auto [key, dst] : {std::pair{"emission", &m.emission}, {"kd", &m.kd}, {"ks", &m.ks},
+                            {"kr", &m.kr}, {"kt", &m.kt}}) {
+        if (r.has(key)) *dst = read_color(r, key, file);
+        else r.allow({key});
+    }
+    m.shininess = float(r.number("shininess", 0.0));
+    if (m.shininess < 0.0f || m.shininess > 1e6f) r.fail("'shininess' must be in [0, 1e6]");
+    m.ior = float(r.number("ior", 1.0));
+    if (!(m.ior > 0.0f)) r.fail("'ior' must be > 0");
+    r.finish();
+    return m;
+}
+
+// ---- Geometry ----------------------------------------------------------------------
+
+struct Loader {
+    fs::path file;
+    Scene scene;
+    std::map<std::string, int32_t> material_ids;
+    std::map<int32_t, Mesh> loose_triangles;  // by material
+
+    int32_t material_ref(Reader& r) {
+        const json& v = r.get("material");
+        if (v.is_string()) {
+            const auto it = material_ids.find(v.get<std::string>());
+            if (it == material_ids.end())
+                r.fail("unknown material '" + v.get<std::string>() + "'");
+            return it->second;
+        }
+        scene.materials.push_back(read_material(v, r.where("material"), "", file));
+        return int32_t(scene.materials.size() - 1);
+    }
+
+    void object(const json& j, const std::string& where) {
+        Reader r(j, where, file);
+        const std::string type = r.string("type");
+        Reader t(j, where + " (" + type + ")", file);
+        t.allow({"type"});
+        if (type == "sphere") {
+            const Vec3f c = t.vec3("center");
+            const double radius = t.number("radius");
+            if (!(radius > 0.0)) t.fail("'radius' must be > 0, got " + std::to_string(radius));
+            auto& s = scene.spheres;
+            s.cx.push_back(c.x), s.cy.push_back(c.y), s.cz.push_back(c.z);
+            s.radius.push_back(float(radius));
+            s.material.push_back(material_ref(t));
+        } else if (type == "plane") {
+            const Vec3f n = t.vec3("normal");
+            const float len = length(n);
+            if (!(len > 0.0f)) t.fail("'normal' must not be the zero vector");
+            auto& p = scene.planes;
+            p.nx.push_back(n.x / len), p.ny.push_back(n.y / len), p.nz.push_back(n.z / len);
+            p.distance.push_back(float(t.number("distance")) / len);
+            p.material.push_back(material_ref(t));
+        } else if (type == "quadric") {
+            quadric(t);
+        } else if (type == "triangle") {
+            triangle(t);
+        } else if (type == "mesh") {
+            mesh(t);
+        } else {
+            t.fail("unknown object type '" + type + "' (valid: sphere, plane, quadric, triangle, mesh)");
+        }
+        t.finish();
+    }
+
+    void quadric(Reader& t) {
+        const json& c = t.get("coefficients");
+        if (!c.is_array() || c.size() != 10)
+            t.fail("'coefficients' must be an array of 10 numbers [A..J] of "
+                   "Ax²+By²+Cz²+Dxy+Eyz+Fxz+Gx+Hy+Iz+J=0");
+        float k[10];
+        for (size_t i = 0; i < 10; ++i) {
+            if (!c[i].is_number() || !std::isfinite(c[i].get<float>()))
+                t.fail("'coefficients' must be 10 finite numbers");
+            k[i] = c[i].get<float>();
+        }
+        bool any_nonconstant = false;
+        for (int i = 0; i < 9; ++i) any_nonconstant |= k[i] != 0.0f;
+        if (!any_nonconstant) t.fail("'coefficients' A..I are all zero: not a surface");
+        Quadric q;
+        q.q = {k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7], k[8], k[9]};
+        q.box_min = Vec3f(-kRayFar);
+        q.box_max = Vec3f(kRayFar);
+        if (t.has("bounds")) {
+            Reader b(t.get("bounds"), t.where("bounds"), file);
+            q.box_min = b.vec3("min");
+            q.box_max = b.vec3("max");
+            b.finish();
+            if (!(q.box_min.x <= q.box_max.x && q.box_min.y <= q.box_max.y &&
+                  q.box_min.z <= q.box_max.z))
+                t.fail("'bounds': min must be <= max on every axis");
+        }
+        q.material = material_ref(t);
+        scene.quadrics.push_back(q);
+    }
+
+    void triangle(Reader& t) {
+        const json& v = t.get("vertices");
+        if (!v.is_array() || v.size() != 3) t.fail("'vertices' must be 3 points [[x,y,z], ...]");
+        const int32_t mat = material_ref(t);
+        Mesh& m = loose_triangles[mat];
+        m.material = mat;
+        m.source = file.string() + " (triangles)";
+        const uint32_t base = uint32_t(m.positions.size());
+        for (size_t i = 0; i < 3; ++i) {
+            Reader tmp(json::object({{"p", v[i]}}), t.where("vertices"), file);
+            m.positions.push_back(tmp.vec3("p"));
+        }
+        if (t.has("colors")) {
+            const json& c = t.get("colors");
+            if (!c.is_array() || c.size() != 3) t.fail("'colors' must be 3 colours, one per vertex");
+            for (size_t i = 0; i < 3; ++i) m.colors.push_back(colour_value(t, c[i], "colors"));
+        } else {
+            t.allow({"colors"});
+            m.colors.insert(m.colors.end(), 3, Vec3f(1.0f));
+        }
+        for (uint32_t i = 0; i < 3; ++i) m.indices.push_back(base + i);
+    }
+
+    void mesh(Reader& t) {
+        const fs::path ply = file.parent_path() / t.string("file");
+        const PlyMesh data = read_ply(ply);
+        Mesh m;
+        m.source = ply.string();
+        m.material = material_ref(t);
+        // Transform: scale, then rotate about x, y, z (degrees), then translate
+        Vec3f scale(1.0f);
+        if (t.has("scale")) {
+            const json& s = t.get("scale");
+            scale = s.is_number() ? Vec3f(s.get<float>()) : t.vec3("scale");
+            if (!(scale.x != 0.0f && scale.y != 0.0f && scale.z != 0.0f))
+                t.fail("'scale' must be non-zero on every axis");
+        }
+        const Vec3f rot = t.vec3("rotate", Vec3f(0.0f)) * (kPi / 180.0f);
+        const Vec3f move = t.vec3("translate", Vec3f(0.0f));
+        const size_t n = data.positions.size() / 3;
+        m.positions.reserve(n);
+        for (size_t i = 0; i < n; ++i) {
+            Vec3f p{data.positions[3 * i] * scale.x, data.positions[3 * i + 1] * scale.y,
+                    data.positions[3 * i + 2] * scale.z};
+            float c = std::cos(rot.x), s = std::sin(rot.x);
+            p = {p.x, c * p.y - s * p.z, s * p.y + c * p.z};
+            c = std::cos(rot.y), s = std::sin(rot.y);
+            p = {c * p.x + s * p.z, p.y, -s * p.x + c * p.z};
+            c = std::cos(rot.z), s = std::sin(rot.z);
+            p = {c * p.x - s * p.y, s * p.x + c * p.y, p.z};
+            m.positions.push_back(p + move);
+        }
+        for (size_t i = 0; i + 2 < data.colors.size(); i += 3)
+            m.colors.push_back({data.colors[i], data.colors[i + 1], data.colors[i + 2]});
+        m.indices = data.indices;
+        if (m.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
+        scene.meshes.push_back(std::move(m));
+    }
+
+    void camera(const json& j, float aspect) {
+        Reader r(j, "camera", file);
+        const Vec3f position = r.vec3("position");
+        if (r.has("look_at")) {
+            const Vec3f target = r.vec3("look_at");
+            const Vec3f up = r.vec3("up", Vec3f(0.0f, 1.0f, 0.0f));
+            const double vfov = r.number("vfov", 40.0);
+            if (!(vfov > 0.0 && vfov < 180.0)) r.fail("'vfov' must be in (0, 180) degrees");
+            if (!(length(target - position) > 0.0f)) r.fail("'look_at' equals 'position'");
+            if (!(length(cross(up, target - position)) > 0.0f))
+                r.fail("'up' is parallel to the viewing direction");
+            scene.camera = look_at_camera(position, target, up, float(vfov), aspect);
+            r.allow({"forward", "left"});
+        } else {
+            scene.camera.origin = position;
+            scene.camera.forward = r.vec3("forward");
+            scene.camera.left = r.vec3("left");
+            scene.camera.up = r.vec3("up");
+            if (!(length(scene.camera.forward) > 0.0f) || !(length(scene.camera.left) > 0.0f) ||
+                !(length(scene.camera.up) > 0.0f))
+                r.fail("'forward', 'left' and 'up' must be non-zero");
+            r.allow({"look_at", "vfov"});
+        }
+        r.finish();
+    }
+
+    void render_settings(Reader& root) {
+        RenderSettings& s = scene.settings;
+        if (!root.has("render")) {
+            root.allow({"render"});
+            return;
+        }
+        Reader r(root.get("render"), "render", file);
+        s.width = int(r.integer("width", s.width, 1, kMaxDimension));
+        s.height = int(r.integer("height", s.height, 1, kMaxDimension));
+        if (int64_t(s.width) * s.height > kMaxPixels)
+            r.fail("image of " + std::to_string(s.width) + "x" + std::to_string(s.height) +
+                   " pixels exceeds the limit of 2^28 pixels");
+        s.spp = r.integer("spp", s.spp, 1, int64_t(UINT32_MAX));
+        s.seed = uint32_t(r.integer("seed", s.seed, 0, int64_t(UINT32_MAX)));
+        s.estimator.survival_cap = float(r.number("survival_cap", s.estimator.survival_cap));
+        if (!(s.estimator.survival_cap > 0.0f && s.estimator.survival_cap < 1.0f))
+            r.fail("'survival_cap' must be in (0, 1): every path needs a chance to die");
+        const std::string sampling = r.string("diffuse_sampling", "uniform");
+        if (sampling != "uniform" && sampling != "cosine")
+            r.fail("'diffuse_sampling' must be \"uniform\" or \"cosine\"");
+        s.estimator.cosine_diffuse = sampling == "cosine";
+        if (r.has("output")) s.output = file.parent_path() / r.string("output");
+        else r.allow({"output"});
+        r.finish();
+    }
+};
+
+}  // namespace
+
+
+Scene parse_scene(const std::string& text, const fs::path& path) {
+    json root;
+    try {
+        root = json::parse(text, nullptr, true, /*ignore_comments=*/true);
+    } catch (const json::parse_error& e) {
+        std::string what = e.what();
+        const auto colon = what.find("parse error");
+        throw InputError(path.string() + ": invalid JSON: " +
+                         (colon == std::string::npos ? what : what.substr(colon)));
+    }
+    Loader l;
+    l.file = path;
+    l.scene.source = path;
+    l.scene.settings.output = path.parent_path() / (path.stem().string() + ".exr");
+    Reader r(root, "scene", path);
+    l.render_settings(r);
+    l.scene.scene_ior = float(r.number("scene_ior", 1.0));
+    if (!(l.scene.scene_ior > 0.0f)) r.fail("'scene_ior' must be > 0");
+
+    // Materials by name, then objects that refer to them
+    if (r.has("materials")) {
+        const json& mats = r.get("materials");
+        if (!mats.is_object()) r.fail("'materials' must be an object of name: material");
+        for (auto it = mats.begin(); it != mats.end(); ++it) {
+            l.material_ids[it.key()] = int32_t(l.scene.materials.size());
+            l.scene.materials.push_back(
+                read_material(it.value(), "materials." + it.key(), it.key(), path));
+        }
+    } else {
+        r.allow({"materials"});
+    }
+    const json& objects = r.get("objects");
+    if (!objects.is_array()) r.fail("'objects' must be an array");
+    for (size_t i = 0; i < objects.size(); ++i)
+        l.object(objects[i], "objects[" + std::to_string(i) + "]");
+    for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
+
+    // Point lights
+    if (r.has("lights")) {
+        const json& lights = r.get("lights");
+        if (!lights.is_array()) r.fail("'lights' must be an array");
+        for (size_t i = 0; i < lights.size(); ++i) {
+            Reader lr(lights[i], "lights[" + std::to_string(i) + "]", path);
+            const std::string type = lr.string("type", "point");
+            if (type != "point") lr.fail("unknown light type '" + type + "' (valid: point)");
+            PointLight pl;
+            pl.position = lr.vec3("position");
+            pl.intensity = colour_value(lr, lr.get("intensity"), "intensity");
+            lr.finish();
+            l.scene.lights.push_back(pl);
+        }
+    } else {
+        r.allow({"lights"});
+    }
+    l.camera(r.get("camera"), float(l.scene.settings.width) / float(l.scene.settings.height));
+    r.finish();
+    l.scene.finalize();
+    return std::move(l.scene);
+}
+
+Scene load_scene(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path.string() + ": cannot open scene file");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return parse_scene(ss.str(), path);
+}
+
+}  // namespace cierzo

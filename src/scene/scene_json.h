@@ -1,0 +1,19 @@
+// Reading a scene file (JSON, documented key by key in docs/scene-format.md). One file is
+// one reproducible experiment: camera, render settings, materials, objects and lights.
+#pragma once
+
+#include <filesystem>
+
+#include "scene/scene.h"
+
+namespace cierzo {
+
+// Parses, validates and finalizes a scene. Relative paths (meshes, output) resolve against
+// the scene file's folder. Throws InputError naming the file, the place in it and the
+// problem (malformed JSON, unknown or missing keys, values out of range).
+Scene load_scene(const std::filesystem::path& path);
+
+// The same from JSON text; `path` is used for messages and to resolve relative paths.
+Scene parse_scene(const std::string& text, const std::filesystem::path& path);
+
+}  // namespace cierzo
