@@ -14,6 +14,8 @@ struct TileCursor {
     int64_t next = 0;
     int64_t total = 0;
     int32_t tile_width = 0, tile_pixels = 0;
+    int32_t x = 0, y = 0;    // pixel of path `next`, in the tile
+    uint32_t sample = 0;     // sample index of path `next`
 };
 
 template <class A>
@@ -26,19 +28,18 @@ void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     const int32_t count = int32_t(std::min<int64_t>(p.capacity - first, c.total - c.next));
     if (count <= 0) return;
 
-    // Pixel, sample and key of each new path (integer division has no SIMD form here)
-    for (int32_t i = 0; i < count; ++i) {
-        const int64_t g = c.next + i;
-        const int32_t in_tile = int32_t(g % c.tile_pixels);
-        const uint32_t sample = uint32_t(g / c.tile_pixels);
-        const int32_t x = c.job.x0 + in_tile % c.tile_width;
-        const int32_t y = c.job.y0 + in_tile / c.tile_width;
-        const uint32_t pixel = uint32_t(y) * uint32_t(s.width) + uint32_t(x);
-        p.pixel[first + i] = pixel;
-        p.key[first + i] = path_key(s.seed, pixel, sample);
-        p.bounce[first + i] = 0;
-        p.px[first + i] = float(x);
-        p.py[first + i] = float(y);
+    // Pixel and sample of each new path, walking the tile row by row, sample by sample (the
+    // sample index waits in `bounce` until the keys are made)
+    for (int32_t i = first; i < first + count; ++i) {
+        const int32_t x = c.job.x0 + c.x, y = c.job.y0 + c.y;
+        p.pixel[i] = uint32_t(y) * uint32_t(s.width) + uint32_t(x);
+        p.bounce[i] = c.sample;
+        p.px[i] = float(x);
+        p.py[i] = float(y);
+        if (++c.x == c.tile_width) {
+            c.x = 0;
+            if (++c.y * c.tile_width == c.tile_pixels) c.y = 0, ++c.sample;
+        }
     }
     c.next += count;
     w.counters.camera += uint64_t(count);
@@ -51,12 +52,16 @@ void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     const float inv_w = 1.0f / float(s.width), inv_h = 1.0f / float(s.height);
     const int32_t end = first + count;
     for (int32_t i = first / Wave<A>::K * Wave<A>::K; i < end; i += Wave<A>::K) {
-        const U key = U::load_aligned(p.key + i);
+        const auto fresh = Wave<A>::lane_index() >= F(float(first - i));
+        const U pixel = U::load_aligned(p.pixel + i);
+        const U key = select(mask_u32(fresh), path_key(s.seed, pixel, U::load_aligned(p.bounce + i)),
+                             U::load_aligned(p.key + i));
+        key.store_aligned(p.key + i);
+        select(mask_u32(fresh), U(0u), U::load_aligned(p.bounce + i)).store_aligned(p.bounce + i);
         const F sx = F::load_aligned(p.px + i) + uniform<F>(key, U(0u), Purpose::kPixelX);
         const F sy = F::load_aligned(p.py + i) + uniform<F>(key, U(0u), Purpose::kPixelY);
         const Ray<F> ray = pinhole_ray(origin, forward, left, up, sx, sy, inv_w, inv_h);
         // Lanes before `first` keep their rays
-        const auto fresh = Wave<A>::lane_index() >= F(float(first - i));
         store3(select(fresh, ray.o, load3<F>(p.ox, p.oy, p.oz, i)), p.ox, p.oy, p.oz, i);
         store3(select(fresh, ray.d, load3<F>(p.dx, p.dy, p.dz, i)), p.dx, p.dy, p.dz, i);
         const Vec3<F> one(F(1.0f)), zero(F(0.0f));

@@ -7,6 +7,9 @@
 
 namespace cierzo {
 
+// Every per-primitive and per-material table is padded to a multiple of 16 entries, so a
+// whole SIMD register can be loaded from it.
+
 // Primitive ids in hit records: kind in the top byte, index below.
 enum PrimKind : int32_t { kPrimSphere = 1, kPrimPlane = 2, kPrimQuadric = 3, kPrimMesh = 4 };
 inline constexpr int32_t kPrimShift = 24;
@@ -56,7 +59,8 @@ struct FlatScene {
 
     // Materials: solid colours as SoA [channel][component][material], flags, sources
     int32_t material_count;
-    const float* color;         // kColCount * 3 * material_count
+    int32_t material_stride;    // material_count rounded up to 16 (tables are padded)
+    const float* color;         // kColCount * 3 * material_stride
     const float* shininess;     // material_count
     const float* ior;           // material_count
     const int32_t* emitter;     // material_count, 1 if the material emits (ends paths)

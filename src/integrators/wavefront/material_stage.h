@@ -1,7 +1,8 @@
 // Wavefront stage 4, materials: every live hit gets its material's colours (emission, kd,
-// ks, kr, kt), shininess and index. Scenes with only solid colours gather them by material
-// id; scenes with textures first sort the hits by material (a counting sort), so each
-// material's texture is evaluated on coherent lanes with its parameters broadcast.
+// ks, kr, kt), shininess and index. Scenes with textures sort the hits by material (a
+// counting sort), so each material's texture is evaluated on coherent lanes with its
+// parameters broadcast; scenes with only solid colours skip the stage and the shading
+// kernels read the material tables directly (table_bsdf).
 #pragma once
 
 #include "integrators/wavefront/wave.h"
@@ -20,23 +21,28 @@ inline ColorSource color_source(const FlatColor& c) {
     return s;
 }
 
-// Solid colours by gather: no sort needed.
+// Solid colours straight from the material tables, for the lobes the scene has (the
+// others stay 0 and cost nothing): no material stage at all for such scenes.
 template <class A>
-void gather_materials(Wave<A>& w) {
-    using F = typename Wave<A>::F;
-    using I = typename Wave<A>::I;
-    PathPool& p = w.pool;
-    const FlatScene& s = w.scene;
+Vec3<xsimd::batch<float, A>> table_color(const FlatScene& s, int c,
+                                         const xsimd::batch<int32_t, A>& mat) {
+    const float* row = s.color + c * 3 * s.material_stride;
     const int32_t mc = s.material_count;
-    const int32_t end = w.rounded_up(w.live);
-    for (int32_t i = 0; i < end; i += Wave<A>::K) {
-        const I mat = I::load_aligned(p.material + i);
-        for (int c = 0; c < kColCount; ++c)
-            for (int k = 0; k < 3; ++k)
-                F::gather(s.color + (c * 3 + k) * mc, mat).store_aligned(p.col[c][k] + i);
-        F::gather(s.shininess, mat).store_aligned(p.shininess + i);
-        F::gather(s.ior, mat).store_aligned(p.ior + i);
-    }
+    return {lookup<A>(row, mc, mat), lookup<A>(row + s.material_stride, mc, mat),
+            lookup<A>(row + 2 * s.material_stride, mc, mat)};
+}
+
+template <class A>
+Bsdf<xsimd::batch<float, A>> table_bsdf(const FlatScene& s, const xsimd::batch<int32_t, A>& mat) {
+    using F = xsimd::batch<float, A>;
+    const FlatFeatures& f = s.features;
+    const Vec3<F> zero(F(0.0f));
+    return {f.diffuse ? table_color<A>(s, kColKd, mat) : zero,
+            f.specular ? table_color<A>(s, kColKs, mat) : zero,
+            f.mirror ? table_color<A>(s, kColKr, mat) : zero,
+            f.refraction ? table_color<A>(s, kColKt, mat) : zero,
+            f.specular ? lookup<A>(s.shininess, s.material_count, mat) : F(0.0f),
+            f.refraction ? lookup<A>(s.ior, s.material_count, mat) : F(1.0f)};
 }
 
 // The material sort: p.order lists the live hits grouped by material, starts[m] where
@@ -69,7 +75,8 @@ void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
             alignas(64) int32_t idx[K];
             for (int32_t l = 0; l < K; ++l) idx[l] = p.order[std::min(i + l, last - 1)];
             const I j = I::load_aligned(idx);
-            const Vec3<F> pos = gather3<F>(p.px, p.py, p.pz, j);
+            const Vec3<F> pos{gather_lanes<A>(p.px, j), gather_lanes<A>(p.py, j),
+                              gather_lanes<A>(p.pz, j)};
             for (int c = 0; c < kColCount; ++c) {
                 const ColorSource cs = color_source(src[c]);
                 Vec3<F> col = eval_pattern(cs, pos);

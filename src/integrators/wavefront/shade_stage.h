@@ -4,7 +4,7 @@
 // lanes (gathered by index), or on the pool in place when the scene has a single lobe.
 #pragma once
 
-#include "integrators/wavefront/wave.h"
+#include "integrators/wavefront/material_stage.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -15,11 +15,16 @@ Bsdf<F> load_bsdf(const PathPool& p, int32_t i) {
     return {col(kColKd), col(kColKs), col(kColKr), col(kColKt), F::load_aligned(p.shininess + i),
             F::load_aligned(p.ior + i)};
 }
-template <class F, class I>
-Bsdf<F> gather_bsdf(const PathPool& p, const I& j) {
-    auto col = [&](int c) { return gather3<F>(p.col[c][0], p.col[c][1], p.col[c][2], j); };
-    return {col(kColKd), col(kColKs), col(kColKr), col(kColKt), F::gather(p.shininess, j),
-            F::gather(p.ior, j)};
+template <class A>
+Vec3<xsimd::batch<float, A>> gather3(const float* x, const float* y, const float* z,
+                                     const xsimd::batch<int32_t, A>& j) {
+    return {gather_lanes<A>(x, j), gather_lanes<A>(y, j), gather_lanes<A>(z, j)};
+}
+template <class A>
+Bsdf<xsimd::batch<float, A>> gather_bsdf(const PathPool& p, const xsimd::batch<int32_t, A>& j) {
+    auto col = [&](int c) { return gather3<A>(p.col[c][0], p.col[c][1], p.col[c][2], j); };
+    return {col(kColKd), col(kColKs), col(kColKr), col(kColKt), gather_lanes<A>(p.shininess, j),
+            gather_lanes<A>(p.ior, j)};
 }
 
 // Emission, shadow rays and the roulette for K paths at a time.
@@ -42,20 +47,22 @@ void shade_vertices(Wave<A>& w) {
 
         // An emitter ends the path
         if (f.emitters) {
-            const auto em = mask_f32(I::gather(s.emitter, mat) != I(0)) & alive;
-            const Vec3<F> le = load3<F>(p.col[kColEmission][0], p.col[kColEmission][1],
-                                        p.col[kColEmission][2], i);
+            const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
+            const Vec3<F> le = f.textures ? load3<F>(p.col[kColEmission][0],
+                                                     p.col[kColEmission][1],
+                                                     p.col[kColEmission][2], i)
+                                          : table_color<A>(s, kColEmission, mat);
             rad = select(em, rad + beta * le, rad);
             alive = alive & !em;
         }
-        const Bsdf<F> m = load_bsdf<F>(p, i);
+        const Bsdf<F> m = f.textures ? load_bsdf<F>(p, i) : table_bsdf<A>(s, mat);
         const Vec3<F> d = load3<F>(p.dx, p.dy, p.dz, i);
         const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
         const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
 
         // Point lights through shadow rays at Phong vertices: queue f·cos θ·I/d² · β
         if (f.lights) {
-            const auto phong = mask_f32(I::gather(s.phong, mat) != I(0)) & alive;
+            const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
             if (any(phong)) {
                 const Vec3<F> nf = facing_normal(n, d);
                 const F magnitude = max(max_abs(pos), max_abs(load3<F>(p.ox, p.oy, p.oz, i)));
@@ -152,7 +159,10 @@ void run_lobe_in_place(Wave<A>& w) {
         const Vec3<F> o = load3<F>(p.ox, p.oy, p.oz, i);
         const Vec3<F> d = load3<F>(p.dx, p.dy, p.dz, i);
         const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
-        const LobeStep<kLobe, A> step(w.scene, load_bsdf<F>(p, i), o, d,
+        const Bsdf<F> m = w.scene.features.textures
+                              ? load_bsdf<F>(p, i)
+                              : table_bsdf<A>(w.scene, I::load_aligned(p.material + i));
+        const LobeStep<kLobe, A> step(w.scene, m, o, d,
                                       load3<F>(p.px, p.py, p.pz, i), load3<F>(p.nx, p.ny, p.nz, i),
                                       beta, F::load_aligned(p.probability + i),
                                       U::load_aligned(p.key + i), U::load_aligned(p.bounce + i));
@@ -169,8 +179,6 @@ void run_lobe_in_place(Wave<A>& w) {
 // A lobe's kernel over its bucket: full batches of gathered lanes.
 template <int kLobe, class A>
 void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
-    using F = typename Wave<A>::F;
-    using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
@@ -178,11 +186,15 @@ void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
         alignas(64) int32_t idx[K];
         for (int32_t l = 0; l < K; ++l) idx[l] = list[std::min(i + l, size - 1)];
         const I j = I::load_aligned(idx);
+        const auto m = w.scene.features.textures
+                           ? gather_bsdf<A>(p, j)
+                           : table_bsdf<A>(w.scene, gather_lanes<A>(p.material, j));
         const LobeStep<kLobe, A> step(
-            w.scene, gather_bsdf<F>(p, j), gather3<F>(p.ox, p.oy, p.oz, j),
-            gather3<F>(p.dx, p.dy, p.dz, j), gather3<F>(p.px, p.py, p.pz, j),
-            gather3<F>(p.nx, p.ny, p.nz, j), gather3<F>(p.beta_r, p.beta_g, p.beta_b, j),
-            F::gather(p.probability, j), U::gather(p.key, j), U::gather(p.bounce, j));
+            w.scene, m, gather3<A>(p.ox, p.oy, p.oz, j),
+            gather3<A>(p.dx, p.dy, p.dz, j), gather3<A>(p.px, p.py, p.pz, j),
+            gather3<A>(p.nx, p.ny, p.nz, j), gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
+            gather_lanes<A>(p.probability, j), gather_lanes<A>(p.key, j),
+            gather_lanes<A>(p.bounce, j));
         scatter3(step.o, p.ox, p.oy, p.oz, j);
         scatter3(step.d, p.dx, p.dy, p.dz, j);
         scatter3(step.beta, p.beta_r, p.beta_g, p.beta_b, j);

@@ -30,16 +30,20 @@ void resolve_surfaces(Wave<A>& w) {
         if (f.spheres) {
             const auto m = kind == I(kPrimSphere);
             const I j = select(m, index, I(0));
-            const Vec3<F> c = gather3<F>(s.sphere_cx, s.sphere_cy, s.sphere_cz, j);
+            const int32_t count = s.sphere_count;
+            const Vec3<F> c{lookup<A>(s.sphere_cx, count, j), lookup<A>(s.sphere_cy, count, j),
+                            lookup<A>(s.sphere_cz, count, j)};
             n = select(mask_f32(m), normalize(pos - c), n);
-            material = select(m, I::gather(s.sphere_material, j), material);
+            material = select(m, lookup<A>(s.sphere_material, count, j), material);
         }
         if (f.planes) {
             const auto m = kind == I(kPrimPlane);
             const I j = select(m, index, I(0));
-            n = select(mask_f32(m),
-                       gather3<F>(s.plane_nx, s.plane_ny, s.plane_nz, j), n);
-            material = select(m, I::gather(s.plane_material, j), material);
+            const int32_t count = s.plane_count;
+            const Vec3<F> pn{lookup<A>(s.plane_nx, count, j), lookup<A>(s.plane_ny, count, j),
+                             lookup<A>(s.plane_nz, count, j)};
+            n = select(mask_f32(m), pn, n);
+            material = select(m, lookup<A>(s.plane_material, count, j), material);
         }
         if (f.quadrics) {
             const auto m = kind == I(kPrimQuadric);
@@ -49,16 +53,16 @@ void resolve_surfaces(Wave<A>& w) {
                 const I base = j * I(16);
                 QuadricCoefficients<F> q;
                 F* c[10] = {&q.a, &q.b, &q.c, &q.d, &q.e, &q.f, &q.g, &q.h, &q.i, &q.j};
-                for (int k = 0; k < 10; ++k) *c[k] = F::gather(s.quadric, base + I(k));
+                for (int k = 0; k < 10; ++k) *c[k] = gather_lanes<A>(s.quadric, base + I(k));
                 n = select(mf, normalize(quadric_gradient(q, pos)), n);
-                material = select(m, I::gather(s.quadric_material, j), material);
+                material = select(m, lookup<A>(s.quadric_material, s.quadric_count, j), material);
             }
         }
         if (f.meshes) {
             const auto m = kind == I(kPrimMesh);
             const I mesh = select(m, I::load_aligned(p.mesh_id + i), I(0));
             n = select(mask_f32(m), load3<F>(p.mesh_nx, p.mesh_ny, p.mesh_nz, i), n);
-            material = select(m, I::gather(s.mesh_material, mesh), material);
+            material = select(m, lookup<A>(s.mesh_material, s.mesh_count, mesh), material);
         }
         store3(pos, p.px, p.py, p.pz, i);
         store3(n, p.nx, p.ny, p.nz, i);

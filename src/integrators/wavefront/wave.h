@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <limits>
 
 #include "integrators/wavefront/flat_scene.h"
 #include "integrators/wavefront/path_pool.h"
@@ -57,24 +58,64 @@ void store3(const Vec3<F>& v, float* x, float* y, float* z, int32_t i) {
     v.x.store_aligned(x + i), v.y.store_aligned(y + i), v.z.store_aligned(z + i);
 }
 template <class F, class I>
-Vec3<F> gather3(const float* x, const float* y, const float* z, const I& idx) {
-    return {F::gather(x, idx), F::gather(y, idx), F::gather(z, idx)};
-}
-template <class F, class I>
 void scatter3(const Vec3<F>& v, float* x, float* y, float* z, const I& idx) {
     v.x.scatter(x, idx), v.y.scatter(y, idx), v.z.scatter(z, idx);
+}
+
+// ---- Table look-ups ---------------------------------------------------------------------
+// xsimd 8.1 emulates gather lane by lane, so these use the native instructions: a table of
+// at most K entries (materials, planes) sits in one register and is indexed by a permute;
+// a larger one is read with the hardware gather. Tables are padded to a multiple of 16.
+template <class A, class T>
+xsimd::batch<T, A> lookup(const T* table, int32_t count, const xsimd::batch<int32_t, A>& idx) {
+    using B = xsimd::batch<T, A>;
+    constexpr int32_t K = int32_t(B::size);
+#if defined(__AVX512F__)
+    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {
+        if constexpr (std::is_same_v<T, float>) {
+            if (count <= K) return B(_mm512_permutexvar_ps(idx.data, _mm512_loadu_ps(table)));
+            return B(_mm512_i32gather_ps(idx.data, table, 4));
+        } else {
+            if (count <= K)
+                return B(_mm512_permutexvar_epi32(idx.data, _mm512_loadu_si512(table)));
+            return B(_mm512_i32gather_epi32(idx.data, table, 4));
+        }
+    }
+#endif
+#if defined(__AVX2__)
+    if constexpr (std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
+        if constexpr (std::is_same_v<T, float>) {
+            if (count <= K) return B(_mm256_permutevar8x32_ps(_mm256_loadu_ps(table), idx.data));
+            return B(_mm256_i32gather_ps(table, idx.data, 4));
+        } else {
+            const __m256i t = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(table));
+            if (count <= K) return B(_mm256_permutevar8x32_epi32(t, idx.data));
+            return B(_mm256_i32gather_epi32(reinterpret_cast<const int*>(table), idx.data, 4));
+        }
+    }
+#endif
+    (void)count;
+    (void)K;
+    return B::gather(table, idx);
+}
+// A gather from a per-path array (any size).
+template <class A, class T>
+xsimd::batch<T, A> gather_lanes(const T* array, const xsimd::batch<int32_t, A>& idx) {
+    return lookup<A>(array, std::numeric_limits<int32_t>::max(), idx);
 }
 
 // Bits of a mask, lane 0 in bit 0.
 template <class A>
 uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
-    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {
-        return uint32_t(m.data);
-    } else if constexpr (std::is_base_of_v<xsimd::avx, A>) {
+#if defined(__AVX512F__)
+    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) return uint32_t(m.data);
+#endif
+#if defined(__AVX__)
+    if constexpr (std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
         return uint32_t(_mm256_movemask_ps(m.data));
-    } else {
+#endif
+    if constexpr (!std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
         return uint32_t(_mm_movemask_ps(m.data));
-    }
 }
 
 // Appends the indices base + l of the lanes set in `bits` to list[size...].

@@ -130,9 +130,19 @@ int isa_width(Isa isa) { return isa == Isa::kAvx512 ? 16 : (isa == Isa::kAvx2 ? 
 
 // ---- The renderer -----------------------------------------------------------------------------
 
+// A copy of a table padded with zeros to a multiple of 16 entries.
+template <class T>
+std::vector<T> padded(const std::vector<T>& v) {
+    std::vector<T> out(v);
+    out.resize((v.size() + 15) / 16 * 16 + 16, T(0));
+    return out;
+}
+
 struct WavefrontRenderer::Data {
     const Scene& scene;
     FlatScene flat{};
+    std::vector<float> sphere[4], plane[4];
+    std::vector<int32_t> sphere_material, plane_material;
     std::vector<float> quadric, color, shininess, ior, light;
     std::vector<int32_t> quadric_material, mesh_material, emitter, phong, textured;
     std::vector<FlatColor> sources;
@@ -159,37 +169,46 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     d.entry = isa_ == Isa::kAvx512 ? render_tile_avx512
                                    : (isa_ == Isa::kAvx2 ? render_tile_avx2 : render_tile_sse42);
 
-    // Analytic primitives: the scene's own SoA arrays, quadrics flattened to 16 floats
-    f.sphere_count = int32_t(scene.spheres.size());
-    f.sphere_cx = scene.spheres.cx.data(), f.sphere_cy = scene.spheres.cy.data();
-    f.sphere_cz = scene.spheres.cz.data(), f.sphere_r = scene.spheres.radius.data();
-    f.sphere_material = scene.spheres.material.data();
-    f.plane_count = int32_t(scene.planes.size());
-    f.plane_nx = scene.planes.nx.data(), f.plane_ny = scene.planes.ny.data();
-    f.plane_nz = scene.planes.nz.data(), f.plane_d = scene.planes.distance.data();
-    f.plane_material = scene.planes.material.data();
+    // Analytic primitives: padded copies of the scene's SoA arrays, quadrics as 16 floats
+    const Spheres& sp = scene.spheres;
+    const Planes& pl = scene.planes;
+    d.sphere[0] = padded(sp.cx), d.sphere[1] = padded(sp.cy), d.sphere[2] = padded(sp.cz);
+    d.sphere[3] = padded(sp.radius), d.sphere_material = padded(sp.material);
+    d.plane[0] = padded(pl.nx), d.plane[1] = padded(pl.ny), d.plane[2] = padded(pl.nz);
+    d.plane[3] = padded(pl.distance), d.plane_material = padded(pl.material);
+    f.sphere_count = int32_t(sp.size());
+    f.sphere_cx = d.sphere[0].data(), f.sphere_cy = d.sphere[1].data();
+    f.sphere_cz = d.sphere[2].data(), f.sphere_r = d.sphere[3].data();
+    f.sphere_material = d.sphere_material.data();
+    f.plane_count = int32_t(pl.size());
+    f.plane_nx = d.plane[0].data(), f.plane_ny = d.plane[1].data();
+    f.plane_nz = d.plane[2].data(), f.plane_d = d.plane[3].data();
+    f.plane_material = d.plane_material.data();
     for (const Quadric& q : scene.quadrics) {
         d.quadric.insert(d.quadric.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h,
                                            q.q.i, q.q.j, q.box_min.x, q.box_min.y, q.box_min.z,
                                            q.box_max.x, q.box_max.y, q.box_max.z});
         d.quadric_material.push_back(q.material);
     }
+    d.quadric = padded(d.quadric), d.quadric_material = padded(d.quadric_material);
     f.quadric_count = int32_t(scene.quadrics.size());
     f.quadric = d.quadric.data();
     f.quadric_material = d.quadric_material.data();
     for (const Mesh& m : scene.meshes) d.mesh_material.push_back(m.material);
+    d.mesh_material = padded(d.mesh_material);
     f.mesh_count = int32_t(scene.meshes.size());
     f.mesh_material = d.mesh_material.data();
 
-    // Materials as SoA [channel][component][material]
+    // Materials as SoA [channel][component][material], each row padded to 16
     const size_t mc = scene.materials.size();
-    d.color.assign(kColCount * 3 * mc, 0.0f);
+    const size_t stride = (mc + 15) / 16 * 16;
+    d.color.assign(kColCount * 3 * stride + 16, 0.0f);
     for (size_t m = 0; m < mc; ++m) {
         const Material& mat = scene.materials[m];
         const ColorSource* ch[kColCount] = {&mat.emission, &mat.kd, &mat.ks, &mat.kr, &mat.kt};
         bool tex = false;
         for (int c = 0; c < kColCount; ++c) {
-            for (int k = 0; k < 3; ++k) d.color[(size_t(c) * 3 + size_t(k)) * mc + m] = ch[c]->a[k];
+            for (int k = 0; k < 3; ++k) d.color[(size_t(c) * 3 + size_t(k)) * stride + m] = ch[c]->a[k];
             d.sources.push_back(flatten(*ch[c]));
             tex |= ch[c]->kind != TextureKind::kSolid;
         }
@@ -199,7 +218,10 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
         d.phong.push_back(mat.has_phong() ? 1 : 0);
         d.textured.push_back(tex ? 1 : 0);
     }
+    d.shininess = padded(d.shininess), d.ior = padded(d.ior), d.emitter = padded(d.emitter);
+    d.phong = padded(d.phong), d.textured = padded(d.textured);
     f.material_count = int32_t(mc);
+    f.material_stride = int32_t(stride);
     f.color = d.color.data(), f.shininess = d.shininess.data(), f.ior = d.ior.data();
     f.emitter = d.emitter.data(), f.phong = d.phong.data(), f.textured = d.textured.data();
     f.sources = d.sources.data();

@@ -1,5 +1,5 @@
 // The wavefront loop over one tile, for one instruction set: regenerate → intersect →
-// surfaces → materials → shade → lobes → shadow rays → compact, until every path of the
+// surfaces → materials (textured scenes only) → shade → lobes → shadow rays → compact, until every path of the
 // tile has ended. Included only by the per-ISA files, which instantiate it.
 #pragma once
 
@@ -26,11 +26,7 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
         if (w.live == 0) break;
         intersect_closest(w);
         resolve_surfaces(w);
-        if (scene.features.textures) {
-            evaluate_sorted_materials(w, pool.material_starts);
-        } else {
-            gather_materials(w);
-        }
+        if (scene.features.textures) evaluate_sorted_materials(w, pool.material_starts);
         shade_vertices(w);
         sample_lobes(w);
         trace_shadow_rays(w);
