@@ -32,7 +32,9 @@ struct RenderArgs {
     std::optional<float> survival_cap;
     std::optional<std::string> diffuse_sampling;
     int threads = 0;
-    std::string integrator = "scalar";
+    std::string integrator = "wavefront";
+    std::string isa = "auto";
+    int pool = 0;
     fs::path out;
     fs::path stats;
     bool variance = false;
@@ -68,6 +70,9 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
         {"rays_per_second", st.rays_per_second()},
         {"rays_per_second_per_thread", st.rays_per_second() / st.threads},
         {"nonfinite_samples", st.nonfinite_samples},
+        {"lane_utilisation", {{"shading", st.shade_lane_utilisation},
+                              {"intersection", st.isect_lane_utilisation}}},
+        {"pool", {{"paths", st.pool_size}, {"bytes", st.pool_bytes}}},
         {"mean_relative_error", st.mean_relative_error},
     };
     write_stream_atomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
@@ -100,6 +105,8 @@ int run_render(const RenderArgs& a) {
     RenderOptions options;
     options.threads = a.threads;
     options.integrator = a.integrator;
+    options.isa = a.isa;
+    options.pool_size = a.pool;
     options.progress = !a.quiet;
     const RenderResult result = render(scene, options);
     const RenderStats& st = result.stats;
@@ -125,10 +132,10 @@ int run_render(const RenderArgs& a) {
     if (!a.stats.empty()) write_stats(a.stats, scene, st);
 
     std::fprintf(stderr,
-                 "%s: %dx%d, %lld spp, %s, %d threads: %.3f s, %.2f Mrays/s (%.2f per thread), "
-                 "relative error %.4f%s\n",
+                 "%s: %dx%d, %lld spp, %s (%s), %d threads: %.3f s, %.2f Mrays/s (%.2f per "
+                 "thread), relative error %.4f%s\n",
                  s.output.string().c_str(), s.width, s.height, (long long)s.spp,
-                 st.integrator.c_str(), st.threads, st.seconds, st.rays_per_second() * 1e-6,
+                 st.integrator.c_str(), st.isa.c_str(), st.threads, st.seconds, st.rays_per_second() * 1e-6,
                  st.rays_per_second() * 1e-6 / st.threads, st.mean_relative_error,
                  st.nonfinite_samples
                      ? fmt::format(", {} non-finite samples excluded", st.nonfinite_samples).c_str()
@@ -164,8 +171,18 @@ int main(int argc, char** argv) {
                   "Diffuse directions: uniform (the report's) or cosine (overrides "
                   "render.diffuse_sampling)")
         ->check(CLI::IsMember({"uniform", "cosine"}));
-    r->add_option("--integrator", a.integrator, "Integrator: scalar (the reference)")
-        ->check(CLI::IsMember({"scalar"}))
+    r->add_option("--integrator", a.integrator,
+                  "wavefront (SoA batches, SIMD kernels) or scalar (the reference: one path at "
+                  "a time)")
+        ->check(CLI::IsMember({"wavefront", "scalar"}))
+        ->capture_default_str();
+    r->add_option("--isa", a.isa,
+                  "Wavefront instruction set: auto (the best this CPU has), avx512, avx2, sse4.2")
+        ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2"}))
+        ->capture_default_str();
+    r->add_option("--pool", a.pool,
+                  "Wavefront paths in flight per thread, a multiple of 16; 0 = default (2048)")
+        ->check(CLI::Range(0, 1 << 22))
         ->capture_default_str();
     r->add_option("--out", a.out, "Output image, .exr (float32) or .pfm (overrides render.output)");
     r->add_option("--stats", a.stats,

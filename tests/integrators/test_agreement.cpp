@@ -1,0 +1,141 @@
+// Wavefront against the scalar reference, on every scene in scenes/ and on every ISA this
+// CPU has. Both integrators draw the same random numbers for the same path vertex, so they
+// trace the same paths and their images differ only where rounding sends a path elsewhere.
+// Tolerances (per channel): the image means within 0.3%, and fewer than 2% of pixels off
+// by more than 2% of the image mean. A 5% error in any one lobe's weight breaks them (the
+// second test plants one in each lobe of a four-lobe material and checks it is caught).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+
+#include "integrators/render.h"
+#include "integrators/wavefront/isa_entries.h"
+#include "scene/scene_json.h"
+
+namespace cierzo {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Difference {
+    double mean_rel[3];      // |mean_w - mean_s| / mean_s
+    double pixels_off[3];    // fraction of pixels off by more than 2% of the image mean
+};
+
+Difference compare(const Film& a, const Film& b) {
+    const Image x = a.mean(), y = b.mean();
+    Difference d{};
+    for (int c = 0; c < 3; ++c) {
+        double mx = 0, my = 0;
+        for (size_t i = size_t(c); i < x.rgb.size(); i += 3) mx += x.rgb[i], my += y.rgb[i];
+        mx /= double(x.rgb.size() / 3), my /= double(y.rgb.size() / 3);
+        d.mean_rel[c] = std::abs(mx - my) / std::max(my, 1e-12);
+        size_t off = 0;
+        for (size_t i = size_t(c); i < x.rgb.size(); i += 3)
+            off += std::abs(double(x.rgb[i]) - double(y.rgb[i])) > 0.02 * my + 1e-9;
+        d.pixels_off[c] = double(off) / double(x.rgb.size() / 3);
+    }
+    return d;
+}
+
+RenderResult render_with(const Scene& scene, const std::string& integrator, const std::string& isa) {
+    RenderOptions o;
+    o.integrator = integrator;
+    o.isa = isa;
+    o.threads = 2;
+    o.progress = false;
+    return render(scene, o);
+}
+
+std::vector<fs::path> all_scenes() {
+    std::vector<fs::path> out;
+    for (const auto& e : fs::directory_iterator(CIERZO_SOURCE_DIR "/scenes"))
+        if (e.path().extension() == ".json") out.push_back(e.path());
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+TEST(Agreement, WavefrontMatchesScalarOnEverySceneAndIsa) {
+    const std::vector<fs::path> scenes = all_scenes();
+    ASSERT_GE(scenes.size(), 6u);
+    for (const fs::path& path : scenes) {
+        Scene scene;
+        try {
+            scene = load_scene(path);
+        } catch (const std::exception& e) {
+            // Scenes whose mesh is fetched at build time may be absent here
+            if (std::string(e.what()).find(".ply") != std::string::npos) continue;
+            throw;
+        }
+        scene.settings.width = 40;
+        scene.settings.height = 40;
+        scene.settings.spp = 16;
+        const RenderResult reference = render_with(scene, "scalar", "auto");
+        for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {
+            if (!isa_supported(isa)) continue;
+            SCOPED_TRACE(path.filename().string() + " " + isa_name(isa));
+            const RenderResult w = render_with(scene, "wavefront", isa_name(isa));
+            EXPECT_EQ(w.stats.paths, reference.stats.paths);
+            const Difference d = compare(w.film, reference.film);
+            for (int c = 0; c < 3; ++c) {
+                EXPECT_LT(d.mean_rel[c], 0.003) << "channel " << c;
+                EXPECT_LT(d.pixels_off[c], 0.02) << "channel " << c;
+            }
+        }
+    }
+}
+
+// The box of cornell.json around a sphere of one material with all four lobes, every colour
+// channel non-zero; `scale` multiplies the channels below each lobe's max by (1 + error).
+Scene mixed_scene(int lobe, float error) {
+    float c[4][3] = {{0.30f, 0.20f, 0.25f}, {0.20f, 0.15f, 0.10f}, {0.20f, 0.10f, 0.15f},
+                     {0.15f, 0.20f, 0.10f}};
+    if (lobe >= 0)
+        for (float& v : c[lobe])
+            if (v < std::max({c[lobe][0], c[lobe][1], c[lobe][2]})) v *= 1.0f + error;
+    auto rgb = [](const float* v) {
+        return "[" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + ", " +
+               std::to_string(v[2]) + "]";
+    };
+    const std::string mat = R"({"kd": )" + rgb(c[0]) + R"(, "ks": )" + rgb(c[1]) +
+                            R"(, "shininess": 20, "kr": )" + rgb(c[2]) + R"(, "kt": )" +
+                            rgb(c[3]) + R"(, "ior": 1.5})";
+    return parse_scene(R"({
+        "render": {"width": 40, "height": 40, "spp": 16},
+        "camera": {"position": [0, 0, -3.5], "forward": [0, 0, 3], "left": [-1, 0, 0],
+                   "up": [0, 1, 0]},
+        "materials": {"light": {"emission": 1}, "white": {"kd": 0.8},
+                      "red": {"kd": [0.8, 0.1, 0.1]}, "green": {"kd": [0.1, 0.8, 0.1]}},
+        "objects": [
+            {"type": "plane", "normal": [1, 0, 0], "distance": 1, "material": "red"},
+            {"type": "plane", "normal": [-1, 0, 0], "distance": 1, "material": "green"},
+            {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "white"},
+            {"type": "plane", "normal": [0, -1, 0], "distance": 1, "material": "light"},
+            {"type": "plane", "normal": [0, 0, -1], "distance": 1, "material": "white"},
+            {"type": "sphere", "center": [0, -0.3, 0], "radius": 0.65, "material": )" +
+                           mat + "}]}",
+                       "/tmp/mixed.json");
+}
+
+bool differs(const Difference& d) {
+    bool out = false;
+    for (int c = 0; c < 3; ++c) out |= d.mean_rel[c] >= 0.003 || d.pixels_off[c] >= 0.02;
+    return out;
+}
+
+TEST(Agreement, TheToleranceCatchesAFivePercentLobeError) {
+    // Scaling a lobe's non-maximal channels keeps the roulette (the max RGB) and so the
+    // paths, and changes only that lobe's weight: a stand-in for a 5% weight error
+    const RenderResult reference = render_with(mixed_scene(-1, 0.0f), "scalar", "auto");
+    EXPECT_FALSE(differs(compare(render_with(mixed_scene(-1, 0.0f), "wavefront", "auto").film,
+                                 reference.film)));
+    for (int lobe = 0; lobe < 4; ++lobe) {
+        const RenderResult w = render_with(mixed_scene(lobe, 0.05f), "wavefront", "auto");
+        EXPECT_TRUE(differs(compare(w.film, reference.film)))
+            << "a 5% error in lobe " << lobe << " went unnoticed";
+    }
+}
+
+}  // namespace
+}  // namespace cierzo
