@@ -93,9 +93,9 @@ int run_render(const RenderArgs& a) {
         throw InputError(fmt::format("--width/--height: {}x{} exceeds the limit of 2^28 pixels",
                                      s.width, s.height));
     if (double(s.width) * double(s.height) * double(s.spp) > kMaxPaths)
-        throw InputError(fmt::format("{}x{} pixels x {} paths per pixel exceeds the limit of "
-                                     "1e12 paths in one render",
-                                     s.width, s.height, s.spp));
+        throw InputError(fmt::format("{}: {}x{} pixels x {} paths per pixel exceeds the limit "
+                                     "of 1e12 paths in one render",
+                                     a.scene.string(), s.width, s.height, s.spp));
     const std::string ext = s.output.extension().string();
     if (ext != ".exr" && ext != ".pfm")
         throw InputError(s.output.string() + ": output must end in .exr or .pfm");
@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2"}))
         ->capture_default_str();
     r->add_option("--pool", a.pool,
-                  "Wavefront paths in flight per thread, a multiple of 16; 0 = default (2048)")
+                  "Wavefront paths in flight per thread, a multiple of 16; 0 = default (512)")
         ->check(CLI::Range(0, 1 << 22))
         ->capture_default_str();
     r->add_option("--out", a.out, "Output image, .exr (float32) or .pfm (overrides render.output)");

@@ -89,7 +89,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == "wavefront")
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
-                                                        options.pool_size);
+                                                        options.pool_size, options.specialise);
     const int threads =
         options.threads > 0 ? options.threads : int(std::thread::hardware_concurrency());
     const RenderSettings& rs = scene.settings;

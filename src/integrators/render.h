@@ -31,6 +31,7 @@ struct RenderOptions {
     std::string integrator = "wavefront";  // or "scalar", the reference
     std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2
     int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
+    bool specialise = true;                // wavefront: skip what the scene does not use
     bool progress = true;                  // progress line on stderr
 };
 

@@ -156,7 +156,8 @@ struct WavefrontRenderer::Data {
           pools(size, int32_t(s.lights.size()), int32_t(s.materials.size())) {}
 };
 
-WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size)
+WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size,
+                                     bool specialise)
     : isa_(isa == Isa::kAuto ? best_isa() : isa),
       pool_size_(pool_size > 0 ? pool_size : kDefaultPoolSize) {
     if (!isa_supported(isa_))
@@ -247,6 +248,11 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
                   sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction)};
+    if (!specialise) {
+        // Every stage and lobe on: the general kernel a renderer without a feature set runs
+        const bool meshes = f.features.meshes;
+        f.features = {true, true, true, meshes, true, true, true, true, true, true, true, 4};
+    }
     f.scene = &scene;
     f.intersect_meshes = intersect_meshes;
     f.occluded_meshes = occluded_meshes;

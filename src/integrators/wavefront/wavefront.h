@@ -19,9 +19,11 @@ struct LaneStats {
 class WavefrontRenderer {
 public:
     // pool_size: paths in flight per thread (0 picks the default, kDefaultPoolSize).
-    WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size = 0);
+    // specialise = false runs every stage and lobe kernel whatever the scene uses (for
+    // measuring what specialisation to the scene's features saves; same image).
+    WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size = 0, bool specialise = true);
     ~WavefrontRenderer();
-    static constexpr int32_t kDefaultPoolSize = 2048;
+    static constexpr int32_t kDefaultPoolSize = 512;
 
     Isa isa() const { return isa_; }
     int32_t pool_size() const { return pool_size_; }

@@ -1,0 +1,139 @@
+// BVH benchmarks: the binned-SAH build and scalar closest-hit / any-hit traversal of random
+// incoherent rays on a procedurally displaced sphere of about 100k triangles.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "scene/bvh.h"
+
+namespace {
+
+using cierzo::Bvh;
+using cierzo::Ray;
+using cierzo::TriangleHit;
+using cierzo::Vec3f;
+
+struct Mesh {
+    std::vector<Vec3f> positions;
+    std::vector<uint32_t> indices;
+};
+
+// A latitude/longitude sphere with a bumpy radial displacement: 2 * segments * (rings - 1)
+// triangles (rings = 226, segments = 224 gives 100,800).
+Mesh displaced_sphere(int rings, int segments) {
+    Mesh mesh;
+    const float pi = 3.14159265358979f;
+    const auto point = [&](float theta, float phi) {
+        const float r = 1.0f + 0.08f * std::sin(9.0f * theta) * std::sin(7.0f * phi) +
+                        0.02f * std::sin(41.0f * theta + 3.0f * phi);
+        return Vec3f(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                     std::cos(theta)) * r;
+    };
+    // Vertices: the poles and the rings between them
+    mesh.positions.push_back(point(0.0f, 0.0f));
+    for (int r = 1; r < rings; ++r) {
+        for (int s = 0; s < segments; ++s) {
+            mesh.positions.push_back(
+                point(pi * float(r) / float(rings), 2.0f * pi * float(s) / float(segments)));
+        }
+    }
+    mesh.positions.push_back(point(pi, 0.0f));
+    // Triangles: fans at the poles, two per quad in between
+    const uint32_t south = uint32_t(mesh.positions.size() - 1);
+    const auto ring = [&](int r, int s) { return uint32_t(1 + (r - 1) * segments + s % segments); };
+    for (int s = 0; s < segments; ++s) {
+        mesh.indices.insert(mesh.indices.end(), {0u, ring(1, s), ring(1, s + 1)});
+        mesh.indices.insert(mesh.indices.end(),
+                            {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
+    }
+    for (int r = 1; r + 1 < rings; ++r) {
+        for (int s = 0; s < segments; ++s) {
+            mesh.indices.insert(mesh.indices.end(),
+                                {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
+            mesh.indices.insert(mesh.indices.end(),
+                                {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
+        }
+    }
+    return mesh;
+}
+
+const Mesh& bench_mesh() {
+    static const Mesh mesh = displaced_sphere(226, 224);
+    return mesh;
+}
+
+const Bvh& bench_bvh() {
+    static const Bvh bvh = [] {
+        Bvh b;
+        b.build(bench_mesh().positions, bench_mesh().indices);
+        return b;
+    }();
+    return bvh;
+}
+
+// Incoherent rays: origins uniform in a cube around the mesh (inside and outside it),
+// directions uniform on the sphere.
+std::vector<Ray<float>> random_rays(size_t count) {
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::normal_distribution<float> normal;
+    std::vector<Ray<float>> rays(count);
+    for (Ray<float>& ray : rays) {
+        ray.o = Vec3f(unit(rng), unit(rng), unit(rng)) * 1.6f;
+        ray.d = cierzo::normalize(Vec3f(normal(rng), normal(rng), normal(rng)));
+    }
+    return rays;
+}
+
+void BM_BvhBuild(benchmark::State& state) {
+    const Mesh& mesh = bench_mesh();
+    for (auto _ : state) {
+        Bvh bvh;
+        bvh.build(mesh.positions, mesh.indices);
+        benchmark::DoNotOptimize(bvh.node_count());
+    }
+    Bvh bvh;
+    bvh.build(mesh.positions, mesh.indices);
+    state.counters["triangles"] = double(bvh.triangle_count());
+    state.counters["nodes"] = double(bvh.node_count());
+    state.counters["depth"] = double(bvh.depth());
+}
+BENCHMARK(BM_BvhBuild)->Unit(benchmark::kMillisecond);
+
+void BM_BvhClosestHit(benchmark::State& state) {
+    const Bvh& bvh = bench_bvh();
+    const std::vector<Ray<float>> rays = random_rays(1 << 16);
+    size_t traced = 0, hits = 0;
+    for (auto _ : state) {
+        for (const Ray<float>& ray : rays) {
+            TriangleHit hit;
+            hits += bvh.intersect(ray, 1e30f, hit);
+        }
+        traced += rays.size();
+    }
+    benchmark::DoNotOptimize(hits);
+    state.counters["rays"] = benchmark::Counter(double(traced), benchmark::Counter::kIsRate);
+    state.counters["hit_fraction"] = double(hits) / double(traced);
+}
+BENCHMARK(BM_BvhClosestHit)->Unit(benchmark::kMillisecond);
+
+void BM_BvhOccluded(benchmark::State& state) {
+    const Bvh& bvh = bench_bvh();
+    const std::vector<Ray<float>> rays = random_rays(1 << 16);
+    size_t traced = 0, hits = 0;
+    for (auto _ : state) {
+        for (const Ray<float>& ray : rays) {
+            hits += bvh.occluded(ray, 1e30f);
+        }
+        traced += rays.size();
+    }
+    benchmark::DoNotOptimize(hits);
+    state.counters["rays"] = benchmark::Counter(double(traced), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_BvhOccluded)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

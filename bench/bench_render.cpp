@@ -1,0 +1,118 @@
+// Whole-render throughput: every scene, scalar reference against the wavefront on each ISA,
+// one thread, in rays per second (per core: one thread). Also the pool-size sweep that chose
+// the default pool, feature specialisation on and off, and 1 against 2 threads.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+
+#include "integrators/render.h"
+#include "integrators/wavefront/isa_entries.h"
+#include "scene/scene_json.h"
+
+namespace cierzo {
+namespace {
+
+namespace fs = std::filesystem;
+
+Scene bench_scene(const std::string& name) {
+    Scene s = load_scene(fs::path(CIERZO_SOURCE_DIR) / "scenes" / (name + ".json"));
+    s.settings.width = 128;
+    s.settings.height = 128;
+    s.settings.spp = 8;
+    return s;
+}
+
+void run(benchmark::State& state, const Scene& scene, RenderOptions o) {
+    o.progress = false;
+    double rays = 0, util = 0;
+    int runs = 0;
+    for (auto _ : state) {
+        const RenderResult r = render(scene, o);
+        rays += double(r.stats.rays.total());
+        util += r.stats.shade_lane_utilisation;
+        ++runs;
+    }
+    state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+    state.counters["rays_per_s_per_thread"] =
+        benchmark::Counter(rays / std::max(o.threads, 1), benchmark::Counter::kIsRate);
+    if (o.integrator == "wavefront") state.counters["shade_lane_util"] = util / runs;
+}
+
+// Scene × integrator/ISA, 1 thread
+void register_scenes() {
+    const char* scenes[] = {"cornell",    "diffuse_spheres", "emitting_spheres", "mirror_spheres",
+                            "glass_spheres", "phong_spheres", "four_lobes",      "point_lights",
+                            "quadrics",   "textures",        "hard_shadow",      "caustic"};
+    for (const char* name : scenes) {
+        if (!fs::exists(fs::path(CIERZO_SOURCE_DIR) / "scenes" / (std::string(name) + ".json")))
+            continue;
+        std::vector<std::pair<std::string, std::string>> variants = {{"scalar", "scalar"}};
+        for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
+            if (isa_supported(isa)) variants.push_back({"wavefront", isa_name(isa)});
+        for (const auto& [integrator, isa] : variants) {
+            const std::string label = std::string("render/") + name + "/" +
+                                      (integrator == "scalar" ? "scalar" : "wavefront_" + isa);
+            benchmark::RegisterBenchmark(label.c_str(), [=](benchmark::State& st) {
+                static std::map<std::string, Scene> cache;
+                if (!cache.count(name)) cache.emplace(name, bench_scene(name));
+                RenderOptions o;
+                o.threads = 1;
+                o.integrator = integrator;
+                o.isa = integrator == "scalar" ? "auto" : isa;
+                run(st, cache.at(name), o);
+            })->Unit(benchmark::kMillisecond);
+        }
+    }
+}
+
+// The pool size: paths in flight per thread (the default was chosen from this sweep)
+void BM_PoolSize(benchmark::State& state) {
+    static const Scene scene = bench_scene("cornell");
+    RenderOptions o;
+    o.threads = 1;
+    o.pool_size = int(state.range(0));
+    run(state, scene, o);
+}
+BENCHMARK(BM_PoolSize)->RangeMultiplier(2)->Range(256, 16384)->Unit(benchmark::kMillisecond);
+
+// Feature specialisation: the same scenes with every stage and lobe kernel forced on
+void BM_Specialisation(benchmark::State& state, const char* name, bool specialise) {
+    static std::map<std::string, Scene> cache;
+    if (!cache.count(name)) cache.emplace(name, bench_scene(name));
+    RenderOptions o;
+    o.threads = 1;
+    o.specialise = specialise;
+    run(state, cache.at(name), o);
+}
+BENCHMARK_CAPTURE(BM_Specialisation, cornell_specialised, "cornell", true)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Specialisation, cornell_general, "cornell", false)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Specialisation, diffuse_spheres_specialised, "diffuse_spheres", true)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Specialisation, diffuse_spheres_general, "diffuse_spheres", false)
+    ->Unit(benchmark::kMillisecond);
+
+// Threads: 1 against 2 on the default scene (rays_per_s is the whole machine's)
+void BM_Threads(benchmark::State& state) {
+    static Scene scene = [] {
+        Scene s = bench_scene("cornell");
+        s.settings.width = 256, s.settings.height = 256;
+        return s;
+    }();
+    RenderOptions o;
+    o.threads = int(state.range(0));
+    run(state, scene, o);
+}
+BENCHMARK(BM_Threads)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace cierzo
+
+int main(int argc, char** argv) {
+    cierzo::register_scenes();
+    benchmark::Initialize(&argc, argv);
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}
