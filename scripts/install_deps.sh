@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs what cierzo needs on Debian 12 (root, or sudo): compiler, CMake, Ninja and the
+# libraries; npm for the test meshes; matplotlib for the plots. Skips what is installed.
+set -euo pipefail
+packages=(g++ cmake ninja-build pkg-config libxsimd-dev libopenexr-dev libimath-dev
+          libgtest-dev libgmock-dev libbenchmark-dev libtbb-dev libcli11-dev nlohmann-json3-dev
+          libfmt-dev libstb-dev npm python3-matplotlib)
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+sudo=""
+[ "$(id -u)" -ne 0 ] && sudo="sudo"
+echo "installing: ${missing[*]}" >&2
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
