@@ -24,18 +24,22 @@ Scene bench_scene(const std::string& name) {
 
 void run(benchmark::State& state, const Scene& scene, RenderOptions o) {
     o.progress = false;
-    double rays = 0, util = 0;
+    double rays = 0, util = 0, isect = 0;
     int runs = 0;
     for (auto _ : state) {
         const RenderResult r = render(scene, o);
         rays += double(r.stats.rays.total());
         util += r.stats.shade_lane_utilisation;
+        isect += r.stats.isect_lane_utilisation;
         ++runs;
     }
     state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
     state.counters["rays_per_s_per_thread"] =
         benchmark::Counter(rays / std::max(o.threads, 1), benchmark::Counter::kIsRate);
-    if (o.integrator == "wavefront") state.counters["shade_lane_util"] = util / runs;
+    if (o.integrator == "wavefront") {
+        state.counters["shade_lane_util"] = util / runs;
+        state.counters["isect_lane_util"] = isect / runs;
+    }
 }
 
 // Scene × integrator/ISA, 1 thread

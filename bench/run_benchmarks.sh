@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Runs every benchmark of bench/ and writes the results as Google Benchmark JSON and one
+# CSV table (name, rays/s, rays/s per thread, lane utilisation) that plots can read.
+# Usage: bench/run_benchmarks.sh [OUT_DIR] [--quick]   (default OUT_DIR: out/bench)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-out/bench}
+min_time=1
+[ "${2:-}" = "--quick" ] && min_time=0.2
+mkdir -p "$out"
+scripts/build.sh build >/dev/null
+run() {  # program, output name
+    "$1" --benchmark_min_time="$min_time" --benchmark_out="$out/$2.json" \
+         --benchmark_out_format=json
+}
+run build/bench/bench_render render
+for isa in avx512 avx2 sse42; do
+    # A kernel program runs only where the CPU has its ISA
+    case $isa in
+        avx512) grep -q avx512bw /proc/cpuinfo || continue ;;
+        avx2) grep -q avx2 /proc/cpuinfo || continue ;;
+    esac
+    run "build/bench/bench_kernels_$isa" "kernels_$isa"
+done
+/usr/bin/python3 - "$out" <<'PY'
+import csv, json, pathlib, sys
+out = pathlib.Path(sys.argv[1])
+rows = []
+for f in sorted(out.glob("*.json")):
+    for b in json.loads(f.read_text())["benchmarks"]:
+        rows.append({"program": f.stem, "name": b["name"],
+                     "rays_per_s": b.get("rays_per_s", ""),
+                     "rays_per_s_per_thread": b.get("rays_per_s_per_thread", b.get("rays_per_s", "")),
+                     "shade_lane_util": b.get("shade_lane_util", ""),
+                     "isect_lane_util": b.get("isect_lane_util", ""),
+                     "real_time": b["real_time"], "time_unit": b["time_unit"]})
+with open(out / "results.csv", "w", newline="") as fh:
+    w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
+    w.writeheader()
+    w.writerows(rows)
+print(f"wrote {out}/results.csv ({len(rows)} rows) and the JSON beside it")
+PY
