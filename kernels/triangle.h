@@ -9,6 +9,7 @@
 #include "vec3.h"
 
 namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
 
 // ---- Per-lane component selection ---------------------------------------------------
 // Which component of a Vec3 an axis index names, as masks, so a batch can pick a different
@@ -24,9 +25,10 @@ T pick(const Vec3<T>& v, const AxisPick<T>& a) {
 }
 
 // A product rounded to float and kept that way: the empty asm hides the value from the
-// optimiser, so it cannot fuse the multiplication into a following addition. GCC contracts
-// a*b - c*d into fma(a, b, -c*d) by default in C++ (-ffp-contract=fast) when FMA is enabled,
-// and that breaks the antisymmetry of the edge functions, i.e. watertightness.
+// optimiser, so it cannot fuse the multiplication into a following addition. With FMA enabled
+// GCC (-ffp-contract=fast, its C++ default) and clang (=on) turn a*b - c*d into
+// fma(a, b, -c*d), which breaks the antisymmetry of the edge functions: rays then leak
+// between neighbouring triangles (test_triangle checks this with an FMA-compiled copy).
 inline float rounded(float x) {
 #if defined(__GNUC__)
     __asm__("" : "+v"(x));
@@ -59,16 +61,16 @@ RayShear<T> make_ray_shear(const Vec3<T>& d) {
     RayShear<T> s;
     // Dominant axis; ties go to x, then y
     const T ax = abs(d.x), ay = abs(d.y), az = abs(d.z);
-    const Mask<T> z_is_x = (ax >= ay) & (ax >= az);
-    const Mask<T> z_is_y = !z_is_x & (ay >= az);
-    const Mask<T> z_is_z = !z_is_x & !z_is_y;
+    const Mask<T> z_is_x = (ax >= ay) && (ax >= az);
+    const Mask<T> z_is_y = (ay >= az) && !z_is_x;
+    const Mask<T> z_is_z = !(z_is_x || z_is_y);
     s.pz = {z_is_x, z_is_y};
     const T dz = pick(d, s.pz);
     const Mask<T> neg = dz < T(0.0f);
     const Mask<T> pos = !neg;
     // kx, ky: the cyclic successors of kz, swapped for a negative d[kz]
-    s.px = {(z_is_y & neg) | (z_is_z & pos), (z_is_x & pos) | (z_is_z & neg)};
-    s.py = {(z_is_y & pos) | (z_is_z & neg), (z_is_x & neg) | (z_is_z & pos)};
+    s.px = {(z_is_y && neg) || (z_is_z && pos), (z_is_x && pos) || (z_is_z && neg)};
+    s.py = {(z_is_y && pos) || (z_is_z && neg), (z_is_x && neg) || (z_is_z && pos)};
     const auto index = [](const AxisPick<T>& p) {
         return select(mask_i32(p.is_x), I(0), select(mask_i32(p.is_y), I(1), I(2)));
     };
@@ -85,14 +87,17 @@ RayShear<T> make_ray_shear(const Vec3<T>& d) {
 // ---- The intersection test ---------------------------------------------------------
 // Returns the lanes whose ray hits the triangle (v0, v1, v2) at a distance t in (0, tmax),
 // from either side. t, b1 and b2 (the barycentric weights of v1 and v2) are written for every
-// lane and meaningful only in the hit lanes. A zero-area triangle is never hit.
+// lane and meaningful only in the hit lanes. A triangle with two coincident vertices is never
+// hit; one with distinct collinear vertices may be, as the rounded shear need not keep them
+// collinear (the BVH leaves zero-area triangles out at build time).
 //
 // Edge functions that are exactly zero (the ray passes through an edge or a vertex in the
 // sheared projection): the scalar version recomputes all three in double precision, where
 // the products of floats are exact and the sign of each edge function is exact, as in the
-// paper. The batch version keeps the float values; they are still sign-consistent for the
-// two triangles sharing an edge (the products are rounded, never fused), so a zero only
-// lets both neighbours report a hit and never opens a gap.
+// paper. The batch version keeps the float values, which are safe too: rounding is monotone,
+// so a nonzero round(a*b) - round(c*d) has the sign of a*b - c*d, and the triangles on both
+// sides of an edge compute exactly opposite values (the products are rounded, never fused).
+// A zero only lets both neighbours report a hit; it never opens a gap.
 template <class T>
 Mask<T> intersect_triangle(const Ray<T>& ray, const RayShear<T>& s, const Vec3<T>& v0,
                            const Vec3<T>& v1, const Vec3<T>& v2, T tmax, T& t, T& b1, T& b2) {
@@ -123,13 +128,15 @@ Mask<T> intersect_triangle(const Ray<T>& ray, const RayShear<T>& s, const Vec3<T
     const T zero(0.0f);
     const Mask<T> has_neg = (u < zero) | (v < zero) | (w < zero);
     const Mask<T> has_pos = (u > zero) | (v > zero) | (w > zero);
+    const Mask<T> one_sign = !(has_neg & has_pos);
     const T det = u + v + w;
-    const Mask<T> inside = !(has_neg & has_pos) & (det != zero);
+    const Mask<T> inside = one_sign & (det != zero);
     if (none(inside)) {
         return inside;
     }
-    // Distance and barycentrics
-    const T t_scaled = u * (s.sz * a_z) + v * (s.sz * b_z) + w * (s.sz * c_z);
+    // Distance and barycentrics (unfused here too, so one ray and K rays agree bit for bit)
+    const T t_scaled =
+        rounded(u * (s.sz * a_z)) + rounded(v * (s.sz * b_z)) + rounded(w * (s.sz * c_z));
     const T rcp_det = T(1.0f) / det;
     t = t_scaled * rcp_det;
     b1 = v * rcp_det;
@@ -137,4 +144,5 @@ Mask<T> intersect_triangle(const Ray<T>& ray, const RayShear<T>& s, const Vec3<T
     return inside & (t > zero) & (t < tmax);
 }
 
+}  // namespace CIERZO_ISA_NAMESPACE
 }  // namespace cierzo
