@@ -23,6 +23,9 @@ struct Image {
     }
 };
 
+// Readers refuse images with more pixels than this before allocating anything.
+inline constexpr int64_t kMaxImagePixels = int64_t(1) << 28;
+
 // String key/value pairs stored in the EXR header (e.g. "cierzo:spp" -> "64").
 using ImageMetadata = std::map<std::string, std::string>;
 
@@ -40,6 +43,8 @@ void write_hdr(const std::filesystem::path& path, const Image& image,
                const ImageMetadata& metadata = {}, const ImageLayers& layers = {});
 
 Image read_exr(const std::filesystem::path& path, ImageMetadata* metadata = nullptr);
+// Also returns every channel other than R, G, B (converted to float) in `layers`.
+Image read_exr(const std::filesystem::path& path, ImageMetadata* metadata, ImageLayers* layers);
 Image read_pfm(const std::filesystem::path& path);
 Image read_hdr(const std::filesystem::path& path);  // by extension
 
