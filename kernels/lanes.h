@@ -38,6 +38,7 @@ using xsimd::cos;
 using xsimd::fma;
 using xsimd::max;
 using xsimd::min;
+using xsimd::nearbyint;
 using xsimd::none;
 using xsimd::select;
 using xsimd::sin;

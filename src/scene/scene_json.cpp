@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -48,14 +49,16 @@ public:
         const json& v = get(key);
         if (!v.is_number()) fail("'" + key + "' must be a number");
         const double d = v.get<double>();
-        if (!std::isfinite(d)) fail("'" + key + "' must be finite");
+        // Every number is stored as a float: beyond its range it would become infinite
+        if (!std::isfinite(d) || std::fabs(d) > double(std::numeric_limits<float>::max()))
+            fail("'" + key + "' must be finite (within float range), got " + v.dump());
         return d;
     }
     double number(const std::string& key, double fallback) {
         return has(key) ? number(key) : (used_.insert(key), fallback);
     }
     int64_t integer(const std::string& key, int64_t fallback, int64_t lo, int64_t hi) {
-        if (!has(key)) return fallback;
+        if (!has(key)) return used_.insert(key), fallback;
         const json& v = get(key);
         if (!v.is_number_integer() && !(v.is_number() && v.get<double>() == std::floor(v.get<double>())))
             fail("'" + key + "' must be an integer");
@@ -71,7 +74,7 @@ public:
         return v.get<std::string>();
     }
     std::string string(const std::string& key, const std::string& fallback) {
-        return has(key) ? string(key) : fallback;
+        return has(key) ? string(key) : (used_.insert(key), fallback);
     }
     Vec3f vec3(const std::string& key) {
         const json& v = get(key);
@@ -87,7 +90,7 @@ public:
         return r;
     }
     Vec3f vec3(const std::string& key, const Vec3f& fallback) {
-        return has(key) ? vec3(key) : fallback;
+        return has(key) ? vec3(key) : (used_.insert(key), fallback);
     }
 
     // Every key of the object must have been read.
@@ -151,7 +154,9 @@ ColorSource read_color(Reader& parent, const std::string& key, const fs::path& f
                "' (valid: solid, sin, sin2, sincos, vertex_nearest, vertex_weighted)");
     c.kind = it->second;
     if (c.is_vertex()) {
-        c.a = r.has("scale") ? colour_value(r, r.get("scale"), "scale") : Vec3f(1.0f);
+        c.a = Vec3f(1.0f);
+        if (r.has("scale")) c.a = colour_value(r, r.get("scale"), "scale");
+        else r.allow({"scale"});
     } else {
         c.a = colour_value(r, r.get("a"), "a");
         if (c.kind != TextureKind::kSolid) {
@@ -276,7 +281,8 @@ struct Loader {
         m.source = file.string() + " (triangles)";
         const uint32_t base = uint32_t(m.positions.size());
         for (size_t i = 0; i < 3; ++i) {
-            Reader tmp(json::object({{"p", v[i]}}), t.where("vertices"), file);
+            const json wrapped = json::object({{"p", v[i]}});  // outlives the Reader using it
+            Reader tmp(wrapped, t.where("vertices"), file);
             m.positions.push_back(tmp.vec3("p"));
         }
         if (t.has("colors")) {
@@ -292,7 +298,12 @@ struct Loader {
 
     void mesh(Reader& t) {
         const fs::path ply = file.parent_path() / t.string("file");
-        const PlyMesh data = read_ply(ply);
+        PlyMesh data;
+        try {
+            data = read_ply(ply);
+        } catch (const InputError& e) {
+            t.fail(std::string("mesh file: ") + e.what());
+        }
         Mesh m;
         m.source = ply.string();
         m.material = material_ref(t);
@@ -301,6 +312,8 @@ struct Loader {
         if (t.has("scale")) {
             const json& s = t.get("scale");
             scale = s.is_number() ? Vec3f(s.get<float>()) : t.vec3("scale");
+            if (!(std::isfinite(scale.x) && std::isfinite(scale.y) && std::isfinite(scale.z)))
+                t.fail("'scale' must be finite");
             if (!(scale.x != 0.0f && scale.y != 0.0f && scale.z != 0.0f))
                 t.fail("'scale' must be non-zero on every axis");
         }
@@ -337,8 +350,10 @@ struct Loader {
             if (!(length(target - position) > 0.0f)) r.fail("'look_at' equals 'position'");
             if (!(length(cross(up, target - position)) > 0.0f))
                 r.fail("'up' is parallel to the viewing direction");
+            if (r.has("forward") || r.has("left"))
+                r.fail("'forward' and 'left' belong to the explicit frame form; they cannot be "
+                       "combined with 'look_at'");
             scene.camera = look_at_camera(position, target, up, float(vfov), aspect);
-            r.allow({"forward", "left"});
         } else {
             scene.camera.origin = position;
             scene.camera.forward = r.vec3("forward");
@@ -347,7 +362,9 @@ struct Loader {
             if (!(length(scene.camera.forward) > 0.0f) || !(length(scene.camera.left) > 0.0f) ||
                 !(length(scene.camera.up) > 0.0f))
                 r.fail("'forward', 'left' and 'up' must be non-zero");
-            r.allow({"look_at", "vfov"});
+            if (r.has("vfov"))
+                r.fail("'vfov' belongs to the 'look_at' form; in the explicit frame form the "
+                       "lengths of 'left' and 'up' set the field of view");
         }
         r.finish();
     }
@@ -386,11 +403,14 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
     json root;
     try {
         root = json::parse(text, nullptr, true, /*ignore_comments=*/true);
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {
+        // parse_error (with line and column), or out_of_range for a number such as 1e400
+        // that overflows a double
         std::string what = e.what();
-        const auto colon = what.find("parse error");
-        throw InputError(path.string() + ": invalid JSON: " +
-                         (colon == std::string::npos ? what : what.substr(colon)));
+        const auto bracket = what.find("] ");
+        if (what.rfind("[json.exception.", 0) == 0 && bracket != std::string::npos)
+            what = what.substr(bracket + 2);
+        throw InputError(path.string() + ": invalid JSON: " + what);
     }
     Loader l;
     l.file = path;

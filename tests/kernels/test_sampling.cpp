@@ -90,6 +90,20 @@ TEST(Sampling, ExtremeExponentsStayFiniteAndInTheLobe) {
     EXPECT_GT(sample_phong_lobe(0.99f, 0.0f, 1e4f).z, 0.9995f);
 }
 
+TEST(Sampling, SinCos2PiMatchesTheLibraryEverywhere) {
+    // Every quadrant boundary, both ends, and a dense sweep of [0, 1)
+    std::vector<float> us = {0.0f, 0.125f, 0.25f, 0.375f, 0.5f, 0.625f, 0.75f, 0.875f,
+                             0.99999994f, 1e-8f, 0.2499999f, 0.2500001f};
+    for (int i = 0; i < 100000; ++i) us.push_back(float(i) / 100000.0f);
+    for (float u : us) {
+        float s, c;
+        sincos_2pi(u, s, c);
+        const double a = 2.0 * M_PI * double(u);
+        EXPECT_NEAR(s, std::sin(a), 2e-7) << u;
+        EXPECT_NEAR(c, std::cos(a), 2e-7) << u;
+    }
+}
+
 TEST(Frame, OrthonormalForEveryNormalIncludingPoles) {
     std::mt19937 rng(3);
     std::normal_distribution<float> g;

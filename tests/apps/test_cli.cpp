@@ -1,0 +1,300 @@
+// The `cierzo` program end to end: it renders tiny scenes to EXR/PFM, writes consistent --stats,
+// lets options override the file, and refuses bad input with a message and no damaged output.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// 8 x 8 pixels, 2 paths each: a diffuse floor and sphere under a point light and an emitter,
+// so that camera, extension and shadow rays are all traced.
+const char* const kTinyScene = R"({
+    "render": {"width": 8, "height": 8, "spp": 2, "seed": 3},
+    "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+    "materials": {"white": {"kd": 0.8}, "lamp": {"emission": 2}},
+    "objects": [
+        {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "white"},
+        {"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "white"},
+        {"type": "sphere", "center": [0, 2, 0], "radius": 0.5, "material": "lamp"}
+    ],
+    "lights": [{"position": [1, 1, -1], "intensity": 1}]
+})";
+
+std::string read_file(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::string quote(const fs::path& p) { return "'" + p.string() + "'"; }
+
+// The attributes of an OpenEXR header, name -> raw value bytes; empty if not an EXR.
+std::map<std::string, std::string> exr_header(const fs::path& path) {
+    const std::string b = read_file(path);
+    std::map<std::string, std::string> attrs;
+    if (b.size() < 8 || b.compare(0, 4, "\x76\x2f\x31\x01") != 0) return attrs;
+    size_t pos = 8;
+    auto cstr = [&](std::string& out) {
+        const size_t end = b.find('\0', pos);
+        if (end == std::string::npos) return false;
+        out = b.substr(pos, end - pos);
+        pos = end + 1;
+        return true;
+    };
+    std::string name, type;
+    while (cstr(name) && !name.empty() && cstr(type) && pos + 4 <= b.size()) {
+        int32_t size;
+        std::memcpy(&size, b.data() + pos, 4);  // little-endian, as on x86
+        pos += 4;
+        if (size < 0 || pos + size_t(size) > b.size()) return {};
+        attrs[name] = b.substr(pos, size_t(size));
+        pos += size_t(size);
+    }
+    return attrs;
+}
+
+// Width and height from an EXR's dataWindow (box2i: xMin, yMin, xMax, yMax).
+std::pair<int, int> exr_size(const fs::path& path) {
+    const auto h = exr_header(path);
+    const auto it = h.find("dataWindow");
+    if (it == h.end() || it->second.size() != 16) return {-1, -1};
+    int32_t box[4];
+    std::memcpy(box, it->second.data(), 16);
+    return {box[2] - box[0] + 1, box[3] - box[1] + 1};
+}
+
+struct Outcome {
+    int exit_code = -1;  // -1: did not exit normally (crash, signal)
+    std::string err;
+    double seconds = 0.0;
+};
+
+class cli : public ::testing::Test {
+protected:
+    void SetUp() override {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        dir_ = fs::temp_directory_path() /
+               ("cierzo_test_cli_" + std::to_string(getpid()) + "_" + info->name());
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override {
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+
+    fs::path write(const std::string& name, const std::string& text) {
+        const fs::path p = dir_ / name;
+        std::ofstream(p, std::ios::binary) << text;
+        return p;
+    }
+
+    // `cierzo render ARGS` with a time limit, so a refused render can never hang the suite.
+    Outcome run(const std::string& args) {
+        const fs::path err = dir_ / "stderr.txt";
+        const std::string cmd = "timeout 120 " + quote(CIERZO_BINARY_DIR "/cierzo") +
+                                " render " + args + " >/dev/null 2>" + quote(err);
+        const auto start = std::chrono::steady_clock::now();
+        const int status = std::system(cmd.c_str());
+        Outcome r;
+        r.seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+        r.err = read_file(err);
+        fs::remove(err);
+        return r;
+    }
+
+    // Files in the test folder other than the given ones (e.g. a leftover temporary file).
+    std::vector<std::string> other_files(std::initializer_list<std::string> expected) {
+        std::vector<std::string> others;
+        for (const auto& e : fs::directory_iterator(dir_)) {
+            const std::string n = e.path().filename().string();
+            if (std::find(expected.begin(), expected.end(), n) == expected.end())
+                others.push_back(n);
+        }
+        return others;
+    }
+
+    fs::path dir_;
+};
+
+const char* const kQuiet = " --threads 1 --quiet";
+
+TEST_F(cli, RendersAnExrNextToTheScene) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const Outcome r = run(quote(scene) + kQuiet);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const fs::path exr = dir_ / "tiny.exr";  // default: the scene's name, in its folder
+    ASSERT_TRUE(fs::exists(exr)) << r.err;
+    EXPECT_EQ(exr_size(exr), std::make_pair(8, 8));
+    EXPECT_NE(r.err.find(exr.string()), std::string::npos) << r.err;  // the summary line
+    EXPECT_EQ(other_files({"tiny.json", "tiny.exr"}), std::vector<std::string>{});
+}
+
+TEST_F(cli, WritesPfmByExtension) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path out = dir_ / "image.pfm";
+    const Outcome r = run(quote(scene) + kQuiet + " --out " + quote(out));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(read_file(out).substr(0, 7), "PF\n8 8\n");
+    EXPECT_FALSE(fs::exists(dir_ / "tiny.exr"));
+}
+
+TEST_F(cli, StatsAreConsistent) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path stats = dir_ / "stats.json";
+    for (const std::string integrator : {"scalar", "wavefront"}) {
+        SCOPED_TRACE(integrator);
+        const Outcome r = run(quote(scene) + kQuiet + " --integrator " + integrator +
+                              " --stats " + quote(stats));
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        const json j = json::parse(read_file(stats));
+        for (const char* key : {"scene", "integrator", "isa", "threads", "width", "height", "spp",
+                                "spp_reached", "seed", "seconds", "paths", "rays",
+                                "rays_per_second", "rays_per_second_per_thread",
+                                "nonfinite_samples", "mean_relative_error"})
+            EXPECT_TRUE(j.contains(key)) << key;
+        EXPECT_EQ(j["scene"], scene.string());
+        EXPECT_EQ(j["integrator"], integrator);
+        EXPECT_EQ(j["threads"], 1);
+        EXPECT_EQ(j["width"], 8);
+        EXPECT_EQ(j["height"], 8);
+        EXPECT_EQ(j["spp"], 2);
+        EXPECT_EQ(j["spp_reached"], 2);
+        EXPECT_EQ(j["seed"], 3);
+        EXPECT_EQ(j["paths"].get<uint64_t>(), 8u * 8u * 2u);
+        const json& rays = j["rays"];
+        const uint64_t camera = rays["camera"], extension = rays["extension"],
+                       shadow = rays["shadow"], total = rays["total"];
+        EXPECT_EQ(camera, j["paths"].get<uint64_t>());
+        EXPECT_EQ(total, camera + extension + shadow);
+        EXPECT_GT(extension, 0u);  // the floor and sphere are diffuse: paths continue
+        EXPECT_GT(shadow, 0u);     // and see the point light
+        const double seconds = j["seconds"], rps = j["rays_per_second"];
+        EXPECT_GE(seconds, 0.0);
+        EXPECT_NEAR(rps, seconds > 0 ? double(total) / seconds : 0.0, 1e-6 * rps + 1e-9);
+        EXPECT_EQ(j["rays_per_second_per_thread"].get<double>(), rps);  // 1 thread
+        EXPECT_EQ(j["nonfinite_samples"], 0);
+        fs::remove(stats);
+    }
+}
+
+TEST_F(cli, OptionsOverrideTheFile) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path out = dir_ / "o.exr", stats = dir_ / "s.json";
+    const Outcome r = run(quote(scene) + kQuiet + " --spp 3 --seed 7 --width 5 --out " +
+                          quote(out) + " --stats " + quote(stats));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const json j = json::parse(read_file(stats));
+    EXPECT_EQ(j["width"], 5);
+    EXPECT_EQ(j["height"], 8);  // from the file
+    EXPECT_EQ(j["spp"], 3);
+    EXPECT_EQ(j["seed"], 7);
+    EXPECT_EQ(j["paths"].get<uint64_t>(), 5u * 8u * 3u);
+    EXPECT_EQ(exr_size(out), std::make_pair(5, 8));
+    const auto header = exr_header(out);
+    ASSERT_TRUE(header.count("cierzo:seed") && header.count("cierzo:spp"));
+    EXPECT_EQ(header.at("cierzo:seed"), "7");
+    EXPECT_EQ(header.at("cierzo:spp"), "3");
+    EXPECT_FALSE(fs::exists(dir_ / "tiny.exr"));  // --out replaced the default output
+
+    const Outcome h = run(quote(scene) + kQuiet + " --height 3 --out " + quote(out));
+    ASSERT_EQ(h.exit_code, 0) << h.err;
+    EXPECT_EQ(exr_size(out), std::make_pair(8, 3));
+}
+
+TEST_F(cli, MissingSceneFile) {
+    const fs::path scene = dir_ / "absent.json";
+    const Outcome r = run(quote(scene) + kQuiet);
+    EXPECT_GT(r.exit_code, 0);
+    EXPECT_NE(r.err.find(scene.string()), std::string::npos) << r.err;
+}
+
+TEST_F(cli, MalformedScene) {
+    const fs::path scene = write("bad.json", "{\n  \"camera\": {\n");
+    const Outcome r = run(quote(scene) + kQuiet);
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find(scene.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("invalid JSON"), std::string::npos) << r.err;
+    EXPECT_EQ(other_files({"bad.json"}), std::vector<std::string>{});
+}
+
+TEST_F(cli, OutputIntoAMissingFolder) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path out = dir_ / "nope" / "x.exr";
+    const Outcome r = run(quote(scene) + kQuiet + " --out " + quote(out));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find(out.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+    // The same through render.output, which is relative to the scene's folder
+    json j = json::parse(kTinyScene);
+    j["render"]["output"] = "nope/y.exr";
+    const fs::path scene2 = write("tiny2.json", j.dump());
+    const Outcome r2 = run(quote(scene2) + kQuiet);
+    EXPECT_EQ(r2.exit_code, 1);
+    EXPECT_NE(r2.err.find((dir_ / "nope" / "y.exr").string()), std::string::npos) << r2.err;
+    EXPECT_EQ(other_files({"tiny.json", "tiny2.json"}), std::vector<std::string>{});
+}
+
+TEST_F(cli, OutputWithABadExtension) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path out = dir_ / "x.png";
+    const Outcome r = run(quote(scene) + kQuiet + " --out " + quote(out));
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find(out.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(".exr or .pfm"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(cli, TooManyPathsAreRefusedQuickly) {
+    // 65536 x 4096 = 2^28 pixels (allowed) x 4e6 paths per pixel = 1.07e15 paths > 1e12
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const Outcome r = run(quote(scene) + kQuiet + " --width 65536 --height 4096 --spp 4000000");
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_LT(r.seconds, 10.0);
+    EXPECT_NE(r.err.find("paths"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(scene.string()), std::string::npos) << r.err;
+    EXPECT_EQ(other_files({"tiny.json"}), std::vector<std::string>{});
+}
+
+TEST_F(cli, FailedRenderLeavesAnExistingOutputAlone) {
+    static const char kBytes[] = "not an image \x00\x01\x02 keep me";
+    const std::string before(kBytes, sizeof(kBytes) - 1);
+    const fs::path out = write("out.exr", before);
+    const fs::path bad = write("bad.json", "{\"camera\": ");
+    const fs::path good = write("tiny.json", kTinyScene);
+    // A malformed scene
+    Outcome r = run(quote(bad) + kQuiet + " --out " + quote(out));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_EQ(read_file(out), before);
+    // A good scene whose statistics could not be written
+    r = run(quote(good) + kQuiet + " --out " + quote(out) + " --stats " +
+            quote(dir_ / "nope" / "s.json"));
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_EQ(read_file(out), before);
+    // A refused render
+    r = run(quote(good) + kQuiet + " --out " + quote(out) + " --width 65536 --height 4096 " +
+            "--spp 4000000");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_EQ(read_file(out), before);
+    EXPECT_EQ(other_files({"out.exr", "bad.json", "tiny.json"}), std::vector<std::string>{});
+}
+
+}  // namespace

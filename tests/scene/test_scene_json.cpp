@@ -1,0 +1,846 @@
+// The scene-file reader (src/scene/scene_json.cpp): every scene in scenes/ loads, every key
+// lands in its field of Scene, and every kind of bad input is an InputError naming the file.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "scene/scene_json.h"
+
+namespace cierzo {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// parse_scene never touches the disk for these, except for meshes; the folder must not exist
+// so that a mesh reference in an error test can never be satisfied by accident.
+const char* const kFake = "/nonexistent-cierzo-folder/x/test.json";
+
+// A small valid scene to change one key at a time.
+json base_scene() {
+    return json::parse(R"({
+        "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+        "materials": {"white": {"kd": 0.8}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"}]
+    })");
+}
+
+Scene parse(const json& j) { return parse_scene(j.dump(), kFake); }
+Scene parse_text(const std::string& text) { return parse_scene(text, kFake); }
+
+// Parsing must throw an InputError whose message names the file and contains `phrase`.
+::testing::AssertionResult text_fails_with(const std::string& text, const std::string& phrase,
+                                           const fs::path& path = kFake) {
+    try {
+        parse_scene(text, path);
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        if (m.find(path.string()) == std::string::npos)
+            return ::testing::AssertionFailure() << "message does not name the file: " << m;
+        if (m.find(phrase) == std::string::npos)
+            return ::testing::AssertionFailure() << "message lacks '" << phrase << "': " << m;
+        return ::testing::AssertionSuccess();
+    } catch (const std::exception& e) {
+        return ::testing::AssertionFailure() << "not an InputError: " << e.what();
+    }
+    return ::testing::AssertionFailure() << "no error for: " << text;
+}
+::testing::AssertionResult fails_with(const json& j, const std::string& phrase) {
+    return text_fails_with(j.dump(), phrase);
+}
+
+// A fresh folder per test for the cases that need real files.
+class TempDir {
+public:
+    TempDir() {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        path_ = fs::temp_directory_path() / ("cierzo_test_scene_json_" +
+                                             std::to_string(getpid()) + "_" + info->name());
+        fs::remove_all(path_);
+        fs::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(path_, ec);
+    }
+    const fs::path& path() const { return path_; }
+    fs::path write(const std::string& name, const std::string& text) const {
+        const fs::path p = path_ / name;
+        fs::create_directories(p.parent_path());
+        std::ofstream(p, std::ios::binary) << text;
+        return p;
+    }
+
+private:
+    fs::path path_;
+};
+
+void expect_vec(const Vec3f& v, float x, float y, float z, float tol = 0.0f) {
+    EXPECT_NEAR(v.x, x, tol);
+    EXPECT_NEAR(v.y, y, tol);
+    EXPECT_NEAR(v.z, z, tol);
+}
+
+// ---- Every scene shipped in scenes/ -----------------------------------------------
+
+std::vector<std::string> shipped_scenes() {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(fs::path(CIERZO_SOURCE_DIR) / "scenes"))
+        if (e.path().extension() == ".json") names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+TEST(scene_json_shipped, ThereAreScenesToCheck) {
+    // Guards the parameterised test below against an empty or wrong folder
+    EXPECT_GE(shipped_scenes().size(), 15u);
+}
+
+class scene_json_scene : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(scene_json_scene, Loads) {
+    const fs::path path = fs::path(CIERZO_SOURCE_DIR) / "scenes" / GetParam();
+    // A mesh that is fetched at build time may be missing: skip the scene then
+    std::ifstream in(path);
+    const json j = json::parse(in, nullptr, true, true);
+    for (const json& o : j.value("objects", json::array()))
+        if (o.value("type", "") == "mesh" && !fs::exists(path.parent_path() / o.value("file", "")))
+            GTEST_SKIP() << path << " needs the missing mesh " << o.value("file", "");
+
+    Scene s;
+    ASSERT_NO_THROW(s = load_scene(path));
+    EXPECT_EQ(s.source, path);
+    EXPECT_EQ(s.settings.output, path.parent_path() / (path.stem().string() + ".exr"));
+    const size_t objects = s.spheres.size() + s.planes.size() + s.quadrics.size() + s.meshes.size();
+    EXPECT_GT(objects, 0u);
+    EXPECT_GT(length(s.camera.forward), 0.0f);
+    for (int32_t m : s.spheres.material) EXPECT_LT(size_t(m), s.materials.size());
+    for (int32_t m : s.planes.material) EXPECT_LT(size_t(m), s.materials.size());
+    for (const Quadric& q : s.quadrics) EXPECT_LT(size_t(q.material), s.materials.size());
+    for (const Mesh& m : s.meshes) EXPECT_LT(size_t(m.material), s.materials.size());
+    for (size_t i = 0; i < s.planes.size(); ++i) {
+        EXPECT_NEAR(std::hypot(s.planes.nx[i], s.planes.ny[i], s.planes.nz[i]), 1.0, 1e-6);
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(shipped, scene_json_scene, ::testing::ValuesIn(shipped_scenes()),
+                         [](const auto& info) {
+                             std::string n = fs::path(info.param).stem().string();
+                             for (char& c : n)
+                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                             return n;
+                         });
+
+TEST(scene_json_shipped, BleedingValuesLandInPlace) {
+    // One shipped scene checked value by value against its file
+    const Scene s = load_scene(fs::path(CIERZO_SOURCE_DIR) / "scenes" / "bleeding.json");
+    EXPECT_EQ(s.settings.width, 500);
+    EXPECT_EQ(s.settings.spp, 64);
+    ASSERT_EQ(s.planes.size(), 5u);
+    ASSERT_EQ(s.spheres.size(), 2u);
+    EXPECT_EQ(s.materials[size_t(s.planes.material[0])].name, "red");
+    EXPECT_EQ(s.materials[size_t(s.planes.material[1])].name, "green");
+    EXPECT_EQ(s.materials[size_t(s.spheres.material[1])].name, "light");
+    EXPECT_TRUE(s.materials[size_t(s.spheres.material[1])].is_emitter());
+    expect_vec(s.camera.forward, 0, 0, 3);
+}
+
+// ---- Values land where they should -------------------------------------------------
+
+TEST(scene_json_values, SphereCentreRadiusAndNamedMaterial) {
+    json j = base_scene();
+    j["materials"]["black"] = json::object();
+    j["objects"] = json::parse(R"([
+        {"type": "sphere", "center": [1, -2, 3.5], "radius": 0.25, "material": "white"},
+        {"type": "sphere", "center": [0, 0, 9], "radius": 2, "material": "black"},
+        {"type": "sphere", "center": [0, 0, 7], "radius": 3, "material": "white"}])");
+    const Scene s = parse(j);
+    ASSERT_EQ(s.spheres.size(), 3u);
+    EXPECT_EQ(s.spheres.cx[0], 1.0f);
+    EXPECT_EQ(s.spheres.cy[0], -2.0f);
+    EXPECT_EQ(s.spheres.cz[0], 3.5f);
+    EXPECT_EQ(s.spheres.radius[0], 0.25f);
+    EXPECT_EQ(s.spheres.radius[1], 2.0f);
+    ASSERT_EQ(s.materials.size(), 2u);  // named materials only, each stored once
+    EXPECT_EQ(s.materials[size_t(s.spheres.material[0])].name, "white");
+    EXPECT_EQ(s.materials[size_t(s.spheres.material[1])].name, "black");
+    EXPECT_EQ(s.spheres.material[2], s.spheres.material[0]);
+    expect_vec(s.materials[size_t(s.spheres.material[0])].kd.a, 0.8f, 0.8f, 0.8f);
+}
+
+TEST(scene_json_values, PlaneIsNormalised) {
+    json j = base_scene();
+    j["objects"] = json::parse(R"([
+        {"type": "plane", "normal": [2, 0, 0], "distance": 2, "material": "white"},
+        {"type": "plane", "normal": [0, -3, 4], "distance": -10, "material": "white"}])");
+    const Scene s = parse(j);
+    ASSERT_EQ(s.planes.size(), 2u);
+    EXPECT_FLOAT_EQ(s.planes.nx[0], 1.0f);
+    EXPECT_FLOAT_EQ(s.planes.ny[0], 0.0f);
+    EXPECT_FLOAT_EQ(s.planes.nz[0], 0.0f);
+    EXPECT_FLOAT_EQ(s.planes.distance[0], 1.0f);
+    EXPECT_FLOAT_EQ(s.planes.nx[1], 0.0f);
+    EXPECT_FLOAT_EQ(s.planes.ny[1], -0.6f);
+    EXPECT_FLOAT_EQ(s.planes.nz[1], 0.8f);
+    EXPECT_FLOAT_EQ(s.planes.distance[1], -2.0f);
+}
+
+TEST(scene_json_values, QuadricCoefficientsAndBounds) {
+    json j = base_scene();
+    j["objects"] = json::parse(R"([
+        {"type": "quadric", "coefficients": [1, 2, 3, 4, 5, 6, 7, 8, 9, 10],
+         "bounds": {"min": [-1, -2, -3], "max": [1, 2, 3]}, "material": "white"},
+        {"type": "quadric", "coefficients": [0, 0, 0, 0, 0, 0, 0, 1, 0, -0.5],
+         "material": {"kd": 0.1}}])");
+    const Scene s = parse(j);
+    ASSERT_EQ(s.quadrics.size(), 2u);
+    const QuadricCoefficients<float>& q = s.quadrics[0].q;
+    const float got[10] = {q.a, q.b, q.c, q.d, q.e, q.f, q.g, q.h, q.i, q.j};
+    for (int i = 0; i < 10; ++i) EXPECT_EQ(got[i], float(i + 1)) << "coefficient " << i;
+    expect_vec(s.quadrics[0].box_min, -1, -2, -3);
+    expect_vec(s.quadrics[0].box_max, 1, 2, 3);
+    EXPECT_EQ(s.materials[size_t(s.quadrics[0].material)].name, "white");
+    // Without bounds the quadric is unbounded; a linear one (only H, J) is accepted
+    EXPECT_EQ(s.quadrics[1].q.h, 1.0f);
+    EXPECT_EQ(s.quadrics[1].q.j, -0.5f);
+    EXPECT_EQ(s.quadrics[1].box_min.x, -kRayFar);
+    EXPECT_EQ(s.quadrics[1].box_max.z, kRayFar);
+}
+
+TEST(scene_json_values, TrianglesBecomeOneMeshPerMaterial) {
+    json j = base_scene();
+    j["materials"]["red"] = {{"kd", {0.8, 0.1, 0.1}}};
+    j["objects"] = json::parse(R"([
+        {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+         "colors": [[1, 0, 0], 0.5, [0, 0, 1]], "material": "white"},
+        {"type": "triangle", "vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1]], "material": "red"},
+        {"type": "triangle", "vertices": [[5, 5, 5], [6, 5, 5], [5, 6, 5]], "material": "white"}
+    ])");
+    const Scene s = parse(j);
+    ASSERT_EQ(s.meshes.size(), 2u);
+    const Mesh* white = nullptr;
+    const Mesh* red = nullptr;
+    for (const Mesh& m : s.meshes)
+        (s.materials[size_t(m.material)].name == "white" ? white : red) = &m;
+    ASSERT_TRUE(white && red);
+    ASSERT_EQ(white->positions.size(), 6u);
+    ASSERT_EQ(white->colors.size(), 6u);
+    EXPECT_EQ(white->triangle_count(), 2u);
+    EXPECT_EQ(white->indices, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5}));
+    expect_vec(white->positions[1], 1, 0, 0);
+    expect_vec(white->positions[5], 5, 6, 5);
+    expect_vec(white->colors[0], 1, 0, 0);
+    expect_vec(white->colors[1], 0.5f, 0.5f, 0.5f);
+    expect_vec(white->colors[2], 0, 0, 1);
+    expect_vec(white->colors[3], 1, 1, 1);  // no colours: white vertices
+    ASSERT_EQ(red->positions.size(), 3u);
+    expect_vec(red->positions[2], 0, 1, 1);
+    // finalize() ran: the bounding sphere holds every vertex
+    for (const Vec3f& p : white->positions)
+        EXPECT_LE(length(p - white->sphere_center), white->sphere_radius);
+}
+
+TEST(scene_json_values, InlineAndNamedMaterials) {
+    json j = base_scene();
+    j["objects"] = json::parse(R"([
+        {"type": "sphere", "center": [0, 0, 0], "radius": 1,
+         "material": {"ks": [0.1, 0.2, 0.3], "shininess": 12, "kr": 0.25, "kt": [0.5, 0.6, 0.7],
+                      "ior": 1.33, "emission": [4, 5, 6]}},
+        {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"},
+        {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kd": 0.3}}])");
+    const Scene s = parse(j);
+    ASSERT_EQ(s.materials.size(), 3u);
+    const Material& inl = s.materials[size_t(s.spheres.material[0])];
+    EXPECT_EQ(inl.name, "");
+    expect_vec(inl.ks.a, 0.1f, 0.2f, 0.3f);
+    expect_vec(inl.kr.a, 0.25f, 0.25f, 0.25f);
+    expect_vec(inl.kt.a, 0.5f, 0.6f, 0.7f);
+    expect_vec(inl.emission.a, 4, 5, 6);
+    expect_vec(inl.kd.a, 0, 0, 0);  // absent colours are zero
+    EXPECT_EQ(inl.shininess, 12.0f);
+    EXPECT_FLOAT_EQ(inl.ior, 1.33f);
+    EXPECT_TRUE(inl.is_emitter());
+    EXPECT_EQ(s.materials[size_t(s.spheres.material[1])].name, "white");
+    EXPECT_NE(s.spheres.material[2], s.spheres.material[0]);
+    expect_vec(s.materials[size_t(s.spheres.material[2])].kd.a, 0.3f, 0.3f, 0.3f);
+    // Defaults of a named material
+    const Material& white = s.materials[size_t(s.spheres.material[1])];
+    EXPECT_EQ(white.shininess, 0.0f);
+    EXPECT_EQ(white.ior, 1.0f);
+    EXPECT_FALSE(white.is_emitter());
+}
+
+TEST(scene_json_values, TextureKinds) {
+    json j = base_scene();
+    j["materials"] = json::parse(R"({
+        "solid": {"kd": {"texture": "solid", "a": [0.1, 0.2, 0.3]}},
+        "sin": {"kd": {"texture": "sin", "a": 0.1, "b": [0.9, 0.8, 0.7]}},
+        "sin2": {"ks": {"texture": "sin2", "a": 0.2, "b": 0.4, "frequency": 15,
+                        "axis": [0, 1, 0]}},
+        "sincos": {"kr": {"texture": "sincos", "a": 0, "b": 1, "frequency": 2.5,
+                          "axis": [0, 0, 1], "axis2": [1, 1, 0]}},
+        "white": {"kd": {"texture": "vertex_nearest"}},
+        "weighted": {"emission": {"texture": "vertex_weighted", "scale": [2, 3, 4]}}
+    })");
+    const Scene s = parse(j);
+    std::map<std::string, const Material*> m;
+    for (const Material& mat : s.materials) m[mat.name] = &mat;
+    ASSERT_EQ(m.size(), 6u);
+    m["near"] = m["white"];
+    EXPECT_EQ(m["solid"]->kd.kind, TextureKind::kSolid);
+    expect_vec(m["solid"]->kd.a, 0.1f, 0.2f, 0.3f);
+    const ColorSource& sn = m["sin"]->kd;
+    EXPECT_EQ(sn.kind, TextureKind::kSin);
+    expect_vec(sn.a, 0.1f, 0.1f, 0.1f);
+    expect_vec(sn.b, 0.9f, 0.8f, 0.7f);
+    EXPECT_EQ(sn.frequency, 1.0f);  // defaults
+    expect_vec(sn.axis, 1, 0, 0);
+    expect_vec(sn.axis2, 0, 1, 0);
+    const ColorSource& s2 = m["sin2"]->ks;
+    EXPECT_EQ(s2.kind, TextureKind::kSin2);
+    EXPECT_EQ(s2.frequency, 15.0f);
+    expect_vec(s2.axis, 0, 1, 0);
+    const ColorSource& sc = m["sincos"]->kr;
+    EXPECT_EQ(sc.kind, TextureKind::kSinCos);
+    EXPECT_EQ(sc.frequency, 2.5f);
+    expect_vec(sc.axis, 0, 0, 1);
+    expect_vec(sc.axis2, 1, 1, 0);
+    EXPECT_EQ(m["near"]->kd.kind, TextureKind::kVertexNearest);
+    expect_vec(m["near"]->kd.a, 1, 1, 1);  // default scale
+    EXPECT_EQ(m["weighted"]->emission.kind, TextureKind::kVertexWeighted);
+    expect_vec(m["weighted"]->emission.a, 2, 3, 4);
+    EXPECT_TRUE(s.features().procedural_textures);
+    EXPECT_TRUE(s.features().vertex_colors);
+}
+
+TEST(scene_json_values, LookAtCameraPutsPlusXOnTheRight) {
+    json j = base_scene();
+    j["render"] = {{"width", 200}, {"height", 100}};
+    j["camera"] = {{"position", {0, 0, -3}}, {"look_at", {0, 0, 5}}, {"vfov", 90}};
+    const Scene s = parse(j);
+    const Camera& c = s.camera;
+    expect_vec(c.origin, 0, 0, -3);
+    expect_vec(c.forward, 0, 0, 1, 1e-6f);
+    expect_vec(c.up, 0, 1, 0, 1e-6f);     // length tan(vfov / 2) = 1
+    expect_vec(c.left, -2, 0, 0, 1e-6f);  // times the aspect 2; +x is on the right
+    // The top-left corner of the image looks left (-x) and up (+y)
+    const Ray<float> tl = c.generate(0.0f, 0.0f, 1.0f / 200, 1.0f / 100);
+    EXPECT_LT(tl.d.x, 0.0f);
+    EXPECT_GT(tl.d.y, 0.0f);
+    const Ray<float> br = c.generate(200.0f, 100.0f, 1.0f / 200, 1.0f / 100);
+    EXPECT_GT(br.d.x, 0.0f);
+    EXPECT_LT(br.d.y, 0.0f);
+    EXPECT_NEAR(br.d.x / br.d.z, 2.0f, 1e-5f);
+}
+
+TEST(scene_json_values, LookAtCameraDefaults) {
+    // up = +y, vfov = 40 degrees, aspect from the default 256 x 256
+    const Scene s = parse(base_scene());
+    const float half = std::tan(20.0f * std::numbers::pi_v<float> / 180.0f);
+    expect_vec(s.camera.forward, 0, 0, 1, 1e-6f);
+    expect_vec(s.camera.up, 0, half, 0, 1e-6f);
+    expect_vec(s.camera.left, -half, 0, 0, 1e-6f);
+}
+
+TEST(scene_json_values, LookAtCameraWithAnotherUp) {
+    // Looking down -y with up = +z: the image's right is up × forward = +x
+    json j = base_scene();
+    j["camera"] = {{"position", {0, 5, 0}}, {"look_at", {0, 0, 0}}, {"up", {0, 0, 1}},
+                   {"vfov", 90}};
+    const Scene s = parse(j);
+    expect_vec(s.camera.forward, 0, -1, 0, 1e-6f);
+    expect_vec(s.camera.up, 0, 0, 1, 1e-6f);
+    const Vec3f right = cross(Vec3f(0, 0, 1), Vec3f(0, -1, 0));  // up × forward
+    expect_vec(s.camera.left, -right.x, -right.y, -right.z, 1e-6f);
+}
+
+TEST(scene_json_values, ExplicitCameraFrameIsKeptAsGiven) {
+    json j = base_scene();
+    j["camera"] = {{"position", {0, 0, -3.5}}, {"forward", {0, 0, 3}}, {"left", {-1, 0, 0}},
+                   {"up", {0, 1, 0}}};
+    const Scene s = parse(j);
+    expect_vec(s.camera.origin, 0, 0, -3.5f);
+    expect_vec(s.camera.forward, 0, 0, 3);  // not normalised: its length sets the field of view
+    expect_vec(s.camera.left, -1, 0, 0);
+    expect_vec(s.camera.up, 0, 1, 0);
+}
+
+TEST(scene_json_values, RenderDefaultsAndOverrides) {
+    const Scene d = parse(base_scene());
+    EXPECT_EQ(d.settings.width, 256);
+    EXPECT_EQ(d.settings.height, 256);
+    EXPECT_EQ(d.settings.spp, 16);
+    EXPECT_EQ(d.settings.seed, 1u);
+    EXPECT_EQ(d.settings.estimator.survival_cap, 0.9f);
+    EXPECT_FALSE(d.settings.estimator.cosine_diffuse);
+    EXPECT_EQ(d.scene_ior, 1.0f);
+    EXPECT_EQ(d.settings.output, fs::path("/nonexistent-cierzo-folder/x/test.exr"));
+
+    json j = base_scene();
+    j["render"] = {{"width", 640},         {"height", 480},   {"spp", 4294967295LL},
+                   {"seed", 4294967295LL}, {"survival_cap", 0.5}, {"diffuse_sampling", "cosine"},
+                   {"output", "out/img.pfm"}};
+    j["scene_ior"] = 1.25;
+    const Scene s = parse(j);
+    EXPECT_EQ(s.settings.width, 640);
+    EXPECT_EQ(s.settings.height, 480);
+    EXPECT_EQ(s.settings.spp, 4294967295LL);
+    EXPECT_EQ(s.settings.seed, 4294967295u);
+    EXPECT_EQ(s.settings.estimator.survival_cap, 0.5f);
+    EXPECT_TRUE(s.settings.estimator.cosine_diffuse);
+    EXPECT_EQ(s.scene_ior, 1.25f);
+    // Output relative to the scene's folder, not the working directory
+    EXPECT_EQ(s.settings.output, fs::path("/nonexistent-cierzo-folder/x/out/img.pfm"));
+    j["render"] = {{"output", "/abs/elsewhere.exr"}, {"diffuse_sampling", "uniform"},
+                   {"width", 1.0e1}};  // an integral float counts as an integer
+    const Scene a = parse(j);
+    EXPECT_EQ(a.settings.output, fs::path("/abs/elsewhere.exr"));
+    EXPECT_FALSE(a.settings.estimator.cosine_diffuse);
+    EXPECT_EQ(a.settings.width, 10);
+}
+
+TEST(scene_json_values, LargestImageIsAccepted) {
+    // 65536 x 4096 is exactly 2^28 pixels: on the limit, not over it
+    json j = base_scene();
+    j["render"] = {{"width", 65536}, {"height", 4096}};
+    EXPECT_EQ(parse(j).settings.width, 65536);
+}
+
+TEST(scene_json_values, CommentsAreAllowed) {
+    const Scene s = parse_text(R"({
+        // a line comment
+        "camera": {"position": [0, 0, -3], /* a block comment */ "look_at": [0, 0, 0]},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 7,  // trailing
+                     "material": {"kd": 0.5}}]
+    })");
+    ASSERT_EQ(s.spheres.size(), 1u);
+    EXPECT_EQ(s.spheres.radius[0], 7.0f);
+}
+
+TEST(scene_json_values, PointLights) {
+    json j = base_scene();
+    j["lights"] = json::parse(R"([{"position": [1, 2, 3], "intensity": [4, 5, 6]},
+                                  {"type": "point", "position": [0, 0, 0], "intensity": 2}])");
+    const Scene s = parse(j);
+    ASSERT_EQ(s.lights.size(), 2u);
+    expect_vec(s.lights[0].position, 1, 2, 3);
+    expect_vec(s.lights[0].intensity, 4, 5, 6);
+    expect_vec(s.lights[1].intensity, 2, 2, 2);
+}
+
+// A PLY with one triangle (and vertex colours), for the mesh cases.
+const char* const kTrianglePly = R"(ply
+format ascii 1.0
+element vertex 3
+property float x
+property float y
+property float z
+property uchar red
+property uchar green
+property uchar blue
+element face 1
+property list uchar int vertex_indices
+end_header
+1 0 0 255 0 0
+0 1 0 0 255 0
+0 0 1 0 0 51
+3 0 1 2
+)";
+
+TEST(scene_json_values, MeshFileIsRelativeToTheSceneAndTransformed) {
+    TempDir dir;
+    dir.write("meshes/tri.ply", kTrianglePly);
+    // scale, then rotate about x, then y, then z (degrees), then translate
+    const fs::path scene = dir.write("scene.json", R"({
+        "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+        "objects": [
+            {"type": "mesh", "file": "meshes/tri.ply", "scale": 2, "material": {"kd": 0.5}},
+            {"type": "mesh", "file": "meshes/tri.ply", "rotate": [90, 90, 0],
+             "material": {"kd": 0.5}},
+            {"type": "mesh", "file": "meshes/tri.ply", "scale": [1, 2, 3], "rotate": [0, 0, 90],
+             "translate": [10, 20, 30], "material": {"kd": 0.5}}]
+    })");
+    const Scene s = load_scene(scene);
+    ASSERT_EQ(s.meshes.size(), 3u);
+    EXPECT_EQ(s.meshes[0].source, (dir.path() / "meshes/tri.ply").string());
+    expect_vec(s.meshes[0].positions[0], 2, 0, 0);
+    expect_vec(s.meshes[0].positions[1], 0, 2, 0);
+    EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2}));
+    ASSERT_EQ(s.meshes[0].colors.size(), 3u);
+    expect_vec(s.meshes[0].colors[0], 1, 0, 0);
+    expect_vec(s.meshes[0].colors[2], 0, 0, 0.2f, 1e-6f);
+    // x first: (0,1,0) -> (0,0,1), then y: -> (1,0,0); y first then x would give (0,0,1)
+    expect_vec(s.meshes[1].positions[1], 1, 0, 0, 1e-6f);
+    expect_vec(s.meshes[1].positions[0], 0, 0, -1, 1e-6f);  // x: stays, y: -> (0,0,-1)
+    expect_vec(s.meshes[1].positions[2], 0, -1, 0, 1e-6f);  // x: -> (0,-1,0), y: stays
+    // scale (1,2,3), rotate z by 90: (x,y) -> (-y,x), translate
+    expect_vec(s.meshes[2].positions[0], 10, 21, 30, 1e-5f);
+    expect_vec(s.meshes[2].positions[1], 8, 20, 30, 1e-5f);
+    expect_vec(s.meshes[2].positions[2], 10, 20, 33, 1e-5f);
+}
+
+TEST(scene_json_values, LoadSceneReadsTheFile) {
+    TempDir dir;
+    json j = base_scene();
+    j["render"] = {{"output", "img.exr"}};
+    const fs::path p = dir.write("a.json", j.dump());
+    const Scene s = load_scene(p);
+    EXPECT_EQ(s.source, p);
+    EXPECT_EQ(s.settings.output, dir.path() / "img.exr");
+    EXPECT_EQ(s.spheres.size(), 1u);
+}
+
+// The fenced blocks of one language in a Markdown file, in order.
+std::vector<std::string> fenced_blocks(const fs::path& md, const std::string& lang) {
+    std::ifstream in(md);
+    std::vector<std::string> blocks;
+    std::string line, block;
+    bool inside = false;
+    while (std::getline(in, line)) {
+        if (!inside && line == "```" + lang) {
+            inside = true;
+            block.clear();
+        } else if (inside && line == "```") {
+            inside = false;
+            blocks.push_back(block);
+        } else if (inside) {
+            block += line + "\n";
+        }
+    }
+    return blocks;
+}
+
+TEST(scene_json_values, DocumentedExamplesLoad) {
+    // docs/scene-format.md: the minimal and the full example, with the full one's PLY
+    const fs::path md = fs::path(CIERZO_SOURCE_DIR) / "docs" / "scene-format.md";
+    const std::vector<std::string> scenes = fenced_blocks(md, "json");
+    const std::vector<std::string> plys = fenced_blocks(md, "ply");
+    ASSERT_EQ(scenes.size(), 2u);
+    ASSERT_EQ(plys.size(), 1u);
+    TempDir dir;
+    dir.write("meshes/quad.ply", plys[0]);
+    const Scene minimal = load_scene(dir.write("minimal.json", scenes[0]));
+    EXPECT_EQ(minimal.spheres.size(), 1u);
+    EXPECT_EQ(minimal.settings.output, dir.path() / "minimal.exr");
+    const Scene full = load_scene(dir.write("full.json", scenes[1]));
+    EXPECT_EQ(full.planes.size(), 5u);
+    EXPECT_EQ(full.spheres.size(), 3u);
+    EXPECT_EQ(full.quadrics.size(), 1u);
+    ASSERT_EQ(full.meshes.size(), 2u);  // the loose triangle and the PLY
+    EXPECT_EQ(full.meshes[0].triangle_count(), 2u);  // the quad, fan-triangulated
+    EXPECT_EQ(full.lights.size(), 1u);
+    EXPECT_EQ(full.settings.output, dir.path() / "renders" / "full.exr");
+    EXPECT_TRUE(full.settings.estimator.cosine_diffuse);
+    const SceneFeatures f = full.features();
+    EXPECT_TRUE(f.emitters && f.diffuse && f.specular && f.mirror && f.refraction);
+    EXPECT_TRUE(f.procedural_textures && f.vertex_colors && f.point_lights);
+}
+
+// ---- Errors: InputError naming the file and the problem ----------------------------
+
+TEST(scene_json_errors, MalformedJsonWithLineInfo) {
+    EXPECT_TRUE(text_fails_with("{\n  \"camera\": {},\n  \"objects\": [,]\n}", "line 3"));
+    EXPECT_TRUE(text_fails_with("{\"objects\": [", "invalid JSON"));
+    EXPECT_TRUE(text_fails_with("", "invalid JSON"));
+    EXPECT_TRUE(text_fails_with("[1, 2]", "scene: must be a JSON object"));
+}
+
+TEST(scene_json_errors, UnknownTopLevelKey) {
+    json j = base_scene();
+    j["light"] = json::array();
+    EXPECT_TRUE(fails_with(j, "unknown key 'light'"));
+}
+
+TEST(scene_json_errors, UnknownKeyInAMaterialListsTheValidOnes) {
+    json j = base_scene();
+    j["materials"]["white"]["shininnes"] = 10;
+    EXPECT_TRUE(fails_with(j, "materials.white: unknown key 'shininnes'"));
+    EXPECT_TRUE(fails_with(j, "shininess"));
+}
+
+TEST(scene_json_errors, UnknownKeysElsewhere) {
+    json j = base_scene();
+    j["objects"][0]["colour"] = 1;
+    EXPECT_TRUE(fails_with(j, "objects[0] (sphere): unknown key 'colour'"));
+    j = base_scene();
+    j["render"] = {{"widht", 5}};
+    // The list of valid keys includes those left at their defaults
+    EXPECT_TRUE(fails_with(j, "unknown key 'widht'"));
+    EXPECT_TRUE(fails_with(j, "width"));
+    j = base_scene();
+    j["camera"]["fov"] = 30;
+    EXPECT_TRUE(fails_with(j, "unknown key 'fov'"));
+    j = base_scene();
+    j["objects"][0] = json::parse(R"({"type": "quadric", "coefficients": [1,1,1,0,0,0,0,0,0,-1],
+        "bounds": {"min": [0, 0, 0], "max": [1, 1, 1], "mid": [0, 0, 0]}, "material": "white"})");
+    EXPECT_TRUE(fails_with(j, "unknown key 'mid'"));
+    j = base_scene();
+    j["materials"]["white"]["kd"] = {{"texture", "solid"}, {"a", 1}, {"b", 2}};
+    EXPECT_TRUE(fails_with(j, "unknown key 'b'"));
+    j = base_scene();
+    j["lights"] = json::parse(R"([{"position": [0, 0, 0], "intensity": 1, "radius": 1}])");
+    EXPECT_TRUE(fails_with(j, "lights[0]: unknown key 'radius'"));
+}
+
+TEST(scene_json_errors, MissingRequiredKeys) {
+    json j = base_scene();
+    j["objects"][0].erase("radius");
+    EXPECT_TRUE(fails_with(j, "objects[0] (sphere): missing required key 'radius'"));
+    j = base_scene();
+    j["objects"][0].erase("material");
+    EXPECT_TRUE(fails_with(j, "missing required key 'material'"));
+    j = base_scene();
+    j.erase("objects");
+    EXPECT_TRUE(fails_with(j, "missing required key 'objects'"));
+    j = base_scene();
+    j.erase("camera");
+    EXPECT_TRUE(fails_with(j, "missing required key 'camera'"));
+    j = base_scene();
+    j["camera"] = {{"position", {0, 0, 0}}, {"forward", {0, 0, 1}}, {"up", {0, 1, 0}}};
+    EXPECT_TRUE(fails_with(j, "missing required key 'left'"));
+    j = base_scene();
+    j["lights"] = json::parse(R"([{"position": [0, 0, 0]}])");
+    EXPECT_TRUE(fails_with(j, "missing required key 'intensity'"));
+    j = base_scene();
+    j["materials"]["white"]["kd"] = {{"texture", "sin"}, {"a", 1}};
+    EXPECT_TRUE(fails_with(j, "missing required key 'b'"));
+}
+
+TEST(scene_json_errors, SphereRadius) {
+    json j = base_scene();
+    j["objects"][0]["radius"] = -1;
+    EXPECT_TRUE(fails_with(j, "'radius' must be > 0"));
+    j["objects"][0]["radius"] = 0;
+    EXPECT_TRUE(fails_with(j, "'radius' must be > 0"));
+    j["objects"][0]["radius"] = "1";
+    EXPECT_TRUE(fails_with(j, "'radius' must be a number"));
+}
+
+TEST(scene_json_errors, ZeroPlaneNormal) {
+    json j = base_scene();
+    j["objects"][0] = {{"type", "plane"}, {"normal", {0, 0, 0}}, {"distance", 1},
+                       {"material", "white"}};
+    EXPECT_TRUE(fails_with(j, "'normal' must not be the zero vector"));
+    j["objects"][0]["normal"] = {0, 1};
+    EXPECT_TRUE(fails_with(j, "'normal' must be an array of 3 numbers"));
+}
+
+TEST(scene_json_errors, UnknownMaterialObjectTypeAndTexture) {
+    json j = base_scene();
+    j["objects"][0]["material"] = "whit";
+    EXPECT_TRUE(fails_with(j, "unknown material 'whit'"));
+    j = base_scene();
+    j["objects"][0]["type"] = "cube";
+    EXPECT_TRUE(fails_with(j, "unknown object type 'cube'"));
+    j = base_scene();
+    j["materials"]["white"]["kd"] = {{"texture", "checker"}, {"a", 1}};
+    EXPECT_TRUE(fails_with(j, "unknown texture 'checker'"));
+    j = base_scene();
+    j["lights"] = json::parse(R"([{"type": "spot", "position": [0, 0, 0], "intensity": 1}])");
+    EXPECT_TRUE(fails_with(j, "unknown light type 'spot'"));
+}
+
+TEST(scene_json_errors, NegativeColours) {
+    json j = base_scene();
+    j["materials"]["white"]["kd"] = {0.5, -0.1, 0.2};
+    EXPECT_TRUE(fails_with(j, "'kd' components must be finite and >= 0"));
+    j["materials"]["white"]["kd"] = -0.5;
+    EXPECT_TRUE(fails_with(j, "'kd' must be finite and >= 0"));
+    j = base_scene();
+    j["materials"]["white"]["emission"] = {{"texture", "sin"}, {"a", 1}, {"b", {1, -1, 1}}};
+    EXPECT_TRUE(fails_with(j, "'b' components must be finite and >= 0"));
+    j = base_scene();
+    j["lights"] = json::parse(R"([{"position": [0, 0, 0], "intensity": -2}])");
+    EXPECT_TRUE(fails_with(j, "'intensity' must be finite and >= 0"));
+    j = base_scene();
+    j["objects"][0] = json::parse(R"({"type": "triangle", "vertices": [[0,0,0],[1,0,0],[0,1,0]],
+        "colors": [1, 1, -1], "material": "white"})");
+    EXPECT_TRUE(fails_with(j, "'colors' must be finite and >= 0"));
+}
+
+TEST(scene_json_errors, OverflowingNumbersAreRefused) {
+    // 1e400 overflows a double: the JSON reader refuses it. 1e39 is a finite double but
+    // overflows the float every value is stored in: it must not become an infinite float.
+    const std::string cam = R"("camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]})";
+    auto sphere = [&](const std::string& centre, const std::string& radius,
+                      const std::string& kd) {
+        return "{" + cam + R"(, "objects": [{"type": "sphere", "center": )" + centre +
+               R"(, "radius": )" + radius + R"(, "material": {"kd": )" + kd + "}}]}";
+    };
+    EXPECT_NO_THROW(parse_text(sphere("[0, 0, 0]", "1", "0.5")));
+    EXPECT_TRUE(text_fails_with(sphere("[0, 0, 0]", "1e400", "0.5"), "number overflow"));
+    EXPECT_TRUE(text_fails_with(sphere("[0, -1e400, 0]", "1", "0.5"), "invalid JSON"));
+    EXPECT_TRUE(text_fails_with(sphere("[0, 0, 0]", "1", "1e400"), "'1e400'"));
+    EXPECT_TRUE(text_fails_with(sphere("[0, 0, 0]", "1e39", "0.5"), "'radius' must be finite"));
+    EXPECT_TRUE(text_fails_with(sphere("[0, -1e39, 0]", "1", "0.5"), "'center' must be finite"));
+    EXPECT_TRUE(text_fails_with(sphere("[0, 0, 0]", "1", "1e39"), "'kd' must be finite"));
+    EXPECT_TRUE(text_fails_with(sphere("[0, 0, 0]", "1", "[1, 1e39, 1]"),
+                                "'kd' components must be finite"));
+    EXPECT_TRUE(text_fails_with("{" + cam + R"(, "scene_ior": 1e39, "objects": []})",
+                                "'scene_ior' must be finite"));
+    EXPECT_TRUE(text_fails_with("{" + cam + R"(, "objects": [{"type": "plane",
+        "normal": [0, 1, 0], "distance": -1e39, "material": {"kd": 1}}]})",
+                                "'distance' must be finite"));
+    EXPECT_TRUE(text_fails_with("{" + cam + R"(, "objects": [{"type": "quadric",
+        "material": {"kd": 1}, "coefficients": [1, 1, 1, 0, 0, 0, 0, 0, 0, -1e39]}]})",
+                                "10 finite numbers"));
+    EXPECT_TRUE(text_fails_with("{" + cam + R"(, "materials": {"m": {"ior": 1e39}},
+        "objects": []})", "'ior' must be finite"));
+    EXPECT_TRUE(text_fails_with("{" + cam + R"(, "render": {"spp": 1e39}, "objects": []})",
+                                "'spp' must be in"));
+}
+
+TEST(scene_json_errors, SurvivalCapMustBeInsideZeroOne) {
+    json j = base_scene();
+    for (double cap : {1.0, 0.0, -0.5, 1.5}) {
+        j["render"] = {{"survival_cap", cap}};
+        EXPECT_TRUE(fails_with(j, "'survival_cap' must be in (0, 1)")) << cap;
+    }
+    j["render"] = {{"survival_cap", 0.999}};
+    EXPECT_NO_THROW(parse(j));
+}
+
+TEST(scene_json_errors, ImageSizeLimits) {
+    json j = base_scene();
+    j["render"] = {{"width", 0}};
+    EXPECT_TRUE(fails_with(j, "'width' must be in [1, 65536], got 0"));
+    j["render"] = {{"width", 1000000}};
+    EXPECT_TRUE(fails_with(j, "'width' must be in [1, 65536]"));
+    j["render"] = {{"width", 1000000}, {"height", 1000000}};
+    EXPECT_TRUE(fails_with(j, "must be in [1, 65536]"));
+    j["render"] = {{"height", 65537}};
+    EXPECT_TRUE(fails_with(j, "'height' must be in [1, 65536]"));
+    // Each side within its limit, the product over 2^28
+    j["render"] = {{"width", 65536}, {"height", 4097}};
+    EXPECT_TRUE(fails_with(j, "exceeds the limit of 2^28 pixels"));
+    j["render"] = {{"width", 10.5}};
+    EXPECT_TRUE(fails_with(j, "'width' must be an integer"));
+    j["render"] = {{"spp", 0}};
+    EXPECT_TRUE(fails_with(j, "'spp' must be in"));
+    j["render"] = {{"seed", -1}};
+    EXPECT_TRUE(fails_with(j, "'seed' must be in"));
+    j["render"] = {{"diffuse_sampling", "importance"}};
+    EXPECT_TRUE(fails_with(j, "'diffuse_sampling' must be"));
+}
+
+TEST(scene_json_errors, DegenerateQuadrics) {
+    json j = base_scene();
+    j["objects"][0] = {{"type", "quadric"},
+                       {"coefficients", {0, 0, 0, 0, 0, 0, 0, 0, 0, 1}},
+                       {"material", "white"}};
+    EXPECT_TRUE(fails_with(j, "A..I are all zero"));
+    j["objects"][0]["coefficients"] = {1, 1, 1, 0, 0, 0, 0, 0, 0};
+    EXPECT_TRUE(fails_with(j, "'coefficients' must be an array of 10 numbers"));
+    j["objects"][0]["coefficients"] = {1, 1, 1, 0, 0, 0, 0, 0, 0, -1};
+    j["objects"][0]["bounds"] = {{"min", {0, 2, 0}}, {"max", {1, 1, 1}}};
+    EXPECT_TRUE(fails_with(j, "min must be <= max"));
+    j["objects"][0]["bounds"] = {{"min", {0, 0, 0}}};
+    EXPECT_TRUE(fails_with(j, "missing required key 'max'"));
+}
+
+TEST(scene_json_errors, MissingMeshFileNamesThePly) {
+    json j = base_scene();
+    j["objects"][0] = {{"type", "mesh"}, {"file", "bunny.ply"}, {"material", "white"}};
+    EXPECT_TRUE(fails_with(j, "/nonexistent-cierzo-folder/x/bunny.ply"));
+    EXPECT_TRUE(fails_with(j, "objects[0] (mesh)"));
+}
+
+TEST(scene_json_errors, BadMeshTransform) {
+    TempDir dir;
+    dir.write("tri.ply", kTrianglePly);
+    const std::string head = R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+        "objects": [{"type": "mesh", "file": "tri.ply", "material": {"kd": 1}, )";
+    const fs::path zero = dir.write("zero.json", head + R"("scale": [1, 0, 1]}]})");
+    const fs::path inf = dir.write("inf.json", head + R"("scale": 1e39}]})");
+    const fs::path ok = dir.write("ok.json", head + R"("scale": -1}]})");
+    auto read = [](const fs::path& p) {
+        std::ifstream in(p);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    EXPECT_NO_THROW(load_scene(ok));
+    EXPECT_TRUE(text_fails_with(read(zero), "'scale' must be non-zero", zero));
+    EXPECT_TRUE(text_fails_with(read(inf), "'scale' must be finite", inf));
+}
+
+TEST(scene_json_errors, MaterialRanges) {
+    json j = base_scene();
+    j["materials"]["white"]["shininess"] = -1;
+    EXPECT_TRUE(fails_with(j, "'shininess' must be in [0, 1e6]"));
+    j = base_scene();
+    j["materials"]["white"]["ior"] = 0;
+    EXPECT_TRUE(fails_with(j, "'ior' must be > 0"));
+    j["materials"]["white"]["ior"] = -1.5;
+    EXPECT_TRUE(fails_with(j, "'ior' must be > 0"));
+    j = base_scene();
+    j["scene_ior"] = 0;
+    EXPECT_TRUE(fails_with(j, "'scene_ior' must be > 0"));
+    j = base_scene();
+    j["materials"] = {{"white", 0.8}};
+    EXPECT_TRUE(fails_with(j, "materials.white: must be a JSON object"));
+}
+
+TEST(scene_json_errors, CameraProblems) {
+    json j = base_scene();
+    j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0, 5, 0}}};  // up defaults to +y
+    EXPECT_TRUE(fails_with(j, "'up' is parallel to the viewing direction"));
+    j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"up", {0, 0, -2}}};
+    EXPECT_TRUE(fails_with(j, "'up' is parallel to the viewing direction"));
+    j["camera"] = {{"position", {1, 1, 1}}, {"look_at", {1, 1, 1}}};
+    EXPECT_TRUE(fails_with(j, "'look_at' equals 'position'"));
+    j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"vfov", 180}};
+    EXPECT_TRUE(fails_with(j, "'vfov' must be in (0, 180)"));
+    j["camera"] = {{"position", {0, 0, 0}}, {"forward", {0, 0, 1}}, {"left", {0, 0, 0}},
+                   {"up", {0, 1, 0}}};
+    EXPECT_TRUE(fails_with(j, "must be non-zero"));
+}
+
+TEST(scene_json_errors, CameraFormsDoNotMix) {
+    // A key of the other form would be ignored: an error instead
+    json j = base_scene();
+    j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"forward", {0, 0, 1}}};
+    EXPECT_TRUE(fails_with(j, "cannot be combined with 'look_at'"));
+    j["camera"] = {{"position", {0, 0, 0}}, {"forward", {0, 0, 1}}, {"left", {-1, 0, 0}},
+                   {"up", {0, 1, 0}}, {"vfov", 60}};
+    EXPECT_TRUE(fails_with(j, "'vfov' belongs to the 'look_at' form"));
+}
+
+TEST(scene_json_errors, WrongShapes) {
+    json j = base_scene();
+    j["objects"] = json::object();
+    EXPECT_TRUE(fails_with(j, "'objects' must be an array"));
+    j = base_scene();
+    j["objects"][0] = {{"type", "triangle"}, {"vertices", {{0, 0, 0}, {1, 0, 0}}},
+                       {"material", "white"}};
+    EXPECT_TRUE(fails_with(j, "'vertices' must be 3 points"));
+    j["objects"][0]["vertices"] = {{0, 0, 0}, {1, 0, 0}, {0, "y", 0}};
+    EXPECT_TRUE(fails_with(j, "must be an array of 3 numbers"));
+    j = base_scene();
+    j["objects"][0]["type"] = 3;
+    EXPECT_TRUE(fails_with(j, "'type' must be a string"));
+}
+
+TEST(scene_json_errors, LoadSceneOfAMissingFile) {
+    const fs::path p = "/nonexistent-cierzo-folder/none.json";
+    try {
+        load_scene(p);
+        ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(p.string() + ": cannot open scene file"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+}  // namespace
+}  // namespace cierzo
