@@ -16,8 +16,7 @@ namespace fs = std::filesystem;
 
 Scene bench_scene(const std::string& name) {
     Scene s = load_scene(fs::path(CIERZO_SOURCE_DIR) / "scenes" / (name + ".json"));
-    s.settings.width = 128;
-    s.settings.height = 128;
+    s.set_resolution(128, 128);
     s.settings.spp = 8;
     return s;
 }
@@ -101,7 +100,7 @@ BENCHMARK_CAPTURE(BM_Specialisation, diffuse_spheres_general, "diffuse_spheres",
 void BM_Threads(benchmark::State& state) {
     static Scene scene = [] {
         Scene s = bench_scene("cornell");
-        s.settings.width = 256, s.settings.height = 256;
+        s.set_resolution(256, 256);
         return s;
     }();
     RenderOptions o;

@@ -84,8 +84,8 @@ int run_render(const RenderArgs& a) {
     RenderSettings& s = scene.settings;
     if (a.spp) s.spp = *a.spp;
     if (a.seed) s.seed = *a.seed;
-    if (a.width) s.width = *a.width;
-    if (a.height) s.height = *a.height;
+    if (a.width || a.height)
+        scene.set_resolution(a.width.value_or(s.width), a.height.value_or(s.height));
     if (a.survival_cap) s.estimator.survival_cap = *a.survival_cap;
     if (a.diffuse_sampling) s.estimator.cosine_diffuse = *a.diffuse_sampling == "cosine";
     if (!a.out.empty()) s.output = a.out;

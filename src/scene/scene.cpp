@@ -39,6 +39,14 @@ void Scene::finalize() {
     }
 }
 
+void Scene::set_resolution(int width, int height) {
+    settings.width = width;
+    settings.height = height;
+    if (look_at)
+        camera = look_at_camera(look_at->position, look_at->target, look_at->up,
+                                look_at->vfov_degrees, float(width) / float(height));
+}
+
 SceneFeatures Scene::features() const {
     SceneFeatures f;
     f.spheres = spheres.size() > 0;

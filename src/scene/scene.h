@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -89,9 +90,17 @@ struct Hit {
     uint32_t triangle = 0;
 };
 
+// A camera given by position, target, up and vertical field of view: kept so the frame can
+// be rebuilt for another aspect ratio.
+struct LookAt {
+    Vec3f position, target, up;
+    float vfov_degrees;
+};
+
 class Scene {
 public:
     Camera camera;
+    std::optional<LookAt> look_at;  // set when the camera was given in the look_at form
     RenderSettings settings;
     float scene_ior = 1.0f;
     std::vector<Material> materials;
@@ -104,6 +113,10 @@ public:
 
     // Call once after filling the arrays: builds BVHs and bounding spheres.
     void finalize();
+
+    // Changes the image size; a look_at camera keeps its vertical field of view and takes
+    // the new aspect ratio (an explicit frame keeps its vectors, as the file gave them).
+    void set_resolution(int width, int height);
 
     SceneFeatures features() const;
 

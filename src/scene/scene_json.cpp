@@ -353,6 +353,7 @@ struct Loader {
             if (r.has("forward") || r.has("left"))
                 r.fail("'forward' and 'left' belong to the explicit frame form; they cannot be "
                        "combined with 'look_at'");
+            scene.look_at = LookAt{position, target, up, float(vfov)};
             scene.camera = look_at_camera(position, target, up, float(vfov), aspect);
         } else {
             scene.camera.origin = position;

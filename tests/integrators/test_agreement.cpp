@@ -68,8 +68,7 @@ TEST(Agreement, WavefrontMatchesScalarOnEverySceneAndIsa) {
             if (std::string(e.what()).find(".ply") != std::string::npos) continue;
             throw;
         }
-        scene.settings.width = 40;
-        scene.settings.height = 40;
+        scene.set_resolution(40, 40);
         scene.settings.spp = 16;
         const RenderResult reference = render_with(scene, "scalar", "auto");
         for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {

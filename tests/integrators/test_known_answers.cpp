@@ -160,8 +160,7 @@ TEST(KnownAnswer, AllLobesOnOneMaterialAddUp) {
 
 TEST(Determinism, SameImageForOneAndTwoThreads) {
     Scene scene = load_scene(CIERZO_SOURCE_DIR "/scenes/four_lobes.json");
-    scene.settings.width = 40;
-    scene.settings.height = 30;
+    scene.set_resolution(40, 30);
     scene.settings.spp = 4;
     const Image a = render_quiet(scene, 1).film.mean();
     const Image b = render_quiet(scene, 2).film.mean();

@@ -844,3 +844,28 @@ TEST(scene_json_errors, LoadSceneOfAMissingFile) {
 
 }  // namespace
 }  // namespace cierzo
+
+namespace cierzo {
+namespace {
+
+TEST(SceneResolution, LookAtCameraKeepsItsFieldOfViewAtANewAspect) {
+    Scene s = parse_scene(R"({"render": {"width": 100, "height": 100},
+        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "vfov": 90},
+        "objects": [{"type": "sphere", "center": [0, 0, 5], "radius": 1, "material": {"kd": 1}}]})",
+                          "/tmp/res.json");
+    s.set_resolution(200, 100);
+    // vfov 90: the up vector's length is tan(45°) = 1; the width doubles with the aspect
+    EXPECT_NEAR(length(s.camera.up), 1.0f, 1e-6f);
+    EXPECT_NEAR(length(s.camera.left), 2.0f, 1e-6f);
+    EXPECT_EQ(s.settings.width, 200);
+    // An explicit frame is kept as given
+    Scene e = parse_scene(R"({"camera": {"position": [0, 0, 0], "forward": [0, 0, 1],
+        "left": [-1, 0, 0], "up": [0, 1, 0]},
+        "objects": [{"type": "sphere", "center": [0, 0, 5], "radius": 1, "material": {"kd": 1}}]})",
+                          "/tmp/res.json");
+    e.set_resolution(300, 100);
+    EXPECT_NEAR(length(e.camera.left), 1.0f, 1e-6f);
+}
+
+}  // namespace
+}  // namespace cierzo
