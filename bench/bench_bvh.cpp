@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "scene/bvh.h"
+#include "support/uv_sphere.h"
 
 namespace {
 
@@ -23,40 +24,11 @@ struct Mesh {
 // A latitude/longitude sphere with a bumpy radial displacement: 2 * segments * (rings - 1)
 // triangles (rings = 226, segments = 224 gives 100,800).
 Mesh displaced_sphere(int rings, int segments) {
-    Mesh mesh;
-    const float pi = 3.14159265358979f;
-    const auto point = [&](float theta, float phi) {
-        const float r = 1.0f + 0.08f * std::sin(9.0f * theta) * std::sin(7.0f * phi) +
-                        0.02f * std::sin(41.0f * theta + 3.0f * phi);
-        return Vec3f(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
-                     std::cos(theta)) * r;
-    };
-    // Vertices: the poles and the rings between them
-    mesh.positions.push_back(point(0.0f, 0.0f));
-    for (int r = 1; r < rings; ++r) {
-        for (int s = 0; s < segments; ++s) {
-            mesh.positions.push_back(
-                point(pi * float(r) / float(rings), 2.0f * pi * float(s) / float(segments)));
-        }
-    }
-    mesh.positions.push_back(point(pi, 0.0f));
-    // Triangles: fans at the poles, two per quad in between
-    const uint32_t south = uint32_t(mesh.positions.size() - 1);
-    const auto ring = [&](int r, int s) { return uint32_t(1 + (r - 1) * segments + s % segments); };
-    for (int s = 0; s < segments; ++s) {
-        mesh.indices.insert(mesh.indices.end(), {0u, ring(1, s), ring(1, s + 1)});
-        mesh.indices.insert(mesh.indices.end(),
-                            {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
-    }
-    for (int r = 1; r + 1 < rings; ++r) {
-        for (int s = 0; s < segments; ++s) {
-            mesh.indices.insert(mesh.indices.end(),
-                                {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
-            mesh.indices.insert(mesh.indices.end(),
-                                {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
-        }
-    }
-    return mesh;
+    cierzo::test::TriangleMesh m = cierzo::test::uv_sphere(rings, segments, [](float t, float p) {
+        return 1.0f + 0.08f * std::sin(9.0f * t) * std::sin(7.0f * p) +
+               0.02f * std::sin(41.0f * t + 3.0f * p);
+    });
+    return {std::move(m.positions), std::move(m.indices)};
 }
 
 const Mesh& bench_mesh() {

@@ -4,11 +4,14 @@
 set -euo pipefail
 packages=(g++ cmake ninja-build pkg-config libxsimd-dev libopenexr-dev libimath-dev
           libgtest-dev libgmock-dev libbenchmark-dev libtbb-dev libcli11-dev nlohmann-json3-dev
-          libfmt-dev libstb-dev npm python3-matplotlib)
+          libfmt-dev libstb-dev python3-matplotlib)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# npm (only to fetch the test meshes): Debian's package only where no npm is on the PATH,
+# since it conflicts with a Node.js installed another way
+command -v npm >/dev/null 2>&1 || missing+=(npm)
 [ ${#missing[@]} -eq 0 ] && exit 0
 sudo=""
 [ "$(id -u)" -ne 0 ] && sudo="sudo"

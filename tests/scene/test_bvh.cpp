@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "kernels/triangle.h"
+#include "support/uv_sphere.h"
 
 namespace cierzo {
 namespace {
@@ -42,34 +43,8 @@ Mesh random_soup(size_t count, uint32_t seed) {
 
 // A latitude/longitude sphere of radius 1 with shared vertices (poles fanned).
 Mesh uv_sphere(int rings, int segments) {
-    Mesh mesh;
-    const float pi = 3.14159265358979f;
-    mesh.positions.push_back({0, 0, 1});
-    for (int r = 1; r < rings; ++r) {
-        const float theta = pi * float(r) / float(rings);
-        for (int s = 0; s < segments; ++s) {
-            const float phi = 2.0f * pi * float(s) / float(segments);
-            mesh.positions.push_back({std::sin(theta) * std::cos(phi),
-                                      std::sin(theta) * std::sin(phi), std::cos(theta)});
-        }
-    }
-    mesh.positions.push_back({0, 0, -1});
-    const uint32_t south = uint32_t(mesh.positions.size() - 1);
-    const auto ring = [&](int r, int s) { return uint32_t(1 + (r - 1) * segments + s % segments); };
-    for (int s = 0; s < segments; ++s) {
-        mesh.indices.insert(mesh.indices.end(), {0u, ring(1, s), ring(1, s + 1)});
-        mesh.indices.insert(mesh.indices.end(),
-                            {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
-    }
-    for (int r = 1; r + 1 < rings; ++r) {
-        for (int s = 0; s < segments; ++s) {
-            mesh.indices.insert(mesh.indices.end(),
-                                {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
-            mesh.indices.insert(mesh.indices.end(),
-                                {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
-        }
-    }
-    return mesh;
+    test::TriangleMesh m = test::uv_sphere(rings, segments);
+    return {std::move(m.positions), std::move(m.indices)};
 }
 
 // An n x n grid of unit squares in the plane z = 0, two triangles each.
