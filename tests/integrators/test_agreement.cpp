@@ -93,9 +93,11 @@ Scene mixed_scene(int lobe, float error) {
     if (lobe >= 0)
         for (float& v : c[lobe])
             if (v < std::max({c[lobe][0], c[lobe][1], c[lobe][2]})) v *= 1.0f + error;
+    // (fmt-free and appended piecewise: GCC 12 warns falsely on "[" + std::string)
     auto rgb = [](const float* v) {
-        return "[" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + ", " +
-               std::to_string(v[2]) + "]";
+        std::string out = "[";
+        for (int k = 0; k < 3; ++k) out += std::to_string(v[k]) + (k < 2 ? ", " : "]");
+        return out;
     };
     const std::string mat = R"({"kd": )" + rgb(c[0]) + R"(, "ks": )" + rgb(c[1]) +
                             R"(, "shininess": 20, "kr": )" + rgb(c[2]) + R"(, "kt": )" +
