@@ -35,6 +35,14 @@ public:
     Vec3f bounds_min() const;
     Vec3f bounds_max() const;
     size_t node_count() const { return nodes_.size(); }
+    // Raw views for the wavefront's SIMD traversal (FlatBvhNode in flat_scene.h has the same
+    // layout): nodes, triangles in leaf order (9 floats each), and their input indices.
+    const void* node_data() const { return nodes_.data(); }
+    const float* triangle_data() const {
+        static_assert(sizeof(Triangle) == 9 * sizeof(float));
+        return reinterpret_cast<const float*>(triangles_.data());
+    }
+    const uint32_t* triangle_id_data() const { return triangle_ids_.data(); }
     size_t triangle_count() const { return triangle_count_; }
     int depth() const { return depth_; }
 

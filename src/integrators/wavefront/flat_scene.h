@@ -1,6 +1,6 @@
 // The scene as the per-ISA wavefront kernels see it: plain arrays and counts, no kernel types,
 // no standard containers, so the per-ISA objects share no inline code with the rest of the
-// program. Meshes and vertex colours are reached through callbacks into the scalar code.
+// program. Vertex colours are reached through a callback into the scalar code.
 #pragma once
 
 #include <cstdint>
@@ -26,13 +26,26 @@ struct FlatColor {
     float axis[3], axis2[3];
 };
 
-// A closest hit on a mesh, from the scalar BVH.
-struct MeshHit {
-    float t;
-    float n[3];
-    int32_t mesh;
-    uint32_t triangle;
+// A mesh's BVH as the SIMD traversal reads it (the layout of Bvh's nodes, src/scene/bvh.h):
+// box, then a leaf's first triangle and count, or an inner node's second child and axis.
+struct FlatBvhNode {
+    float bounds[6];  // min x, y, z, max x, y, z
+    uint32_t offset;
+    uint16_t count;   // 0 for inner nodes
+    uint16_t axis;
 };
+static_assert(sizeof(FlatBvhNode) == 32);
+
+struct FlatMesh {
+    const FlatBvhNode* nodes;
+    const float* triangles;        // leaf order, 9 floats each (v0, v1, v2)
+    const uint32_t* triangle_ids;  // leaf order -> the mesh's triangle index
+    int32_t node_count;
+};
+
+// Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches
+// (Ize, "Robust BVH Ray Traversal", JCGT 2013), as in the scalar traversal.
+inline constexpr float kBvhFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f));
 
 // Which stages and primitive loops a scene needs; the kernels skip everything else.
 struct FlatFeatures {
@@ -56,6 +69,7 @@ struct FlatScene {
     const int32_t* quadric_material;
     int32_t mesh_count;
     const int32_t* mesh_material;
+    const FlatMesh* meshes;
 
     // Materials: solid colours as SoA [channel][component][material], flags, sources
     int32_t material_count;
@@ -81,12 +95,8 @@ struct FlatScene {
     float scene_ior;
     FlatFeatures features;
 
-    // Callbacks into the scalar code for what is not vectorised: BVH traversal of meshes and
-    // vertex colours (one ray or one hit at a time).
+    // Callback into the scalar code for vertex colours (one hit at a time)
     const void* scene;
-    bool (*intersect_meshes)(const void* scene, const float o[3], const float d[3], float tmax,
-                             MeshHit* hit);
-    bool (*occluded_meshes)(const void* scene, const float o[3], const float d[3], float tmax);
     void (*vertex_color)(const void* scene, int32_t mesh, uint32_t triangle, const float p[3],
                          const FlatColor* source, float out[3]);
 };

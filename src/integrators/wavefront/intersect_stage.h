@@ -1,9 +1,11 @@
 // Wavefront stage 2, closest hit: K rays at a time against every sphere, plane and quadric
-// of the scene (one primitive broadcast to all lanes, in the scalar reference's order), then meshes through the scalar BVH
-// for each lane. Records t and the primitive id; the shadow stage's any-hit test is here too.
+// of the scene (one primitive broadcast to all lanes, in the scalar reference's order), then
+// each mesh's BVH traversed by the K rays as a packet. Records t and the primitive id; the
+// shadow stage's any-hit test is here too.
 #pragma once
 
 #include "integrators/wavefront/wave.h"
+#include "kernels/triangle.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -40,6 +42,113 @@ void closest_analytic(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
     }
 }
 
+// K rays through one mesh's BVH together: a node is entered when any live lane's slab
+// interval [0, t] meets its box (the same robust slab test as the scalar traversal), the
+// children in the order most lanes prefer; leaves test their triangles on all K lanes with
+// the watertight kernel. Closest hit: t, leaf-order triangle and hit mask are updated;
+// any hit: `blocked` gathers the lanes that hit anything and the walk stops once all have.
+template <bool kAnyHit, class A>
+void traverse_packet(const FlatMesh& mesh, const Ray<typename Wave<A>::F>& ray,
+                     const RayShear<typename Wave<A>::F>& shear, typename Wave<A>::M live,
+                     typename Wave<A>::F& t, typename Wave<A>::I& triangle,
+                     typename Wave<A>::M& hit) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    if (mesh.node_count == 0) return;  // every triangle degenerate: nothing to hit
+    const F inv[3] = {F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z};
+    const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
+    uint32_t stack[96];
+    int size = 0;
+    uint32_t index = 0;
+    for (;;) {
+        const FlatBvhNode& node = mesh.nodes[index];
+        // Slab test per lane; a NaN distance leaves the interval as it was
+        F t0(0.0f), t1 = t;
+        for (int k = 0; k < 3; ++k) {
+            const F a = (F(node.bounds[k]) - org[k]) * inv[k];
+            const F b = (F(node.bounds[k + 3]) - org[k]) * inv[k];
+            const auto forward = inv[k] >= F(0.0f);
+            const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
+            t0 = select(near > t0, near, t0);
+            t1 = select(far < t1, far, t1);
+        }
+        const auto enter = live & (t0 <= t1);
+        if (any(enter)) {
+            if (node.count == 0) {
+                // Inner node: the near child first, as most entering lanes see it
+                const uint32_t lanes = mask_bits(enter);
+                const uint32_t backwards = mask_bits(enter & (inv[node.axis] < F(0.0f)));
+                const bool second_first = 2 * std::popcount(backwards) > std::popcount(lanes);
+                stack[size++] = second_first ? index + 1 : node.offset;
+                index = second_first ? node.offset : index + 1;
+                continue;
+            }
+            // Leaf: every triangle against the entering lanes
+            for (uint32_t j = node.offset; j < node.offset + node.count; ++j) {
+                const float* v = mesh.triangles + 9 * size_t(j);
+                F th(0.0f), b1(0.0f), b2(0.0f);
+                const auto m = intersect_triangle(ray, shear, Vec3<F>(F(v[0]), F(v[1]), F(v[2])),
+                                                  Vec3<F>(F(v[3]), F(v[4]), F(v[5])),
+                                                  Vec3<F>(F(v[6]), F(v[7]), F(v[8])), t, th, b1,
+                                                  b2) &
+                               enter;
+                hit = hit | m;
+                if constexpr (kAnyHit) {
+                    live = live & !m;
+                } else {
+                    t = select(m, th, t);
+                    triangle = select(mask_i32(m), I(int32_t(j)), triangle);
+                }
+            }
+            if constexpr (kAnyHit) {
+                if (none(live)) return;
+            }
+        }
+        if (size == 0) return;
+        index = stack[--size];
+    }
+}
+
+// The closest mesh hits of the batch at i: updates t and prim, and records the mesh, the
+// triangle (the mesh's own index) and its unit normal.
+template <class A>
+void intersect_meshes(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
+                      typename Wave<A>::F& t, typename Wave<A>::I& prim) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const RayShear<F> shear = make_ray_shear(ray.d);
+    const auto live = w.live_mask(i);
+    I mesh_id(0), leaf_triangle(0);
+    for (int32_t m = 0; m < s.mesh_count; ++m) {
+        I triangle(0);
+        typename Wave<A>::M hit(false);
+        traverse_packet<false, A>(s.meshes[m], ray, shear, live, t, triangle, hit);
+        mesh_id = select(mask_i32(hit), I(m), mesh_id);
+        leaf_triangle = select(mask_i32(hit), triangle, leaf_triangle);
+        prim = select(mask_i32(hit), I(kPrimMesh << kPrimShift), prim);
+    }
+    const auto on_mesh = prim == I(kPrimMesh << kPrimShift);
+    if (none(mask_f32(on_mesh))) return;
+    // Normal and the mesh's triangle index, lane by lane (meshes differ per lane)
+    alignas(64) int32_t mesh_lanes[Wave<A>::K], tri_lanes[Wave<A>::K];
+    mesh_id.store_aligned(mesh_lanes);
+    leaf_triangle.store_aligned(tri_lanes);
+    uint32_t bits = mask_bits(mask_f32(on_mesh));
+    while (bits) {
+        const int32_t l = std::countr_zero(bits);
+        bits &= bits - 1;
+        const FlatMesh& mesh = s.meshes[mesh_lanes[l]];
+        const float* v = mesh.triangles + 9 * size_t(tri_lanes[l]);
+        const Vec3f n = normalize(cross(Vec3f{v[3] - v[0], v[4] - v[1], v[5] - v[2]},
+                                        Vec3f{v[6] - v[0], v[7] - v[1], v[8] - v[2]}));
+        p.mesh_nx[i + l] = n.x, p.mesh_ny[i + l] = n.y, p.mesh_nz[i + l] = n.z;
+        p.mesh_id[i + l] = mesh_lanes[l];
+        p.mesh_tri[i + l] = mesh.triangle_ids[tri_lanes[l]];
+    }
+}
+
 template <class A>
 void intersect_closest(Wave<A>& w) {
     using F = typename Wave<A>::F;
@@ -52,31 +161,20 @@ void intersect_closest(Wave<A>& w) {
         F t(kRayFar);
         I prim(-1);
         closest_analytic<A>(s, ray, t, prim);
+        if (s.features.meshes) intersect_meshes(w, i, ray, t, prim);
         t.store_aligned(p.t + i);
         prim.store_aligned(p.prim + i);
     }
     w.counters.isect_active += uint64_t(w.live);
     w.counters.isect_total += uint64_t(end);
 
-    // Meshes: one ray at a time through the BVH, bounded by the analytic hit
-    if (!s.features.meshes) return;
-    for (int32_t i = 0; i < w.live; ++i) {
-        const float o[3] = {p.ox[i], p.oy[i], p.oz[i]}, d[3] = {p.dx[i], p.dy[i], p.dz[i]};
-        MeshHit h;
-        if (!s.intersect_meshes(s.scene, o, d, p.t[i], &h)) continue;
-        p.t[i] = h.t;
-        p.prim[i] = kPrimMesh << kPrimShift;
-        p.mesh_nx[i] = h.n[0], p.mesh_ny[i] = h.n[1], p.mesh_nz[i] = h.n[2];
-        p.mesh_id[i] = h.mesh;
-        p.mesh_tri[i] = h.triangle;
-    }
 }
 
-// Whether anything blocks K shadow rays within tmax; lanes already blocked skip nothing
-// (SIMD), but the loop stops once every lane is blocked.
+// Whether anything blocks K shadow rays within tmax (for the `live` lanes); lanes already
+// blocked skip nothing (SIMD), but the loops stop once every lane is blocked.
 template <class A>
 typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
-                             const typename Wave<A>::F& tmax) {
+                             const typename Wave<A>::F& tmax, typename Wave<A>::M live) {
     using F = typename Wave<A>::F;
     typename Wave<A>::M blocked(false);
     F th;
@@ -92,6 +190,15 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         const float* q = s.quadric + 16 * j;
         const Vec3<F> lo{F(q[10]), F(q[11]), F(q[12])}, hi{F(q[13]), F(q[14]), F(q[15])};
         blocked = blocked | intersect_quadric(ray, quadric_at<F>(q), lo, hi, tmax, th);
+    }
+    if (s.features.meshes && !all(blocked)) {
+        const RayShear<F> shear = make_ray_shear(ray.d);
+        for (int32_t m = 0; m < s.mesh_count && !all(blocked); ++m) {
+            F t = tmax;
+            typename Wave<A>::I unused(0);
+            traverse_packet<true, A>(s.meshes[m], ray, shear, (!blocked) & live, t, unused,
+                                     blocked);
+        }
     }
     return blocked;
 }

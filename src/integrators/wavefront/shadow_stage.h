@@ -1,5 +1,5 @@
 // Wavefront stage 6, shadow rays: the queued rays towards point lights, K at a time, any-hit
-// against the analytic primitives (and meshes one ray at a time); an unblocked ray adds its
+// against the analytic primitives and the meshes (as packets); an unblocked ray adds its
 // contribution to its path's radiance.
 #pragma once
 
@@ -20,16 +20,12 @@ void trace_shadow_rays(Wave<A>& w) {
         const F tmax = F::load_aligned(p.stmax + i);
         // Lanes of this chunk that hold a queued ray and are not blocked
         const int32_t lanes = std::min(K, count - i);
-        uint32_t open = ~mask_bits(occluded<A>(s, ray, tmax)) & ((1u << lanes) - 1u);
-        // Meshes and the radiance update, per unblocked ray (one path may own several rays)
+        const auto queued = Wave<A>::lane_index() < F(float(lanes));
+        uint32_t open = ~mask_bits(occluded<A>(s, ray, tmax, queued)) & ((1u << lanes) - 1u);
+        // The radiance update, per unblocked ray (one path may own several rays)
         while (open) {
             const int32_t q = i + std::countr_zero(open);
             open &= open - 1;
-            if (s.features.meshes) {
-                const float o[3] = {p.sox[q], p.soy[q], p.soz[q]};
-                const float d[3] = {p.sdx[q], p.sdy[q], p.sdz[q]};
-                if (s.occluded_meshes(s.scene, o, d, p.stmax[q])) continue;
-            }
             const int32_t owner = p.sowner[q];
             p.rad_r[owner] += p.sc_r[q];
             p.rad_g[owner] += p.sc_g[q];

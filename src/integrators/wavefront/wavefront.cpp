@@ -14,35 +14,7 @@ namespace cierzo {
 
 namespace {
 
-// ---- Callbacks the kernels make for what is not vectorised ------------------------------
-
-bool intersect_meshes(const void* scene, const float o[3], const float d[3], float tmax,
-                      MeshHit* out) {
-    const Scene& s = *static_cast<const Scene*>(scene);
-    const Ray<float> ray{{o[0], o[1], o[2]}, {d[0], d[1], d[2]}};
-    float best = tmax;
-    bool found = false;
-    for (size_t i = 0; i < s.meshes.size(); ++i) {
-        TriangleHit th;
-        if (!s.meshes[i].bvh.intersect(ray, best, th)) continue;
-        const Mesh& m = s.meshes[i];
-        const uint32_t* v = &m.indices[size_t(th.triangle) * 3];
-        const Vec3f n = normalize(cross(m.positions[v[1]] - m.positions[v[0]],
-                                        m.positions[v[2]] - m.positions[v[0]]));
-        best = th.t;
-        *out = {th.t, {n.x, n.y, n.z}, int32_t(i), th.triangle};
-        found = true;
-    }
-    return found;
-}
-
-bool occluded_meshes(const void* scene, const float o[3], const float d[3], float tmax) {
-    const Scene& s = *static_cast<const Scene*>(scene);
-    const Ray<float> ray{{o[0], o[1], o[2]}, {d[0], d[1], d[2]}};
-    for (const Mesh& m : s.meshes)
-        if (m.bvh.occluded(ray, tmax)) return true;
-    return false;
-}
+// ---- The callback the kernels make for vertex colours -----------------------------------
 
 void vertex_color(const void* scene, int32_t mesh, uint32_t triangle, const float p[3],
                   const FlatColor* source, float out[3]) {
@@ -145,6 +117,7 @@ struct WavefrontRenderer::Data {
     std::vector<int32_t> sphere_material, plane_material;
     std::vector<float> quadric, color, shininess, ior, light;
     std::vector<int32_t> quadric_material, mesh_material, emitter, phong, textured;
+    std::vector<FlatMesh> meshes;
     std::vector<FlatColor> sources;
     void (*entry)(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&) = nullptr;
     int32_t pool_size;
@@ -195,7 +168,13 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.quadric_count = int32_t(scene.quadrics.size());
     f.quadric = d.quadric.data();
     f.quadric_material = d.quadric_material.data();
-    for (const Mesh& m : scene.meshes) d.mesh_material.push_back(m.material);
+    for (const Mesh& m : scene.meshes) {
+        d.mesh_material.push_back(m.material);
+        d.meshes.push_back({static_cast<const FlatBvhNode*>(m.bvh.node_data()),
+                            m.bvh.triangle_data(), m.bvh.triangle_id_data(),
+                            int32_t(m.bvh.node_count())});
+    }
+    f.meshes = d.meshes.data();
     d.mesh_material = padded(d.mesh_material);
     f.mesh_count = int32_t(scene.meshes.size());
     f.mesh_material = d.mesh_material.data();
@@ -254,8 +233,6 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
         f.features = {true, true, true, meshes, true, true, true, true, true, true, true, 4};
     }
     f.scene = &scene;
-    f.intersect_meshes = intersect_meshes;
-    f.occluded_meshes = occluded_meshes;
     f.vertex_color = vertex_color;
 }
 
