@@ -1,6 +1,6 @@
 // Wavefront stage 2, closest hit: K rays at a time against every sphere, plane and quadric
 // of the scene (one primitive broadcast to all lanes, in the scalar reference's order), then
-// each mesh's BVH traversed by the K rays as a packet. Records t and the primitive id; the
+// each mesh's BVH traversed by packets of the rays that enter it. Records t and the primitive id; the
 // shadow stage's any-hit test is here too.
 #pragma once
 
@@ -109,43 +109,71 @@ void traverse_packet(const FlatMesh& mesh, const Ray<typename Wave<A>::F>& ray,
     }
 }
 
-// The closest mesh hits of the batch at i: updates t and prim, and records the mesh, the
-// triangle (the mesh's own index) and its unit normal.
+// The closest mesh hits, after the analytic ones: for each mesh, the rays whose interval
+// [0, t] meets its root box are gathered into full packets (most rays of a scene never come
+// near a given mesh, and a sparse packet walks the tree for its few live lanes), traversed,
+// and their t, primitive, mesh, triangle and normal scattered back.
 template <class A>
-void intersect_meshes(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
-                      typename Wave<A>::F& t, typename Wave<A>::I& prim) {
+void intersect_meshes(Wave<A>& w) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
-    const RayShear<F> shear = make_ray_shear(ray.d);
-    const auto live = w.live_mask(i);
-    I mesh_id(0), leaf_triangle(0);
+    int32_t* list = p.bucket[kLobeCount];
     for (int32_t m = 0; m < s.mesh_count; ++m) {
-        I triangle(0);
-        typename Wave<A>::M hit(false);
-        traverse_packet<false, A>(s.meshes[m], ray, shear, live, t, triangle, hit);
-        mesh_id = select(mask_i32(hit), I(m), mesh_id);
-        leaf_triangle = select(mask_i32(hit), triangle, leaf_triangle);
-        prim = select(mask_i32(hit), I(kPrimMesh << kPrimShift), prim);
-    }
-    const auto on_mesh = prim == I(kPrimMesh << kPrimShift);
-    if (none(mask_f32(on_mesh))) return;
-    // Normal and the mesh's triangle index, lane by lane (meshes differ per lane)
-    alignas(64) int32_t mesh_lanes[Wave<A>::K], tri_lanes[Wave<A>::K];
-    mesh_id.store_aligned(mesh_lanes);
-    leaf_triangle.store_aligned(tri_lanes);
-    uint32_t bits = mask_bits(mask_f32(on_mesh));
-    while (bits) {
-        const int32_t l = std::countr_zero(bits);
-        bits &= bits - 1;
-        const FlatMesh& mesh = s.meshes[mesh_lanes[l]];
-        const float* v = mesh.triangles + 9 * size_t(tri_lanes[l]);
-        const Vec3f n = normalize(cross(Vec3f{v[3] - v[0], v[4] - v[1], v[5] - v[2]},
-                                        Vec3f{v[6] - v[0], v[7] - v[1], v[8] - v[2]}));
-        p.mesh_nx[i + l] = n.x, p.mesh_ny[i + l] = n.y, p.mesh_nz[i + l] = n.z;
-        p.mesh_id[i + l] = mesh_lanes[l];
-        p.mesh_tri[i + l] = mesh.triangle_ids[tri_lanes[l]];
+        const FlatMesh& mesh = s.meshes[m];
+        if (mesh.node_count == 0) continue;  // every triangle degenerate: nothing to hit
+        // The rays that enter the root box
+        int32_t size = 0;
+        const FlatBvhNode& root = mesh.nodes[0];
+        for (int32_t i = 0; i < w.live; i += K) {
+            const Vec3<F> o = load3<F>(p.ox, p.oy, p.oz, i), d = load3<F>(p.dx, p.dy, p.dz, i);
+            const F org[3] = {o.x, o.y, o.z}, dir[3] = {d.x, d.y, d.z};
+            F t0(0.0f), t1 = F::load_aligned(p.t + i);
+            for (int k = 0; k < 3; ++k) {
+                const F inv = F(1.0f) / dir[k];
+                const F a = (F(root.bounds[k]) - org[k]) * inv;
+                const F b = (F(root.bounds[k + 3]) - org[k]) * inv;
+                const auto forward = inv >= F(0.0f);
+                const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
+                t0 = select(near > t0, near, t0);
+                t1 = select(far < t1, far, t1);
+            }
+            append_lanes(mask_bits(w.live_mask(i) & (t0 <= t1)), i, list, size);
+        }
+        // Full packets of those rays through the tree
+        for (int32_t i = 0; i < size; i += K) {
+            alignas(64) int32_t idx[K];
+            for (int32_t l = 0; l < K; ++l) idx[l] = list[std::min(i + l, size - 1)];
+            const I j = I::load_aligned(idx);
+            const Ray<F> ray{{gather_lanes<A>(p.ox, j), gather_lanes<A>(p.oy, j), gather_lanes<A>(p.oz, j)},
+                             {gather_lanes<A>(p.dx, j), gather_lanes<A>(p.dy, j), gather_lanes<A>(p.dz, j)}};
+            F t = gather_lanes<A>(p.t, j);
+            I triangle(0);
+            typename Wave<A>::M hit(false);
+            traverse_packet<false, A>(mesh, ray, make_ray_shear(ray.d), typename Wave<A>::M(true), t,
+                                      triangle, hit);
+            // Hits back to their paths, lane by lane (normal from the triangle's vertices)
+            alignas(64) float ts[K];
+            alignas(64) int32_t tris[K];
+            t.store_aligned(ts);
+            triangle.store_aligned(tris);
+            uint32_t bits = mask_bits(hit) & ((size - i >= K) ? ~0u : (1u << (size - i)) - 1u);
+            while (bits) {
+                const int32_t l = std::countr_zero(bits);
+                bits &= bits - 1;
+                const int32_t q = idx[l];
+                const float* v = mesh.triangles + 9 * size_t(tris[l]);
+                const Vec3f n = normalize(cross(Vec3f{v[3] - v[0], v[4] - v[1], v[5] - v[2]},
+                                                Vec3f{v[6] - v[0], v[7] - v[1], v[8] - v[2]}));
+                p.t[q] = ts[l];
+                p.prim[q] = kPrimMesh << kPrimShift;
+                p.mesh_nx[q] = n.x, p.mesh_ny[q] = n.y, p.mesh_nz[q] = n.z;
+                p.mesh_id[q] = m;
+                p.mesh_tri[q] = mesh.triangle_ids[tris[l]];
+            }
+        }
     }
 }
 
@@ -161,10 +189,10 @@ void intersect_closest(Wave<A>& w) {
         F t(kRayFar);
         I prim(-1);
         closest_analytic<A>(s, ray, t, prim);
-        if (s.features.meshes) intersect_meshes(w, i, ray, t, prim);
         t.store_aligned(p.t + i);
         prim.store_aligned(p.prim + i);
     }
+    if (s.features.meshes) intersect_meshes(w);
     w.counters.isect_active += uint64_t(w.live);
     w.counters.isect_total += uint64_t(end);
 

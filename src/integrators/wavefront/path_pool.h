@@ -34,7 +34,7 @@ struct PathPool {
     // Lobe choice and the per-lobe buckets (indices into the pool)
     int32_t* lobe;
     float* probability;
-    int32_t* bucket[5];  // material sort / lobe buckets share these index lists
+    int32_t* bucket[5];  // the lobe buckets, and (the last) the rays entering a mesh
     int32_t bucket_size[5];
     int32_t* order;            // material-sorted indices
     int32_t* material_starts;  // material_count + 1 group starts
