@@ -1,6 +1,8 @@
 // The `cierzo` program: renders a scene file to an HDR image (OpenEXR or PFM) and prints
 // time and throughput. A thin main over the render library; every option is in --help.
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <thread>
@@ -24,6 +26,14 @@ using namespace cierzo;
 // experiment on a CPU, and refused before anything is allocated.
 constexpr double kMaxPaths = 1e12;
 
+// Set by SIGINT or SIGTERM: the render stops after its current pass and writes what it has.
+// A second signal ends the program at once (the handler restores the default).
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_signal(int sig) {
+    g_interrupted.store(true);
+    std::signal(sig, SIG_DFL);
+}
+
 struct RenderArgs {
     fs::path scene;
     std::optional<int64_t> spp;
@@ -39,6 +49,8 @@ struct RenderArgs {
     fs::path stats;
     bool variance = false;
     bool quiet = false;
+    double time_budget = 0.0;
+    double target_error = 0.0;
 };
 
 // Fails early, before a long render, if an output could never be written.
@@ -74,6 +86,7 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
                               {"intersection", st.isect_lane_utilisation}}},
         {"pool", {{"paths", st.pool_size}, {"bytes", st.pool_bytes}}},
         {"mean_relative_error", st.mean_relative_error},
+        {"stopped_by", st.stopped_by},
     };
     write_stream_atomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
 }
@@ -107,6 +120,11 @@ int run_render(const RenderArgs& a) {
     options.integrator = a.integrator;
     options.isa = a.isa;
     options.pool_size = a.pool;
+    options.time_budget = a.time_budget;
+    options.target_error = a.target_error;
+    options.cancel = &g_interrupted;
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
     options.progress = !a.quiet;
     const RenderResult result = render(scene, options);
     const RenderStats& st = result.stats;
@@ -117,6 +135,7 @@ int run_render(const RenderArgs& a) {
                           {"cierzo:isa", st.isa},
                           {"cierzo:spp", std::to_string(s.spp)},
                           {"cierzo:spp_reached", std::to_string(st.spp_reached)},
+                          {"cierzo:stopped_by", st.stopped_by.empty() ? "done" : st.stopped_by},
                           {"cierzo:seed", std::to_string(s.seed)}};
     ImageLayers layers;
     if (a.variance && ext == ".exr") {
@@ -131,16 +150,20 @@ int run_render(const RenderArgs& a) {
     write_hdr(s.output, result.film.mean(), meta, layers);
     if (!a.stats.empty()) write_stats(a.stats, scene, st);
 
-    std::fprintf(stderr,
-                 "%s: %dx%d, %lld spp, %s (%s), %d threads: %.3f s, %.2f Mrays/s (%.2f per "
-                 "thread), relative error %.4f%s\n",
-                 s.output.string().c_str(), s.width, s.height, (long long)s.spp,
-                 st.integrator.c_str(), st.isa.c_str(), st.threads, st.seconds, st.rays_per_second() * 1e-6,
-                 st.rays_per_second() * 1e-6 / st.threads, st.mean_relative_error,
-                 st.nonfinite_samples
-                     ? fmt::format(", {} non-finite samples excluded", st.nonfinite_samples).c_str()
-                     : "");
-    return 0;
+    // The summary line; an early stop says why and how far it got
+    std::string summary = fmt::format(
+        "{}: {}x{}, {} spp, {} ({}), {} threads: {:.3f} s, {:.2f} Mrays/s ({:.2f} per thread), "
+        "relative error {:.4f}",
+        s.output.string(), s.width, s.height, s.spp, st.integrator, st.isa, st.threads,
+        st.seconds, st.rays_per_second() * 1e-6, st.rays_per_second() * 1e-6 / st.threads,
+        st.mean_relative_error);
+    if (st.nonfinite_samples)
+        summary += fmt::format(", {} non-finite samples excluded", st.nonfinite_samples);
+    if (!st.stopped_by.empty())
+        summary += fmt::format("; stopped ({}) at {} of {} paths per pixel", st.stopped_by,
+                               st.spp_reached, s.spp);
+    std::fprintf(stderr, "%s\n", summary.c_str());
+    return st.stopped_by == "interrupted" ? 130 : 0;
 }
 
 }  // namespace
@@ -189,7 +212,19 @@ int main(int argc, char** argv) {
                   "Write run statistics as JSON: time, paths, rays by kind, rays/s, error");
     r->add_flag("--variance", a.variance,
                 "Add the per-pixel variance of the mean as layers variance.R/G/B to the EXR");
+    r->add_option("--time-budget", a.time_budget,
+                  "Stop after this many seconds (at the end of a pass: every pixel then has the "
+                  "same number of paths, recorded in the EXR and --stats)")
+        ->check(CLI::NonNegativeNumber);
+    r->add_option("--target-error", a.target_error,
+                  "Stop once the mean relative standard error of the pixels is at most this "
+                  "(checked after each pass from 16 paths per pixel on), e.g. 0.01")
+        ->check(CLI::NonNegativeNumber);
     r->add_flag("--quiet", a.quiet, "No progress line");
+    r->footer(
+        "Ctrl-C (SIGINT) or SIGTERM stops the render after its current pass, writes the image "
+        "accumulated so far\n(with the paths per pixel reached in its metadata) and exits with "
+        "status 130; a second one ends it at once.");
     CLI11_PARSE(app, argc, argv);
     try {
         if (r->parsed()) return run_render(a);

@@ -94,27 +94,56 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         options.threads > 0 ? options.threads : int(std::thread::hardware_concurrency());
     const RenderSettings& rs = scene.settings;
     RenderResult result{Film(rs.width, rs.height), {}};
-    const std::vector<Tile> tiles = make_tiles(rs.width, rs.height);
+    std::vector<Tile> tiles = make_tiles(rs.width, rs.height);
+    // Passes of 1, 2, 4, 8 and then 16 paths per pixel: a fixed schedule (so the image does
+    // not depend on timing), fine enough to stop soon after a request
+    std::vector<int64_t> pass_end;
+    for (int64_t done = 0, size = 1; done < rs.spp; size = std::min<int64_t>(size * 2, 16)) {
+        done = std::min(rs.spp, done + size);
+        pass_end.push_back(done);
+    }
+    const int64_t passes = int64_t(pass_end.size());
 
-    // Tiles in parallel; per-thread ray counters summed at the end
+    // Pass by pass, tiles in parallel; per-thread ray counters summed at the end
     oneapi::tbb::enumerable_thread_specific<RayCounts> counts;
     oneapi::tbb::enumerable_thread_specific<LaneStats> lane_stats;
+    std::string stopped_by;
     const auto start = Clock::now();
     {
-        Progress progress(options.progress && isatty(STDERR_FILENO), tiles.size());
+        Progress progress(options.progress && isatty(STDERR_FILENO),
+                          tiles.size() * size_t(passes));
         oneapi::tbb::task_arena arena(threads);
-        arena.execute([&] {
-            oneapi::tbb::parallel_for(size_t(0), tiles.size(), [&](size_t i) {
-                RayCounts local;
-                if (wavefront) {
-                    wavefront->render_tile(tiles[i], result.film, local, lane_stats.local());
-                } else {
-                    render_tile_scalar(scene, tiles[i], result.film, local);
-                }
-                counts.local() += local;
-                progress.tile_done(local.total());
+        for (int64_t pass = 0; pass < passes; ++pass) {
+            for (Tile& t : tiles) {
+                t.s0 = pass == 0 ? 0 : pass_end[size_t(pass) - 1];
+                t.s1 = pass_end[size_t(pass)];
+            }
+            arena.execute([&] {
+                oneapi::tbb::parallel_for(size_t(0), tiles.size(), [&](size_t i) {
+                    RayCounts local;
+                    if (wavefront) {
+                        wavefront->render_tile(tiles[i], result.film, local, lane_stats.local());
+                    } else {
+                        render_tile_scalar(scene, tiles[i], result.film, local);
+                    }
+                    counts.local() += local;
+                    progress.tile_done(local.total());
+                });
             });
-        });
+            // Stopping rules, checked between passes
+            if (pass + 1 == passes) break;
+            const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+            if (options.cancel && options.cancel->load()) {
+                stopped_by = "interrupted";
+            } else if (options.time_budget > 0.0 && elapsed >= options.time_budget) {
+                stopped_by = "time budget";
+            } else if (options.target_error > 0.0 && pass_end[size_t(pass)] >= 16 &&
+                       result.film.mean_relative_error() <= options.target_error) {
+                // (from 16 paths per pixel on: fewer give no trustworthy variance)
+                stopped_by = "target error";
+            }
+            if (!stopped_by.empty()) break;
+        }
     }
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
 
@@ -128,6 +157,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     st.nonfinite_samples = result.film.nonfinite_samples();
     st.mean_relative_error = result.film.mean_relative_error();
     st.spp_reached = int64_t(result.film.min_samples());
+    st.stopped_by = stopped_by;
     if (wavefront) {
         LaneStats lanes;
         for (const LaneStats& l : lane_stats) {

@@ -33,6 +33,10 @@ struct RenderOptions {
     int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
     bool specialise = true;                // wavefront: skip what the scene does not use
     bool progress = true;                  // progress line on stderr
+    // Stopping early (the image then holds fewer paths per pixel, the same in every pixel):
+    double time_budget = 0.0;    // seconds; 0 = none
+    double target_error = 0.0;   // mean relative standard error to reach; 0 = none
+    const std::atomic<bool>* cancel = nullptr;  // set (e.g. by SIGINT) to stop after a pass
 };
 
 struct RenderStats {
@@ -45,6 +49,7 @@ struct RenderStats {
     uint64_t nonfinite_samples = 0;
     double mean_relative_error = 0.0;
     int64_t spp_reached = 0;
+    std::string stopped_by;  // empty, or "time budget", "target error", "interrupted"
     // Wavefront only: lane utilisation (live lanes / lanes computed) and the pool
     double shade_lane_utilisation = 0.0, isect_lane_utilisation = 0.0;
     int pool_size = 0;
@@ -57,12 +62,16 @@ struct RenderResult {
     RenderStats stats;
 };
 
-// A rectangle of pixels [x0, x1) × [y0, y1).
+// A rectangle of pixels [x0, x1) × [y0, y1), and the samples [s0, s1) of each of its pixels
+// that one pass renders.
 struct Tile {
     int x0, y0, x1, y1;
+    int64_t s0 = 0, s1 = 0;
 };
 
-// Renders the scene with its settings (resolution, spp, seed) and the options.
+// Renders the scene with its settings (resolution, spp, seed) and the options, in passes of
+// a few paths per pixel over the whole image, so it can stop between passes with the same
+// number of paths in every pixel. Samples are keyed by index: passes change nothing else.
 RenderResult render(const Scene& scene, const RenderOptions& options);
 
 }  // namespace cierzo

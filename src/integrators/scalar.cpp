@@ -85,7 +85,7 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, Film& film, RayCou
         for (int x = tile.x0; x < tile.x1; ++x) {
             PixelSums& px = film.at(x, y);
             const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
-            for (int64_t s = 0; s < rs.spp; ++s) {
+            for (int64_t s = tile.s0; s < tile.s1; ++s) {
                 // A uniformly random point inside the pixel
                 const uint32_t key = path_key(rs.seed, pixel, uint32_t(s));
                 const float sx = float(x) + uniform<float>(key, 0u, Purpose::kPixelX);

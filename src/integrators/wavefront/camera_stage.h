@@ -8,7 +8,7 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
-// Tile progress: paths handed out so far of tile_pixels × spp.
+// Tile progress: paths handed out so far of tile_pixels × samples.
 struct TileCursor {
     TileJob job;
     int64_t next = 0;

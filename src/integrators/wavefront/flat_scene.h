@@ -104,7 +104,7 @@ struct FlatScene {
 // One tile of work and where its finished paths go.
 struct TileJob {
     int32_t x0, y0, x1, y1;
-    int64_t spp;
+    int64_t sample_begin, sample_end;  // the samples of each pixel this job renders
     void* film;
     // Adds `count` finished paths (pixel index, radiance) to the film, in order.
     void (*finish)(void* film, int32_t count, const uint32_t* pixel, const float* r,

@@ -246,8 +246,7 @@ size_t WavefrontRenderer::pool_bytes() const {
 void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& rays,
                                     LaneStats& lanes) const {
     PathPool& pool = data_->pools.local().pool;
-    const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, data_->scene.settings.spp, &film,
-                      finish_paths};
+    const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, tile.s0, tile.s1, &film, finish_paths};
     WavefrontCounters c;
     data_->entry(data_->flat, pool, job, c);
     rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;

@@ -20,7 +20,8 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
     cursor.job = job;
     cursor.tile_width = job.x1 - job.x0;
     cursor.tile_pixels = cursor.tile_width * (job.y1 - job.y0);
-    cursor.total = int64_t(cursor.tile_pixels) * job.spp;
+    cursor.total = int64_t(cursor.tile_pixels) * (job.sample_end - job.sample_begin);
+    cursor.sample = uint32_t(job.sample_begin);
     for (;;) {
         generate_camera_paths(w, cursor);
         if (w.live == 0) break;
