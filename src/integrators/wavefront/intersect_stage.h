@@ -42,6 +42,25 @@ void closest_analytic(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
     }
 }
 
+// The robust slab test of K rays against a node's box over [0, t]: the same as the scalar
+// traversal (a NaN distance leaves the interval as it was; far distances scaled by
+// kBvhFarScale). Returns the lanes whose interval meets the box.
+template <class A>
+typename Wave<A>::M slab_hits(const FlatBvhNode& node, const typename Wave<A>::F org[3],
+                              const typename Wave<A>::F inv[3], const typename Wave<A>::F& t) {
+    using F = typename Wave<A>::F;
+    F t0(0.0f), t1 = t;
+    for (int k = 0; k < 3; ++k) {
+        const F a = (F(node.bounds[k]) - org[k]) * inv[k];
+        const F b = (F(node.bounds[k + 3]) - org[k]) * inv[k];
+        const auto forward = inv[k] >= F(0.0f);
+        const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
+        t0 = select(near > t0, near, t0);
+        t1 = select(far < t1, far, t1);
+    }
+    return t0 <= t1;
+}
+
 // K rays through one mesh's BVH together: a node is entered when any live lane's slab
 // interval [0, t] meets its box (the same robust slab test as the scalar traversal), the
 // children in the order most lanes prefer; leaves test their triangles on all K lanes with
@@ -62,17 +81,7 @@ void traverse_packet(const FlatMesh& mesh, const Ray<typename Wave<A>::F>& ray,
     uint32_t index = 0;
     for (;;) {
         const FlatBvhNode& node = mesh.nodes[index];
-        // Slab test per lane; a NaN distance leaves the interval as it was
-        F t0(0.0f), t1 = t;
-        for (int k = 0; k < 3; ++k) {
-            const F a = (F(node.bounds[k]) - org[k]) * inv[k];
-            const F b = (F(node.bounds[k + 3]) - org[k]) * inv[k];
-            const auto forward = inv[k] >= F(0.0f);
-            const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
-            t0 = select(near > t0, near, t0);
-            t1 = select(far < t1, far, t1);
-        }
-        const auto enter = live & (t0 <= t1);
+        const auto enter = live & slab_hits<A>(node, org, inv, t);
         if (any(enter)) {
             if (node.count == 0) {
                 // Inner node: the near child first, as most entering lanes see it
@@ -129,18 +138,10 @@ void intersect_meshes(Wave<A>& w) {
         const FlatBvhNode& root = mesh.nodes[0];
         for (int32_t i = 0; i < w.live; i += K) {
             const Vec3<F> o = load3<F>(p.ox, p.oy, p.oz, i), d = load3<F>(p.dx, p.dy, p.dz, i);
-            const F org[3] = {o.x, o.y, o.z}, dir[3] = {d.x, d.y, d.z};
-            F t0(0.0f), t1 = F::load_aligned(p.t + i);
-            for (int k = 0; k < 3; ++k) {
-                const F inv = F(1.0f) / dir[k];
-                const F a = (F(root.bounds[k]) - org[k]) * inv;
-                const F b = (F(root.bounds[k + 3]) - org[k]) * inv;
-                const auto forward = inv >= F(0.0f);
-                const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
-                t0 = select(near > t0, near, t0);
-                t1 = select(far < t1, far, t1);
-            }
-            append_lanes(mask_bits(w.live_mask(i) & (t0 <= t1)), i, list, size);
+            const F org[3] = {o.x, o.y, o.z};
+            const F inv[3] = {F(1.0f) / d.x, F(1.0f) / d.y, F(1.0f) / d.z};
+            const auto enter = slab_hits<A>(root, org, inv, F::load_aligned(p.t + i));
+            append_lanes(mask_bits(w.live_mask(i) & enter), i, list, size);
         }
         // Full packets of those rays through the tree
         for (int32_t i = 0; i < size; i += K) {
