@@ -11,6 +11,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "apps/app_common.h"
+#include "apps/converge_command.h"
 #include "core/error.h"
 #include "integrators/render.h"
 #include "io/atomic_file.h"
@@ -21,10 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace cierzo;
-
-// The limit on paths in one render (pixels × paths per pixel): well beyond any useful
-// experiment on a CPU, and refused before anything is allocated.
-constexpr double kMaxPaths = 1e12;
 
 // Set by SIGINT or SIGTERM: the render stops after its current pass and writes what it has.
 // A second signal ends the program at once (the handler restores the default).
@@ -52,17 +50,6 @@ struct RenderArgs {
     double time_budget = 0.0;
     double target_error = 0.0;
 };
-
-// Fails early, before a long render, if an output could never be written.
-void check_writable_folder(const fs::path& path, const char* what) {
-    const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec))
-        throw InputError(path.string() + ": cannot write " + what + ": folder '" + dir.string() +
-                         "' does not exist");
-    if (fs::is_directory(path, ec))
-        throw InputError(path.string() + ": cannot write " + what + ": it is a folder");
-}
 
 void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st) {
     nlohmann::json j = {
@@ -102,13 +89,7 @@ int run_render(const RenderArgs& a) {
     if (a.survival_cap) s.estimator.survival_cap = *a.survival_cap;
     if (a.diffuse_sampling) s.estimator.cosine_diffuse = *a.diffuse_sampling == "cosine";
     if (!a.out.empty()) s.output = a.out;
-    if (double(s.width) * double(s.height) > double(int64_t(1) << 28))
-        throw InputError(fmt::format("--width/--height: {}x{} exceeds the limit of 2^28 pixels",
-                                     s.width, s.height));
-    if (double(s.width) * double(s.height) * double(s.spp) > kMaxPaths)
-        throw InputError(fmt::format("{}: {}x{} pixels x {} paths per pixel exceeds the limit "
-                                     "of 1e12 paths in one render",
-                                     a.scene.string(), s.width, s.height, s.spp));
+    check_render_size(scene, a.scene);
     const std::string ext = s.output.extension().string();
     if (ext != ".exr" && ext != ".pfm")
         throw InputError(s.output.string() + ": output must end in .exr or .pfm");
@@ -138,15 +119,7 @@ int run_render(const RenderArgs& a) {
                           {"cierzo:stopped_by", st.stopped_by.empty() ? "done" : st.stopped_by},
                           {"cierzo:seed", std::to_string(s.seed)}};
     ImageLayers layers;
-    if (a.variance && ext == ".exr") {
-        const Image var = result.film.variance_of_mean();
-        const char* names[3] = {"variance.R", "variance.G", "variance.B"};
-        for (int c = 0; c < 3; ++c) {
-            std::vector<float> layer(size_t(var.width) * size_t(var.height));
-            for (size_t i = 0; i < layer.size(); ++i) layer[i] = var.rgb[i * 3 + size_t(c)];
-            layers[names[c]] = std::move(layer);
-        }
-    }
+    if (a.variance && ext == ".exr") layers = variance_layers(result.film.variance_of_mean());
     write_hdr(s.output, result.film.mean(), meta, layers);
     if (!a.stats.empty()) write_stats(a.stats, scene, st);
 
@@ -225,9 +198,11 @@ int main(int argc, char** argv) {
         "Ctrl-C (SIGINT) or SIGTERM stops the render after its current pass, writes the image "
         "accumulated so far\n(with the paths per pixel reached in its metadata) and exits with "
         "status 130; a second one ends it at once.");
+    CLI::App* converge = add_converge_command(app);
     CLI11_PARSE(app, argc, argv);
     try {
         if (r->parsed()) return run_render(a);
+        if (converge->parsed()) return run_converge_command();
     } catch (const InputError& e) {
         std::fprintf(stderr, "cierzo: %s\n", e.what());
         return 1;

@@ -111,11 +111,12 @@ protected:
         return p;
     }
 
-    // `cierzo render ARGS` with a time limit, so a refused render can never hang the suite.
-    Outcome run(const std::string& args) {
+    // `cierzo render ARGS` (or another subcommand) with a time limit, so a refused render
+    // can never hang the suite.
+    Outcome run(const std::string& args, const char* subcommand = "render") {
         const fs::path err = dir_ / "stderr.txt";
-        const std::string cmd = "timeout 120 " + quote(CIERZO_BINARY_DIR "/cierzo") +
-                                " render " + args + " >/dev/null 2>" + quote(err);
+        const std::string cmd = "timeout 120 " + quote(CIERZO_BINARY_DIR "/cierzo") + " " +
+                                subcommand + " " + args + " >/dev/null 2>" + quote(err);
         const auto start = std::chrono::steady_clock::now();
         const int status = std::system(cmd.c_str());
         Outcome r;
@@ -301,6 +302,79 @@ TEST_F(cli, FailedRenderLeavesAnExistingOutputAlone) {
     EXPECT_EQ(r.exit_code, 1) << r.err;
     EXPECT_EQ(read_file(out), before);
     EXPECT_EQ(other_files({"out.exr", "bad.json", "tiny.json"}), std::vector<std::string>{});
+}
+
+// `cierzo converge`: one CSV row per integrator and paths per pixel, errors that fall with
+// more paths, a saved reference that reads back, and a reference of the wrong size refused.
+std::vector<std::vector<std::string>> read_csv(const fs::path& p) {
+    std::vector<std::vector<std::string>> rows;
+    std::ifstream in(p);
+    for (std::string line; std::getline(in, line);) {
+        std::vector<std::string> cells;
+        size_t start = 0;
+        for (size_t comma; (comma = line.find(',', start)) != std::string::npos; start = comma + 1)
+            cells.push_back(line.substr(start, comma - start));
+        cells.push_back(line.substr(start));
+        rows.push_back(cells);
+    }
+    return rows;
+}
+
+TEST_F(cli, ConvergeWritesOneRowPerPoint) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path csv = dir_ / "c.csv", ref = dir_ / "ref.exr";
+    const Outcome r = run(quote(scene) + kQuiet + " --spp 1,16 --integrator scalar,wavefront " +
+                              "--reference-spp 1024 --save-reference " + quote(ref) +
+                              " --out " + quote(csv),
+                          "converge");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto rows = read_csv(csv);
+    ASSERT_EQ(rows.size(), 5u);
+    const auto& h = rows[0];
+    auto col = [&](const char* name) {
+        return size_t(std::find(h.begin(), h.end(), name) - h.begin());
+    };
+    ASSERT_LT(col("rmse_corrected"), h.size());
+    ASSERT_LT(col("reference_mse"), h.size());
+    const std::string integrators[] = {"scalar", "scalar", "wavefront", "wavefront"};
+    for (size_t i = 1; i < rows.size(); ++i) {
+        ASSERT_EQ(rows[i].size(), h.size());
+        EXPECT_EQ(rows[i][col("integrator")], integrators[i - 1]);
+        EXPECT_GT(std::stod(rows[i][col("reference_mse")]), 0.0);  // a noisy reference
+    }
+    EXPECT_EQ(rows[1][col("spp")], "1");
+    EXPECT_EQ(rows[2][col("spp")], "16");
+    EXPECT_LT(std::stod(rows[2][col("rmse_corrected")]), std::stod(rows[1][col("rmse_corrected")]));
+    EXPECT_LT(std::stod(rows[4][col("rmse_corrected")]), std::stod(rows[3][col("rmse_corrected")]));
+
+    // The saved reference, variance layers and all, gives the same errors when read back
+    const fs::path csv2 = dir_ / "c2.csv";
+    const Outcome again = run(quote(scene) + kQuiet + " --spp 1,16 --integrator scalar " +
+                                  "--reference " + quote(ref) + " --out " + quote(csv2),
+                              "converge");
+    ASSERT_EQ(again.exit_code, 0) << again.err;
+    const auto rows2 = read_csv(csv2);
+    ASSERT_EQ(rows2.size(), 3u);
+    for (const char* c : {"mse", "reference_mse", "rel_mse_corrected"})
+        EXPECT_EQ(rows2[1][col(c)], rows[1][col(c)]) << c;
+}
+
+TEST_F(cli, ConvergeRefusesBadReferencesAndKnobs) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path small = dir_ / "small.pfm";
+    ASSERT_EQ(run(quote(scene) + kQuiet + " --width 4 --height 4 --out " + quote(small)).exit_code, 0);
+    Outcome r = run(quote(scene) + kQuiet + " --reference " + quote(small), "converge");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find(small.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("4x4"), std::string::npos) << r.err;
+    r = run(quote(scene) + kQuiet + " --pool 24", "converge");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("--pool"), std::string::npos) << r.err;
+    r = run(quote(scene) + kQuiet + " --survival-cap 0.5,1.5", "converge");
+    EXPECT_NE(r.exit_code, 0) << r.err;
+    r = run(quote(scene) + kQuiet + " --out " + quote(dir_ / "missing" / "c.csv"), "converge");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("missing"), std::string::npos) << r.err;
 }
 
 }  // namespace

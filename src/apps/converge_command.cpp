@@ -1,0 +1,280 @@
+// `cierzo converge SCENE`: renders (or reads) a reference image, then renders the scene at
+// increasing paths per pixel for every combination of the knobs given, and records for each
+// render its wall time and its error against the reference (RMSE and relative MSE, with the
+// reference's own noise removed) in a CSV file that papers/scripts/plot_converge.py plots.
+#include "apps/converge_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "apps/app_common.h"
+#include "core/error.h"
+#include "integrators/convergence.h"
+#include "io/atomic_file.h"
+#include "io/image.h"
+#include "scene/scene_json.h"
+
+namespace cierzo {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct ConvergeArgs {
+    fs::path scene;
+    fs::path reference;
+    fs::path save_reference;
+    int64_t reference_spp = 4096;
+    std::string reference_integrator = "wavefront";
+    std::vector<int64_t> spp = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
+    std::vector<std::string> integrators = {"scalar", "wavefront"};
+    std::vector<std::string> isas = {"auto"};
+    std::vector<int> pools = {0};
+    std::vector<float> survival_caps;
+    std::vector<std::string> diffuse_sampling;
+    std::optional<int> width, height;
+    int threads = 0;
+    int repeats = 1;
+    fs::path out;
+    bool quiet = false;
+} g_args;
+
+// Every combination of the knobs; those that do not apply to the scalar reference (ISA,
+// pool) are not repeated for it.
+std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
+    const std::vector<float> caps = a.survival_caps.empty() ? std::vector<float>{-1.0f}
+                                                            : a.survival_caps;
+    std::vector<int> diffuse;
+    for (const std::string& d : a.diffuse_sampling) diffuse.push_back(d == "cosine");
+    if (diffuse.empty()) diffuse.push_back(-1);
+    std::vector<ConvergeConfig> out;
+    for (const std::string& integrator : a.integrators) {
+        const bool scalar = integrator == "scalar";
+        const std::vector<std::string> isas = scalar ? std::vector<std::string>{"-"} : a.isas;
+        const std::vector<int> pools = scalar ? std::vector<int>{0} : a.pools;
+        for (const std::string& isa : isas)
+            for (int pool : pools)
+                for (float cap : caps)
+                    for (int d : diffuse)
+                        out.push_back({integrator, scalar ? "auto" : isa, pool, cap, d});
+    }
+    return out;
+}
+
+std::string csv_header() {
+    return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,threads,width,height,spp,"
+           "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
+           "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
+           "estimated_relative_error,efficiency";
+}
+
+std::string csv_row(const Scene& scene, const ConvergePoint& p) {
+    const Scene s = with_config(scene, p.config);
+    const ImageError& e = p.error;
+    // Efficiency: 1 / (error × time), the figure of merit of Monte Carlo estimators
+    const double efficiency = e.rel_mse_corrected() > 0 && p.seconds > 0
+                                  ? 1.0 / (e.rel_mse_corrected() * p.seconds)
+                                  : 0.0;
+    return fmt::format(
+        "{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
+        scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
+        s.settings.estimator.survival_cap,
+        s.settings.estimator.cosine_diffuse ? "cosine" : "uniform", p.stats.threads,
+        scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
+        p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
+        e.reference_mse, e.reference_rel_mse, e.mse_corrected(), std::sqrt(e.mse_corrected()),
+        e.rel_mse_corrected(), p.estimated_relative_error, efficiency);
+}
+
+}  // namespace
+
+CLI::App* add_converge_command(CLI::App& app) {
+    ConvergeArgs& a = g_args;
+    CLI::App* c = app.add_subcommand(
+        "converge",
+        "Measure error against time: render a scene at increasing paths per pixel for each "
+        "combination of the knobs given, against a reference");
+    c->add_option("scene", a.scene, "Scene file (JSON; see docs/scene-format.md)")
+        ->required()
+        ->check(CLI::ExistingFile);
+    c->add_option("--reference", a.reference,
+                  "Reference image (.exr or .pfm) of the scene at the same resolution, e.g. an "
+                  "analytic answer or an earlier --save-reference; if it is an EXR with "
+                  "variance.R/G/B layers (render --variance), its noise is removed from the "
+                  "errors. Default: render one")
+        ->check(CLI::ExistingFile);
+    c->add_option("--reference-spp", a.reference_spp,
+                  "Paths per pixel of the rendered reference (its seed is the scene's; the sweep "
+                  "uses others)")
+        ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)))
+        ->capture_default_str();
+    c->add_option("--reference-integrator", a.reference_integrator,
+                  "Integrator of the rendered reference")
+        ->check(CLI::IsMember({"wavefront", "scalar"}))
+        ->capture_default_str();
+    c->add_option("--save-reference", a.save_reference,
+                  "Write the rendered reference here (.exr, with its variance layers) for reuse");
+    c->add_option("--spp", a.spp, "Paths per pixel to sweep, comma-separated")
+        ->delimiter(',')
+        ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)))
+        ->capture_default_str();
+    c->add_option("--integrator", a.integrators, "Integrators to sweep, comma-separated")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"wavefront", "scalar"}))
+        ->capture_default_str();
+    c->add_option("--isa", a.isas, "Wavefront instruction sets to sweep: auto, avx512, avx2, sse4.2")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2"}))
+        ->capture_default_str();
+    c->add_option("--pool", a.pools,
+                  "Wavefront pool sizes to sweep (multiples of 16; 0 = the default 512)")
+        ->delimiter(',')
+        ->check(CLI::Range(0, 1 << 22))
+        ->capture_default_str();
+    c->add_option("--survival-cap", a.survival_caps,
+                  "Roulette survival caps to sweep, each in (0, 1); default: the scene's")
+        ->delimiter(',')
+        ->check(CLI::Range(1e-6f, 0.999999f));
+    c->add_option("--diffuse-sampling", a.diffuse_sampling,
+                  "Diffuse sampling to sweep: uniform, cosine; default: the scene's")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"uniform", "cosine"}));
+    c->add_option("--width", a.width, "Image width (overrides render.width)")
+        ->check(CLI::Range(1, 1 << 16));
+    c->add_option("--height", a.height, "Image height (overrides render.height)")
+        ->check(CLI::Range(1, 1 << 16));
+    c->add_option("--threads", a.threads, "Worker threads; 0 = all hardware threads")
+        ->check(CLI::Range(0, 4096))
+        ->capture_default_str();
+    c->add_option("--repeats", a.repeats,
+                  "Renders per point with different seeds: the time is their median, the "
+                  "error their mean")
+        ->check(CLI::Range(1, 1000))
+        ->capture_default_str();
+    c->add_option("--out", a.out, "Write the measurements as CSV (one row per render point)");
+    c->add_flag("--quiet", a.quiet, "Print only the summary");
+    c->footer(
+        "Errors are averaged over pixels and channels: RMSE, and relative MSE (x-r)^2/(r^2+0.01).\n"
+        "A rendered reference's own variance is subtracted (the *_corrected columns), so the\n"
+        "error is that against the true image; efficiency = 1 / (rel_mse_corrected x seconds).");
+    return c;
+}
+
+int run_converge_command() {
+    const ConvergeArgs& a = g_args;
+    Scene scene = load_scene(a.scene);
+    if (a.width || a.height)
+        scene.set_resolution(a.width.value_or(scene.settings.width),
+                             a.height.value_or(scene.settings.height));
+    for (int64_t spp : a.spp) {
+        scene.settings.spp = spp;
+        check_render_size(scene, a.scene);
+    }
+    for (int pool : a.pools)
+        if (pool % 16 != 0)
+            throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
+    if (!a.out.empty()) check_writable_folder(a.out, "the measurements");
+    if (!a.save_reference.empty()) {
+        if (a.save_reference.extension() != ".exr")
+            throw InputError(a.save_reference.string() + ": --save-reference must end in .exr");
+        check_writable_folder(a.save_reference, "the reference");
+    }
+
+    // The reference: read, or rendered with the scene's own seed
+    Image reference, variance;
+    bool have_variance = false;
+    if (!a.reference.empty()) {
+        ImageLayers layers;
+        if (a.reference.extension() == ".exr") {
+            reference = read_exr(a.reference, nullptr, &layers);
+            if (layers.count("variance.R")) {
+                variance = variance_from_layers(layers, reference.width, reference.height,
+                                                a.reference);
+                have_variance = true;
+            }
+        } else {
+            reference = read_hdr(a.reference);
+        }
+        if (reference.width != scene.settings.width || reference.height != scene.settings.height)
+            throw InputError(fmt::format("{}: the reference is {}x{} but the scene renders {}x{}",
+                                         a.reference.string(), reference.width, reference.height,
+                                         scene.settings.width, scene.settings.height));
+    } else {
+        Scene s = scene;
+        s.settings.spp = a.reference_spp;
+        check_render_size(s, a.scene);
+        RenderOptions options;
+        options.threads = a.threads;
+        options.integrator = a.reference_integrator;
+        options.progress = !a.quiet;
+        const RenderResult r = render(s, options);
+        reference = r.film.mean();
+        variance = r.film.variance_of_mean();
+        have_variance = true;
+        std::fprintf(stderr, "reference: %lld paths per pixel, %s, %.2f s\n",
+                     static_cast<long long>(a.reference_spp), r.stats.isa.c_str(),
+                     r.stats.seconds);
+        if (!a.save_reference.empty())
+            write_hdr(a.save_reference, reference,
+                      {{"cierzo:scene", scene.source.string()},
+                       {"cierzo:spp", std::to_string(a.reference_spp)},
+                       {"cierzo:seed", std::to_string(scene.settings.seed)}},
+                      variance_layers(variance));
+    }
+
+    ConvergeSweep sweep;
+    sweep.configs = configs_of(a);
+    sweep.spp = a.spp;
+    sweep.repeats = a.repeats;
+    sweep.threads = a.threads;
+    std::vector<std::string> rows;
+    if (!a.quiet)
+        std::printf("%-9s %-7s %5s %5s %-7s %7s %10s %12s %12s %12s\n", "integr.", "isa", "pool",
+                    "cap", "diffuse", "spp", "seconds", "Mrays/s", "RMSE", "relMSE");
+    const std::vector<ConvergePoint> points = run_converge(
+        scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
+            rows.push_back(csv_row(scene, p));
+            if (a.quiet) return;
+            const Scene s = with_config(scene, p.config);
+            std::printf("%-9s %-7s %5d %5.2f %-7s %7lld %10.4f %12.2f %12.4g %12.4g\n",
+                        p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
+                        s.settings.estimator.survival_cap,
+                        s.settings.estimator.cosine_diffuse ? "cosine" : "uniform",
+                        static_cast<long long>(p.spp), p.seconds,
+                        p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
+                        std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
+            std::fflush(stdout);
+        });
+
+    // Per config: the slope of the error against paths per pixel (-1 for MSE when unbiased)
+    // and the time per path per pixel, from the largest point
+    const size_t n = a.spp.size();
+    for (size_t first = 0; first + n <= points.size(); first += n) {
+        std::vector<double> x, y;
+        for (size_t i = first; i < first + n; ++i) {
+            x.push_back(double(points[i].spp));
+            y.push_back(points[i].error.mse_corrected());
+        }
+        const ConvergePoint* last = &points[first + n - 1];
+        const Scene s = with_config(scene, last->config);
+        std::fprintf(stderr,
+                     "%s %s pool %d cap %.2f %s: MSE ~ spp^%.2f, %.3g s per path per pixel\n",
+                     last->config.integrator.c_str(), last->stats.isa.c_str(),
+                     last->stats.pool_size, s.settings.estimator.survival_cap,
+                     s.settings.estimator.cosine_diffuse ? "cosine" : "uniform",
+                     log_log_slope(x, y), last->seconds / double(last->spp));
+    }
+    if (!a.out.empty())
+        write_stream_atomically(a.out, [&](std::ostream& out) {
+            out << csv_header() << "\n";
+            for (const std::string& r : rows) out << r << "\n";
+        });
+    return 0;
+}
+
+}  // namespace cierzo

@@ -1,0 +1,110 @@
+// Error metrics and convergence sweeps (see convergence.h).
+#include "integrators/convergence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+
+namespace cierzo {
+
+ImageError image_error(const Image& image, const Image& reference,
+                       const Image* reference_variance) {
+    if (image.width != reference.width || image.height != reference.height)
+        throw InputError(fmt::format("the reference is {}x{} but the image is {}x{}",
+                                     reference.width, reference.height, image.width,
+                                     image.height));
+    if (reference_variance && (reference_variance->width != reference.width ||
+                               reference_variance->height != reference.height))
+        throw InputError("the reference's variance does not match its size");
+    ImageError e;
+    const size_t n = image.rgb.size();
+    if (n == 0) return e;
+    for (size_t i = 0; i < n; ++i) {
+        const double r = reference.rgb[i];
+        const double d = double(image.rgb[i]) - r;
+        const double scale = 1.0 / (r * r + kRelMseEpsilon);
+        e.mse += d * d;
+        e.rel_mse += d * d * scale;
+        if (reference_variance) {
+            const double v = reference_variance->rgb[i];
+            e.reference_mse += v;
+            e.reference_rel_mse += v * scale;
+        }
+    }
+    const double inv = 1.0 / double(n);
+    e.mse *= inv, e.rel_mse *= inv, e.reference_mse *= inv, e.reference_rel_mse *= inv;
+    return e;
+}
+
+Scene with_config(const Scene& scene, const ConvergeConfig& config) {
+    Scene s = scene;
+    if (config.survival_cap >= 0.0f) s.settings.estimator.survival_cap = config.survival_cap;
+    if (config.cosine_diffuse >= 0) s.settings.estimator.cosine_diffuse = config.cosine_diffuse;
+    return s;
+}
+
+std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& reference,
+                                        const Image* reference_variance,
+                                        const ConvergeSweep& sweep,
+                                        const std::function<void(const ConvergePoint&)>& on_point) {
+    std::vector<ConvergePoint> points;
+    for (const ConvergeConfig& config : sweep.configs) {
+        Scene s = with_config(scene, config);
+        RenderOptions options;
+        options.threads = sweep.threads;
+        options.integrator = config.integrator;
+        options.isa = config.isa;
+        options.pool_size = config.pool_size;
+        options.progress = false;
+        for (int64_t spp : sweep.spp) {
+            ConvergePoint point;
+            point.config = config;
+            point.spp = spp;
+            point.repeats = std::max(1, sweep.repeats);
+            std::vector<double> seconds;
+            for (int k = 0; k < point.repeats; ++k) {
+                // Seeds other than the scene's own, which a rendered reference uses
+                s.settings.spp = spp;
+                s.settings.seed = scene.settings.seed + 1 + uint32_t(k);
+                const RenderResult r = render(s, options);
+                const ImageError e = image_error(r.film.mean(), reference, reference_variance);
+                point.error.mse += e.mse / point.repeats;
+                point.error.rel_mse += e.rel_mse / point.repeats;
+                point.error.reference_mse = e.reference_mse;
+                point.error.reference_rel_mse = e.reference_rel_mse;
+                point.estimated_relative_error += r.stats.mean_relative_error / point.repeats;
+                seconds.push_back(r.stats.seconds);
+                if (k == 0) {
+                    point.stats = r.stats;
+                    point.rays = r.stats.rays.total();
+                }
+            }
+            std::sort(seconds.begin(), seconds.end());
+            const size_t m = seconds.size();
+            point.seconds = m % 2 ? seconds[m / 2] : 0.5 * (seconds[m / 2 - 1] + seconds[m / 2]);
+            if (on_point) on_point(point);
+            points.push_back(point);
+        }
+    }
+    return points;
+}
+
+double log_log_slope(const std::vector<double>& x, const std::vector<double>& y) {
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int n = 0;
+    for (size_t i = 0; i < std::min(x.size(), y.size()); ++i) {
+        if (!(x[i] > 0) || !(y[i] > 0)) continue;
+        const double lx = std::log(x[i]), ly = std::log(y[i]);
+        sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly;
+        ++n;
+    }
+    const double det = n * sxx - sx * sx;
+    if (n < 2 || det == 0) return std::numeric_limits<double>::quiet_NaN();
+    return (n * sxy - sx * sy) / det;
+}
+
+}  // namespace cierzo
