@@ -6,9 +6,12 @@
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <oneapi/tbb/enumerable_thread_specific.h>
+#include <oneapi/tbb/global_control.h>
+#include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 #include <unistd.h>
@@ -112,6 +115,11 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     {
         Progress progress(options.progress && isatty(STDERR_FILENO),
                           tiles.size() * size_t(passes));
+        // More threads than the hardware has (to measure oversubscription) needs the
+        // scheduler's limit raised; otherwise it would quietly run fewer
+        std::optional<oneapi::tbb::global_control> limit;
+        if (threads > oneapi::tbb::info::default_concurrency())
+            limit.emplace(oneapi::tbb::global_control::max_allowed_parallelism, size_t(threads));
         oneapi::tbb::task_arena arena(threads);
         for (int64_t pass = 0; pass < passes; ++pass) {
             for (Tile& t : tiles) {
