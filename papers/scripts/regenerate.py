@@ -1,0 +1,328 @@
+#!/usr/bin/python3
+"""Regenerates every image, table and plot of papers/ from the current build.
+
+    /usr/bin/python3 papers/scripts/regenerate.py [--quick] [--only PART ...]
+
+Parts, in order: figures (every scene by both integrators, tone-mapped to PNG), series (the
+report's resolution and paths-per-pixel table), threads (the thread table, oversubscribed
+2x and 4x), converge (error against time per integrator, knob, material and light), report
+(the tables and figures of REPORT.md, between its BEGIN/END markers). --quick divides every
+path count by about 16, for checking the script; the committed results are never --quick.
+
+Measurements land in papers/data/ (CSV, JSON), images in papers/images/, plots in
+papers/plots/; HDR renders go to papers/out/ (not kept in git).
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+PAPERS = os.path.join(ROOT, "papers")
+DATA, IMAGES, PLOTS, OUT = (os.path.join(PAPERS, d) for d in ("data", "images", "plots", "out"))
+CIERZO = os.path.join(ROOT, "build", "cierzo")
+TONEMAP = os.path.join(ROOT, "build", "cierzo-tonemap")
+INTEGRATORS = ("scalar", "wavefront")
+
+# The report's figures: scene, what it shows, tone-mapping operator
+FIGURES = [
+    ("cornell", "The default box: diffuse walls, an emitting ceiling, two spheres", "clamp-gamma"),
+    ("emitting_spheres", "Two emitting spheres", "clamp-gamma"),
+    ("mirror_spheres", "Perfect specular spheres", "clamp-gamma"),
+    ("glass_spheres", "Refracting spheres", "clamp-gamma"),
+    ("diffuse_spheres", "Diffuse spheres", "clamp-gamma"),
+    ("phong_spheres", "Phong specular spheres of increasing s", "clamp-gamma"),
+    ("four_lobes", "One sphere with all four lobes", "clamp-gamma"),
+    ("point_lights", "Three point lights, no emitters", "clamp-gamma"),
+    ("quadrics", "Quadrics: ellipsoid, cylinder, cone", "clamp-gamma"),
+    ("bunny", "The Stanford bunny (PLY)", "clamp-gamma"),
+    ("vertex_colors", "A PLY mesh with vertex colours", "clamp-gamma"),
+    ("textures", "The sin, sin² and sin·cos textures", "clamp-gamma"),
+    ("hard_shadow", "Hard shadow from a point light", "clamp-gamma"),
+    ("small_emitter", "A small emitting sphere in place of the point light", "clamp-gamma"),
+    ("soft_shadow", "Soft shadow under the emitting ceiling", "clamp-gamma"),
+    ("bleeding", "Colour bleeding, a sphere light set into the ceiling", "clamp-gamma"),
+    ("caustic", "A refracting sphere's caustic", "clamp-gamma"),
+]
+FIGURE_SPP = 256  # the wavefront images; the scalar reference renders the scene's own 64
+
+
+def run(cmd, **kw):
+    print("+", " ".join(cmd), file=sys.stderr, flush=True)
+    return subprocess.run(cmd, check=True, **kw)
+
+
+def render(scene, integrator, out, stats, extra=()):
+    run([CIERZO, "render", os.path.join(ROOT, "scenes", scene + ".json"), "--integrator",
+         integrator, "--out", out, "--stats", stats, "--quiet", *map(str, extra)])
+    with open(stats) as f:
+        return json.load(f)
+
+
+def figures(args):
+    """Every figure scene: the wavefront image (FIGURE_SPP paths) and the scalar reference
+    (the scene's 64), with a different seed, and whether their image means agree."""
+    rows = []
+    spp = max(4, FIGURE_SPP // args.divisor)
+    for scene, caption, op in FIGURES:
+        if scene == "bunny" and not os.path.exists(os.path.join(ROOT, "scenes/data/bunny.ply")):
+            run([os.path.join(ROOT, "scripts/fetch_bunny.sh"), os.path.join(ROOT, "scenes/data")])
+        exr = os.path.join(OUT, scene + ".exr")
+        w = render(scene, "wavefront", exr, os.path.join(OUT, scene + ".wavefront.json"),
+                   ["--spp", spp, "--variance"])
+        run([TONEMAP, exr, os.path.join(IMAGES, scene + ".png"), "--op", op])
+        s = render(scene, "scalar", os.path.join(OUT, scene + ".scalar.exr"),
+                   os.path.join(OUT, scene + ".scalar.json"),
+                   ["--spp", max(4, 64 // args.divisor), "--seed", 2])
+        rows.append({"scene": scene, "caption": caption, "wavefront": w, "scalar": s})
+    with open(os.path.join(DATA, "figures.json"), "w") as f:
+        json.dump(rows, f, indent=1)
+
+
+def series(args):
+    """The report's first table: time against resolution (250 paths per pixel) and against
+    paths per pixel (500x500), for both integrators, on the default scene."""
+    points = [(100, 250), (500, 250), (1000, 250), (500, 100), (500, 500), (500, 1000)]
+    rows = []
+    for size, spp in points:
+        spp_run = max(1, spp // args.divisor)
+        for integrator in INTEGRATORS:
+            name = f"cornell_{size}_{spp}_{integrator}"
+            st = render("cornell", integrator, os.path.join(OUT, name + ".exr"),
+                        os.path.join(OUT, name + ".json"),
+                        ["--width", size, "--height", size, "--spp", spp_run])
+            rows.append({"size": size, "spp": spp_run, "integrator": integrator,
+                         "seconds": st["seconds"], "rays": st["rays"]["total"],
+                         "threads": st["threads"], "isa": st["isa"],
+                         "relative_error": st["mean_relative_error"]})
+            if integrator == "wavefront" and size == 500:
+                run([TONEMAP, os.path.join(OUT, name + ".exr"),
+                     os.path.join(IMAGES, f"cornell_ppp{spp}.png"), "--op", "clamp-gamma"])
+            if integrator == "wavefront" and spp == 250:
+                run([TONEMAP, os.path.join(OUT, name + ".exr"),
+                     os.path.join(IMAGES, f"cornell_res{size}.png"), "--op", "clamp-gamma"])
+    write_csv(os.path.join(DATA, "series.csv"), rows)
+
+
+def threads(args):
+    """The thread table: 1 .. hardware threads, then oversubscribed 2x and 4x, at 500x500
+    and 500 paths per pixel."""
+    hw = os.cpu_count() or 1
+    counts = sorted(set(list(range(1, hw + 1)) + [2 * hw, 4 * hw]))
+    spp = max(1, 500 // args.divisor)
+    rows = []
+    for integrator in INTEGRATORS:
+        for t in counts:
+            name = f"cornell_threads{t}_{integrator}"
+            st = render("cornell", integrator, os.path.join(OUT, name + ".exr"),
+                        os.path.join(OUT, name + ".json"),
+                        ["--spp", spp, "--threads", t])
+            rows.append({"integrator": integrator, "threads": t, "hardware_threads": hw,
+                         "spp": spp, "seconds": st["seconds"], "rays": st["rays"]["total"],
+                         "isa": st["isa"]})
+    write_csv(os.path.join(DATA, "threads.csv"), rows)
+
+
+# Convergence sweeps: name, scene, extra converge arguments
+SWEEP_SPP = "1,2,4,8,16,32,64,128,256,512,1024"
+SWEEPS = [
+    ("integrators", "cornell", ["--integrator", "scalar,wavefront"]),
+    ("survival_cap", "cornell", ["--integrator", "wavefront", "--survival-cap",
+                                 "0.5,0.7,0.8,0.9,0.95"]),
+    ("pool", "cornell", ["--integrator", "wavefront", "--pool", "64,128,256,512,1024,4096"]),
+    ("isa", "cornell", ["--integrator", "wavefront", "--isa", "avx512,avx2,sse4.2"]),
+    ("diffuse_sampling", "cornell", ["--integrator", "wavefront", "--diffuse-sampling",
+                                     "uniform,cosine"]),
+]
+MATERIAL_SCENES = ["diffuse_spheres", "mirror_spheres", "glass_spheres", "phong_spheres",
+                   "four_lobes"]
+LIGHT_SCENES = ["point_lights", "hard_shadow", "small_emitter", "soft_shadow", "bleeding"]
+SWEEP_SIZE = 200
+REFERENCE_SPP = 8192
+SWEEP_REPEATS = 3  # the time is the median of 3 renders, the error their mean
+
+
+def converge(args):
+    """Error against time. Each sweep renders its scene at SWEEP_SIZE² against a reference
+    of REFERENCE_SPP paths per pixel (rendered once per scene and kept in papers/out/)."""
+    spp = ",".join(str(max(1, int(s) // args.divisor)) for s in SWEEP_SPP.split(","))
+    spp = ",".join(dict.fromkeys(spp.split(",")))  # --quick may repeat values
+    ref_spp = max(64, REFERENCE_SPP // args.divisor)
+    sweeps = list(SWEEPS)
+    sweeps += [("material_" + s, s, ["--integrator", "wavefront"]) for s in MATERIAL_SCENES]
+    sweeps += [("light_" + s, s, ["--integrator", "wavefront"]) for s in LIGHT_SCENES]
+    for name, scene, extra in sweeps:
+        if args.sweep and name not in args.sweep:
+            continue
+        ref = os.path.join(OUT, f"reference_{scene}_{SWEEP_SIZE}_{ref_spp}.exr")
+        reference = (["--reference", ref] if os.path.exists(ref)
+                     else ["--reference-spp", str(ref_spp), "--save-reference", ref])
+        run([CIERZO, "converge", os.path.join(ROOT, "scenes", scene + ".json"), "--width",
+             str(SWEEP_SIZE), "--height", str(SWEEP_SIZE), "--spp", spp, "--quiet",
+             "--repeats", str(SWEEP_REPEATS),
+             "--out", os.path.join(DATA, f"converge_{name}.csv"), *reference, *extra])
+    run(["/usr/bin/python3", os.path.join(PAPERS, "scripts", "plot_converge.py")])
+
+
+def write_csv(path, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+# ---- The tables of REPORT.md ------------------------------------------------------------
+
+def table(header, rows):
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def seconds(s):
+    return f"{s:.2f} s" if s < 100 else f"{s:.0f} s"
+
+
+def series_table():
+    rows = read_csv(os.path.join(DATA, "series.csv"))
+    by = {(int(r["size"]), int(r["spp"]), r["integrator"]): r for r in rows}
+    out = []
+    for (size, spp, integrator), r in by.items():
+        if integrator != "scalar":
+            continue
+        w = by[(size, spp, "wavefront")]
+        ts, tw = float(r["seconds"]), float(w["seconds"])
+        out.append([f"{size}×{size}", spp, seconds(ts), seconds(tw), f"{ts / tw:.1f}×",
+                    f"{float(w['rays']) / tw / 1e6:.0f} M", f"{float(w['relative_error']):.4f}"])
+    return table(["image", "paths per pixel", "scalar", f"wavefront ({w['isa']})",
+                  "speed-up", "wavefront rays/s", "relative error"], out)
+
+
+def threads_table():
+    rows = read_csv(os.path.join(DATA, "threads.csv"))
+    hw = int(rows[0]["hardware_threads"])
+    by = {(r["integrator"], int(r["threads"])): float(r["seconds"]) for r in rows}
+    counts = sorted({int(r["threads"]) for r in rows})
+    out = []
+    for t in counts:
+        label = f"{t}" + (f" ({t // hw}× oversubscribed)" if t > hw else "")
+        cells = [label]
+        for integrator in INTEGRATORS:
+            s = by[(integrator, t)]
+            cells += [seconds(s), f"{by[(integrator, 1)] / s:.2f}×"]
+        out.append(cells)
+    return table(["threads", "scalar", "speed-up", "wavefront", "speed-up"], out)
+
+
+def figures_table():
+    with open(os.path.join(DATA, "figures.json")) as f:
+        rows = json.load(f)
+    out = []
+    for r in rows:
+        w, s = r["wavefront"], r["scalar"]
+        out.append([r["scene"], f"{w['spp']}", seconds(w["seconds"]),
+                    f"{w['rays_per_second'] / w['threads'] / 1e6:.1f} M",
+                    f"{s['spp']}", seconds(s["seconds"]),
+                    f"{s['rays_per_second'] / s['threads'] / 1e6:.1f} M",
+                    f"{(w['rays_per_second'] / s['rays_per_second']):.1f}×"])
+    return table(["scene", "wavefront spp", "time", "rays/s/thread", "scalar spp", "time",
+                  "rays/s/thread", "rays/s ratio"], out)
+
+
+def figures_gallery():
+    lines = []
+    for scene, caption, _ in FIGURES:
+        lines.append(f"| ![{caption}](images/{scene}.png) | **{scene}**: {caption} |")
+    return "| image | scene |\n|---|---|\n" + "\n".join(lines)
+
+
+def converge_table():
+    """Per sweep and config: MSE slope against paths per pixel, seconds per path per pixel,
+    and the relative MSE and efficiency at the largest point."""
+    out = []
+    for name in sorted(f[len("converge_"):-4] for f in os.listdir(DATA)
+                       if f.startswith("converge_") and f.endswith(".csv")):
+        rows = read_csv(os.path.join(DATA, f"converge_{name}.csv"))
+        groups = {}
+        for r in rows:
+            key = (r["integrator"], r["isa"], r["pool"], r["survival_cap"], r["diffuse_sampling"])
+            groups.setdefault(key, []).append(r)
+        for key, g in groups.items():
+            xs = [float(r["spp"]) for r in g]
+            ys = [float(r["mse_corrected"]) for r in g]
+            last = g[-1]
+            out.append([name, f"{key[0]} {key[1]}", key[2], key[3], key[4],
+                        f"{slope(xs, ys):.2f}", f"{float(last['seconds']) / float(last['spp']) * 1e3:.2f} ms",
+                        f"{float(last['rel_mse_corrected']):.2e}", f"{float(last['efficiency']):.3g}"])
+    return table(["sweep", "integrator", "pool", "survival cap", "diffuse", "MSE slope",
+                  "time per spp", "relMSE at max spp", "efficiency 1/(relMSE·s)"], out)
+
+
+def slope(xs, ys):
+    pts = [(math.log(x), math.log(y)) for x, y in zip(xs, ys) if x > 0 and y > 0]
+    n = len(pts)
+    if n < 2:
+        return float("nan")
+    sx = sum(p[0] for p in pts); sy = sum(p[1] for p in pts)
+    sxx = sum(p[0] ** 2 for p in pts); sxy = sum(p[0] * p[1] for p in pts)
+    return (n * sxy - sx * sy) / (n * sxx - sx * sx)
+
+
+def report(args):
+    """Replaces each `<!-- BEGIN name -->...<!-- END name -->` block of REPORT.md."""
+    blocks = {"figures": figures_gallery, "figures-table": figures_table,
+              "series-table": series_table, "threads-table": threads_table,
+              "converge-table": converge_table}
+    path = os.path.join(PAPERS, "REPORT.md")
+    with open(path) as f:
+        text = f.read()
+    for name, make in blocks.items():
+        try:
+            body = make()
+        except FileNotFoundError as e:
+            print(f"report: skipping {name}: {e}", file=sys.stderr)
+            continue
+        pattern = re.compile(rf"(<!-- BEGIN {name} -->\n).*?(<!-- END {name} -->)", re.S)
+        if not pattern.search(text):
+            sys.exit(f"{path}: no '<!-- BEGIN {name} -->' block")
+        text = pattern.sub(lambda m: m.group(1) + body + "\n" + m.group(2), text)
+    with open(path, "w") as f:
+        f.write(text)
+
+
+PARTS = {"figures": figures, "series": series, "threads": threads, "converge": converge,
+         "report": report}
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--quick", action="store_true", help="about 1/16 of the paths, to check the script")
+    p.add_argument("--only", nargs="+", choices=list(PARTS), help="run only these parts")
+    p.add_argument("--sweep", nargs="+", help="converge: run only these sweeps")
+    args = p.parse_args()
+    args.divisor = 16 if args.quick else 1
+    for d in (DATA, IMAGES, PLOTS, OUT):
+        os.makedirs(d, exist_ok=True)
+    for c in (CIERZO, TONEMAP):
+        if not os.access(c, os.X_OK):
+            sys.exit(f"{c}: not built; run scripts/build.sh build first")
+    start = time.time()
+    for name in args.only or list(PARTS):
+        t = time.time()
+        PARTS[name](args)
+        print(f"{name}: {time.time() - t:.0f} s", file=sys.stderr)
+    print(f"done in {time.time() - start:.0f} s", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
