@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # The second README command: installs what is missing, builds, fetches the test meshes and
-# runs every test with ctest.
+# runs every test with ctest; then the sanitizer job runs them all again under
+# AddressSanitizer and UndefinedBehaviorSanitizer (scripts/test_sanitized.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 scripts/build.sh build
 scripts/fetch_bunny.sh scenes/data || echo "warning: could not fetch the bunny; its tests skip" >&2
 export CIERZO_BUNNY_PLY="$PWD/scenes/data/bunny.ply"
-cd build
-ctest --output-on-failure --parallel "$(nproc)" --timeout 900
+(cd build && ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
+scripts/test_sanitized.sh

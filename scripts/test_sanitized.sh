@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The sanitizer job: builds the tests with AddressSanitizer and UndefinedBehaviorSanitizer
+# (any report fails the test that triggered it) into build-sanitize/ and runs the whole suite.
+# Called by scripts/test.sh; run it alone after scripts/install_deps.sh.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/build.sh build-sanitize -DCIERZO_SANITIZE=ON -DCIERZO_BUILD_BENCH=OFF
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export CIERZO_BUNNY_PLY="$PWD/scenes/data/bunny.ply"
+cd build-sanitize
+ctest --output-on-failure --parallel "$(nproc)" --timeout 1800
