@@ -90,7 +90,7 @@ Scatter<T> sample_diffuse(const Bsdf<T>& m, const Vec3<T>& nf, const T& u1, cons
 template <class T>
 Scatter<T> sample_specular(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const T& u1,
                            const T& u2, const T& probability) {
-    const Vec3<T> r = reflect(d, nf);
+    const Vec3<T> r = normalize(reflect(d, nf));
     const Vec3<T> dir = to_world(sample_phong_lobe(u1, u2, m.shininess), r);
     const T cos_i = dot(dir, nf);
     const T s = m.shininess;
@@ -98,11 +98,13 @@ Scatter<T> sample_specular(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf
     return {dir, m.ks * select(cos_i > T(0.0f), factor, T(0.0f))};
 }
 
-// Perfect specular: the mirror direction, weight = kr / P.
+// Perfect specular: the mirror direction, weight = kr / P. Reflected directions are
+// renormalised: reflect() keeps |d| = 1 only to rounding, and over hundreds of bounces
+// (mirrors, total internal reflection) the error would grow until a ray left a closed sphere.
 template <class T>
 Scatter<T> sample_mirror(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
                          const T& probability) {
-    return {reflect(d, nf), m.kr * (T(1.0f) / probability)};
+    return {normalize(reflect(d, nf)), m.kr * (T(1.0f) / probability)};
 }
 
 // Perfect refraction by Snell's law, weight = kt / P. Entering (d·n < 0 for the outward
@@ -118,7 +120,7 @@ Scatter<T> sample_refraction(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& 
     const T cos_i = abs(dn);
     const T k = T(1.0f) - eta * eta * (T(1.0f) - cos_i * cos_i);
     const Vec3<T> refracted = fma(nf, eta * cos_i - sqrt(max(k, T(0.0f))), d * eta);
-    const Vec3<T> dir = select(k < T(0.0f), reflect(d, nf), normalize(refracted));
+    const Vec3<T> dir = normalize(select(k < T(0.0f), reflect(d, nf), refracted));
     return {dir, m.kt * (T(1.0f) / probability)};
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -185,8 +186,9 @@ std::string read_whole_file(const std::filesystem::path& path, const Source& src
 // ---- Header ----------------------------------------------------------------------
 
 // "element NAME COUNT" (after the keyword), with the 2^31 cap on vertices and faces.
-Element parse_element(std::string_view rest, size_t line_no, const Header& header,
-                      const Source& src) {
+// `names` holds the names of the elements before it (a set: a header may have many).
+Element parse_element(std::string_view rest, size_t line_no,
+                      std::unordered_set<std::string>& names, const Source& src) {
     Element element;
     element.name = std::string(next_token(rest));
     std::string_view count = next_token(rest);
@@ -197,10 +199,8 @@ Element parse_element(std::string_view rest, size_t line_no, const Header& heade
                                          "and a non-negative count)",
                                          element.name, count));
     }
-    for (const Element& other : header.elements) {
-        if (other.name == element.name) {
-            src.fail_at(line_no, fmt::format("second '{}' element", element.name));
-        }
+    if (!names.insert(element.name).second) {
+        src.fail_at(line_no, fmt::format("second '{}' element", element.name));
     }
     bool is_mesh = element.name == "vertex" || element.name == "face";
     if (is_mesh && element.count > max_vertices_or_faces) {
@@ -241,6 +241,7 @@ Header parse_header(std::string_view file, const Source& src) {
     size_t line_no = 0;
     bool have_format = false;
     bool ended = false;
+    std::unordered_set<std::string> element_names;
     while (pos < file.size() && !ended) {
         // One header line, without its '\n' (and any '\r').
         size_t eol = file.find('\n', pos);
@@ -270,7 +271,7 @@ Header parse_header(std::string_view file, const Source& src) {
             }
             have_format = true;
         } else if (keyword == "element") {
-            header.elements.push_back(parse_element(rest, line_no, header, src));
+            header.elements.push_back(parse_element(rest, line_no, element_names, src));
         } else if (keyword == "property") {
             if (header.elements.empty()) src.fail_at(line_no, "property before any element");
             header.elements.back().properties.push_back(parse_property(rest, line_no, src));
@@ -748,11 +749,15 @@ void read_body(Reader& reader, const Header& header, const MeshLayout& layout, P
 }  // namespace
 
 PlyMesh read_ply(const std::filesystem::path& path) {
-    Source src{path.string()};
-    std::string file = read_whole_file(path, src);
+    const std::string file = read_whole_file(path, Source{path.string()});
+    return parse_ply(file, path);
+}
+
+PlyMesh parse_ply(std::string_view file, const std::filesystem::path& name) {
+    Source src{name.string()};
     Header header = parse_header(file, src);
     MeshLayout layout = find_mesh_layout(header, src);
-    std::string_view body = std::string_view(file).substr(header.body_offset);
+    std::string_view body = file.substr(header.body_offset);
     check_claimed_sizes(header, layout, body.size(), src);
 
     // Sizes are now known to fit in the file, so the arrays can be allocated.

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string_view>
 #include <vector>
 
 namespace cierzo {
@@ -17,5 +18,9 @@ struct PlyMesh {
 // Throws InputError naming the file and what is wrong (truncated, lying counts, bad
 // indices, unsupported property types, absurd sizes) before any large allocation.
 PlyMesh read_ply(const std::filesystem::path& path);
+
+// The same from the bytes of a PLY file held in memory; `name` is only used in messages.
+// read_ply reads the whole file and calls this, so both make the same checks.
+PlyMesh parse_ply(std::string_view bytes, const std::filesystem::path& name);
 
 }  // namespace cierzo

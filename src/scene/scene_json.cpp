@@ -2,7 +2,9 @@
 // range-checked, with messages of the form "FILE: objects[2] (sphere): radius must be > 0".
 #include "scene/scene_json.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -24,6 +26,9 @@ namespace fs = std::filesystem;
 // Limits that refuse absurd requests before anything is allocated.
 constexpr int64_t kMaxDimension = 1 << 16;
 constexpr int64_t kMaxPixels = int64_t(1) << 28;
+// Far deeper than any scene needs (5 levels); deeper input would overflow the stack of the
+// recursive JSON copies and dumps used below.
+constexpr int kMaxNesting = 64;
 
 // A JSON object being read: knows where it is for messages and which keys were used, so
 // that an unknown (misspelt) key is an error rather than silently ignored.
@@ -113,6 +118,36 @@ private:
     const fs::path& file_;
     std::set<std::string> used_;
 };
+
+// A number for a message: "1e+60", not sixty digits.
+std::string short_number(double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", x);
+    return buf;
+}
+
+// A vector scaled by a power of two so that its largest component is in [0.5, 1): the same
+// direction, and the same bits of v / |v|, but |v|² neither overflows nor underflows a float
+// (it would beyond about 1e19 or below 1e-19). The zero vector stays zero.
+Vec3f rescaled(const Vec3f& v, int* exponent = nullptr) {
+    const float biggest = std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)});
+    int e = 0;
+    if (biggest > 0.0f) std::frexp(biggest, &e);
+    if (exponent) *exponent = e;
+    const auto scale = [e](float x) { return float(std::ldexp(double(x), -e)); };
+    return {scale(v.x), scale(v.y), scale(v.z)};
+}
+
+// Whether every camera ray direction forward + u·left + v·up (u, v in [-1, 1]) can be
+// normalised in float: its squared length is largest at a corner, and must stay finite.
+bool frame_is_normalisable(const Vec3f& forward, const Vec3f& left, const Vec3f& up) {
+    for (float u : {-1.0f, 1.0f})
+        for (float v : {-1.0f, 1.0f}) {
+            const Vec3f d = forward + left * u + up * v;
+            if (!std::isfinite(dot(d, d))) return false;
+        }
+    return true;
+}
 
 // ---- Colours and textures ----------------------------------------------------------
 
@@ -222,12 +257,21 @@ struct Loader {
             s.radius.push_back(float(radius));
             s.material.push_back(material_ref(t));
         } else if (type == "plane") {
-            const Vec3f n = t.vec3("normal");
+            // Rescaled first, so that a normal of any size has a length: n·p + d = 0 is the
+            // plane (n/|n|)·p + d/|n| = 0, with d/|n| in double and then range-checked (for
+            // in-range values, rounding that to float gives exactly the float quotient)
+            int exponent = 0;
+            const Vec3f n = rescaled(t.vec3("normal"), &exponent);
             const float len = length(n);
             if (!(len > 0.0f)) t.fail("'normal' must not be the zero vector");
+            const double given = float(t.number("distance"));
+            const double distance = std::ldexp(given, -exponent) / double(len);
+            if (!(std::fabs(distance) <= double(std::numeric_limits<float>::max())))
+                t.fail("'distance' / |normal| is beyond float range (" + short_number(distance) +
+                       "): the plane is too far from the origin");
             auto& p = scene.planes;
             p.nx.push_back(n.x / len), p.ny.push_back(n.y / len), p.nz.push_back(n.z / len);
-            p.distance.push_back(float(t.number("distance")) / len);
+            p.distance.push_back(float(distance));
             p.material.push_back(material_ref(t));
         } else if (type == "quadric") {
             quadric(t);
@@ -330,7 +374,11 @@ struct Loader {
             p = {c * p.x + s * p.z, p.y, -s * p.x + c * p.z};
             c = std::cos(rot.z), s = std::sin(rot.z);
             p = {c * p.x - s * p.y, s * p.x + c * p.y, p.z};
-            m.positions.push_back(p + move);
+            p = p + move;
+            if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
+                t.fail("'scale', 'rotate' and 'translate' take vertex " + std::to_string(i) +
+                       " of '" + ply.string() + "' beyond float range");
+            m.positions.push_back(p);
         }
         for (size_t i = 0; i + 2 < data.colors.size(); i += 3)
             m.colors.push_back({data.colors[i], data.colors[i + 1], data.colors[i + 2]});
@@ -344,10 +392,14 @@ struct Loader {
         const Vec3f position = r.vec3("position");
         if (r.has("look_at")) {
             const Vec3f target = r.vec3("look_at");
-            const Vec3f up = r.vec3("up", Vec3f(0.0f, 1.0f, 0.0f));
+            // Only the direction of 'up' matters: rescaled so a tiny or huge one works too
+            const Vec3f up = rescaled(r.vec3("up", Vec3f(0.0f, 1.0f, 0.0f)));
             const double vfov = r.number("vfov", 40.0);
             if (!(vfov > 0.0 && vfov < 180.0)) r.fail("'vfov' must be in (0, 180) degrees");
             if (!(length(target - position) > 0.0f)) r.fail("'look_at' equals 'position'");
+            if (!std::isfinite(length(target - position)))
+                r.fail("'look_at' is too far from 'position' (beyond about 1e19: their "
+                       "distance squared overflows a float)");
             if (!(length(cross(up, target - position)) > 0.0f))
                 r.fail("'up' is parallel to the viewing direction");
             if (r.has("forward") || r.has("left"))
@@ -355,6 +407,12 @@ struct Loader {
                        "combined with 'look_at'");
             scene.look_at = LookAt{position, target, up, float(vfov)};
             scene.camera = look_at_camera(position, target, up, float(vfov), aspect);
+            // In float, a vfov just below 180 can round to a half-angle past 90 degrees (an
+            // upside-down frame) and one just above 0 to a frame of zero size
+            if (!(dot(scene.camera.up, up) > 0.0f) ||
+                !frame_is_normalisable(scene.camera.forward, scene.camera.left, scene.camera.up))
+                r.fail("'vfov' " + short_number(vfov) + " is too close to 0 or 180 degrees "
+                       "to build a camera frame in float");
         } else {
             scene.camera.origin = position;
             scene.camera.forward = r.vec3("forward");
@@ -363,6 +421,9 @@ struct Loader {
             if (!(length(scene.camera.forward) > 0.0f) || !(length(scene.camera.left) > 0.0f) ||
                 !(length(scene.camera.up) > 0.0f))
                 r.fail("'forward', 'left' and 'up' must be non-zero");
+            if (!frame_is_normalisable(scene.camera.forward, scene.camera.left, scene.camera.up))
+                r.fail("'forward', 'left' and 'up' are too long: forward ± left ± up must stay "
+                       "below about 1e19 in length, or the ray directions overflow a float");
             if (r.has("vfov"))
                 r.fail("'vfov' belongs to the 'look_at' form; in the explicit frame form the "
                        "lengths of 'left' and 'up' set the field of view");
@@ -403,7 +464,16 @@ struct Loader {
 Scene parse_scene(const std::string& text, const fs::path& path) {
     json root;
     try {
-        root = json::parse(text, nullptr, true, /*ignore_comments=*/true);
+        // The callback refuses deep nesting as it is read, before any recursion on it
+        const json::parser_callback_t limit_depth = [&](int depth, json::parse_event_t event,
+                                                        json&) {
+            if (depth >= kMaxNesting && (event == json::parse_event_t::object_start ||
+                                         event == json::parse_event_t::array_start))
+                throw InputError(path.string() + ": invalid JSON: arrays and objects nested " +
+                                 "deeper than " + std::to_string(kMaxNesting) + " levels");
+            return true;
+        };
+        root = json::parse(text, limit_depth, true, /*ignore_comments=*/true);
     } catch (const json::exception& e) {
         // parse_error (with line and column), or out_of_range for a number such as 1e400
         // that overflows a double

@@ -1,0 +1,11 @@
+// libFuzzer entry point for the scene-file reader (parse_scene); the body is fuzz_one_scene in
+// fuzz_targets.cpp. Build with -DCIERZO_BUILD_FUZZERS=ON (clang); see docs/fuzzing.md.
+#include <cstddef>
+#include <cstdint>
+
+#include "fuzz_targets.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    cierzo::fuzz_one_scene(data, size);
+    return 0;
+}
