@@ -1,14 +1,20 @@
 // Per-kernel throughput, scalar (T = float) against SIMD (T = xsimd::batch<float>, the ISA
 // this file is built for: it is built once per ISA): intersection per primitive kind, each
-// lobe's sampling, the roulette, and the random numbers, in lanes (rays) per second.
+// lobe's sampling, the roulette, and the random numbers, in lanes (rays) per second; and the
+// wavefront stages that have no kernel of their own (camera rays, material sort, compaction)
+// on a path pool, in paths (rays) per second.
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
+#include <cstring>
 #include <random>
 #include <vector>
 
 #include "kernels/estimator.h"
 #include "kernels/intersect.h"
 #include "kernels/rng.h"
+#include "integrators/wavefront/compact_stage.h"
+#include "integrators/wavefront/material_stage.h"
 
 namespace cierzo {
 namespace {
@@ -131,6 +137,131 @@ void BM_Random(benchmark::State& state) {
         benchmark::DoNotOptimize(uniform<T>(key, U(3u), Purpose::kDirection1));
     });
 }
+
+// ---- Wavefront stages --------------------------------------------------------------------------
+// A pool of the default 512 paths with the arrays the stages below touch, 64-byte aligned
+// (the renderer carves the same arrays out of one block: path_pool.cpp).
+constexpr int32_t kPool = 512;
+
+struct StagePool {
+    PathPool pool;
+    std::vector<void*> blocks;
+
+    template <class T>
+    T* take() {
+        void* p = std::aligned_alloc(64, kPool * sizeof(T));
+        std::memset(p, 0, kPool * sizeof(T));
+        blocks.push_back(p);
+        return static_cast<T*>(p);
+    }
+    StagePool() {
+        PathPool& p = pool;
+        p.capacity = kPool;
+        for (float** a : {&p.ox, &p.oy, &p.oz, &p.dx, &p.dy, &p.dz, &p.beta_r, &p.beta_g,
+                          &p.beta_b, &p.rad_r, &p.rad_g, &p.rad_b, &p.px, &p.py, &p.done_r,
+                          &p.done_g, &p.done_b})
+            *a = take<float>();
+        for (uint32_t** a : {&p.key, &p.pixel, &p.bounce, &p.done_pixel}) *a = take<uint32_t>();
+        for (int32_t** a : {&p.material, &p.alive, &p.order}) *a = take<int32_t>();
+    }
+    StagePool(const StagePool&) = delete;
+    StagePool& operator=(const StagePool&) = delete;
+    ~StagePool() {
+        for (void* b : blocks) std::free(b);
+    }
+};
+
+// The scene as the stages see it: cornell.json's camera, 128 x 128, `materials` materials.
+FlatScene stage_scene(int32_t materials) {
+    FlatScene s{};
+    const float origin[3] = {0, 0, -3.5f}, forward[3] = {0, 0, 3}, left[3] = {-1, 0, 0},
+                up[3] = {0, 1, 0};
+    for (int k = 0; k < 3; ++k) {
+        s.cam_origin[k] = origin[k], s.cam_forward[k] = forward[k];
+        s.cam_left[k] = left[k], s.cam_up[k] = up[k];
+    }
+    s.width = s.height = 128;
+    s.seed = 1;
+    s.material_count = materials;
+    return s;
+}
+
+void report_paths(benchmark::State& state, double paths) {
+    state.counters["rays_per_s"] = benchmark::Counter(paths, benchmark::Counter::kIsRate);
+}
+
+// Regeneration: the whole pool refilled with camera paths of a 16 x 16 tile at 8 samples.
+void BM_CameraRays(benchmark::State& state) {
+    using A = xsimd::default_arch;
+    StagePool mem;
+    const FlatScene scene = stage_scene(1);
+    WavefrontCounters counters;
+    Wave<A> w{scene, mem.pool, counters};
+    TileCursor start;
+    start.job = {32, 48, 48, 64, 0, 8, nullptr, nullptr};
+    start.tile_width = 16, start.tile_pixels = 256, start.total = 256 * 8;
+    double paths = 0;
+    for (auto _ : state) {
+        TileCursor c = start;
+        w.live = 0;
+        generate_camera_paths(w, c);
+        paths += w.live;
+    }
+    benchmark::DoNotOptimize(mem.pool.dx[kPool - 1]);
+    report_paths(state, paths);
+}
+
+// The material sort of a full pool of hits on `range(0)` materials, in random order.
+void BM_SortByMaterial(benchmark::State& state) {
+    using A = xsimd::default_arch;
+    const int32_t materials = int32_t(state.range(0));
+    StagePool mem;
+    const FlatScene scene = stage_scene(materials);
+    WavefrontCounters counters;
+    Wave<A> w{scene, mem.pool, counters};
+    std::mt19937 rng(2);
+    std::uniform_int_distribution<int32_t> pick(0, materials - 1);
+    for (int32_t i = 0; i < kPool; ++i) mem.pool.material[i] = pick(rng);
+    std::vector<int32_t> starts(size_t(materials) + 1);
+    w.live = kPool;
+    double paths = 0;
+    for (auto _ : state) {
+        sort_by_material(w, starts.data());
+        paths += w.live;
+    }
+    benchmark::DoNotOptimize(mem.pool.order[kPool - 1]);
+    report_paths(state, paths);
+}
+
+// Compaction of a full pool where a fifth of the paths ended (about what the roulette ends
+// per bounce in diffuse scenes), at random: the same pattern every time (alive[] is not
+// moved), the finished paths handed to a film that only counts them.
+void BM_Compaction(benchmark::State& state) {
+    using A = xsimd::default_arch;
+    StagePool mem;
+    const FlatScene scene = stage_scene(1);
+    WavefrontCounters counters;
+    Wave<A> w{scene, mem.pool, counters};
+    std::mt19937 rng(3);
+    std::bernoulli_distribution survives(0.8);
+    for (int32_t i = 0; i < kPool; ++i) mem.pool.alive[i] = survives(rng) ? 1 : 0;
+    int64_t finished = 0;
+    const TileJob job{0, 0, 16, 16, 0, 1, &finished,
+                      [](void* film, int32_t count, const uint32_t*, const float*, const float*,
+                         const float*) { *static_cast<int64_t*>(film) += count; }};
+    double paths = 0;
+    for (auto _ : state) {
+        w.live = kPool;
+        compact_paths(w, job);
+        paths += kPool;
+    }
+    benchmark::DoNotOptimize(finished);
+    report_paths(state, paths);
+}
+
+BENCHMARK(BM_CameraRays)->Name("BM_StageCameraRays/" CIERZO_BENCH_ISA);
+BENCHMARK(BM_SortByMaterial)->Name("BM_StageSortByMaterial/" CIERZO_BENCH_ISA)->Arg(4)->Arg(16);
+BENCHMARK(BM_Compaction)->Name("BM_StageCompaction/" CIERZO_BENCH_ISA);
 
 using B = xsimd::batch<float>;
 #define CIERZO_BENCH_BOTH(fn)      \

@@ -45,10 +45,13 @@ void run(benchmark::State& state, const Scene& scene, RenderOptions o) {
 void register_scenes() {
     const char* scenes[] = {"cornell",    "diffuse_spheres", "emitting_spheres", "mirror_spheres",
                             "glass_spheres", "phong_spheres", "four_lobes",      "point_lights",
-                            "quadrics",   "textures",        "hard_shadow",      "caustic"};
+                            "quadrics",   "textures",        "hard_shadow",      "caustic",
+                            "vertex_colors", "bunny"};
+    const fs::path root = fs::path(CIERZO_SOURCE_DIR) / "scenes";
     for (const char* name : scenes) {
-        if (!fs::exists(fs::path(CIERZO_SOURCE_DIR) / "scenes" / (std::string(name) + ".json")))
-            continue;
+        if (!fs::exists(root / (std::string(name) + ".json"))) continue;
+        // The bunny is fetched by scripts/fetch_bunny.sh, never committed
+        if (name == std::string("bunny") && !fs::exists(root / "data" / "bunny.ply")) continue;
         std::vector<std::pair<std::string, std::string>> variants = {{"scalar", "scalar"}};
         for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
             if (isa_supported(isa)) variants.push_back({"wavefront", isa_name(isa)});

@@ -71,8 +71,11 @@ struct Bvh::Builder {
     explicit Builder(std::vector<Node>& nodes_) : nodes(nodes_) {}
 
     // The bin of a centroid along an axis; the same formula for binning and partitioning.
+    // Clamped in float first: near ±3e38 the scale can be 0 and the position NaN or out of
+    // int range, and converting such a float to int is undefined (NaN goes to bin 0).
     static int bin_of(float c, float lo, float scale) {
-        return std::clamp(int((c - lo) * scale), 0, kBins - 1);
+        const float x = (c - lo) * scale;
+        return x > 0.0f ? int(std::min(x, float(kBins - 1))) : 0;
     }
 
     void make_leaf(uint32_t node, uint32_t begin, uint32_t end) {
@@ -200,6 +203,9 @@ void Bvh::build(std::span<const Vec3f> positions, std::span<const uint32_t> indi
     nodes_.clear();
     triangles_.clear();
     triangle_ids_.clear();
+    wide_nodes_.clear();
+    blocks_.clear();
+    block_ids_.clear();
     depth_ = 0;
     triangle_count_ = indices.size() / 3;
     // Per-triangle boxes and centroids; degenerate triangles are left out of the tree
@@ -231,7 +237,7 @@ void Bvh::build(std::span<const Vec3f> positions, std::span<const uint32_t> indi
     if (builder.order.empty()) {
         return;
     }
-    // The tree, then the triangles copied in leaf order
+    // The tree, the triangles copied in leaf order, then the 8-wide tree
     nodes_.reserve(2 * builder.order.size() / kLeafSize + 1);
     builder.build(0, uint32_t(builder.order.size()), 1);
     depth_ = builder.depth;
@@ -241,6 +247,7 @@ void Bvh::build(std::span<const Vec3f> positions, std::span<const uint32_t> indi
         const uint32_t* tri = &indices[3 * size_t(builder.order[i])];
         triangles_[i] = {positions[tri[0]], positions[tri[1]], positions[tri[2]]};
     }
+    collapse();
 }
 
 Vec3f Bvh::bounds_min() const {

@@ -1,5 +1,6 @@
 // A bounding-volume hierarchy over triangles: binned-SAH build, flattened 32-byte nodes and
-// scalar closest-hit / any-hit traversal with the watertight triangle test (kernels/triangle.h).
+// scalar closest-hit / any-hit traversal with the watertight triangle test (kernels/triangle.h);
+// and the same tree collapsed to 8 children per node for the wavefront's SIMD traversal.
 #pragma once
 
 #include <cstddef>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "kernels/vec3.h"
+#include "scene/wide_bvh.h"
 
 namespace cierzo {
 
@@ -35,20 +37,20 @@ public:
     Vec3f bounds_min() const;
     Vec3f bounds_max() const;
     size_t node_count() const { return nodes_.size(); }
-    // Raw views for the wavefront's SIMD traversal (FlatBvhNode in flat_scene.h has the same
-    // layout): nodes, triangles in leaf order (9 floats each), and their input indices.
-    const void* node_data() const { return nodes_.data(); }
-    const float* triangle_data() const {
-        static_assert(sizeof(Triangle) == 9 * sizeof(float));
-        return reinterpret_cast<const float*>(triangles_.data());
-    }
-    const uint32_t* triangle_id_data() const { return triangle_ids_.data(); }
     size_t triangle_count() const { return triangle_count_; }
     int depth() const { return depth_; }
 
+    // The 8-wide collapse of the tree, for the wavefront's SIMD traversal (layout in
+    // scene/wide_bvh.h): nodes with the root first (none when no triangle can be hit), the
+    // triangles in blocks of 8, and the input index of each block lane (8 * block + lane).
+    const WideBvhNode* wide_nodes() const { return wide_nodes_.data(); }
+    size_t wide_node_count() const { return wide_nodes_.size(); }
+    const TriangleBlock* triangle_blocks() const { return blocks_.data(); }
+    const uint32_t* block_triangle_ids() const { return block_ids_.data(); }
+
     // The traversal stack holds at most one entry per level, so the build keeps the depth
     // below this.
-    static constexpr int kMaxDepth = 96;
+    static constexpr int kMaxDepth = kBvhMaxDepth;
 
 private:
     // A flattened node: its box, and either a leaf's triangle range or, for an inner node, the
@@ -67,12 +69,17 @@ private:
     };
 
     struct Builder;
+    struct Collapser;
+    void collapse();  // the 8-wide tree from the binary one (wide_bvh.cpp)
     template <bool kAnyHit>
     bool traverse(const Ray<float>& ray, float tmax, TriangleHit& hit) const;
 
     std::vector<Node> nodes_;
     std::vector<Triangle> triangles_;   // leaf order
     std::vector<uint32_t> triangle_ids_; // leaf order -> input triangle index
+    std::vector<WideBvhNode> wide_nodes_;
+    std::vector<TriangleBlock> blocks_;  // leaf order, each leaf starting a new block
+    std::vector<uint32_t> block_ids_;    // 8 * block + lane -> input triangle index
     size_t triangle_count_ = 0;
     int depth_ = 0;
 };

@@ -1,16 +1,19 @@
 // Tests of the triangle BVH (src/scene/bvh.h): closest hits against brute force on a random
 // soup, a sphere mesh and an axis-aligned grid, any-hit against closest-hit, degenerate
-// triangles, closed-mesh watertightness through the tree, and build edge cases.
+// triangles, closed-mesh watertightness through the tree, and build edge cases; and the
+// 8-wide collapse with the wavefront's single-ray traversal against the binary tree.
 #include "scene/bvh.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <random>
 #include <vector>
 
 #include "core/error.h"
+#include "integrators/wavefront/intersect_stage.h"
 #include "kernels/triangle.h"
 #include "support/uv_sphere.h"
 
@@ -323,6 +326,266 @@ TEST(Bvh, BadIndicesAreInputErrors) {
     Bvh bvh;
     EXPECT_THROW(bvh.build(positions, out_of_range), InputError);
     EXPECT_THROW(bvh.build(positions, not_triangles), InputError);
+}
+
+// ---- The 8-wide BVH ----------------------------------------------------------------------------
+// traverse_wide (src/integrators/wavefront/intersect_stage.h) on the SIMD lanes this test is
+// built for (SSE2: children and triangles tested 4 + 4; the renders run the same template on
+// AVX2 and AVX-512 in test_agreement), against the binary tree's scalar traversal.
+using TestArch = xsimd::default_arch;
+
+FlatMesh flat_mesh(const Bvh& bvh) {
+    const Vec3f lo = bvh.bounds_min(), hi = bvh.bounds_max();
+    return {bvh.wide_nodes(), bvh.triangle_blocks(), bvh.block_triangle_ids(),
+            int32_t(bvh.wide_node_count()), {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}};
+}
+
+struct WideHit {
+    bool hit;
+    float t;
+    uint32_t triangle;  // input index (closest hit only)
+};
+
+// Each ray with its tmax through the wide BVH, set up K at a time as the wavefront does.
+template <bool kAnyHit>
+std::vector<WideHit> trace_wide(const Bvh& bvh, const std::vector<Ray<float>>& rays,
+                                const std::vector<float>& tmax) {
+    using F = Wave<TestArch>::F;
+    constexpr int K = Wave<TestArch>::K;
+    const FlatMesh mesh = flat_mesh(bvh);
+    std::vector<WideHit> out(rays.size());
+    for (size_t i = 0; i < rays.size(); i += K) {
+        alignas(64) float c[6][K];
+        for (int l = 0; l < K; ++l) {
+            const Ray<float>& r = rays[std::min(i + size_t(l), rays.size() - 1)];
+            const float v[6] = {r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z};
+            for (int k = 0; k < 6; ++k) c[k][l] = v[k];
+        }
+        const auto load = [&](int k) { return F::load_aligned(c[k]); };
+        const WideRays<TestArch> wide(
+            Ray<F>{{load(0), load(1), load(2)}, {load(3), load(4), load(5)}});
+        for (int l = 0; l < K && i + size_t(l) < rays.size(); ++l) {
+            float t = tmax[i + size_t(l)];
+            uint32_t lane = 0;
+            const bool hit = traverse_wide<kAnyHit, TestArch>(mesh, wide, l, t, lane);
+            out[i + size_t(l)] = {hit, t, hit && !kAnyHit ? bvh.block_triangle_ids()[lane] : 0u};
+        }
+    }
+    return out;
+}
+
+// The wide traversal must find what the binary one finds: any hit exactly; the closest hit's
+// t and triangle, or on a tie (a ray through a shared edge) another triangle that the kernel
+// hits at the same t. Returns the number of hits.
+int expect_wide_matches_binary(const Mesh& mesh, const Bvh& bvh,
+                               const std::vector<Ray<float>>& rays, const std::vector<float>& tmax) {
+    const std::vector<WideHit> closest = trace_wide<false>(bvh, rays, tmax);
+    const std::vector<WideHit> any = trace_wide<true>(bvh, rays, tmax);
+    int hits = 0;
+    for (size_t r = 0; r < rays.size(); ++r) {
+        TriangleHit want{};
+        const bool hit = bvh.intersect(rays[r], tmax[r], want);
+        EXPECT_EQ(any[r].hit, bvh.occluded(rays[r], tmax[r])) << "ray " << r;
+        EXPECT_EQ(closest[r].hit, hit) << "ray " << r;
+        if (!hit || !closest[r].hit) continue;
+        ++hits;
+        EXPECT_NEAR(closest[r].t, want.t, 1e-6f * want.t) << "ray " << r;
+        if (closest[r].triangle != want.triangle) {
+            const size_t i = closest[r].triangle;
+            float t, b1, b2;
+            EXPECT_TRUE(intersect_triangle(rays[r], make_ray_shear(rays[r].d), mesh.vertex(i, 0),
+                                           mesh.vertex(i, 1), mesh.vertex(i, 2), tmax[r], t, b1,
+                                           b2))
+                << "ray " << r;
+            EXPECT_NEAR(t, want.t, 1e-6f * want.t) << "ray " << r;
+        }
+    }
+    return hits;
+}
+
+TEST(WideBvh, MatchesTheBinaryTreeOnARandomSoup) {
+    const Mesh mesh = random_soup(3000, 11);
+    const Bvh bvh = build(mesh);
+    std::mt19937 rng(12);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::vector<Ray<float>> rays;
+    std::vector<float> tmax;
+    for (int r = 0; r < 6000; ++r) {
+        rays.push_back({Vec3f(unit(rng), unit(rng), unit(rng)) * 14.0f, random_direction(rng)});
+        tmax.push_back(r % 3 == 0 ? 6.0f : 1e30f);
+    }
+    EXPECT_GT(expect_wide_matches_binary(mesh, bvh, rays, tmax), 1500);
+}
+
+TEST(WideBvh, MatchesTheBinaryTreeOnAClosedMesh) {
+    // From inside (always a hit), from outside towards the ball, and segments that end
+    // before, inside or beyond the surface (any hit)
+    const Mesh mesh = uv_sphere(48, 96);
+    const Bvh bvh = build(mesh);
+    std::mt19937 rng(13);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), frac(0.0f, 1.0f);
+    std::vector<Ray<float>> rays;
+    std::vector<float> tmax;
+    for (int r = 0; r < 6000; ++r) {
+        const bool inside = r % 2 == 0;
+        const Vec3f o = inside ? Vec3f(unit(rng), unit(rng), unit(rng)) * 0.5f
+                               : random_direction(rng) * 3.0f;
+        const Vec3f target = Vec3f(unit(rng), unit(rng), unit(rng)) * 1.1f;
+        rays.push_back({o, inside ? random_direction(rng) : normalize(target - o)});
+        tmax.push_back(r % 3 == 0 ? 3.0f * frac(rng) : 1e30f);
+    }
+    EXPECT_GT(expect_wide_matches_binary(mesh, bvh, rays, tmax), 2500);
+}
+
+TEST(WideBvh, NoLeaksFromInsideAClosedMeshThroughVerticesAndEdges) {
+    const Mesh mesh = uv_sphere(16, 24);
+    const Bvh bvh = build(mesh);
+    std::mt19937 rng(14);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), frac(0.0f, 1.0f);
+    std::uniform_int_distribution<size_t> pick(0, mesh.size() - 1);
+    std::vector<Ray<float>> rays;
+    for (int r = 0; r < 20000; ++r) {
+        const Vec3f o = r % 5 == 0 ? Vec3f(0.0f) : Vec3f(unit(rng), unit(rng), unit(rng)) * 0.5f;
+        const size_t tri = pick(rng);
+        const Vec3f a = mesh.vertex(tri, r % 3), b = mesh.vertex(tri, (r + 1) % 3);
+        rays.push_back({o, (r % 2 ? a : fma(b - a, r % 4 == 1 ? 0.5f : frac(rng), a)) - o});
+    }
+    const std::vector<float> tmax(rays.size(), 1e30f);
+    const std::vector<WideHit> closest = trace_wide<false>(bvh, rays, tmax);
+    const std::vector<WideHit> any = trace_wide<true>(bvh, rays, tmax);
+    for (size_t r = 0; r < rays.size(); ++r) {
+        ASSERT_TRUE(closest[r].hit) << "ray " << r << " leaks";
+        ASSERT_TRUE(any[r].hit) << "ray " << r << " leaks";
+    }
+}
+
+TEST(WideBvh, AxisParallelRaysThroughBoxPlanesAndSharedEdges) {
+    // Zero direction components (+-inf reciprocals) and origins on box planes: a NaN slab
+    // distance must leave the interval as it was, as in the binary traversal, on whichever
+    // axis it occurs (the grid and the rays turned to each axis in turn)
+    const auto turn = [](const Vec3f& v, int axis) {
+        return axis == 0 ? v : (axis == 1 ? Vec3f(v.z, v.x, v.y) : Vec3f(v.y, v.z, v.x));
+    };
+    for (int axis = 0; axis < 3; ++axis) {
+        Mesh mesh = grid(24);
+        for (Vec3f& p : mesh.positions) p = turn(p, axis);
+        const Bvh bvh = build(mesh);
+        std::mt19937 rng(15);
+        std::uniform_int_distribution<int> cell(0, 23);
+        const float offsets[] = {0.0f, 0.5f, 0.25f};
+        std::vector<Ray<float>> rays;
+        for (int r = 0; r < 2000; ++r) {
+            const Vec3f o(float(cell(rng)) + offsets[r % 3],
+                          float(cell(rng)) + offsets[(r / 3) % 3], r % 2 ? 3.0f : -3.0f);
+            const float zero = r % 4 < 2 ? 0.0f : -0.0f;
+            rays.push_back({turn(o, axis), turn(Vec3f(zero, zero, r % 2 ? -1.0f : 1.0f), axis)});
+        }
+        // In the grid's plane (parallel to every triangle) and just above it: no hits
+        for (int r = 0; r < 200; ++r)
+            rays.push_back({turn(Vec3f(-1.0f, float(cell(rng)) + 0.5f, r % 2 ? 0.0f : 1e-3f), axis),
+                            turn(Vec3f(1.0f, 0.0f, 0.0f), axis)});
+        const std::vector<float> tmax(rays.size(), 1e30f);
+        EXPECT_EQ(expect_wide_matches_binary(mesh, bvh, rays, tmax), 2000) << "axis " << axis;
+    }
+}
+
+// Each non-degenerate triangle of the mesh in exactly one leaf lane, inside its slot's box;
+// padding lanes zero; the slots in use at the front, the others empty. Returns the mean
+// number of slots in use.
+double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degenerate_from) {
+    constexpr uint32_t W = kWideBvhWidth;
+    std::vector<int> seen(mesh.size(), 0);
+    size_t slots = 0;
+    for (size_t n = 0; n < bvh.wide_node_count(); ++n) {
+        const WideBvhNode& node = bvh.wide_nodes()[n];
+        EXPECT_GE(node.slots, 1u);
+        EXPECT_LE(node.slots, W);
+        slots += node.slots;
+        for (uint32_t i = node.slots; i < W; ++i)
+            EXPECT_GT(node.bounds[0][i], node.bounds[3][i]) << "an unused slot's box";
+        for (uint32_t i = 0; i < std::min(node.slots, W); ++i) {
+            if (node.count[i] == 0) {  // an inner child, after its parent
+                EXPECT_GT(node.child[i], n);
+                EXPECT_LT(node.child[i], bvh.wide_node_count());
+                continue;
+            }
+            EXPECT_LE(node.count[i], 2 * W);
+            for (uint32_t j = 0; j < (node.count[i] + W - 1) / W * W; ++j) {
+                const uint32_t lane = node.child[i] * W + j;
+                const TriangleBlock& block = bvh.triangle_blocks()[lane / W];
+                for (int k = 0; k < 9; ++k) {
+                    const float v = block.v[k][lane % W];
+                    if (j >= node.count[i]) {
+                        EXPECT_EQ(v, 0.0f);
+                        continue;
+                    }
+                    EXPECT_GE(v, node.bounds[k % 3][i]);
+                    EXPECT_LE(v, node.bounds[k % 3 + 3][i]);
+                }
+                if (j < node.count[i]) ++seen[bvh.block_triangle_ids()[lane]];
+            }
+        }
+    }
+    for (size_t t = 0; t < mesh.size(); ++t)
+        EXPECT_EQ(seen[t], t < degenerate_from ? 1 : 0) << "triangle " << t;
+    return double(slots) / double(std::max<size_t>(bvh.wide_node_count(), 1));
+}
+
+TEST(WideBvh, HoldsEveryTriangleOnceInMostlyFullNodes) {
+    // A soup with two degenerate triangles, a sphere, and a tree of median splits (every
+    // centroid the same)
+    Mesh soup = random_soup(2000, 16);
+    soup.indices.insert(soup.indices.end(), {0, 0, 1, 2, 2, 2});
+    EXPECT_GT(expect_valid_wide_layout(soup, build(soup), 2000), 5.0);
+    const Mesh sphere = uv_sphere(32, 64);
+    EXPECT_GT(expect_valid_wide_layout(sphere, build(sphere), sphere.size()), 5.0);
+    Mesh median;
+    for (int i = 0; i < 1000; ++i) {
+        const float s = 1.0f + float(i) * 1e-3f, h = float(i) * 1e-3f;
+        const uint32_t base = uint32_t(median.positions.size());
+        median.positions.insert(median.positions.end(),
+                                {{-s, -s, -h}, {s, -s, h}, {0.0f, s, 0.0f}});
+        median.indices.insert(median.indices.end(), {base, base + 1, base + 2});
+    }
+    EXPECT_GT(expect_valid_wide_layout(median, build(median), median.size()), 5.0);
+}
+
+TEST(WideBvh, BoxAreasThatOverflowStillGiveAValidTree) {
+    // Coordinates near 1e36: every box's surface area is infinite, the collapse's costs are
+    // meaningless, and the tree must still be valid and agree with the binary one
+    Mesh mesh = random_soup(1500, 17);
+    for (Vec3f& p : mesh.positions) p = p * 1e35f;
+    const Bvh bvh = build(mesh);
+    expect_valid_wide_layout(mesh, bvh, mesh.size());
+    std::mt19937 rng(18);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::vector<Ray<float>> rays;
+    for (int r = 0; r < 2000; ++r)
+        rays.push_back({Vec3f(unit(rng), unit(rng), unit(rng)) * 1.4e36f, random_direction(rng)});
+    const std::vector<float> tmax(rays.size(), 3e38f);
+    expect_wide_matches_binary(mesh, bvh, rays, tmax);
+}
+
+TEST(WideBvh, EmptyAndSingleTriangle) {
+    Bvh empty;
+    empty.build({}, {});
+    EXPECT_EQ(empty.wide_node_count(), 0u);
+    const Ray<float> ray{Vec3f(0.2f, 0.2f, 1.0f), Vec3f(0.0f, 0.0f, -1.0f)};
+    EXPECT_FALSE(trace_wide<false>(empty, {ray}, {1e30f})[0].hit);
+    EXPECT_FALSE(trace_wide<true>(empty, {ray}, {1e30f})[0].hit);
+
+    const std::vector<Vec3f> positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    const std::vector<uint32_t> indices = {0, 1, 2};
+    Bvh one;
+    one.build(positions, indices);
+    ASSERT_EQ(one.wide_node_count(), 1u);
+    EXPECT_EQ(one.wide_nodes()[0].slots, 1u);
+    const WideHit hit = trace_wide<false>(one, {ray}, {1e30f})[0];
+    ASSERT_TRUE(hit.hit);
+    EXPECT_EQ(hit.triangle, 0u);
+    EXPECT_EQ(hit.t, 1.0f);
+    EXPECT_FALSE(trace_wide<false>(one, {ray}, {1.0f})[0].hit);
+    EXPECT_FALSE(trace_wide<true>(one, {ray}, {1.0f})[0].hit);
 }
 
 }  // namespace

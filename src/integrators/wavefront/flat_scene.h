@@ -5,6 +5,8 @@
 
 #include <cstdint>
 
+#include "scene/wide_bvh.h"
+
 namespace cierzo {
 
 // Every per-primitive and per-material table is padded to a multiple of 16 entries, so a
@@ -26,21 +28,13 @@ struct FlatColor {
     float axis[3], axis2[3];
 };
 
-// A mesh's BVH as the SIMD traversal reads it (the layout of Bvh's nodes, src/scene/bvh.h):
-// box, then a leaf's first triangle and count, or an inner node's second child and axis.
-struct FlatBvhNode {
-    float bounds[6];  // min x, y, z, max x, y, z
-    uint32_t offset;
-    uint16_t count;   // 0 for inner nodes
-    uint16_t axis;
-};
-static_assert(sizeof(FlatBvhNode) == 32);
-
+// A mesh as the SIMD traversal reads it: its 8-wide BVH (layout in scene/wide_bvh.h).
 struct FlatMesh {
-    const FlatBvhNode* nodes;
-    const float* triangles;        // leaf order, 9 floats each (v0, v1, v2)
-    const uint32_t* triangle_ids;  // leaf order -> the mesh's triangle index
+    const WideBvhNode* nodes;      // root first; none when no triangle can be hit
+    const TriangleBlock* blocks;   // the triangles, 8 per block
+    const uint32_t* triangle_ids;  // block lane (8 * block + lane) -> the mesh's triangle index
     int32_t node_count;
+    float bounds[6];               // min x, y, z, max x, y, z of the whole mesh
 };
 
 // Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches

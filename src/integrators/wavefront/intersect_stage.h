@@ -1,8 +1,11 @@
 // Wavefront stage 2, closest hit: K rays at a time against every sphere, plane and quadric
 // of the scene (one primitive broadcast to all lanes, in the scalar reference's order), then
-// each mesh's BVH traversed by packets of the rays that enter it. Records t and the primitive id; the
-// shadow stage's any-hit test is here too.
+// each ray that enters a mesh's box through the mesh's 8-wide BVH on its own (all children
+// of a node tested at once). Records t and the primitive id; the shadow stage's any-hit
+// test is here too.
 #pragma once
+
+#include <type_traits>
 
 #include "integrators/wavefront/wave.h"
 #include "kernels/triangle.h"
@@ -42,17 +45,17 @@ void closest_analytic(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
     }
 }
 
-// The robust slab test of K rays against a node's box over [0, t]: the same as the scalar
-// traversal (a NaN distance leaves the interval as it was; far distances scaled by
-// kBvhFarScale). Returns the lanes whose interval meets the box.
+// The robust slab test of K rays against a box (min x, y, z, max x, y, z) over [0, t], as in
+// the BVH traversals: a NaN distance leaves the interval as it was; far distances are scaled
+// by kBvhFarScale. Returns the lanes whose interval meets the box.
 template <class A>
-typename Wave<A>::M slab_hits(const FlatBvhNode& node, const typename Wave<A>::F org[3],
+typename Wave<A>::M slab_hits(const float box[6], const typename Wave<A>::F org[3],
                               const typename Wave<A>::F inv[3], const typename Wave<A>::F& t) {
     using F = typename Wave<A>::F;
     F t0(0.0f), t1 = t;
     for (int k = 0; k < 3; ++k) {
-        const F a = (F(node.bounds[k]) - org[k]) * inv[k];
-        const F b = (F(node.bounds[k + 3]) - org[k]) * inv[k];
+        const F a = (F(box[k]) - org[k]) * inv[k];
+        const F b = (F(box[k + 3]) - org[k]) * inv[k];
         const auto forward = inv[k] >= F(0.0f);
         const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
         t0 = select(near > t0, near, t0);
@@ -61,118 +64,183 @@ typename Wave<A>::M slab_hits(const FlatBvhNode& node, const typename Wave<A>::F
     return t0 <= t1;
 }
 
-// K rays through one mesh's BVH together: a node is entered when any live lane's slab
-// interval [0, t] meets its box (the same robust slab test as the scalar traversal), the
-// children in the order most lanes prefer; leaves test their triangles on all K lanes with
-// the watertight kernel. Closest hit: t, leaf-order triangle and hit mask are updated;
-// any hit: `blocked` gathers the lanes that hit anything and the walk stops once all have.
+// The lanes one ray tests a node's 8 children or a leaf's 8 triangles in: one AVX register
+// where the ISA has one (the AVX-512 objects use 256-bit operations: 8 fill them), else two
+// SSE registers.
+template <class A>
+using WideArch =
+    std::conditional_t<(xsimd::batch<float, A>::size >= 8), xsimd::fma3<xsimd::avx2>, A>;
+
+// K rays set up for the wide traversal, in SIMD: origins, reciprocal directions (zero
+// components give +-inf) and the watertight kernel's shear (kernels/triangle.h: the axes
+// kx, ky, kz and sx, sy, sz), each ray then traversed on its own.
+template <class A>
+struct WideRays {
+    alignas(64) float o[3][Wave<A>::K], inv[3][Wave<A>::K], shear[3][Wave<A>::K];
+    alignas(64) int32_t axis[3][Wave<A>::K];
+
+    explicit WideRays(const Ray<typename Wave<A>::F>& ray) {
+        using F = typename Wave<A>::F;
+        const RayShear<F> s = make_ray_shear(ray.d);
+        store3(ray.o, o[0], o[1], o[2], 0);
+        store3(Vec3<F>(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z), inv[0], inv[1],
+               inv[2], 0);
+        store3(Vec3<F>(s.sx, s.sy, s.sz), shear[0], shear[1], shear[2], 0);
+        s.kx.store_aligned(axis[0]), s.ky.store_aligned(axis[1]), s.kz.store_aligned(axis[2]);
+    }
+};
+
+// Ray `l` of `rays` through a mesh's 8-wide BVH (scene/wide_bvh.h). A node's children are
+// tested at once with the slab test of the binary traversal (src/scene/bvh.cpp); the
+// children entered go on the stack with their entry distance, the nearest on top for
+// closest hit, and one popped beyond the closest hit so far is dropped (as re-testing its
+// box would). A leaf's triangles are tested 8 at a time with the watertight kernel, the ray
+// broadcast and one triangle per lane.
+// Closest hit: whether a triangle is hit in (0, tmax), then tmax and the hit's block lane
+// (8 * block + lane); any hit (kAnyHit): whether anything is, stopping at the first.
+// (flatten: the triangle kernel is inlined, so the identity picks below fold away.)
 template <bool kAnyHit, class A>
-void traverse_packet(const FlatMesh& mesh, const Ray<typename Wave<A>::F>& ray,
-                     const RayShear<typename Wave<A>::F>& shear, typename Wave<A>::M live,
-                     typename Wave<A>::F& t, typename Wave<A>::I& triangle,
-                     typename Wave<A>::M& hit) {
-    using F = typename Wave<A>::F;
-    using I = typename Wave<A>::I;
-    if (mesh.node_count == 0) return;  // every triangle degenerate: nothing to hit
-    const F inv[3] = {F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z};
-    const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
-    uint32_t stack[96];
+[[gnu::flatten]] bool traverse_wide(const FlatMesh& mesh, const WideRays<A>& rays, int l,
+                                    float& tmax, uint32_t& lane) {
+    using N = xsimd::batch<float, WideArch<A>>;
+    using B = xsimd::batch_bool<float, WideArch<A>>;
+    using I = xsimd::batch<int32_t, WideArch<A>>;
+    constexpr int kLanes = int(N::size);
+    if (mesh.node_count == 0) return false;
+    // The ray in every lane, and the bounds row of each axis' near and far plane
+    N org[3], inv[3];
+    int near_row[3], far_row[3];
+    for (int k = 0; k < 3; ++k) {
+        org[k] = N(rays.o[k][l]), inv[k] = N(rays.inv[k][l]);
+        near_row[k] = std::signbit(rays.inv[k][l]) ? k + 3 : k;
+        far_row[k] = std::signbit(rays.inv[k][l]) ? k : k + 3;
+    }
+    // The kernel's shear is the same in every lane, so the origin and the vertices are handed
+    // to it with their axes already permuted (kx, ky, kz): its per-lane picks are then the
+    // identity, and it computes exactly what it would unpermuted (it reads no direction)
+    const int axis[3] = {rays.axis[0][l], rays.axis[1][l], rays.axis[2][l]};
+    const Ray<N> ray{{org[axis[0]], org[axis[1]], org[axis[2]]}, Vec3<N>(N(0.0f))};
+    const B yes(true), no(false);
+    const RayShear<N> shear{I(0), I(1), I(2), {yes, no}, {no, yes}, {no, no},
+                            N(rays.shear[0][l]), N(rays.shear[1][l]), N(rays.shear[2][l])};
+    float t = tmax;  // the closest hit so far (a local: the stack cannot alias it)
+    uint32_t hit_lane = 0;
+
+    struct Entry {
+        uint32_t child, count;  // as in the node's slot
+        float t;                // where the ray enters the box
+    };
+    Entry stack[kWideBvhStackSize];
     int size = 0;
-    uint32_t index = 0;
+    Entry e{0, 0, 0.0f};  // the root
+    bool found = false;
     for (;;) {
-        const FlatBvhNode& node = mesh.nodes[index];
-        const auto enter = live & slab_hits<A>(node, org, inv, t);
-        if (any(enter)) {
-            if (node.count == 0) {
-                // Inner node: the near child first, as most entering lanes see it
-                const uint32_t lanes = mask_bits(enter);
-                const uint32_t backwards = mask_bits(enter & (inv[node.axis] < F(0.0f)));
-                const bool second_first = 2 * std::popcount(backwards) > std::popcount(lanes);
-                stack[size++] = second_first ? index + 1 : node.offset;
-                index = second_first ? node.offset : index + 1;
+        if (e.count == 0) {
+            // Inner node: the slab test of every child over [0, t]
+            const WideBvhNode& node = mesh.nodes[e.child];
+            alignas(32) float entry[kWideBvhWidth];
+            uint32_t enter = 0;
+            for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+                // (max(a, b) and min(a, b) are maxps and minps, a > b ? a : b and a < b ? a : b:
+                // a NaN distance a leaves the interval as it was)
+                N t0(0.0f), t1(t);
+                for (int k = 0; k < 3; ++k) {
+                    const N near = N::load_aligned(node.bounds[near_row[k]] + at);
+                    const N far = N::load_aligned(node.bounds[far_row[k]] + at);
+                    t0 = max((near - org[k]) * inv[k], t0);
+                    t1 = min((far - org[k]) * inv[k] * N(kBvhFarScale), t1);
+                }
+                enter |= mask_bits<WideArch<A>>(t0 <= t1) << at;
+                t0.store_aligned(entry + at);
+            }
+            enter &= (1u << node.slots) - 1u;
+            if (enter != 0) {
+                // Into the nearest child entered (the first, for any hit); the others onto the
+                // stack, for closest hit sorted by entry distance with the nearest on top
+                int i = std::countr_zero(enter);
+                e = {node.child[i], node.count[i], entry[i]};
+                const int base = size;
+                for (enter &= enter - 1; enter; enter &= enter - 1) {
+                    i = std::countr_zero(enter);
+                    Entry other{node.child[i], node.count[i], entry[i]};
+                    if constexpr (!kAnyHit)
+                        if (other.t < e.t) std::swap(other, e);
+                    int j = size++;
+                    if constexpr (!kAnyHit)
+                        for (; j > base && stack[j - 1].t < other.t; --j) stack[j] = stack[j - 1];
+                    stack[j] = other;
+                }
                 continue;
             }
-            // Leaf: every triangle against the entering lanes
-            for (uint32_t j = node.offset; j < node.offset + node.count; ++j) {
-                const float* v = mesh.triangles + 9 * size_t(j);
-                F th(0.0f), b1(0.0f), b2(0.0f);
-                const auto m = intersect_triangle(ray, shear, Vec3<F>(F(v[0]), F(v[1]), F(v[2])),
-                                                  Vec3<F>(F(v[3]), F(v[4]), F(v[5])),
-                                                  Vec3<F>(F(v[6]), F(v[7]), F(v[8])), t, th, b1,
-                                                  b2) &
-                               enter;
-                hit = hit | m;
-                if constexpr (kAnyHit) {
-                    live = live & !m;
-                } else {
-                    t = select(m, th, t);
-                    triangle = select(mask_i32(m), I(int32_t(j)), triangle);
+        } else {
+            // Leaf: its triangles, a register at a time; the nearest hit, the first on a tie
+            for (uint32_t i = 0; i < e.count; i += kLanes) {
+                const uint32_t block = e.child + i / kWideBvhWidth, at = i % kWideBvhWidth;
+                const float(*v)[kWideBvhWidth] = mesh.blocks[block].v;
+                const auto vertex = [&](int k) {
+                    return Vec3<N>(N::load_aligned(v[3 * k + axis[0]] + at),
+                                   N::load_aligned(v[3 * k + axis[1]] + at),
+                                   N::load_aligned(v[3 * k + axis[2]] + at));
+                };
+                N th(0.0f), b1(0.0f), b2(0.0f);
+                uint32_t hits = mask_bits<WideArch<A>>(intersect_triangle(
+                    ray, shear, vertex(0), vertex(1), vertex(2), N(t), th, b1, b2));
+                if (hits == 0) continue;
+                if constexpr (kAnyHit) return true;
+                alignas(32) float ts[kLanes];
+                th.store_aligned(ts);
+                for (; hits; hits &= hits - 1) {
+                    const uint32_t h = uint32_t(std::countr_zero(hits));
+                    if (ts[h] < t) t = ts[h], hit_lane = block * kWideBvhWidth + at + h;
                 }
-            }
-            if constexpr (kAnyHit) {
-                if (none(live)) return;
+                found = true;
             }
         }
-        if (size == 0) return;
-        index = stack[--size];
+        // Next: the top of the stack, dropping boxes entered beyond the closest hit
+        do {
+            if (size == 0) {
+                if (found) tmax = t, lane = hit_lane;
+                return found;
+            }
+            e = stack[--size];
+        } while (e.t > t);
     }
 }
 
-// The closest mesh hits, after the analytic ones: for each mesh, the rays whose interval
-// [0, t] meets its root box are gathered into full packets (most rays of a scene never come
-// near a given mesh, and a sparse packet walks the tree for its few live lanes), traversed,
-// and their t, primitive, mesh, triangle and normal scattered back.
+// The closest mesh hits, after the analytic ones: for each batch of K rays and each mesh,
+// the rays whose interval [0, t] meets the mesh's box go through its BVH one by one, and a
+// hit writes t, primitive, mesh, triangle and the triangle's normal to the path.
 template <class A>
 void intersect_meshes(Wave<A>& w) {
     using F = typename Wave<A>::F;
-    using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
-    int32_t* list = p.bucket[kLobeCount];
-    for (int32_t m = 0; m < s.mesh_count; ++m) {
-        const FlatMesh& mesh = s.meshes[m];
-        if (mesh.node_count == 0) continue;  // every triangle degenerate: nothing to hit
-        // The rays that enter the root box
-        int32_t size = 0;
-        const FlatBvhNode& root = mesh.nodes[0];
-        for (int32_t i = 0; i < w.live; i += K) {
-            const Vec3<F> o = load3<F>(p.ox, p.oy, p.oz, i), d = load3<F>(p.dx, p.dy, p.dz, i);
-            const F org[3] = {o.x, o.y, o.z};
-            const F inv[3] = {F(1.0f) / d.x, F(1.0f) / d.y, F(1.0f) / d.z};
-            const auto enter = slab_hits<A>(root, org, inv, F::load_aligned(p.t + i));
-            append_lanes(mask_bits(w.live_mask(i) & enter), i, list, size);
-        }
-        // Full packets of those rays through the tree
-        for (int32_t i = 0; i < size; i += K) {
-            alignas(64) int32_t idx[K];
-            for (int32_t l = 0; l < K; ++l) idx[l] = list[std::min(i + l, size - 1)];
-            const I j = I::load_aligned(idx);
-            const Ray<F> ray{{gather_lanes<A>(p.ox, j), gather_lanes<A>(p.oy, j), gather_lanes<A>(p.oz, j)},
-                             {gather_lanes<A>(p.dx, j), gather_lanes<A>(p.dy, j), gather_lanes<A>(p.dz, j)}};
-            F t = gather_lanes<A>(p.t, j);
-            I triangle(0);
-            typename Wave<A>::M hit(false);
-            traverse_packet<false, A>(mesh, ray, make_ray_shear(ray.d), typename Wave<A>::M(true), t,
-                                      triangle, hit);
-            // Hits back to their paths, lane by lane (normal from the triangle's vertices)
-            alignas(64) float ts[K];
-            alignas(64) int32_t tris[K];
-            t.store_aligned(ts);
-            triangle.store_aligned(tris);
-            uint32_t bits = mask_bits(hit) & ((size - i >= K) ? ~0u : (1u << (size - i)) - 1u);
-            while (bits) {
-                const int32_t l = std::countr_zero(bits);
-                bits &= bits - 1;
-                const int32_t q = idx[l];
-                const float* v = mesh.triangles + 9 * size_t(tris[l]);
-                const Vec3f n = normalize(cross(Vec3f{v[3] - v[0], v[4] - v[1], v[5] - v[2]},
-                                                Vec3f{v[6] - v[0], v[7] - v[1], v[8] - v[2]}));
-                p.t[q] = ts[l];
+    for (int32_t i = 0; i < w.live; i += K) {
+        const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+        const WideRays<A> rays(ray);
+        const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
+        const F inv[3] = {F::load_aligned(rays.inv[0]), F::load_aligned(rays.inv[1]),
+                          F::load_aligned(rays.inv[2])};
+        for (int32_t m = 0; m < s.mesh_count; ++m) {
+            const FlatMesh& mesh = s.meshes[m];
+            const F t = F::load_aligned(p.t + i);
+            uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(mesh.bounds, org, inv, t));
+            for (; enter; enter &= enter - 1) {
+                const int l = std::countr_zero(enter);
+                const int32_t q = i + l;
+                uint32_t lane = 0;
+                if (!traverse_wide<false, A>(mesh, rays, l, p.t[q], lane)) continue;
+                // The hit triangle's normal from its vertices
+                const float(*v)[kWideBvhWidth] = mesh.blocks[lane / kWideBvhWidth].v;
+                const uint32_t j = lane % kWideBvhWidth;
+                const Vec3f v0{v[0][j], v[1][j], v[2][j]}, v1{v[3][j], v[4][j], v[5][j]},
+                    v2{v[6][j], v[7][j], v[8][j]};
+                const Vec3f n = normalize(cross(v1 - v0, v2 - v0));
                 p.prim[q] = kPrimMesh << kPrimShift;
                 p.mesh_nx[q] = n.x, p.mesh_ny[q] = n.y, p.mesh_nz[q] = n.z;
                 p.mesh_id[q] = m;
-                p.mesh_tri[q] = mesh.triangle_ids[tris[l]];
+                p.mesh_tri[q] = mesh.triangle_ids[lane];
             }
         }
     }
@@ -221,12 +289,24 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         blocked = blocked | intersect_quadric(ray, quadric_at<F>(q), lo, hi, tmax, th);
     }
     if (s.features.meshes && !all(blocked)) {
-        const RayShear<F> shear = make_ray_shear(ray.d);
+        // Meshes: each open ray that enters a mesh's box through its BVH, one by one
+        using I = typename Wave<A>::I;
+        const WideRays<A> rays(ray);
+        const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
+        const F inv[3] = {F::load_aligned(rays.inv[0]), F::load_aligned(rays.inv[1]),
+                          F::load_aligned(rays.inv[2])};
+        alignas(64) float tm[Wave<A>::K];
+        alignas(64) int32_t hit[Wave<A>::K] = {};
+        tmax.store_aligned(tm);
         for (int32_t m = 0; m < s.mesh_count && !all(blocked); ++m) {
-            F t = tmax;
-            typename Wave<A>::I unused(0);
-            traverse_packet<true, A>(s.meshes[m], ray, shear, (!blocked) & live, t, unused,
-                                     blocked);
+            const FlatMesh& mesh = s.meshes[m];
+            uint32_t open = mask_bits(live & !blocked & slab_hits<A>(mesh.bounds, org, inv, tmax));
+            for (; open; open &= open - 1) {
+                const int l = std::countr_zero(open);
+                uint32_t unused;
+                if (traverse_wide<true, A>(mesh, rays, l, tm[l], unused)) hit[l] = 1;
+            }
+            blocked = blocked | mask_f32(I::load_aligned(hit) != I(0));
         }
     }
     return blocked;

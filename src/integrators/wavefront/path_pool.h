@@ -34,8 +34,8 @@ struct PathPool {
     // Lobe choice and the per-lobe buckets (indices into the pool)
     int32_t* lobe;
     float* probability;
-    int32_t* bucket[5];  // the lobe buckets, and (the last) the rays entering a mesh
-    int32_t bucket_size[5];
+    int32_t* bucket[4];  // one per lobe (kLobeCount)
+    int32_t bucket_size[4];
     int32_t* order;            // material-sorted indices
     int32_t* material_starts;  // material_count + 1 group starts
 

@@ -1,6 +1,6 @@
 // Wavefront stage 6, shadow rays: the queued rays towards point lights, K at a time, any-hit
-// against the analytic primitives and the meshes (as packets); an unblocked ray adds its
-// contribution to its path's radiance.
+// against the analytic primitives and the meshes (one ray at a time through their 8-wide
+// BVHs); an unblocked ray adds its contribution to its path's radiance.
 #pragma once
 
 #include "integrators/wavefront/intersect_stage.h"

@@ -1,6 +1,6 @@
 // The wavefront integrator's scalar side: the flat view of the scene that the per-ISA
-// kernels read, the callbacks they make into the BVH, per-thread path pools, the choice of
-// instruction set, and the hand-over of finished paths to the film.
+// kernels read (meshes as their 8-wide BVHs), the vertex-colour callback, per-thread path
+// pools, the choice of instruction set, and the hand-over of finished paths to the film.
 #include "integrators/wavefront/wavefront.h"
 
 #include <cstdlib>
@@ -170,9 +170,10 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.quadric_material = d.quadric_material.data();
     for (const Mesh& m : scene.meshes) {
         d.mesh_material.push_back(m.material);
-        d.meshes.push_back({static_cast<const FlatBvhNode*>(m.bvh.node_data()),
-                            m.bvh.triangle_data(), m.bvh.triangle_id_data(),
-                            int32_t(m.bvh.node_count())});
+        const Vec3f lo = m.bvh.bounds_min(), hi = m.bvh.bounds_max();
+        d.meshes.push_back({m.bvh.wide_nodes(), m.bvh.triangle_blocks(),
+                            m.bvh.block_triangle_ids(), int32_t(m.bvh.wide_node_count()),
+                            {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}});
     }
     f.meshes = d.meshes.data();
     d.mesh_material = padded(d.mesh_material);
