@@ -3,7 +3,7 @@
 
     /usr/bin/python3 papers/scripts/regenerate.py [--quick] [--only PART ...]
 
-Parts, in order: figures (every scene by both integrators, tone-mapped to PNG), series (the
+Parts, in order: figures (every scene by both integrators, tone-mapped, kept as JPEG), series (the
 report's resolution and paths-per-pixel table), threads (the thread table, oversubscribed
 2x and 4x), converge (error against time per integrator, knob, material and light), report
 (the tables and figures of REPORT.md, between its BEGIN/END markers). --quick divides every
@@ -31,12 +31,12 @@ INTEGRATORS = ("scalar", "wavefront")
 
 # The report's figures: scene, what it shows, tone-mapping operator
 FIGURES = [
-    ("cornell", "The default box: diffuse walls, an emitting ceiling, two spheres", "clamp-gamma"),
+    ("cornell", "The default box: five diffuse planes, red and green side walls, an emitting ceiling", "clamp-gamma"),
     ("emitting_spheres", "Two emitting spheres", "clamp-gamma"),
     ("mirror_spheres", "Perfect specular spheres", "clamp-gamma"),
     ("glass_spheres", "Refracting spheres", "clamp-gamma"),
     ("diffuse_spheres", "Diffuse spheres", "clamp-gamma"),
-    ("phong_spheres", "Phong specular spheres of increasing s", "clamp-gamma"),
+    ("phong_spheres", "Phong specular spheres, s = 10 and s = 200", "clamp-gamma"),
     ("four_lobes", "One sphere with all four lobes", "clamp-gamma"),
     ("point_lights", "Three point lights, no emitters", "clamp-gamma"),
     ("quadrics", "Quadrics: ellipsoid, cylinder, cone", "clamp-gamma"),
@@ -64,6 +64,15 @@ def render(scene, integrator, out, stats, extra=()):
         return json.load(f)
 
 
+def publish(exr, name, op="clamp-gamma"):
+    """Tone-maps an HDR render to papers/out/NAME.png and keeps it as papers/images/NAME.jpg
+    (JPEG quality 92: noisy renders compress badly as PNG, and the EXR stays in out/)."""
+    from PIL import Image  # Debian's python3-pil, a dependency of python3-matplotlib
+    png = os.path.join(OUT, name + ".png")
+    run([TONEMAP, exr, png, "--op", op])
+    Image.open(png).convert("RGB").save(os.path.join(IMAGES, name + ".jpg"), quality=92)
+
+
 def figures(args):
     """Every figure scene: the wavefront image (FIGURE_SPP paths) and the scalar reference
     (the scene's 64), with a different seed, and whether their image means agree."""
@@ -75,7 +84,7 @@ def figures(args):
         exr = os.path.join(OUT, scene + ".exr")
         w = render(scene, "wavefront", exr, os.path.join(OUT, scene + ".wavefront.json"),
                    ["--spp", spp, "--variance"])
-        run([TONEMAP, exr, os.path.join(IMAGES, scene + ".png"), "--op", op])
+        publish(exr, scene, op)
         s = render(scene, "scalar", os.path.join(OUT, scene + ".scalar.exr"),
                    os.path.join(OUT, scene + ".scalar.json"),
                    ["--spp", max(4, 64 // args.divisor), "--seed", 2])
@@ -101,11 +110,9 @@ def series(args):
                          "threads": st["threads"], "isa": st["isa"],
                          "relative_error": st["mean_relative_error"]})
             if integrator == "wavefront" and size == 500:
-                run([TONEMAP, os.path.join(OUT, name + ".exr"),
-                     os.path.join(IMAGES, f"cornell_ppp{spp}.png"), "--op", "clamp-gamma"])
+                publish(os.path.join(OUT, name + ".exr"), f"cornell_ppp{spp}")
             if integrator == "wavefront" and spp == 250:
-                run([TONEMAP, os.path.join(OUT, name + ".exr"),
-                     os.path.join(IMAGES, f"cornell_res{size}.png"), "--op", "clamp-gamma"])
+                publish(os.path.join(OUT, name + ".exr"), f"cornell_res{size}")
     write_csv(os.path.join(DATA, "series.csv"), rows)
 
 
@@ -242,7 +249,7 @@ def figures_table():
 def figures_gallery():
     lines = []
     for scene, caption, _ in FIGURES:
-        lines.append(f"| ![{caption}](images/{scene}.png) | **{scene}**: {caption} |")
+        lines.append(f"| ![{caption}](images/{scene}.jpg) | **{scene}**: {caption} |")
     return "| image | scene |\n|---|---|\n" + "\n".join(lines)
 
 
