@@ -72,8 +72,11 @@ std::string csv_header() {
            "estimated_relative_error,efficiency";
 }
 
+const char* diffuse_name(const EstimatorSettings& e) {
+    return e.cosine_diffuse ? "cosine" : "uniform";
+}
+
 std::string csv_row(const Scene& scene, const ConvergePoint& p) {
-    const Scene s = with_config(scene, p.config);
     const ImageError& e = p.error;
     // Efficiency: 1 / (error × time), the figure of merit of Monte Carlo estimators
     const double efficiency = e.rel_mse_corrected() > 0 && p.seconds > 0
@@ -83,8 +86,7 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
         "{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
-        s.settings.estimator.survival_cap,
-        s.settings.estimator.cosine_diffuse ? "cosine" : "uniform", p.stats.threads,
+        p.estimator.survival_cap, diffuse_name(p.estimator), p.stats.threads,
         scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
         p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
         e.reference_mse, e.reference_rel_mse, e.mse_corrected(), std::sqrt(e.mse_corrected()),
@@ -240,11 +242,9 @@ int run_converge_command() {
         scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
             rows.push_back(csv_row(scene, p));
             if (a.quiet) return;
-            const Scene s = with_config(scene, p.config);
             std::printf("%-9s %-7s %5d %5.2f %-7s %7lld %10.4f %12.2f %12.4g %12.4g\n",
                         p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
-                        s.settings.estimator.survival_cap,
-                        s.settings.estimator.cosine_diffuse ? "cosine" : "uniform",
+                        p.estimator.survival_cap, diffuse_name(p.estimator),
                         static_cast<long long>(p.spp), p.seconds,
                         p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
                         std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
@@ -261,12 +261,11 @@ int run_converge_command() {
             y.push_back(points[i].error.mse_corrected());
         }
         const ConvergePoint* last = &points[first + n - 1];
-        const Scene s = with_config(scene, last->config);
         std::fprintf(stderr,
                      "%s %s pool %d cap %.2f %s: MSE ~ spp^%.2f, %.3g s per path per pixel\n",
                      last->config.integrator.c_str(), last->stats.isa.c_str(),
-                     last->stats.pool_size, s.settings.estimator.survival_cap,
-                     s.settings.estimator.cosine_diffuse ? "cosine" : "uniform",
+                     last->stats.pool_size, last->estimator.survival_cap,
+                     diffuse_name(last->estimator),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }
     if (!a.out.empty())

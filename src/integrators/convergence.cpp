@@ -40,12 +40,16 @@ ImageError image_error(const Image& image, const Image& reference,
     return e;
 }
 
-Scene with_config(const Scene& scene, const ConvergeConfig& config) {
-    Scene s = scene;
-    if (config.survival_cap >= 0.0f) s.settings.estimator.survival_cap = config.survival_cap;
-    if (config.cosine_diffuse >= 0) s.settings.estimator.cosine_diffuse = config.cosine_diffuse;
-    return s;
+namespace {
+
+// The estimator settings with a config's knobs applied.
+EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& config) {
+    if (config.survival_cap >= 0.0f) settings.survival_cap = config.survival_cap;
+    if (config.cosine_diffuse >= 0) settings.cosine_diffuse = config.cosine_diffuse;
+    return settings;
 }
+
+}  // namespace
 
 std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& reference,
                                         const Image* reference_variance,
@@ -53,7 +57,8 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
                                         const std::function<void(const ConvergePoint&)>& on_point) {
     std::vector<ConvergePoint> points;
     for (const ConvergeConfig& config : sweep.configs) {
-        Scene s = with_config(scene, config);
+        Scene s = scene;
+        s.settings.estimator = with_config(scene.settings.estimator, config);
         RenderOptions options;
         options.threads = sweep.threads;
         options.integrator = config.integrator;
@@ -63,6 +68,7 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
         for (int64_t spp : sweep.spp) {
             ConvergePoint point;
             point.config = config;
+            point.estimator = s.settings.estimator;
             point.spp = spp;
             point.repeats = std::max(1, sweep.repeats);
             std::vector<double> seconds;

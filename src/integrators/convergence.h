@@ -49,6 +49,7 @@ struct ConvergeConfig {
 
 struct ConvergePoint {
     ConvergeConfig config;
+    EstimatorSettings estimator;  // the settings rendered with: the scene's and the config's
     int64_t spp = 0;
     int repeats = 0;
     double seconds = 0.0;        // median over the repeats
@@ -71,9 +72,6 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
                                         const Image* reference_variance,
                                         const ConvergeSweep& sweep,
                                         const std::function<void(const ConvergePoint&)>& on_point);
-
-// The scene with a config's estimator knobs applied.
-Scene with_config(const Scene& scene, const ConvergeConfig& config);
 
 // The least-squares slope of log(y) against log(x) over the points with y > 0 (NaN when
 // fewer than two): -1 for an unbiased estimator's MSE against paths per pixel.
