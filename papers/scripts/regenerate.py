@@ -202,17 +202,19 @@ def seconds(s):
 
 def series_table():
     rows = read_csv(os.path.join(DATA, "series.csv"))
-    by = {(int(r["size"]), int(r["spp"]), r["integrator"]): r for r in rows}
+    wavefront = {(r["size"], r["spp"]): r for r in rows if r["integrator"] == "wavefront"}
     out = []
-    for (size, spp, integrator), r in by.items():
-        if integrator != "scalar":
+    for r in rows:
+        if r["integrator"] != "scalar":
             continue
-        w = by[(size, spp, "wavefront")]
+        w = wavefront[(r["size"], r["spp"])]
         ts, tw = float(r["seconds"]), float(w["seconds"])
-        out.append([f"{size}×{size}", spp, seconds(ts), seconds(tw), f"{ts / tw:.1f}×",
-                    f"{float(w['rays']) / tw / 1e6:.0f} M", f"{float(w['relative_error']):.4f}"])
-    return table(["image", "paths per pixel", "scalar", f"wavefront ({w['isa']})",
-                  "speed-up", "wavefront rays/s", "relative error"], out)
+        out.append([f"{r['size']}×{r['size']}", r["spp"], seconds(ts), seconds(tw),
+                    f"{ts / tw:.1f}×", f"{float(w['rays']) / tw / 1e6:.0f} M",
+                    f"{float(w['relative_error']):.4f}"])
+    isa = next(iter(wavefront.values()))["isa"]
+    return table(["image", "paths per pixel", "scalar", f"wavefront ({isa})", "speed-up",
+                  "wavefront rays/s", "relative error"], out)
 
 
 def threads_table():
