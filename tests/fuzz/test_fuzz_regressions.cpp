@@ -86,7 +86,8 @@ TEST(FuzzRegressions, SceneCorpus) {
 
 TEST(FuzzRegressions, SceneCrashers) {
     size_t accepted = 0;
-    replay(kFuzzDir / "regressions" / "scene", fuzz_one_scene, &accepted);
+    EXPECT_GE(replay(kFuzzDir / "regressions" / "scene", fuzz_one_scene, &accepted), 8u)
+        << "the kept crashers are missing";
 }
 
 TEST(FuzzRegressions, PlyCorpus) {
@@ -97,7 +98,8 @@ TEST(FuzzRegressions, PlyCorpus) {
 
 TEST(FuzzRegressions, PlyCrashers) {
     size_t accepted = 0;
-    replay(kFuzzDir / "regressions" / "ply", fuzz_one_ply, &accepted);
+    EXPECT_GE(replay(kFuzzDir / "regressions" / "ply", fuzz_one_ply, &accepted), 1u)
+        << "the kept crashers are missing";
 }
 
 // Two finds too large to keep as files, generated here instead.
