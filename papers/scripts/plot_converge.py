@@ -21,15 +21,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 PAPERS = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 
-# The column that tells the configurations of a sweep apart, by sweep name
-LABEL = {"survival_cap": "survival_cap", "pool": "pool", "isa": "isa",
-         "diffuse_sampling": "diffuse_sampling"}
+# Sweeps of one knob are named after its CSV column; other sweeps compare integrators
+KNOB_SWEEPS = {"survival_cap", "pool", "isa", "diffuse_sampling"}
 
 
 def label_of(name, row):
-    key = LABEL.get(name)
-    if key:
-        return f"{key.replace('_', ' ')} {row[key]}"
+    if name in KNOB_SWEEPS:
+        return f"{name.replace('_', ' ')} {row[name]}"
     return f"{row['integrator']} ({row['isa']})"
 
 
