@@ -41,6 +41,8 @@ public:
     const PixelSums& at(int x, int y) const {
         return pixels_[size_t(y) * size_t(width_) + size_t(x)];
     }
+    // The pixel at index y * width + x.
+    PixelSums& at_index(size_t i) { return pixels_[i]; }
 
     // The mean radiance per pixel.
     Image mean() const;

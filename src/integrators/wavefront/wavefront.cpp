@@ -33,10 +33,9 @@ void vertex_color(const void* scene, int32_t mesh, uint32_t triangle, const floa
 
 void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float* r,
                   const float* g, const float* b) {
+    // Pixel indices are y * width + x: the film's own layout, so no division per path
     Film& f = *static_cast<Film*>(film);
-    const uint32_t width = uint32_t(f.width());
-    for (int32_t i = 0; i < count; ++i)
-        f.at(int(pixel[i] % width), int(pixel[i] / width)).add({r[i], g[i], b[i]});
+    for (int32_t i = 0; i < count; ++i) f.at_index(pixel[i]).add({r[i], g[i], b[i]});
 }
 
 FlatColor flatten(const ColorSource& c) {
