@@ -19,7 +19,7 @@ QuadricCoefficients<F> quadric_at(const float* q) {
             F(q[9])};
 }
 
-// Closest analytic hit of K rays; `prim` is -1 where nothing is hit.
+// Closest analytic hit of K rays; `prim` is left as it was where nothing is hit.
 template <class A>
 void closest_analytic(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
                       typename Wave<A>::F& t, typename Wave<A>::I& prim) {
@@ -207,64 +207,62 @@ template <bool kAnyHit, class A>
     }
 }
 
-// The closest mesh hits, after the analytic ones: for each batch of K rays and each mesh,
-// the rays whose interval [0, t] meets the mesh's box go through its BVH one by one, and a
-// hit writes t, primitive, mesh, triangle and the triangle's normal to the path.
+// The closest mesh hits of batch `i`, after its analytic ones (in p.t and p.prim): for each
+// mesh, the rays whose interval [0, t] meets the mesh's box go through its BVH one by one,
+// and a hit writes t, primitive, mesh, triangle and the triangle's normal to the path.
 template <class A>
-void intersect_meshes(Wave<A>& w) {
+void intersect_meshes(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) {
     using F = typename Wave<A>::F;
-    constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
-    for (int32_t i = 0; i < w.live; i += K) {
-        const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
-        const WideRays<A> rays(ray);
-        const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
-        const F inv[3] = {F::load_aligned(rays.inv[0]), F::load_aligned(rays.inv[1]),
-                          F::load_aligned(rays.inv[2])};
-        for (int32_t m = 0; m < s.mesh_count; ++m) {
-            const FlatMesh& mesh = s.meshes[m];
-            const F t = F::load_aligned(p.t + i);
-            uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(mesh.bounds, org, inv, t));
-            for (; enter; enter &= enter - 1) {
-                const int l = std::countr_zero(enter);
-                const int32_t q = i + l;
-                uint32_t lane = 0;
-                if (!traverse_wide<false, A>(mesh, rays, l, p.t[q], lane)) continue;
-                // The hit triangle's normal from its vertices
-                const float(*v)[kWideBvhWidth] = mesh.blocks[lane / kWideBvhWidth].v;
-                const uint32_t j = lane % kWideBvhWidth;
-                const Vec3f v0{v[0][j], v[1][j], v[2][j]}, v1{v[3][j], v[4][j], v[5][j]},
-                    v2{v[6][j], v[7][j], v[8][j]};
-                const Vec3f n = normalize(cross(v1 - v0, v2 - v0));
-                p.prim[q] = kPrimMesh << kPrimShift;
-                p.mesh_nx[q] = n.x, p.mesh_ny[q] = n.y, p.mesh_nz[q] = n.z;
-                p.mesh_id[q] = m;
-                p.mesh_tri[q] = mesh.triangle_ids[lane];
-            }
+    const WideRays<A> rays(ray);
+    const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
+    const F inv[3] = {F::load_aligned(rays.inv[0]), F::load_aligned(rays.inv[1]),
+                      F::load_aligned(rays.inv[2])};
+    for (int32_t m = 0; m < s.mesh_count; ++m) {
+        const FlatMesh& mesh = s.meshes[m];
+        const F t = F::load_aligned(p.t + i);
+        uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(mesh.bounds, org, inv, t));
+        for (; enter; enter &= enter - 1) {
+            const int l = std::countr_zero(enter);
+            const int32_t q = i + l;
+            uint32_t lane = 0;
+            if (!traverse_wide<false, A>(mesh, rays, l, p.t[q], lane)) continue;
+            // The hit triangle's normal from its vertices
+            const float(*v)[kWideBvhWidth] = mesh.blocks[lane / kWideBvhWidth].v;
+            const uint32_t j = lane % kWideBvhWidth;
+            const Vec3f v0{v[0][j], v[1][j], v[2][j]}, v1{v[3][j], v[4][j], v[5][j]},
+                v2{v[6][j], v[7][j], v[8][j]};
+            const Vec3f n = normalize(cross(v1 - v0, v2 - v0));
+            p.prim[q] = kPrimMesh << kPrimShift;
+            p.mesh_nx[q] = n.x, p.mesh_ny[q] = n.y, p.mesh_nz[q] = n.z;
+            p.mesh_id[q] = m;
+            p.mesh_tri[q] = mesh.triangle_ids[lane];
         }
     }
 }
 
+// The closest hit of batch `i` (rays `ray`): t and the primitive id (-1: nothing) in
+// registers, and in p.t and p.prim when the scene has meshes (their traversal goes through
+// the pool one ray at a time).
 template <class A>
-void intersect_closest(Wave<A>& w) {
+void closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
+                 typename Wave<A>::F& t, typename Wave<A>::I& prim) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
-    const FlatScene& s = w.scene;
-    const int32_t end = w.rounded_up(w.live);
-    for (int32_t i = 0; i < end; i += Wave<A>::K) {
-        const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
-        F t(kRayFar);
-        I prim(-1);
-        closest_analytic<A>(s, ray, t, prim);
+    t = F(kRayFar);
+    prim = I(-1);
+    closest_analytic<A>(w.scene, ray, t, prim);
+    if (w.scene.features.meshes) {
         t.store_aligned(p.t + i);
         prim.store_aligned(p.prim + i);
+        intersect_meshes(w, i, ray);
+        t = F::load_aligned(p.t + i);
+        prim = I::load_aligned(p.prim + i);
     }
-    if (s.features.meshes) intersect_meshes(w);
-    w.counters.isect_active += uint64_t(w.live);
-    w.counters.isect_total += uint64_t(end);
-
+    w.counters.isect_active += uint64_t(std::min(Wave<A>::K, w.live - i));
+    w.counters.isect_total += uint64_t(Wave<A>::K);
 }
 
 // Whether anything blocks K shadow rays within tmax (for the `live` lanes); lanes already

@@ -1,10 +1,12 @@
 // Wavefront stage 5, shading, with the estimator of kernels/estimator.h: emitters end their
 // paths; Phong vertices queue one shadow ray per point light; the roulette picks each path's
-// lobe; hits are bucketed by lobe and each lobe's kernel runs on full batches of its own
-// lanes (gathered by index), or on the pool in place when the scene has a single lobe.
+// lobe. A scene with one lobe kind runs that lobe on the same batch in registers; otherwise
+// hits are bucketed by lobe and each lobe's kernel runs on full batches of its own lanes
+// (gathered by index).
 #pragma once
 
 #include "integrators/wavefront/material_stage.h"
+#include "integrators/wavefront/surface_stage.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -145,35 +147,116 @@ struct LobeStep {
     }
 };
 
-// A lobe's kernel over the pool in place (single-lobe scenes: no bucketing needed).
-template <int kLobe, class A>
-void run_lobe_in_place(Wave<A>& w) {
+// Emission, shadow rays and the roulette for batch `i` (rays `ray`, their surfaces `sf`).
+// kFused is the scene's only lobe, whose continuation then runs here on the same registers;
+// or kLobeCount: the roulette's choice is stored for the lobe buckets (sample_lobes).
+template <int kFused, class A>
+void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
+                 const Surfaces<A>& sf, int32_t& queued) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
-    const int32_t end = w.rounded_up(w.live);
-    for (int32_t i = 0; i < end; i += Wave<A>::K) {
-        const auto chosen = mask_f32(I::load_aligned(p.lobe + i) == I(kLobe));
-        if (none(chosen)) continue;
-        const Vec3<F> o = load3<F>(p.ox, p.oy, p.oz, i);
-        const Vec3<F> d = load3<F>(p.dx, p.dy, p.dz, i);
-        const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
-        const Bsdf<F> m = w.scene.features.textures
-                              ? load_bsdf<F>(p, i)
-                              : table_bsdf<A>(w.scene, I::load_aligned(p.material + i));
-        const LobeStep<kLobe, A> step(w.scene, m, o, d,
-                                      load3<F>(p.px, p.py, p.pz, i), load3<F>(p.nx, p.ny, p.nz, i),
-                                      beta, F::load_aligned(p.probability + i),
-                                      U::load_aligned(p.key + i), U::load_aligned(p.bounce + i));
-        const auto alive = chosen & step.alive;
-        store3(select(chosen, step.o, o), p.ox, p.oy, p.oz, i);
-        store3(select(chosen, step.d, d), p.dx, p.dy, p.dz, i);
-        store3(select(chosen, step.beta, beta), p.beta_r, p.beta_g, p.beta_b, i);
-        const I was = I::load_aligned(p.alive + i);
-        select(mask_i32(chosen), select(mask_i32(alive), I(1), I(0)), was).store_aligned(p.alive + i);
+    const FlatScene& s = w.scene;
+    const FlatFeatures& f = s.features;
+    auto alive = sf.hit;
+    const I mat = sf.material;
+    const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
+    Vec3<F> rad = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
+
+    // An emitter ends the path
+    if (f.emitters) {
+        const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
+        const Vec3<F> le = f.textures ? load3<F>(p.col[kColEmission][0], p.col[kColEmission][1],
+                                                 p.col[kColEmission][2], i)
+                                      : table_color<A>(s, kColEmission, mat);
+        rad = select(em, rad + beta * le, rad);
+        alive = alive & !em;
+    }
+    const Bsdf<F> m = f.textures ? load_bsdf<F>(p, i) : table_bsdf<A>(s, mat);
+    const Vec3<F>& d = ray.d;
+    const Vec3<F>& n = sf.n;
+    const Vec3<F>& pos = sf.pos;
+
+    // Point lights through shadow rays at Phong vertices: queue f·cos θ·I/d² · β
+    if (f.lights) {
+        const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+        if (any(phong)) {
+            const Vec3<F> nf = facing_normal(n, d);
+            const F magnitude = max(max_abs(pos), max_abs(ray.o));
+            const Vec3<F> origin = offset_ray_origin(pos, nf, magnitude);
+            for (int32_t j = 0; j < s.light_count; ++j) {
+                const float* l = s.light + 6 * j;
+                const Vec3<F> to = Vec3<F>(F(l[0]), F(l[1]), F(l[2])) - origin;
+                const F d2 = dot(to, to);
+                const F dist = sqrt(d2);
+                const Vec3<F> wi = to * (F(1.0f) / dist);
+                const Vec3<F> c = beta * phong_f_cos(m, d, nf, wi) *
+                                  Vec3<F>(F(l[3]), F(l[4]), F(l[5])) * (F(1.0f) / d2);
+                uint32_t bits = mask_bits(phong & (max_component(c) > F(0.0f)));
+                if (!bits) continue;
+                alignas(64) float v[10][K];
+                const F tmax = dist * F(1.0f - 1e-5f);
+                const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x, &wi.y,
+                                    &wi.z,     &tmax,     &c.x,      &c.y,  &c.z};
+                for (int k = 0; k < 10; ++k) src[k]->store_aligned(v[k]);
+                float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy,
+                                  p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
+                while (bits) {
+                    const int32_t l = std::countr_zero(bits);
+                    bits &= bits - 1;
+                    for (int k = 0; k < 10; ++k) dst[k][queued] = v[k][l];
+                    p.sowner[queued++] = i + l;
+                }
+            }
+        }
+    }
+
+    // Russian roulette over the lobes
+    const U key = U::load_aligned(p.key + i);
+    const U bounce = U::load_aligned(p.bounce + i);
+    F probability;
+    I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe), s.survival_cap,
+                         probability);
+    lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
+    alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
+    if constexpr (kFused == kLobeCount) {
+        lobe.store_aligned(p.lobe + i);
+        probability.store_aligned(p.probability + i);
+    } else {
+        // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
+        // are written too; their rays are never read again.
+        const LobeStep<kFused, A> step(s, m, ray.o, d, pos, n, beta, probability, key, bounce);
+        alive = alive & step.alive;
+        store3(step.o, p.ox, p.oy, p.oz, i);
+        store3(step.d, p.dx, p.dy, p.dz, i);
+        store3(step.beta, p.beta_r, p.beta_g, p.beta_b, i);
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
     }
+    select(mask_i32(alive), I(1), I(0)).store_aligned(p.alive + i);
+    store3(rad, p.rad_r, p.rad_g, p.rad_b, i);
+    w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
+    w.counters.lanes_total += uint64_t(K);
+}
+
+// Shading of the surfaces stored before the material stage, K at a time.
+template <int kFused, class A>
+void shade_stored(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    int32_t queued = 0;
+    const int32_t end = w.rounded_up(w.live);
+    for (int32_t i = 0; i < end; i += Wave<A>::K) {
+        const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+        const Surfaces<A> sf{load3<F>(p.px, p.py, p.pz, i), load3<F>(p.nx, p.ny, p.nz, i),
+                             I::load_aligned(p.material + i),
+                             mask_f32(I::load_aligned(p.alive + i) != I(0))};
+        shade_batch<kFused>(w, i, ray, sf, queued);
+    }
+    p.shadow_count = queued;
+    w.counters.shadow += uint64_t(queued);
 }
 
 // A lobe's kernel over its bucket: full batches of gathered lanes.
@@ -207,19 +290,13 @@ void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
     }
 }
 
+// The lobes of scenes with more than one: the paths bucketed by the lobe the roulette
+// picked, then each lobe's kernel over its bucket.
 template <class A>
 void sample_lobes(Wave<A>& w) {
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
     const FlatFeatures& f = w.scene.features;
-    if (f.lobe_kinds <= 1) {
-        if (f.diffuse) run_lobe_in_place<kLobeDiffuse>(w);
-        if (f.specular) run_lobe_in_place<kLobeSpecular>(w);
-        if (f.mirror) run_lobe_in_place<kLobeMirror>(w);
-        if (f.refraction) run_lobe_in_place<kLobeRefract>(w);
-        return;
-    }
-    // Bucket the paths by the lobe the roulette picked
     for (int b = 0; b < kLobeCount; ++b) p.bucket_size[b] = 0;
     const int32_t end = w.rounded_up(w.live);
     for (int32_t i = 0; i < end; i += Wave<A>::K) {

@@ -1,9 +1,15 @@
 // The wavefront loop over one tile, for one instruction set: regenerate → intersect →
-// surfaces → materials (textured scenes only) → shade → lobes → shadow rays → compact, until every path of the
-// tile has ended. Included only by the per-ISA files, which instantiate it.
+// surfaces → materials (textured scenes only) → shade → lobes → shadow rays → compact, until
+// every path of the tile has ended. Stages with no reordering between them run on the same
+// batch of K paths in registers, one pass over the pool: intersection and surfaces always;
+// shading too when there are no textures to sort; the lobe too when the scene has one lobe
+// kind. Included only by the per-ISA files, which instantiate it.
 #pragma once
 
+#include <type_traits>
+
 #include "integrators/wavefront/compact_stage.h"
+#include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/shade_stage.h"
 #include "integrators/wavefront/shadow_stage.h"
@@ -12,9 +18,39 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
-template <class A>
-void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
-                     WavefrontCounters& counters) {
+// Closest hit and surface of every live path, K at a time, then: untextured scenes shade the
+// batch at once (no stage between needs the hits reordered), textured ones leave the
+// surfaces in the pool for the material sort.
+template <int kFused, class A>
+[[gnu::flatten]] void trace_paths(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    const bool textures = w.scene.features.textures;
+    int32_t queued = 0;
+    const int32_t end = w.rounded_up(w.live);
+    for (int32_t i = 0; i < end; i += Wave<A>::K) {
+        const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+        F t;
+        I prim;
+        closest_hit(w, i, ray, t, prim);
+        const Surfaces<A> sf = resolve_surfaces(w, i, ray, t, prim);
+        // The surfaces are stored for the stages that read them back: the material sort,
+        // and the lobe buckets (which gather hit points, normals and materials)
+        if (textures || kFused == kLobeCount) store_surfaces(w, i, sf);
+        if (textures)
+            prim.store_aligned(p.prim + i);
+        else
+            shade_batch<kFused>(w, i, ray, sf, queued);
+    }
+    p.shadow_count = queued;
+    w.counters.shadow += uint64_t(queued);
+}
+
+// The wavefront loop of one tile; kFused is the scene's only lobe kind, or kLobeCount.
+template <int kFused, class A>
+void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& job,
+                        WavefrontCounters& counters) {
     Wave<A> w{scene, pool, counters};
     TileCursor cursor;
     cursor.job = job;
@@ -22,17 +58,33 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
     cursor.tile_pixels = cursor.tile_width * (job.y1 - job.y0);
     cursor.total = int64_t(cursor.tile_pixels) * (job.sample_end - job.sample_begin);
     cursor.sample = uint32_t(job.sample_begin);
+    const FlatFeatures& f = scene.features;
     for (;;) {
         generate_camera_paths(w, cursor);
         if (w.live == 0) break;
-        intersect_closest(w);
-        resolve_surfaces(w);
-        if (scene.features.textures) evaluate_sorted_materials(w, pool.material_starts);
-        shade_vertices(w);
-        sample_lobes(w);
+        trace_paths<kFused>(w);
+        if (f.textures) {
+            evaluate_sorted_materials(w, pool.material_starts);
+            shade_stored<kFused>(w);
+        }
+        if (kFused == kLobeCount && f.lobe_kinds > 1) sample_lobes(w);
         trace_shadow_rays(w);
         compact_paths(w, job);
     }
+}
+
+template <class A>
+void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
+                     WavefrontCounters& counters) {
+    const FlatFeatures& f = scene.features;
+    auto run = [&](auto fused) {
+        render_tile_stages<decltype(fused)::value, A>(scene, pool, job, counters);
+    };
+    if (f.lobe_kinds != 1) return run(std::integral_constant<int, kLobeCount>{});
+    if (f.diffuse) return run(std::integral_constant<int, kLobeDiffuse>{});
+    if (f.specular) return run(std::integral_constant<int, kLobeSpecular>{});
+    if (f.mirror) return run(std::integral_constant<int, kLobeMirror>{});
+    run(std::integral_constant<int, kLobeRefract>{});
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE
