@@ -85,6 +85,39 @@ TEST(Agreement, WavefrontMatchesScalarOnEverySceneAndIsa) {
     }
 }
 
+TEST(Agreement, EveryPixelGetsItsPathsWhateverThePoolAndTileShapes) {
+    // 37 x 23 leaves edge tiles of 5 x 16, 16 x 7 and 5 x 7 pixels; a pool of 16 paths holds
+    // part of one sample of a tile, a pool of 2048 several samples of it. The camera stage
+    // splits path numbers into pixel and sample; every pixel must get exactly its paths, the
+    // same ones (keyed by pixel and sample) whatever the pool.
+    Scene scene = load_scene(CIERZO_SOURCE_DIR "/scenes/four_lobes.json");
+    scene.set_resolution(37, 23);
+    scene.settings.spp = 5;
+    for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {
+        if (!isa_supported(isa)) continue;
+        SCOPED_TRACE(isa_name(isa));
+        std::vector<Image> images;
+        for (int pool : {16, 48, 512, 2048}) {
+            RenderOptions o;
+            o.integrator = "wavefront";
+            o.isa = isa_name(isa);
+            o.threads = 1;
+            o.pool_size = pool;
+            o.progress = false;
+            const RenderResult r = render(scene, o);
+            for (int y = 0; y < r.film.height(); ++y)
+                for (int x = 0; x < r.film.width(); ++x)
+                    ASSERT_EQ(r.film.at(x, y).count + r.film.at(x, y).nonfinite, 5u)
+                        << "pool " << pool << ", pixel " << x << ", " << y;
+            images.push_back(r.film.mean());
+        }
+        for (size_t k = 1; k < images.size(); ++k)
+            for (size_t i = 0; i < images[0].rgb.size(); ++i)
+                ASSERT_NEAR(images[k].rgb[i], images[0].rgb[i], 1e-5f * (1.0f + images[0].rgb[i]))
+                    << "pool index " << k << ", value " << i;
+    }
+}
+
 // The box of cornell.json around a sphere of one material with all four lobes, every colour
 // channel non-zero; `scale` multiplies the channels below each lobe's max by (1 + error).
 Scene mixed_scene(int lobe, float error) {

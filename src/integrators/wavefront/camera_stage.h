@@ -1,5 +1,6 @@
 // Wavefront stage 1, regeneration: free slots of the pool take new camera paths of the tile,
-// in (sample, pixel) order, each with its random-number key and a jittered pinhole ray.
+// in (sample, pixel) order, each with its random-number key and a jittered pinhole ray; the
+// pixel and sample of each new path are worked out in the lanes.
 #pragma once
 
 #include "integrators/wavefront/wave.h"
@@ -18,29 +19,40 @@ struct TileCursor {
     uint32_t sample = 0;     // sample index of path `next`
 };
 
+// floor(a / b) and the remainder, for whole numbers 0 <= a < 2^24 and 0 < b < 2^24 held in
+// floats: the rounded quotient is off by at most one, and the remainder's sign corrects it.
+template <class F>
+F floor_divide(const F& a, const F& b, F& remainder) {
+    F q = floor(a / b);
+    F r = a - q * b;
+    q = select(r < F(0.0f), q - F(1.0f), q);
+    r = select(r < F(0.0f), r + b, r);
+    q = select(r >= b, q + F(1.0f), q);
+    remainder = select(r >= b, r - b, r);
+    return q;
+}
+
 template <class A>
 void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
+    constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
     const int32_t first = w.live;
     const int32_t count = int32_t(std::min<int64_t>(p.capacity - first, c.total - c.next));
     if (count <= 0) return;
 
-    // Pixel and sample of each new path, walking the tile row by row, sample by sample (the
-    // sample index waits in `bounce` until the keys are made)
-    for (int32_t i = first; i < first + count; ++i) {
-        const int32_t x = c.job.x0 + c.x, y = c.job.y0 + c.y;
-        p.pixel[i] = uint32_t(y) * uint32_t(s.width) + uint32_t(x);
-        p.bounce[i] = c.sample;
-        p.px[i] = float(x);
-        p.py[i] = float(y);
-        if (++c.x == c.tile_width) {
-            c.x = 0;
-            if (++c.y * c.tile_width == c.tile_pixels) c.y = 0, ++c.sample;
-        }
-    }
+    // New path k (0 <= k < count) is pixel `start + k` of the tile's row-by-row scan, wrapping
+    // to the next sample after the last pixel. The lanes work that out in float arithmetic,
+    // exact because every number stays below 2^24 (tiles have fewer than 2^23 pixels and
+    // pools at most 2^22 paths: WavefrontRenderer checks both).
+    const int32_t start = c.y * c.tile_width + c.x;
+    const uint32_t sample0 = c.sample;
+    const int64_t scanned = int64_t(start) + count;
+    c.sample += uint32_t(scanned / c.tile_pixels);
+    const int32_t rest = int32_t(scanned % c.tile_pixels);
+    c.y = rest / c.tile_width, c.x = rest % c.tile_width;
     c.next += count;
     w.counters.camera += uint64_t(count);
 
@@ -50,16 +62,27 @@ void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     const Vec3f left{s.cam_left[0], s.cam_left[1], s.cam_left[2]};
     const Vec3f up{s.cam_up[0], s.cam_up[1], s.cam_up[2]};
     const float inv_w = 1.0f / float(s.width), inv_h = 1.0f / float(s.height);
+    const F tile_width(float(c.tile_width)), tile_pixels(float(c.tile_pixels));
     const int32_t end = first + count;
-    for (int32_t i = first / Wave<A>::K * Wave<A>::K; i < end; i += Wave<A>::K) {
+    for (int32_t i = first / K * K; i < end; i += K) {
         const auto fresh = Wave<A>::lane_index() >= F(float(first - i));
-        const U pixel = U::load_aligned(p.pixel + i);
-        const U key = select(mask_u32(fresh), path_key(s.seed, pixel, U::load_aligned(p.bounce + i)),
-                             U::load_aligned(p.key + i));
+        const auto fresh_u = mask_u32(fresh);
+        // Pixel (x, y) and sample of each new path (lanes before `first` compute nonsense
+        // that the selects below discard)
+        const F scan = Wave<A>::lane_index() + F(float(start + i - first));
+        F at, x;
+        const F wraps = floor_divide(max(scan, F(0.0f)), tile_pixels, at);
+        const F y = floor_divide(at, tile_width, x);
+        const F px = x + F(float(c.job.x0)), py = y + F(float(c.job.y0));  // pixel corner
+        const auto to_u = [](const F& v) { return xsimd::bitwise_cast<U>(to_int(v)); };
+        const U pixel = to_u(py) * U(uint32_t(s.width)) + to_u(px);
+        const U sample = U(sample0) + to_u(wraps);
+        select(fresh_u, pixel, U::load_aligned(p.pixel + i)).store_aligned(p.pixel + i);
+        const U key = select(fresh_u, path_key(s.seed, pixel, sample), U::load_aligned(p.key + i));
         key.store_aligned(p.key + i);
-        select(mask_u32(fresh), U(0u), U::load_aligned(p.bounce + i)).store_aligned(p.bounce + i);
-        const F sx = F::load_aligned(p.px + i) + uniform<F>(key, U(0u), Purpose::kPixelX);
-        const F sy = F::load_aligned(p.py + i) + uniform<F>(key, U(0u), Purpose::kPixelY);
+        select(fresh_u, U(0u), U::load_aligned(p.bounce + i)).store_aligned(p.bounce + i);
+        const F sx = px + uniform<F>(key, U(0u), Purpose::kPixelX);
+        const F sy = py + uniform<F>(key, U(0u), Purpose::kPixelY);
         const Ray<F> ray = pinhole_ray(origin, forward, left, up, sx, sy, inv_w, inv_h);
         // Lanes before `first` keep their rays
         store3(select(fresh, ray.o, load3<F>(p.ox, p.oy, p.oz, i)), p.ox, p.oy, p.oz, i);

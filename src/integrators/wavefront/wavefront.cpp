@@ -5,6 +5,7 @@
 
 #include <cstdlib>
 #include <new>
+#include <stdexcept>
 
 #include <oneapi/tbb/enumerable_thread_specific.h>
 
@@ -245,6 +246,9 @@ size_t WavefrontRenderer::pool_bytes() const {
 
 void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& rays,
                                     LaneStats& lanes) const {
+    // The camera stage splits path numbers into pixel and sample in float lanes (exact below 2^24)
+    if (int64_t(tile.x1 - tile.x0) * (tile.y1 - tile.y0) >= (int64_t(1) << 23))
+        throw std::logic_error("wavefront tiles must have fewer than 2^23 pixels");
     PathPool& pool = data_->pools.local().pool;
     const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, tile.s0, tile.s1, &film, finish_paths};
     WavefrontCounters c;
