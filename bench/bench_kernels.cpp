@@ -183,6 +183,9 @@ FlatScene stage_scene(int32_t materials) {
     s.width = s.height = 128;
     s.seed = 1;
     s.material_count = materials;
+    // Every material textures kd, so the sort orders every hit
+    static const std::vector<int32_t> textured(64, 1 << kColKd);
+    s.textured = textured.data();
     return s;
 }
 
@@ -221,7 +224,7 @@ void BM_SortByMaterial(benchmark::State& state) {
     Wave<A> w{scene, mem.pool, counters};
     std::mt19937 rng(2);
     std::uniform_int_distribution<int32_t> pick(0, materials - 1);
-    for (int32_t i = 0; i < kPool; ++i) mem.pool.material[i] = pick(rng);
+    for (int32_t i = 0; i < kPool; ++i) mem.pool.material[i] = pick(rng), mem.pool.alive[i] = 1;
     std::vector<int32_t> starts(size_t(materials) + 1);
     w.live = kPool;
     double paths = 0;

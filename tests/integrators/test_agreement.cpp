@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 
 #include "integrators/render.h"
 #include "integrators/wavefront/isa_entries.h"
@@ -116,6 +117,61 @@ TEST(Agreement, EveryPixelGetsItsPathsWhateverThePoolAndTileShapes) {
                 ASSERT_NEAR(images[k].rgb[i], images[0].rgb[i], 1e-5f * (1.0f + images[0].rgb[i]))
                     << "pool index " << k << ", value " << i;
     }
+}
+
+TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
+    // Vertex colours on two coloured meshes sharing one material (the kernel takes a mesh's
+    // lanes at a time), on a mesh without colours and on a sphere (both: the scale alone),
+    // as emission too; a procedural ks beside textured kd, so four lobes mix textured and
+    // solid channels through the lobe buckets.
+    const fs::path plain = fs::temp_directory_path() / "cierzo_agreement_plain.ply";
+    {
+        std::ofstream out(plain);
+        out << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+               "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+               "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    }
+    const std::string ico = CIERZO_SOURCE_DIR "/scenes/meshes/icosphere.ply";
+    const Scene scene = parse_scene(R"({
+        "render": {"width": 40, "height": 40, "spp": 16},
+        "camera": {"position": [0, 0, -3.5], "forward": [0, 0, 3], "left": [-1, 0, 0],
+                   "up": [0, 1, 0]},
+        "materials": {
+            "light": {"emission": 1},
+            "white": {"kd": 0.7},
+            "painted": {"kd": {"texture": "vertex_weighted", "scale": 0.8},
+                        "ks": {"texture": "sin", "a": 0.05, "b": 0.2, "frequency": 9},
+                        "shininess": 12, "kr": 0.1},
+            "nearest": {"kd": {"texture": "vertex_nearest", "scale": [0.9, 0.6, 0.3]},
+                        "kt": 0.2, "ior": 1.4},
+            "glow": {"emission": {"texture": "vertex_nearest", "scale": 0.5}, "kd": 0.2}},
+        "objects": [
+            {"type": "plane", "normal": [1, 0, 0], "distance": 1, "material": "white"},
+            {"type": "plane", "normal": [-1, 0, 0], "distance": 1, "material": "white"},
+            {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "white"},
+            {"type": "plane", "normal": [0, -1, 0], "distance": 1, "material": "light"},
+            {"type": "plane", "normal": [0, 0, -1], "distance": 1, "material": "white"},
+            {"type": "mesh", "file": ")" + ico + R"(", "scale": 0.3,
+             "translate": [-0.5, -0.6, 0.2], "material": "painted"},
+            {"type": "mesh", "file": ")" + ico + R"(", "scale": 0.3,
+             "translate": [0.5, -0.6, 0.2], "material": "painted"},
+            {"type": "mesh", "file": ")" + plain.string() + R"(", "scale": 0.5,
+             "translate": [-0.2, 0.1, 0.3], "material": "nearest"},
+            {"type": "sphere", "center": [0.5, 0.3, 0.3], "radius": 0.25, "material": "nearest"},
+            {"type": "sphere", "center": [-0.5, 0.5, 0.5], "radius": 0.2, "material": "glow"}]})",
+                                   "/tmp/textures_everywhere.json");
+    const RenderResult reference = render_with(scene, "scalar", "auto");
+    for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {
+        if (!isa_supported(isa)) continue;
+        SCOPED_TRACE(isa_name(isa));
+        const Difference d = compare(render_with(scene, "wavefront", isa_name(isa)).film,
+                                     reference.film);
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_LT(d.mean_rel[c], 0.003) << "channel " << c;
+            EXPECT_LT(d.pixels_off[c], 0.02) << "channel " << c;
+        }
+    }
+    fs::remove(plain);
 }
 
 // The box of cornell.json around a sphere of one material with all four lobes, every colour

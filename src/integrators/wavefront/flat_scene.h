@@ -1,6 +1,6 @@
 // The scene as the per-ISA wavefront kernels see it: plain arrays and counts, no kernel types,
 // no standard containers, so the per-ISA objects share no inline code with the rest of the
-// program. Vertex colours are reached through a callback into the scalar code.
+// program.
 #pragma once
 
 #include <cstdint>
@@ -28,13 +28,17 @@ struct FlatColor {
     float axis[3], axis2[3];
 };
 
-// A mesh as the SIMD traversal reads it: its 8-wide BVH (layout in scene/wide_bvh.h).
+// A mesh as the SIMD kernels read it: its 8-wide BVH (layout in scene/wide_bvh.h), and for
+// vertex colours its triangles' vertex indices, positions and colours.
 struct FlatMesh {
     const WideBvhNode* nodes;      // root first; none when no triangle can be hit
     const TriangleBlock* blocks;   // the triangles, 8 per block
     const uint32_t* triangle_ids;  // block lane (8 * block + lane) -> the mesh's triangle index
     int32_t node_count;
     float bounds[6];               // min x, y, z, max x, y, z of the whole mesh
+    const int32_t* indices;        // 3 vertex indices per triangle
+    const float* positions;        // x, y, z per vertex
+    const float* colors;           // r, g, b per vertex; null when the mesh has none
 };
 
 // Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches
@@ -48,6 +52,7 @@ struct FlatFeatures {
     bool diffuse, specular, mirror, refraction;
     bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated
     int lobe_kinds;  // how many of the four lobes occur (1: no lobe bucketing needed)
+    uint32_t texture_channels;  // bit c: some material textures colour channel c
 };
 
 struct FlatScene {
@@ -73,7 +78,7 @@ struct FlatScene {
     const float* ior;           // material_count
     const int32_t* emitter;     // material_count, 1 if the material emits (ends paths)
     const int32_t* phong;       // material_count, 1 if kd or ks is non-zero
-    const int32_t* textured;    // material_count, 1 if any colour is not solid
+    const int32_t* textured;    // material_count, bit c set if colour channel c is not solid
     const FlatColor* sources;   // material_count * kColCount
 
     // Point lights: position xyz, intensity rgb
@@ -88,11 +93,6 @@ struct FlatScene {
     bool cosine_diffuse;
     float scene_ior;
     FlatFeatures features;
-
-    // Callback into the scalar code for vertex colours (one hit at a time)
-    const void* scene;
-    void (*vertex_color)(const void* scene, int32_t mesh, uint32_t triangle, const float p[3],
-                         const FlatColor* source, float out[3]);
 };
 
 // One tile of work and where its finished paths go.

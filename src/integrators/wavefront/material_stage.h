@@ -1,8 +1,7 @@
-// Wavefront stage 4, materials: every live hit gets its material's colours (emission, kd,
-// ks, kr, kt), shininess and index. Scenes with textures sort the hits by material (a
-// counting sort), so each material's texture is evaluated on coherent lanes with its
-// parameters broadcast; scenes with only solid colours skip the stage and the shading
-// kernels read the material tables directly (table_bsdf).
+// Wavefront stage 4, materials. Solid colours, shininess and index are read from the material
+// tables where shading needs them (hit_bsdf). Scenes with textures first sort the hits on
+// textured materials by material (a counting sort), so each material's textured channels are
+// evaluated on coherent lanes with its parameters broadcast, vertex colours included.
 #pragma once
 
 #include "integrators/wavefront/wave.h"
@@ -22,7 +21,7 @@ inline ColorSource color_source(const FlatColor& c) {
 }
 
 // Solid colours straight from the material tables, for the lobes the scene has (the
-// others stay 0 and cost nothing): no material stage at all for such scenes.
+// others stay 0 and cost nothing).
 template <class A>
 Vec3<xsimd::batch<float, A>> table_color(const FlatScene& s, int c,
                                          const xsimd::batch<int32_t, A>& mat) {
@@ -32,33 +31,93 @@ Vec3<xsimd::batch<float, A>> table_color(const FlatScene& s, int c,
             lookup<A>(row + 2 * s.material_stride, mc, mat)};
 }
 
-template <class A>
-Bsdf<xsimd::batch<float, A>> table_bsdf(const FlatScene& s, const xsimd::batch<int32_t, A>& mat) {
+// Colour channel c of K hits on materials `mat`: the table's solid colour, except where the
+// hit's material textures the channel; there, what the material stage evaluated for the
+// hit, which `read(c)` loads. Scenes without textures never call it.
+template <class A, class Read>
+Vec3<xsimd::batch<float, A>> hit_color(const FlatScene& s, int c,
+                                       const xsimd::batch<int32_t, A>& mat, const Read& read) {
+    using I = xsimd::batch<int32_t, A>;
+    Vec3<xsimd::batch<float, A>> col = table_color<A>(s, c, mat);
+    if (s.features.texture_channels >> c & 1u) {
+        const I bits = lookup<A>(s.textured, s.material_count, mat);
+        const auto own = mask_f32((bits & I(1 << c)) != I(0));
+        if (any(own)) col = select(own, read(c), col);
+    }
+    return col;
+}
+
+template <class A, class Read>
+Bsdf<xsimd::batch<float, A>> hit_bsdf(const FlatScene& s, const xsimd::batch<int32_t, A>& mat,
+                                      const Read& read) {
     using F = xsimd::batch<float, A>;
     const FlatFeatures& f = s.features;
     const Vec3<F> zero(F(0.0f));
-    return {f.diffuse ? table_color<A>(s, kColKd, mat) : zero,
-            f.specular ? table_color<A>(s, kColKs, mat) : zero,
-            f.mirror ? table_color<A>(s, kColKr, mat) : zero,
-            f.refraction ? table_color<A>(s, kColKt, mat) : zero,
+    return {f.diffuse ? hit_color<A>(s, kColKd, mat, read) : zero,
+            f.specular ? hit_color<A>(s, kColKs, mat, read) : zero,
+            f.mirror ? hit_color<A>(s, kColKr, mat, read) : zero,
+            f.refraction ? hit_color<A>(s, kColKt, mat, read) : zero,
             f.specular ? lookup<A>(s.shininess, s.material_count, mat) : F(0.0f),
             f.refraction ? lookup<A>(s.ior, s.material_count, mat) : F(1.0f)};
 }
 
-// The material sort: p.order lists the live hits grouped by material, starts[m] where
-// material m's group begins (starts has material_count + 1 entries).
+// The material sort: p.order lists the live hits on textured materials grouped by material,
+// starts[m] where material m's group begins (starts has material_count + 1 entries). Hits
+// on solid materials are left out: their colours come from the tables.
 template <class A>
 void sort_by_material(Wave<A>& w, int32_t* starts) {
     PathPool& p = w.pool;
+    const int32_t* textured = w.scene.textured;
     const int32_t mc = w.scene.material_count;
     std::fill(starts, starts + mc + 1, 0);
-    for (int32_t i = 0; i < w.live; ++i) ++starts[p.material[i] + 1];
+    for (int32_t i = 0; i < w.live; ++i)
+        starts[p.material[i] + 1] += p.alive[i] != 0 && textured[p.material[i]] != 0;
     for (int32_t m = 0; m < mc; ++m) starts[m + 1] += starts[m];
-    for (int32_t i = 0; i < w.live; ++i) p.order[starts[p.material[i]]++] = i;
+    for (int32_t i = 0; i < w.live; ++i)
+        if (p.alive[i] != 0 && textured[p.material[i]] != 0) p.order[starts[p.material[i]]++] = i;
     for (int32_t m = mc; m > 0; --m) starts[m] = starts[m - 1];
     starts[0] = 0;
 }
 
+// Vertex colours of K hits (pool indices j) at their points: each mesh's lanes in turn (a
+// material's hits are usually on one mesh) gather their triangle's vertices and colours.
+// Hits on anything else, or on a mesh without colours, take the source's scale, as in the
+// scalar reference (Scene::color_at).
+template <class A>
+Vec3<typename Wave<A>::F> vertex_colors(const Wave<A>& w, const ColorSource& cs,
+                                        const typename Wave<A>::I& j,
+                                        const Vec3<typename Wave<A>::F>& pos) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    const PathPool& p = w.pool;
+    const I mesh = gather_lanes<A>(p.mesh_id, j);
+    const I triangle = gather_lanes<A>(reinterpret_cast<const int32_t*>(p.mesh_tri), j);
+    const auto on_mesh = gather_lanes<A>(p.prim, j) >> kPrimShift == I(kPrimMesh);
+    alignas(64) int32_t ids[Wave<A>::K];
+    mesh.store_aligned(ids);
+    Vec3<F> out{F(cs.a.x), F(cs.a.y), F(cs.a.z)};
+    for (uint32_t todo = mask_bits(mask_f32(on_mesh)); todo;) {
+        const int32_t id = ids[std::countr_zero(todo)];
+        const auto lanes = on_mesh & (mesh == I(id));
+        todo &= ~mask_bits(mask_f32(lanes));
+        const FlatMesh& m = w.scene.meshes[id];
+        if (!m.colors) continue;
+        const I corner = select(lanes, triangle, I(0)) * I(3);
+        Vec3<F> v[3], col[3];
+        for (int k = 0; k < 3; ++k) {
+            const I at = gather_lanes<A>(m.indices, corner + I(k)) * I(3);
+            v[k] = {gather_lanes<A>(m.positions, at), gather_lanes<A>(m.positions, at + I(1)),
+                    gather_lanes<A>(m.positions, at + I(2))};
+            col[k] = {gather_lanes<A>(m.colors, at), gather_lanes<A>(m.colors, at + I(1)),
+                      gather_lanes<A>(m.colors, at + I(2))};
+        }
+        out = select(mask_f32(lanes), eval_vertex_color(cs, pos, v, col), out);
+    }
+    return out;
+}
+
+// The textured channels of every live hit on a textured material, a material at a time (its
+// texture's parameters broadcast), into p.col.
 template <class A>
 void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
     using F = typename Wave<A>::F;
@@ -69,7 +128,9 @@ void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
     sort_by_material(w, starts);
     for (int32_t m = 0; m < s.material_count; ++m) {
         const int32_t first = starts[m], last = starts[m + 1];
-        const FlatColor* src = s.sources + m * kColCount;
+        if (first == last) continue;
+        ColorSource sources[kColCount];
+        for (int c = 0; c < kColCount; ++c) sources[c] = color_source(s.sources[m * kColCount + c]);
         for (int32_t i = first; i < last; i += K) {
             // Indices of this chunk; the tail repeats the last one (same result, same slot)
             alignas(64) int32_t idx[K];
@@ -78,25 +139,12 @@ void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
             const Vec3<F> pos{gather_lanes<A>(p.px, j), gather_lanes<A>(p.py, j),
                               gather_lanes<A>(p.pz, j)};
             for (int c = 0; c < kColCount; ++c) {
-                const ColorSource cs = color_source(src[c]);
-                Vec3<F> col = eval_pattern(cs, pos);
-                if (cs.is_vertex()) {
-                    // Vertex colours come from the mesh, one hit at a time
-                    alignas(64) float r[K], g[K], b[K];
-                    for (int32_t l = 0; l < K; ++l) {
-                        const int32_t q = idx[l];
-                        const float at[3] = {p.px[q], p.py[q], p.pz[q]};
-                        float out[3] = {cs.a.x, cs.a.y, cs.a.z};
-                        if (p.prim[q] >> kPrimShift == kPrimMesh)
-                            s.vertex_color(s.scene, p.mesh_id[q], p.mesh_tri[q], at, &src[c], out);
-                        r[l] = out[0], g[l] = out[1], b[l] = out[2];
-                    }
-                    col = {F::load_aligned(r), F::load_aligned(g), F::load_aligned(b)};
-                }
+                if (!(s.textured[m] >> c & 1)) continue;
+                const ColorSource& cs = sources[c];
+                const Vec3<F> col =
+                    cs.is_vertex() ? vertex_colors(w, cs, j, pos) : eval_pattern(cs, pos);
                 scatter3(col, p.col[c][0], p.col[c][1], p.col[c][2], j);
             }
-            F(s.shininess[m]).scatter(p.shininess, j);
-            F(s.ior[m]).scatter(p.ior, j);
         }
     }
 }

@@ -28,8 +28,7 @@ struct PathPool {
     float *px, *py, *pz, *nx, *ny, *nz;
     int32_t* material;
     int32_t* alive;
-    float* col[5][3];  // evaluated emission, kd, ks, kr, kt
-    float *shininess, *ior;
+    float* col[5][3];  // textured emission, kd, ks, kr, kt as the material stage evaluated them
 
     // Lobe choice and the per-lobe buckets (indices into the pool)
     int32_t* lobe;

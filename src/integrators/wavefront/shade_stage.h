@@ -11,22 +11,10 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
-template <class F>
-Bsdf<F> load_bsdf(const PathPool& p, int32_t i) {
-    auto col = [&](int c) { return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i); };
-    return {col(kColKd), col(kColKs), col(kColKr), col(kColKt), F::load_aligned(p.shininess + i),
-            F::load_aligned(p.ior + i)};
-}
 template <class A>
 Vec3<xsimd::batch<float, A>> gather3(const float* x, const float* y, const float* z,
                                      const xsimd::batch<int32_t, A>& j) {
     return {gather_lanes<A>(x, j), gather_lanes<A>(y, j), gather_lanes<A>(z, j)};
-}
-template <class A>
-Bsdf<xsimd::batch<float, A>> gather_bsdf(const PathPool& p, const xsimd::batch<int32_t, A>& j) {
-    auto col = [&](int c) { return gather3<A>(p.col[c][0], p.col[c][1], p.col[c][2], j); };
-    return {col(kColKd), col(kColKs), col(kColKr), col(kColKt), gather_lanes<A>(p.shininess, j),
-            gather_lanes<A>(p.ior, j)};
 }
 
 // One lobe's continuation for K paths: new direction, throughput and origin.
@@ -76,19 +64,21 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const FlatFeatures& f = s.features;
     auto alive = sf.hit;
     const I mat = sf.material;
+    // Textured channels as the material stage left them
+    const auto evaluated = [&](int c) {
+        return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i);
+    };
     const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
     Vec3<F> rad = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
 
     // An emitter ends the path
     if (f.emitters) {
         const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
-        const Vec3<F> le = f.textures ? load3<F>(p.col[kColEmission][0], p.col[kColEmission][1],
-                                                 p.col[kColEmission][2], i)
-                                      : table_color<A>(s, kColEmission, mat);
+        const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
         rad = select(em, rad + beta * le, rad);
         alive = alive & !em;
     }
-    const Bsdf<F> m = f.textures ? load_bsdf<F>(p, i) : table_bsdf<A>(s, mat);
+    const Bsdf<F> m = hit_bsdf<A>(s, mat, evaluated);
     const Vec3<F>& d = ray.d;
     const Vec3<F>& n = sf.n;
     const Vec3<F>& pos = sf.pos;
@@ -183,9 +173,9 @@ void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
         alignas(64) int32_t idx[K];
         for (int32_t l = 0; l < K; ++l) idx[l] = list[std::min(i + l, size - 1)];
         const I j = I::load_aligned(idx);
-        const auto m = w.scene.features.textures
-                           ? gather_bsdf<A>(p, j)
-                           : table_bsdf<A>(w.scene, gather_lanes<A>(p.material, j));
+        const auto m = hit_bsdf<A>(w.scene, gather_lanes<A>(p.material, j), [&](int c) {
+            return gather3<A>(p.col[c][0], p.col[c][1], p.col[c][2], j);
+        });
         const LobeStep<kLobe, A> step(
             w.scene, m, gather3<A>(p.ox, p.oy, p.oz, j),
             gather3<A>(p.dx, p.dy, p.dz, j), gather3<A>(p.px, p.py, p.pz, j),

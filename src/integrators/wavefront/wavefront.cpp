@@ -1,6 +1,6 @@
 // The wavefront integrator's scalar side: the flat view of the scene that the per-ISA
-// kernels read (meshes as their 8-wide BVHs), the vertex-colour callback, per-thread path
-// pools, the choice of instruction set, and the hand-over of finished paths to the film.
+// kernels read (meshes as their 8-wide BVHs and vertex arrays), per-thread path pools, the
+// choice of instruction set, and the hand-over of finished paths to the film.
 #include "integrators/wavefront/wavefront.h"
 
 #include <cstdlib>
@@ -14,23 +14,6 @@
 namespace cierzo {
 
 namespace {
-
-// ---- The callback the kernels make for vertex colours -----------------------------------
-
-void vertex_color(const void* scene, int32_t mesh, uint32_t triangle, const float p[3],
-                  const FlatColor* source, float out[3]) {
-    const Scene& s = *static_cast<const Scene*>(scene);
-    const Mesh& m = s.meshes[size_t(mesh)];
-    if (m.colors.empty()) return;
-    const uint32_t* idx = &m.indices[size_t(triangle) * 3];
-    const Vec3f v[3] = {m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
-    const Vec3f col[3] = {m.colors[idx[0]], m.colors[idx[1]], m.colors[idx[2]]};
-    ColorSource c;
-    c.kind = TextureKind(source->kind);
-    c.a = {source->a[0], source->a[1], source->a[2]};
-    const Vec3f r = eval_vertex_color(c, Vec3f{p[0], p[1], p[2]}, v, col);
-    out[0] = r.x, out[1] = r.y, out[2] = r.z;
-}
 
 void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float* r,
                   const float* g, const float* b) {
@@ -169,11 +152,18 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.quadric = d.quadric.data();
     f.quadric_material = d.quadric_material.data();
     for (const Mesh& m : scene.meshes) {
+        // Vertex colours gather x, y, z of vertex v at 3v + k with 32-bit indices
+        if (m.positions.size() > (size_t(1) << 29))
+            throw InputError(m.source + ": more than 2^29 vertices");
+        static_assert(sizeof(Vec3f) == 3 * sizeof(float));
         d.mesh_material.push_back(m.material);
         const Vec3f lo = m.bvh.bounds_min(), hi = m.bvh.bounds_max();
         d.meshes.push_back({m.bvh.wide_nodes(), m.bvh.triangle_blocks(),
                             m.bvh.block_triangle_ids(), int32_t(m.bvh.wide_node_count()),
-                            {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}});
+                            {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z},
+                            reinterpret_cast<const int32_t*>(m.indices.data()),
+                            &m.positions.data()->x,
+                            m.colors.empty() ? nullptr : &m.colors.data()->x});
     }
     f.meshes = d.meshes.data();
     d.mesh_material = padded(d.mesh_material);
@@ -183,21 +173,23 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     // Materials as SoA [channel][component][material], each row padded to 16
     const size_t mc = scene.materials.size();
     const size_t stride = (mc + 15) / 16 * 16;
+    uint32_t texture_channels = 0;
     d.color.assign(kColCount * 3 * stride + 16, 0.0f);
     for (size_t m = 0; m < mc; ++m) {
         const Material& mat = scene.materials[m];
         const ColorSource* ch[kColCount] = {&mat.emission, &mat.kd, &mat.ks, &mat.kr, &mat.kt};
-        bool tex = false;
+        int32_t tex = 0;  // bit c: channel c is textured
         for (int c = 0; c < kColCount; ++c) {
             for (int k = 0; k < 3; ++k) d.color[(size_t(c) * 3 + size_t(k)) * stride + m] = ch[c]->a[k];
             d.sources.push_back(flatten(*ch[c]));
-            tex |= ch[c]->kind != TextureKind::kSolid;
+            if (ch[c]->kind != TextureKind::kSolid) tex |= 1 << c;
         }
+        texture_channels |= uint32_t(tex);
         d.shininess.push_back(mat.shininess);
         d.ior.push_back(mat.ior);
         d.emitter.push_back(mat.is_emitter() ? 1 : 0);
         d.phong.push_back(mat.has_phong() ? 1 : 0);
-        d.textured.push_back(tex ? 1 : 0);
+        d.textured.push_back(tex);
     }
     d.shininess = padded(d.shininess), d.ior = padded(d.ior), d.emitter = padded(d.emitter);
     d.phong = padded(d.phong), d.textured = padded(d.textured);
@@ -227,14 +219,14 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, sf.point_lights, sf.emitters,
                   sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
-                  int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction)};
+                  int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
+                  texture_channels};
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
         const bool meshes = f.features.meshes;
-        f.features = {true, true, true, meshes, true, true, true, true, true, true, true, 4};
+        f.features = {true, true, true, meshes, true, true, true,
+                      true, true, true, true, 4,    texture_channels};
     }
-    f.scene = &scene;
-    f.vertex_color = vertex_color;
 }
 
 WavefrontRenderer::~WavefrontRenderer() = default;
