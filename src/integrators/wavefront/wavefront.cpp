@@ -180,7 +180,8 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
         const ColorSource* ch[kColCount] = {&mat.emission, &mat.kd, &mat.ks, &mat.kr, &mat.kt};
         int32_t tex = 0;  // bit c: channel c is textured
         for (int c = 0; c < kColCount; ++c) {
-            for (int k = 0; k < 3; ++k) d.color[(size_t(c) * 3 + size_t(k)) * stride + m] = ch[c]->a[k];
+            for (int k = 0; k < 3; ++k)
+                d.color[(size_t(c) * 3 + size_t(k)) * stride + m] = ch[c]->a[k];
             d.sources.push_back(flatten(*ch[c]));
             if (ch[c]->kind != TextureKind::kSolid) tex |= 1 << c;
         }
