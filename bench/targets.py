@@ -1,0 +1,126 @@
+#!/usr/bin/python3
+"""Measures the wavefront integrator's throughput targets side by side, in one run.
+
+1. Every scene of scenes/ at 1 thread (bench_render: 128x128, 8 paths per pixel): the scalar
+   reference against the wavefront on the best ISA, medians of --repetitions runs, their
+   ratio, and the wavefront's shading lane utilisation.
+2. The default scene at its own settings (scenes/cornell.json, 500x500, 64 paths per
+   pixel): the scalar reference at 1 thread and the wavefront at 1 and 2 threads, run in
+   alternation --rounds times; medians of rays/s per thread, and the 2-thread speed-up.
+
+Prints Markdown tables and writes them as JSON to OUT_DIR/targets.json.
+Usage: /usr/bin/python3 bench/targets.py [--out OUT_DIR] [--repetitions N] [--rounds N]
+       [--scene-filter REGEX]
+Run it on an otherwise idle machine: both parts compare timings taken minutes apart.
+"""
+import argparse
+import json
+import pathlib
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+BUILD = ROOT / "build"
+
+
+def bench_scenes(repetitions, scene_filter):
+    """Part 1: per scene, scalar and best-ISA wavefront medians from bench_render."""
+    program = BUILD / "bench" / "bench_render"
+    listing = subprocess.run([program, "--benchmark_list_tests=true"], check=True,
+                             capture_output=True, text=True).stdout.split()
+    isas = [n.split("/")[2] for n in listing if n.startswith("render/")]
+    best = next(i for i in ("wavefront_avx512", "wavefront_avx2", "wavefront_sse4.2") if i in isas)
+    pattern = f"^render/({scene_filter})/(scalar|{re.escape(best)})$"
+    out = subprocess.run(
+        [program, f"--benchmark_filter={pattern}", f"--benchmark_repetitions={repetitions}",
+         "--benchmark_report_aggregates_only=true", "--benchmark_format=json"],
+        check=True, capture_output=True, text=True).stdout
+    medians = {}
+    for b in json.loads(out)["benchmarks"]:
+        # (one repetition reports the run itself, several their aggregates)
+        wanted = "iteration" if repetitions == 1 else "aggregate"
+        if b.get("run_type") != wanted or (wanted == "aggregate" and b["aggregate_name"] != "median"):
+            continue
+        _, scene, variant = b["run_name"].split("/")
+        medians.setdefault(scene, {})[variant] = b
+    rows = []
+    for scene, v in medians.items():
+        if "scalar" not in v or best not in v:
+            continue
+        s, w = v["scalar"]["rays_per_s"], v[best]["rays_per_s"]
+        rows.append({"scene": scene, "scalar_rays_per_s": s, "wavefront_rays_per_s": w,
+                     "ratio": w / s, "shade_lane_util": v[best].get("shade_lane_util")})
+    return best.removeprefix("wavefront_"), rows
+
+
+def render_rate(integrator, threads, stats):
+    """One render of the default scene; returns its rays/s per thread."""
+    subprocess.run([BUILD / "cierzo", "render", ROOT / "scenes" / "cornell.json",
+                    "--integrator", integrator, "--threads", str(threads), "--quiet",
+                    "--out", stats.with_suffix(".exr"), "--stats", stats],
+                   check=True, capture_output=True)
+    return json.loads(stats.read_text())["rays_per_second_per_thread"]
+
+
+def default_scene(rounds):
+    """Part 2: alternating whole renders of cornell.json; medians of rays/s per thread."""
+    runs = {"scalar_1": [], "wavefront_1": [], "wavefront_2": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        stats = pathlib.Path(tmp) / "stats.json"
+        for _ in range(rounds):
+            runs["scalar_1"].append(render_rate("scalar", 1, stats))
+            runs["wavefront_1"].append(render_rate("wavefront", 1, stats))
+            runs["wavefront_2"].append(render_rate("wavefront", 2, stats))
+    med = {k: statistics.median(v) for k, v in runs.items()}
+    return {"runs": runs, "median_rays_per_s_per_thread": med,
+            "wavefront_over_scalar_1_thread": med["wavefront_1"] / med["scalar_1"],
+            "two_threads_over_one": 2 * med["wavefront_2"] / med["wavefront_1"]}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=str(ROOT / "out" / "targets"))
+    ap.add_argument("--repetitions", type=int, default=5)
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--scene-filter", default="[a-z_]+",
+                    help="regular expression of the scene names of part 1")
+    args = ap.parse_args()
+    if args.repetitions < 1 or args.rounds < 1:
+        sys.exit("targets.py: --repetitions and --rounds must be at least 1")
+    for program in (BUILD / "cierzo", BUILD / "bench" / "bench_render"):
+        if not program.exists():
+            sys.exit(f"targets.py: {program} is missing; build with "
+                     "scripts/build.sh build -DCIERZO_BUILD_BENCH=ON")
+
+    isa, rows = bench_scenes(args.repetitions, args.scene_filter)
+    print(f"Every scene, 1 thread, 128x128 at 8 spp (bench_render, medians of "
+          f"{args.repetitions}):\n")
+    print(f"| scene | scalar | wavefront {isa} | ratio | shading lanes |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        util = r["shade_lane_util"]
+        print(f"| {r['scene']} | {r['scalar_rays_per_s'] / 1e6:.2f} M | "
+              f"{r['wavefront_rays_per_s'] / 1e6:.1f} M | {r['ratio']:.1f}x | "
+              f"{'' if util is None else f'{100 * util:.0f}%'} |")
+    d = default_scene(args.rounds)
+    m = d["median_rays_per_s_per_thread"]
+    print(f"\nscenes/cornell.json, 500x500 at 64 spp, medians of {args.rounds} alternating runs "
+          "(rays/s per thread):\n")
+    print("| scalar, 1 thread | wavefront, 1 thread | wavefront, 2 threads | wavefront / scalar "
+          "| 2 threads / 1 |")
+    print("|---|---|---|---|---|")
+    print(f"| {m['scalar_1'] / 1e6:.2f} M | {m['wavefront_1'] / 1e6:.1f} M | "
+          f"{m['wavefront_2'] / 1e6:.1f} M | {d['wavefront_over_scalar_1_thread']:.1f}x | "
+          f"{d['two_threads_over_one']:.2f}x |")
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "targets.json").write_text(json.dumps(
+        {"isa": isa, "scenes": rows, "default_scene": d}, indent=2))
+    print(f"\nwrote {out / 'targets.json'}")
+
+
+if __name__ == "__main__":
+    main()
