@@ -124,6 +124,7 @@ struct Bvh::Collapser {
             if (p.leaf) {
                 node.child[i] = add_leaf(p.first, p.count);
                 node.count[i] = uint16_t(p.count);
+                node.leaves |= 1u << i;
             } else {
                 node.child[i] = uint32_t(bvh.wide_nodes_.size());
                 bvh.wide_nodes_.emplace_back();

@@ -22,11 +22,14 @@ inline constexpr int kWideBvhStackSize = (kWideBvhWidth - 1) * kBvhMaxDepth + 1;
 //   count[i]         leaf: its triangles (1-16, in ceil(count / 8) blocks); inner child: 0
 //   slots            children in use, in slots [0, slots); unused slots have an empty box
 //                    (min +inf, max -inf) and are also masked off by the traversal
+//   leaves           bit i set: slot i is a leaf (count[i] != 0), so the traversal splits the
+//                    children it enters into leaves and inner nodes with one AND
 struct alignas(64) WideBvhNode {
     float bounds[6][kWideBvhWidth];
     uint32_t child[kWideBvhWidth];
     uint16_t count[kWideBvhWidth];
     uint32_t slots;
+    uint32_t leaves;
 };
 static_assert(sizeof(WideBvhNode) == 256);
 

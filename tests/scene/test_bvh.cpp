@@ -503,6 +503,12 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
         slots += node.slots;
         for (uint32_t i = node.slots; i < W; ++i)
             EXPECT_GT(node.bounds[0][i], node.bounds[3][i]) << "an unused slot's box";
+        // The leaf mask: exactly the used slots that hold triangles (the traversal tests
+        // those at once and never descends into them)
+        for (uint32_t i = 0; i < 32; ++i) {
+            const bool leaf = i < std::min(node.slots, W) && node.count[i] != 0;
+            EXPECT_EQ((node.leaves >> i) & 1u, uint32_t(leaf)) << "node " << n << " slot " << i;
+        }
         for (uint32_t i = 0; i < std::min(node.slots, W); ++i) {
             if (node.count[i] == 0) {  // an inner child, after its parent
                 EXPECT_GT(node.child[i], n);

@@ -91,13 +91,16 @@ struct WideRays {
 };
 
 // Ray `l` of `rays` through a mesh's 8-wide BVH (scene/wide_bvh.h). A node's children are
-// tested at once with the slab test of the binary traversal (src/scene/bvh.cpp); the
-// children entered go on the stack with their entry distance, the nearest on top for
-// closest hit, and one popped beyond the closest hit so far is dropped (as re-testing its
-// box would). A leaf's triangles are tested 8 at a time with the watertight kernel, the ray
-// broadcast and one triangle per lane.
+// tested at once with the slab test of the binary traversal (src/scene/bvh.cpp). The leaves
+// entered are tested there and then, in slot order, each unless a hit so far is nearer than
+// its box: that spares them the stack, and their hits shorten the interval before any inner
+// child is visited. The inner children entered go on the stack with their entry distance,
+// the nearest on top for closest hit, and one popped beyond the closest hit so far is
+// dropped (as re-testing its box would). A leaf's triangles are tested 8 at a time with the
+// watertight kernel, the ray broadcast and one triangle per lane.
 // Closest hit: whether a triangle is hit in (0, tmax), then tmax and the hit's block lane
-// (8 * block + lane); any hit (kAnyHit): whether anything is, stopping at the first.
+// (8 * block + lane): the nearest hit, and on a tie the first found; any hit (kAnyHit):
+// whether anything is, stopping at the first.
 // (flatten: the triangle kernel is inlined, so the identity picks below fold away.)
 template <bool kAnyHit, class A>
 [[gnu::flatten]] bool traverse_wide(const FlatMesh& mesh, const WideRays<A>& rays, int l,
@@ -119,64 +122,26 @@ template <bool kAnyHit, class A>
     // to it with their axes already permuted (kx, ky, kz): its per-lane picks are then the
     // identity, and it computes exactly what it would unpermuted (it reads no direction)
     const int axis[3] = {rays.axis[0][l], rays.axis[1][l], rays.axis[2][l]};
-    const Ray<N> ray{{org[axis[0]], org[axis[1]], org[axis[2]]}, Vec3<N>(N(0.0f))};
+    const Ray<N> ray{{N(rays.o[axis[0]][l]), N(rays.o[axis[1]][l]), N(rays.o[axis[2]][l])},
+                     Vec3<N>(N(0.0f))};
     const B yes(true), no(false);
     const RayShear<N> shear{I(0), I(1), I(2), {yes, no}, {no, yes}, {no, no},
                             N(rays.shear[0][l]), N(rays.shear[1][l]), N(rays.shear[2][l])};
     float t = tmax;  // the closest hit so far (a local: the stack cannot alias it)
     uint32_t hit_lane = 0;
-
-    struct Entry {
-        uint32_t child, count;  // as in the node's slot
-        float t;                // where the ray enters the box
-    };
-    Entry stack[kWideBvhStackSize];
-    int size = 0;
-    Entry e{0, 0, 0.0f};  // the root
     bool found = false;
-    for (;;) {
-        if (e.count == 0) {
-            // Inner node: the slab test of every child over [0, t]
-            const WideBvhNode& node = mesh.nodes[e.child];
-            alignas(32) float entry[kWideBvhWidth];
-            uint32_t enter = 0;
+
+    // The triangles of blocks list[0, n) (from[j]: where the ray enters block j's leaf), a
+    // register at a time; for closest hit, t and hit_lane updated (the nearest hit, the first
+    // lane on a tie), and a block skipped when both it and the next are entered beyond the
+    // closest hit so far (a hit there could not be nearer). Whether anything is hit.
+    const auto test_blocks = [&](const uint32_t* list, const float* from, int n) {
+        bool any = false;
+        for (int j = 0; j < n; ++j) {
+            if constexpr (!kAnyHit)
+                if (from[j] > t && from[std::min(j + 1, n - 1)] > t) continue;
+            const float(*v)[kWideBvhWidth] = mesh.blocks[list[j]].v;
             for (int at = 0; at < kWideBvhWidth; at += kLanes) {
-                // (max(a, b) and min(a, b) are maxps and minps, a > b ? a : b and a < b ? a : b:
-                // a NaN distance a leaves the interval as it was)
-                N t0(0.0f), t1(t);
-                for (int k = 0; k < 3; ++k) {
-                    const N near = N::load_aligned(node.bounds[near_row[k]] + at);
-                    const N far = N::load_aligned(node.bounds[far_row[k]] + at);
-                    t0 = max((near - org[k]) * inv[k], t0);
-                    t1 = min((far - org[k]) * inv[k] * N(kBvhFarScale), t1);
-                }
-                enter |= mask_bits<WideArch<A>>(t0 <= t1) << at;
-                t0.store_aligned(entry + at);
-            }
-            enter &= (1u << node.slots) - 1u;
-            if (enter != 0) {
-                // Into the nearest child entered (the first, for any hit); the others onto the
-                // stack, for closest hit sorted by entry distance with the nearest on top
-                int i = std::countr_zero(enter);
-                e = {node.child[i], node.count[i], entry[i]};
-                const int base = size;
-                for (enter &= enter - 1; enter; enter &= enter - 1) {
-                    i = std::countr_zero(enter);
-                    Entry other{node.child[i], node.count[i], entry[i]};
-                    if constexpr (!kAnyHit)
-                        if (other.t < e.t) std::swap(other, e);
-                    int j = size++;
-                    if constexpr (!kAnyHit)
-                        for (; j > base && stack[j - 1].t < other.t; --j) stack[j] = stack[j - 1];
-                    stack[j] = other;
-                }
-                continue;
-            }
-        } else {
-            // Leaf: its triangles, a register at a time; the nearest hit, the first on a tie
-            for (uint32_t i = 0; i < e.count; i += kLanes) {
-                const uint32_t block = e.child + i / kWideBvhWidth, at = i % kWideBvhWidth;
-                const float(*v)[kWideBvhWidth] = mesh.blocks[block].v;
                 const auto vertex = [&](int k) {
                     return Vec3<N>(N::load_aligned(v[3 * k + axis[0]] + at),
                                    N::load_aligned(v[3 * k + axis[1]] + at),
@@ -187,14 +152,80 @@ template <bool kAnyHit, class A>
                     ray, shear, vertex(0), vertex(1), vertex(2), N(t), th, b1, b2));
                 if (hits == 0) continue;
                 if constexpr (kAnyHit) return true;
+                any = true;
                 alignas(32) float ts[kLanes];
                 th.store_aligned(ts);
                 for (; hits; hits &= hits - 1) {
                     const uint32_t h = uint32_t(std::countr_zero(hits));
-                    if (ts[h] < t) t = ts[h], hit_lane = block * kWideBvhWidth + at + h;
+                    if (ts[h] < t) t = ts[h], hit_lane = list[j] * kWideBvhWidth + at + h;
                 }
+            }
+        }
+        return any;
+    };
+
+    struct Entry {
+        uint32_t node;  // an inner node
+        float t;        // where the ray enters its box
+    };
+    Entry stack[kWideBvhStackSize];
+    int size = 0;
+    Entry e{0, 0.0f};  // the root
+    for (;;) {
+        // The slab test of every child over [0, t]
+        const WideBvhNode& node = mesh.nodes[e.node];
+        alignas(32) float entry[kWideBvhWidth];
+        uint32_t enter = 0;
+        for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+            // (max(a, b) and min(a, b) are maxps and minps, a > b ? a : b and a < b ? a : b:
+            // a NaN distance a leaves the interval as it was)
+            N t0(0.0f), t1(t);
+            for (int k = 0; k < 3; ++k) {
+                const N near = N::load_aligned(node.bounds[near_row[k]] + at);
+                const N far = N::load_aligned(node.bounds[far_row[k]] + at);
+                t0 = max((near - org[k]) * inv[k], t0);
+                t1 = min((far - org[k]) * inv[k] * N(kBvhFarScale), t1);
+            }
+            enter |= mask_bits<WideArch<A>>(t0 <= t1) << at;
+            t0.store_aligned(entry + at);
+        }
+        enter &= (1u << node.slots) - 1u;
+        // The leaves entered: their blocks, in slot order (a leaf has at most 2)
+        if (uint32_t leaves = enter & node.leaves) {
+            uint32_t list[kWideBvhWidth * 2];
+            float from[kWideBvhWidth * 2];
+            int n = 0;
+            for (; leaves; leaves &= leaves - 1) {
+                const int i = std::countr_zero(leaves);
+                list[n] = node.child[i], from[n++] = entry[i];
+                if (node.count[i] > kWideBvhWidth)
+                    list[n] = node.child[i] + 1, from[n++] = entry[i];
+            }
+            if (test_blocks(list, from, n)) {
+                if constexpr (kAnyHit) return true;
                 found = true;
             }
+            enter &= ~node.leaves;
+        }
+        if (enter != 0) {
+            // Into the nearest inner child entered (the first, for any hit); the others onto
+            // the stack, for closest hit sorted by entry distance with the nearest on top
+            int i = std::countr_zero(enter);
+            e = {node.child[i], entry[i]};
+            const int base = size;
+            for (enter &= enter - 1; enter; enter &= enter - 1) {
+                i = std::countr_zero(enter);
+                Entry other{node.child[i], entry[i]};
+                if constexpr (!kAnyHit)
+                    if (other.t < e.t) std::swap(other, e);
+                int j = size++;
+                if constexpr (!kAnyHit)
+                    for (; j > base && stack[j - 1].t < other.t; --j) stack[j] = stack[j - 1];
+                stack[j] = other;
+            }
+            // (the leaves may have hit nearer than every child entered: then the pops below
+            // drop them all)
+            if (e.t <= t) continue;
         }
         // Next: the top of the stack, dropping boxes entered beyond the closest hit
         do {
