@@ -2,8 +2,8 @@
 """Measures the wavefront integrator's throughput targets side by side, in one run.
 
 1. Every scene of scenes/ at 1 thread (bench_render: 128x128, 8 paths per pixel): the scalar
-   reference against the wavefront on the best ISA, medians of --repetitions runs, their
-   ratio, and the wavefront's shading lane utilisation.
+   reference against the wavefront on the best ISA, medians of --repetitions runs taken in
+   random interleaved order, their ratio, and the wavefront's shading lane utilisation.
 2. The default scene at its own settings (scenes/cornell.json, 500x500, 64 paths per
    pixel): the scalar reference at 1 thread and the wavefront at 1 and 2 threads, run in
    alternation --rounds times; medians of rays/s per thread, and the 2-thread speed-up.
@@ -36,6 +36,9 @@ def bench_scenes(repetitions, scene_filter):
     pattern = f"^render/({scene_filter})/(scalar|{re.escape(best)})$"
     out = subprocess.run(
         [program, f"--benchmark_filter={pattern}", f"--benchmark_repetitions={repetitions}",
+         # repetitions of every benchmark interleaved in random order, so a slow spell of
+         # a shared machine falls on both integrators alike
+         "--benchmark_enable_random_interleaving=true",
          "--benchmark_report_aggregates_only=true", "--benchmark_format=json"],
         check=True, capture_output=True, text=True).stdout
     medians = {}
