@@ -33,7 +33,7 @@ F floor_divide(const F& a, const F& b, F& remainder) {
 }
 
 template <class A>
-[[gnu::flatten]] void generate_camera_paths(Wave<A>& w, TileCursor& c) {
+CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     constexpr int32_t K = Wave<A>::K;

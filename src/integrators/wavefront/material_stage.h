@@ -119,7 +119,7 @@ Vec3<typename Wave<A>::F> vertex_colors(const Wave<A>& w, const ColorSource& cs,
 // The textured channels of every live hit on a textured material, a material at a time (its
 // texture's parameters broadcast), into p.col.
 template <class A>
-[[gnu::flatten]] void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
+CIERZO_STAGE_LOOP void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;

@@ -146,7 +146,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
 
 // Shading of the surfaces stored before the material stage, K at a time.
 template <int kFused, class A>
-[[gnu::flatten]] void shade_stored(Wave<A>& w) {
+CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
@@ -165,7 +165,7 @@ template <int kFused, class A>
 
 // A lobe's kernel over its bucket: full batches of gathered lanes.
 template <int kLobe, class A>
-[[gnu::flatten]] void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
+CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;

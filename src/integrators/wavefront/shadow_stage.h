@@ -9,7 +9,7 @@ namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
 template <class A>
-[[gnu::flatten]] void trace_shadow_rays(Wave<A>& w) {
+CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
     using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;

@@ -205,7 +205,7 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.light_count = int32_t(scene.lights.size());
     f.light = d.light.data();
 
-    // Camera, settings, features, callbacks
+    // Camera, settings, features
     const Camera& c = scene.camera;
     for (int k = 0; k < 3; ++k) {
         f.cam_origin[k] = c.origin[k], f.cam_forward[k] = c.forward[k];

@@ -20,11 +20,10 @@ inline namespace CIERZO_ISA_NAMESPACE {
 
 // Closest hit and surface of every live path, K at a time, then: untextured scenes shade the
 // batch at once (no stage between needs the hits reordered), textured ones leave the
-// surfaces in the pool for the material sort. (Stage loops are flattened: every kernel they
-// call is inlined, so a batch's values stay in registers instead of being spilled around
-// calls that pass Bsdf and Vec3 lanes through memory.)
+// surfaces in the pool for the material sort. (CIERZO_STAGE_LOOP: every kernel it calls is
+// inlined; wave.h says why.)
 template <int kFused, class A>
-[[gnu::flatten]] void trace_paths(Wave<A>& w) {
+CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
