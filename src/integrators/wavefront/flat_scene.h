@@ -36,9 +36,10 @@ struct FlatMesh {
     const uint32_t* triangle_ids;  // block lane (8 * block + lane) -> the mesh's triangle index
     int32_t node_count;
     float bounds[6];               // min x, y, z, max x, y, z of the whole mesh
-    const int32_t* indices;        // 3 vertex indices per triangle
-    const float* positions;        // x, y, z per vertex
-    const float* colors;           // r, g, b per vertex; null when the mesh has none
+    // (vertex colours only; a mesh traced without them may leave these null)
+    const int32_t* indices = nullptr;    // 3 vertex indices per triangle
+    const float* positions = nullptr;    // x, y, z per vertex
+    const float* colors = nullptr;       // r, g, b per vertex; null when the mesh has none
 };
 
 // Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches

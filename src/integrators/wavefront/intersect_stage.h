@@ -45,25 +45,6 @@ void closest_analytic(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
     }
 }
 
-// The robust slab test of K rays against a box (min x, y, z, max x, y, z) over [0, t], as in
-// the BVH traversals: a NaN distance leaves the interval as it was; far distances are scaled
-// by kBvhFarScale. Returns the lanes whose interval meets the box.
-template <class A>
-typename Wave<A>::M slab_hits(const float box[6], const typename Wave<A>::F org[3],
-                              const typename Wave<A>::F inv[3], const typename Wave<A>::F& t) {
-    using F = typename Wave<A>::F;
-    F t0(0.0f), t1 = t;
-    for (int k = 0; k < 3; ++k) {
-        const F a = (F(box[k]) - org[k]) * inv[k];
-        const F b = (F(box[k + 3]) - org[k]) * inv[k];
-        const auto forward = inv[k] >= F(0.0f);
-        const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
-        t0 = select(near > t0, near, t0);
-        t1 = select(far < t1, far, t1);
-    }
-    return t0 <= t1;
-}
-
 // The lanes one ray tests a node's 8 children or a leaf's 8 triangles in: one AVX register
 // where the ISA has one (the AVX-512 objects use 256-bit operations: 8 fill them), else two
 // SSE registers.
@@ -89,6 +70,26 @@ struct WideRays {
         s.kx.store_aligned(axis[0]), s.ky.store_aligned(axis[1]), s.kz.store_aligned(axis[2]);
     }
 };
+
+// The robust slab test of the K rays against a box (min x, y, z, max x, y, z) over [0, t], as
+// in the BVH traversals: a NaN distance leaves the interval as it was; far distances are
+// scaled by kBvhFarScale. Returns the lanes whose interval meets the box.
+template <class A>
+typename Wave<A>::M slab_hits(const float box[6], const WideRays<A>& rays,
+                              const typename Wave<A>::F& t) {
+    using F = typename Wave<A>::F;
+    F t0(0.0f), t1 = t;
+    for (int k = 0; k < 3; ++k) {
+        const F org = F::load_aligned(rays.o[k]), inv = F::load_aligned(rays.inv[k]);
+        const F a = (F(box[k]) - org) * inv;
+        const F b = (F(box[k + 3]) - org) * inv;
+        const auto forward = inv >= F(0.0f);
+        const F near = select(forward, a, b), far = select(forward, b, a) * F(kBvhFarScale);
+        t0 = select(near > t0, near, t0);
+        t1 = select(far < t1, far, t1);
+    }
+    return t0 <= t1;
+}
 
 // Ray `l` of `rays` through a mesh's 8-wide BVH (scene/wide_bvh.h). A node's children are
 // tested at once with the slab test of the binary traversal (src/scene/bvh.cpp). The leaves
@@ -247,13 +248,10 @@ void intersect_meshes(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
     const WideRays<A> rays(ray);
-    const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
-    const F inv[3] = {F::load_aligned(rays.inv[0]), F::load_aligned(rays.inv[1]),
-                      F::load_aligned(rays.inv[2])};
     for (int32_t m = 0; m < s.mesh_count; ++m) {
         const FlatMesh& mesh = s.meshes[m];
         const F t = F::load_aligned(p.t + i);
-        uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(mesh.bounds, org, inv, t));
+        uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(mesh.bounds, rays, t));
         for (; enter; enter &= enter - 1) {
             const int l = std::countr_zero(enter);
             const int32_t q = i + l;
@@ -321,15 +319,12 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         // Meshes: each open ray that enters a mesh's box through its BVH, one by one
         using I = typename Wave<A>::I;
         const WideRays<A> rays(ray);
-        const F org[3] = {ray.o.x, ray.o.y, ray.o.z};
-        const F inv[3] = {F::load_aligned(rays.inv[0]), F::load_aligned(rays.inv[1]),
-                          F::load_aligned(rays.inv[2])};
         alignas(64) float tm[Wave<A>::K];
         alignas(64) int32_t hit[Wave<A>::K] = {};
         tmax.store_aligned(tm);
         for (int32_t m = 0; m < s.mesh_count && !all(blocked); ++m) {
             const FlatMesh& mesh = s.meshes[m];
-            uint32_t open = mask_bits(live & !blocked & slab_hits<A>(mesh.bounds, org, inv, tmax));
+            uint32_t open = mask_bits(live & !blocked & slab_hits<A>(mesh.bounds, rays, tmax));
             for (; open; open &= open - 1) {
                 const int l = std::countr_zero(open);
                 uint32_t unused;

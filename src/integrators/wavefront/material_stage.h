@@ -69,12 +69,12 @@ void sort_by_material(Wave<A>& w, int32_t* starts) {
     PathPool& p = w.pool;
     const int32_t* textured = w.scene.textured;
     const int32_t mc = w.scene.material_count;
+    const auto sorted = [&](int32_t i) { return p.alive[i] != 0 && textured[p.material[i]] != 0; };
     std::fill(starts, starts + mc + 1, 0);
-    for (int32_t i = 0; i < w.live; ++i)
-        starts[p.material[i] + 1] += p.alive[i] != 0 && textured[p.material[i]] != 0;
+    for (int32_t i = 0; i < w.live; ++i) starts[p.material[i] + 1] += sorted(i);
     for (int32_t m = 0; m < mc; ++m) starts[m + 1] += starts[m];
     for (int32_t i = 0; i < w.live; ++i)
-        if (p.alive[i] != 0 && textured[p.material[i]] != 0) p.order[starts[p.material[i]]++] = i;
+        if (sorted(i)) p.order[starts[p.material[i]]++] = i;
     for (int32_t m = mc; m > 0; --m) starts[m] = starts[m - 1];
     starts[0] = 0;
 }
