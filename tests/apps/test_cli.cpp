@@ -370,8 +370,15 @@ TEST_F(cli, ConvergeRefusesBadReferencesAndKnobs) {
     r = run(quote(scene) + kQuiet + " --pool 24", "converge");
     EXPECT_EQ(r.exit_code, 1) << r.err;
     EXPECT_NE(r.err.find("--pool"), std::string::npos) << r.err;
+    // A given reference leaves nothing for the options of a rendered one to do
+    r = run(quote(scene) + kQuiet + " --reference " + quote(small) + " --save-reference " +
+                quote(dir_ / "r.exr"),
+            "converge");
+    EXPECT_GT(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("--save-reference"), std::string::npos) << r.err;
     r = run(quote(scene) + kQuiet + " --survival-cap 0.5,1.5", "converge");
-    EXPECT_NE(r.exit_code, 0) << r.err;
+    EXPECT_GT(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("--survival-cap"), std::string::npos) << r.err;
     r = run(quote(scene) + kQuiet + " --out " + quote(dir_ / "missing" / "c.csv"), "converge");
     EXPECT_EQ(r.exit_code, 1) << r.err;
     EXPECT_NE(r.err.find("missing"), std::string::npos) << r.err;

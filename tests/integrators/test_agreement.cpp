@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
 
 #include "integrators/render.h"
 #include "integrators/wavefront/isa_entries.h"
@@ -124,15 +123,8 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
     // lanes at a time), on a mesh without colours and on a sphere (both: the scale alone),
     // as emission too; a procedural ks beside textured kd, so four lobes mix textured and
     // solid channels through the lobe buckets.
-    const fs::path plain = fs::temp_directory_path() / "cierzo_agreement_plain.ply";
-    {
-        std::ofstream out(plain);
-        out << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
-               "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
-               "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
-    }
     const std::string ico = CIERZO_SOURCE_DIR "/scenes/meshes/icosphere.ply";
-    const Scene scene = parse_scene(R"({
+    Scene scene = parse_scene(R"({
         "render": {"width": 40, "height": 40, "spp": 16},
         "camera": {"position": [0, 0, -3.5], "forward": [0, 0, 3], "left": [-1, 0, 0],
                    "up": [0, 1, 0]},
@@ -155,11 +147,20 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
              "translate": [-0.5, -0.6, 0.2], "material": "painted"},
             {"type": "mesh", "file": ")" + ico + R"(", "scale": 0.3,
              "translate": [0.5, -0.6, 0.2], "material": "painted"},
-            {"type": "mesh", "file": ")" + plain.string() + R"(", "scale": 0.5,
-             "translate": [-0.2, 0.1, 0.3], "material": "nearest"},
             {"type": "sphere", "center": [0.5, 0.3, 0.3], "radius": 0.25, "material": "nearest"},
             {"type": "sphere", "center": [-0.5, 0.5, 0.5], "radius": 0.2, "material": "glow"}]})",
                                    "/tmp/textures_everywhere.json");
+    // A tetrahedron without vertex colours, of material "nearest"
+    Mesh plain;
+    plain.source = "tetrahedron";
+    const Vec3f corner{-0.2f, 0.1f, 0.3f};
+    plain.positions = {corner, corner + Vec3f{0.5f, 0, 0}, corner + Vec3f{0, 0.5f, 0},
+                       corner + Vec3f{0, 0, 0.5f}};
+    plain.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+    for (size_t i = 0; i < scene.materials.size(); ++i)
+        if (scene.materials[i].name == "nearest") plain.material = int32_t(i);
+    scene.meshes.push_back(std::move(plain));
+    scene.finalize();
     const RenderResult reference = render_with(scene, "scalar", "auto");
     for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {
         if (!isa_supported(isa)) continue;
@@ -171,7 +172,6 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
             EXPECT_LT(d.pixels_off[c], 0.02) << "channel " << c;
         }
     }
-    fs::remove(plain);
 }
 
 // The box of cornell.json around a sphere of one material with all four lobes, every colour

@@ -15,8 +15,7 @@
 //   - ior 3.5 (and 0.3) spheres of kt = 1 in a uniform emitter: image mean 1;
 //   - a closed, watertight absorbing triangle mesh around the camera and in front of it,
 //     with rays aimed within float precision of its vertices and edges: every pixel 0.
-// Disabled until kernels/estimator.h renormalises reflected directions: hundreds of mirror
-// or total-internal reflections inside a closed sphere must stay inside (see the test).
+//   - hundreds of mirror or total-internal reflections inside a closed sphere stay inside.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -428,7 +427,7 @@ TEST(Extremes, TotalInternalReflectionInsideASphereNeitherLeaksNorGains) {
     // A sphere of ior 1.5 around the off-centre camera: trapped rays must carry nothing
     // (exactly 0), the others refract out once (kt in expectation), so the image mean is kt
     // times the escaping fraction of the camera's rays. survival_cap 0.5 keeps the chains of
-    // reflections short (see the disabled test below for long ones).
+    // reflections short (HundredsOfReflectionsStayInsideAClosedSphere tests long ones).
     const int size = 24, spp = 32;
     for (double kt : {1.0, 0.6}) {
         const Scene scene = parse_scene(

@@ -557,19 +557,29 @@ TEST(WideBvh, HoldsEveryTriangleOnceInMostlyFullNodes) {
 }
 
 TEST(WideBvh, BoxAreasThatOverflowStillGiveAValidTree) {
-    // Coordinates near 1e36: every box's surface area is infinite, the collapse's costs are
-    // meaningless, and the tree must still be valid and agree with the binary one
+    // A soup of ordinary size plus eight triangles near the corners of a cube of side 2e36:
+    // the upper boxes' surface areas are infinite, the collapse's costs there meaningless,
+    // and the tree must still be valid and agree with the binary one. (Triangles out at 1e36
+    // cannot be hit at all: the watertight kernel's edge products overflow, in both trees;
+    // the rays hit the ordinary ones.)
     Mesh mesh = random_soup(1500, 17);
-    for (Vec3f& p : mesh.positions) p = p * 1e35f;
+    for (int c = 0; c < 8; ++c) {
+        const Vec3f corner{c & 1 ? 1e36f : -1e36f, c & 2 ? 1e36f : -1e36f, c & 4 ? 1e36f : -1e36f};
+        const uint32_t base = uint32_t(mesh.positions.size());
+        mesh.positions.insert(mesh.positions.end(),
+                              {corner, corner * 0.9f, corner * Vec3f{0.9f, 1.0f, 0.8f}});
+        mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
+    }
     const Bvh bvh = build(mesh);
     expect_valid_wide_layout(mesh, bvh, mesh.size());
     std::mt19937 rng(18);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
     std::vector<Ray<float>> rays;
     for (int r = 0; r < 2000; ++r)
-        rays.push_back({Vec3f(unit(rng), unit(rng), unit(rng)) * 1.4e36f, random_direction(rng)});
+        rays.push_back({Vec3f(unit(rng), unit(rng), unit(rng)) * 14.0f, random_direction(rng)});
     const std::vector<float> tmax(rays.size(), 3e38f);
-    expect_wide_matches_binary(mesh, bvh, rays, tmax);
+    // (and enough of the rays hit for the comparison to mean something)
+    EXPECT_GT(expect_wide_matches_binary(mesh, bvh, rays, tmax), 200);
 }
 
 TEST(WideBvh, EmptyAndSingleTriangle) {
