@@ -43,6 +43,12 @@ void run(benchmark::State& state, const Scene& scene, RenderOptions o) {
     }
 }
 
+// The scenes of the per-scene benchmarks, by name
+std::map<std::string, Scene>& scene_cache() {
+    static std::map<std::string, Scene> cache;
+    return cache;
+}
+
 // Scene × integrator/ISA, 1 thread, for every scene of scenes/
 void register_scenes() {
     const fs::path root = fs::path(CIERZO_SOURCE_DIR) / "scenes";
@@ -51,9 +57,10 @@ void register_scenes() {
         if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
     std::sort(names.begin(), names.end());
     for (const std::string& name : names) {
-        // Scenes whose mesh is fetched (the bunny: scripts/fetch_bunny.sh) may lack it here
+        // Loaded once, here; scenes whose mesh is fetched (the bunny: scripts/fetch_bunny.sh)
+        // may lack it
         try {
-            bench_scene(name);
+            scene_cache().emplace(name, bench_scene(name));
         } catch (const std::exception& e) {
             if (std::string(e.what()).find(".ply") != std::string::npos) continue;
             throw;
@@ -65,13 +72,11 @@ void register_scenes() {
             const std::string label = std::string("render/") + name + "/" +
                                       (integrator == "scalar" ? "scalar" : "wavefront_" + isa);
             benchmark::RegisterBenchmark(label.c_str(), [=](benchmark::State& st) {
-                static std::map<std::string, Scene> cache;
-                if (!cache.count(name)) cache.emplace(name, bench_scene(name));
                 RenderOptions o;
                 o.threads = 1;
                 o.integrator = integrator;
                 o.isa = integrator == "scalar" ? "auto" : isa;
-                run(st, cache.at(name), o);
+                run(st, scene_cache().at(name), o);
             })->Unit(benchmark::kMillisecond);
         }
     }

@@ -151,7 +151,7 @@ int main(int argc, char** argv) {
         ->check(CLI::ExistingFile);
     r->add_option("--spp", a.spp, "Paths per pixel (overrides render.spp)")
         ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)));
-    r->add_option("--threads", a.threads, "Worker threads; 0 = all hardware threads")
+    r->add_option("--threads", a.threads, "Worker threads; 0 = every CPU this process may run on")
         ->check(CLI::Range(0, 4096))
         ->capture_default_str();
     r->add_option("--seed", a.seed, "Random seed (overrides render.seed)");

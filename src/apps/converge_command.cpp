@@ -14,6 +14,7 @@
 #include "apps/app_common.h"
 #include "core/error.h"
 #include "integrators/convergence.h"
+#include "integrators/wavefront/isa_entries.h"
 #include "io/atomic_file.h"
 #include "io/image.h"
 #include "scene/scene_json.h"
@@ -104,23 +105,30 @@ CLI::App* add_converge_command(CLI::App& app) {
     c->add_option("scene", a.scene, "Scene file (JSON; see docs/scene-format.md)")
         ->required()
         ->check(CLI::ExistingFile);
-    c->add_option("--reference", a.reference,
-                  "Reference image (.exr or .pfm) of the scene at the same resolution, e.g. an "
-                  "analytic answer or an earlier --save-reference; if it is an EXR with "
-                  "variance.R/G/B layers (render --variance), its noise is removed from the "
-                  "errors. Default: render one")
-        ->check(CLI::ExistingFile);
-    c->add_option("--reference-spp", a.reference_spp,
-                  "Paths per pixel of the rendered reference (its seed is the scene's; the sweep "
-                  "uses others)")
-        ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)))
-        ->capture_default_str();
-    c->add_option("--reference-integrator", a.reference_integrator,
-                  "Integrator of the rendered reference")
-        ->check(CLI::IsMember({"wavefront", "scalar"}))
-        ->capture_default_str();
-    c->add_option("--save-reference", a.save_reference,
-                  "Write the rendered reference here (.exr, with its variance layers) for reuse");
+    CLI::Option* reference =
+        c->add_option("--reference", a.reference,
+                      "Reference image (.exr or .pfm) of the scene at the same resolution, e.g. "
+                      "an analytic answer or an earlier --save-reference; if it is an EXR with "
+                      "variance.R/G/B layers (render --variance), its noise is removed from the "
+                      "errors. Default: render one")
+            ->check(CLI::ExistingFile);
+    CLI::Option* reference_spp =
+        c->add_option("--reference-spp", a.reference_spp,
+                      "Paths per pixel of the rendered reference (its seed is the scene's; the "
+                      "sweep uses others)")
+            ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)))
+            ->capture_default_str();
+    CLI::Option* reference_integrator =
+        c->add_option("--reference-integrator", a.reference_integrator,
+                      "Integrator of the rendered reference")
+            ->check(CLI::IsMember({"wavefront", "scalar"}))
+            ->capture_default_str();
+    CLI::Option* save_reference =
+        c->add_option("--save-reference", a.save_reference,
+                      "Write the rendered reference here (.exr, with its variance layers) for "
+                      "reuse");
+    // (the options of a rendered reference mean nothing beside a given one)
+    reference->excludes(reference_spp)->excludes(reference_integrator)->excludes(save_reference);
     c->add_option("--spp", a.spp, "Paths per pixel to sweep, comma-separated")
         ->delimiter(',')
         ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)))
@@ -150,7 +158,7 @@ CLI::App* add_converge_command(CLI::App& app) {
         ->check(CLI::Range(1, 1 << 16));
     c->add_option("--height", a.height, "Image height (overrides render.height)")
         ->check(CLI::Range(1, 1 << 16));
-    c->add_option("--threads", a.threads, "Worker threads; 0 = all hardware threads")
+    c->add_option("--threads", a.threads, "Worker threads; 0 = every CPU this process may run on")
         ->check(CLI::Range(0, 4096))
         ->capture_default_str();
     c->add_option("--repeats", a.repeats,
@@ -180,6 +188,9 @@ int run_converge_command() {
     for (int pool : a.pools)
         if (pool % 16 != 0)
             throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
+    for (const std::string& isa : a.isas)
+        if (!isa_supported(parse_isa(isa)))
+            throw InputError("--isa " + isa + ": this CPU does not support it");
     if (!a.out.empty()) check_writable_folder(a.out, "the measurements");
     if (!a.save_reference.empty()) {
         if (a.save_reference.extension() != ".exr")

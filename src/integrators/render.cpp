@@ -94,7 +94,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
                                                         options.pool_size, options.specialise);
     const int threads =
-        options.threads > 0 ? options.threads : int(std::thread::hardware_concurrency());
+        options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
     RenderResult result{Film(rs.width, rs.height), {}};
     std::vector<Tile> tiles = make_tiles(rs.width, rs.height);

@@ -27,7 +27,7 @@ struct RayCounts {
 };
 
 struct RenderOptions {
-    int threads = 0;  // 0: all hardware threads
+    int threads = 0;  // 0: every CPU this process may run on (TBB's default concurrency)
     std::string integrator = "wavefront";  // or "scalar", the reference
     std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2
     int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
