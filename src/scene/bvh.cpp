@@ -17,7 +17,6 @@ namespace {
 
 constexpr int kBins = 16;
 constexpr uint32_t kLeafSize = 4;       // always a leaf at or below this many triangles
-constexpr uint32_t kMaxLeafSize = 16;   // never a leaf above this many, whatever the SAH says
 constexpr int kMaxSahDepth = 64;        // below this, object-median splits bound the depth
 constexpr float kTraversalCost = 1.0f;  // relative to one triangle test
 
@@ -115,7 +114,7 @@ struct Bvh::Builder {
             int bin = -1;
             const float best_cost = find_sah_split(begin, end, centroid_bounds, axis, bin);
             const float split_cost = kTraversalCost + best_cost / bounds.half_area();
-            if (split_cost >= float(n) && n <= kMaxLeafSize) {
+            if (split_cost >= float(n) && n <= Bvh::kMaxLeafSize) {
                 make_leaf(node, begin, end);
                 return node;
             }

@@ -51,6 +51,9 @@ public:
     // The traversal stack holds at most one entry per level, so the build keeps the depth
     // below this.
     static constexpr int kMaxDepth = kBvhMaxDepth;
+    // Never a leaf above this many triangles, whatever the SAH says (the wide tree's leaves
+    // are the binary ones: at most two blocks of 8)
+    static constexpr uint32_t kMaxLeafSize = 2 * kWideBvhWidth;
 
 private:
     // A flattened node: its box, and either a leaf's triangle range or, for an inner node, the

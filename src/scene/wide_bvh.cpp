@@ -21,7 +21,6 @@ namespace {
 // and its speed hardly change for any value from 1 to 3).
 constexpr float kNodeCost = 1.0f;
 constexpr float kBlockCost = 1.4f;
-constexpr uint32_t kMaxLeafTriangles = 2 * kWideBvhWidth;  // the binary leaves' bound (16)
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kLargestArea = 1e30f;
 
@@ -69,7 +68,7 @@ struct Bvh::Collapser {
             // One root: a leaf (if small enough) or a wide node over 8 slots
             const float wide = area * kNodeCost + spread_cost[kWideBvhWidth];
             const float leaf = area * kBlockCost * float(blocks(p.count));
-            p.leaf = p.count <= kMaxLeafTriangles && leaf <= wide;
+            p.leaf = p.count <= Bvh::kMaxLeafSize && leaf <= wide;
             p.cost[1] = p.leaf ? leaf : wide;
             for (int i = 2; i <= kWideBvhWidth; ++i) {
                 p.spread[i] = spread_cost[i] < p.cost[1];

@@ -1,6 +1,6 @@
 // Error metrics and convergence sweeps: the metrics against hand-computed values, the
 // reference-noise correction, and sweeps whose error falls as 1/N for an unbiased render,
-// rises when the survival cap is lowered, and stalls when the reference is 5% off.
+// rises when the survival cap is lowered, and stands out when the reference is 5% off.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -114,7 +114,7 @@ TEST(Converge, MseFallsAsOneOverPathsPerPixel) {
     }
 }
 
-TEST(Converge, AFivePercentBiasStallsTheError) {
+TEST(Converge, AFivePercentBiasStandsAboveTheNoise) {
     const Scene scene = parse_scene(kBox, "/tmp/box.json");
     const Reference& ref = box_reference();
     Reference biased = ref;
