@@ -139,36 +139,23 @@ void BM_Random(benchmark::State& state) {
 }
 
 // ---- Wavefront stages --------------------------------------------------------------------------
-// A pool of the default 512 paths with the arrays the stages below touch, 64-byte aligned
-// (the renderer carves the same arrays out of one block: path_pool.cpp).
+// A pool of the default 512 paths as the renderer carves it (path_pool.cpp), zeroed.
 constexpr int32_t kPool = 512;
 
 struct StagePool {
+    void* memory = nullptr;
     PathPool pool;
-    std::vector<void*> blocks;
 
-    template <class T>
-    T* take() {
-        void* p = std::aligned_alloc(64, kPool * sizeof(T));
-        std::memset(p, 0, kPool * sizeof(T));
-        blocks.push_back(p);
-        return static_cast<T*>(p);
-    }
     StagePool() {
-        PathPool& p = pool;
-        p.capacity = kPool;
-        for (float** a : {&p.ox, &p.oy, &p.oz, &p.dx, &p.dy, &p.dz, &p.beta_r, &p.beta_g,
-                          &p.beta_b, &p.rad_r, &p.rad_g, &p.rad_b, &p.px, &p.py, &p.done_r,
-                          &p.done_g, &p.done_b})
-            *a = take<float>();
-        for (uint32_t** a : {&p.key, &p.pixel, &p.bounce, &p.done_pixel}) *a = take<uint32_t>();
-        for (int32_t** a : {&p.material, &p.alive, &p.order}) *a = take<int32_t>();
+        const int32_t lights = 0, materials = 16;
+        const size_t bytes = (path_pool_bytes(kPool, lights, materials) + 63) / 64 * 64;
+        memory = std::aligned_alloc(64, bytes);
+        std::memset(memory, 0, bytes);
+        pool = carve_path_pool(memory, kPool, lights, materials);
     }
     StagePool(const StagePool&) = delete;
     StagePool& operator=(const StagePool&) = delete;
-    ~StagePool() {
-        for (void* b : blocks) std::free(b);
-    }
+    ~StagePool() { std::free(memory); }
 };
 
 // The scene as the stages see it: cornell.json's camera, 128 x 128, `materials` materials.
