@@ -117,10 +117,7 @@ void BM_WideBvh(benchmark::State& state) {
     using F = cierzo::Wave<A>::F;
     constexpr size_t K = size_t(cierzo::Wave<A>::K);
     const Bvh& bvh = bench_bvh();
-    const Vec3f lo = bvh.bounds_min(), hi = bvh.bounds_max();
-    const cierzo::FlatMesh mesh{bvh.wide_nodes(), bvh.triangle_blocks(),
-                                bvh.block_triangle_ids(), int32_t(bvh.wide_node_count()),
-                                {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}};
+    const cierzo::FlatMesh mesh = cierzo::flat_mesh(bvh);
     // The rays in SoA, as the wavefront's path pool holds them
     const std::vector<Ray<float>> rays = random_rays(1 << 16);
     std::vector<float> soa[6];

@@ -334,11 +334,6 @@ TEST(Bvh, BadIndicesAreInputErrors) {
 // AVX2 and AVX-512 in test_agreement), against the binary tree's scalar traversal.
 using TestArch = xsimd::default_arch;
 
-FlatMesh flat_mesh(const Bvh& bvh) {
-    const Vec3f lo = bvh.bounds_min(), hi = bvh.bounds_max();
-    return {bvh.wide_nodes(), bvh.triangle_blocks(), bvh.block_triangle_ids(),
-            int32_t(bvh.wide_node_count()), {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}};
-}
 
 struct WideHit {
     bool hit;

@@ -42,6 +42,11 @@ struct FlatMesh {
     const float* colors = nullptr;       // r, g, b per vertex; null when the mesh has none
 };
 
+class Bvh;
+// A mesh's 8-wide BVH and bounds as the traversal reads them (the vertex arrays left null;
+// defined in wavefront.cpp).
+FlatMesh flat_mesh(const Bvh& bvh);
+
 // Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches
 // (Ize, "Robust BVH Ray Traversal", JCGT 2013), as in the scalar traversal.
 inline constexpr float kBvhFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f));

@@ -44,6 +44,12 @@ struct PoolMemory {
 
 }  // namespace
 
+FlatMesh flat_mesh(const Bvh& bvh) {
+    const Vec3f lo = bvh.bounds_min(), hi = bvh.bounds_max();
+    return {bvh.wide_nodes(), bvh.triangle_blocks(), bvh.block_triangle_ids(),
+            int32_t(bvh.wide_node_count()), {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}};
+}
+
 // ---- Instruction sets ---------------------------------------------------------------------
 
 bool isa_supported(Isa isa) {
@@ -157,13 +163,11 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
             throw InputError(m.source + ": more than 2^29 vertices");
         static_assert(sizeof(Vec3f) == 3 * sizeof(float));
         d.mesh_material.push_back(m.material);
-        const Vec3f lo = m.bvh.bounds_min(), hi = m.bvh.bounds_max();
-        d.meshes.push_back({m.bvh.wide_nodes(), m.bvh.triangle_blocks(),
-                            m.bvh.block_triangle_ids(), int32_t(m.bvh.wide_node_count()),
-                            {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z},
-                            reinterpret_cast<const int32_t*>(m.indices.data()),
-                            &m.positions.data()->x,
-                            m.colors.empty() ? nullptr : &m.colors.data()->x});
+        FlatMesh flat = flat_mesh(m.bvh);
+        flat.indices = reinterpret_cast<const int32_t*>(m.indices.data());
+        flat.positions = &m.positions.data()->x;
+        flat.colors = m.colors.empty() ? nullptr : &m.colors.data()->x;
+        d.meshes.push_back(flat);
     }
     f.meshes = d.meshes.data();
     d.mesh_material = padded(d.mesh_material);
