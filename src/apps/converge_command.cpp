@@ -166,7 +166,9 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "error their mean")
         ->check(CLI::Range(1, 1000))
         ->capture_default_str();
-    c->add_option("--out", a.out, "Write the measurements as CSV (one row per render point)");
+    c->add_option("--out", a.out,
+                  "Write the measurements as CSV (one row per render point; rewritten after "
+                  "each point, so a sweep that stops early keeps what it measured)");
     c->add_flag("--quiet", a.quiet, "Print only the summary");
     c->footer(
         "Errors are averaged over pixels and channels: RMSE, and relative MSE (x-r)^2/(r^2+0.01).\n"
@@ -245,13 +247,22 @@ int run_converge_command() {
     sweep.spp = a.spp;
     sweep.repeats = a.repeats;
     sweep.threads = a.threads;
+    // The CSV is rewritten after every point, so a sweep that stops early keeps its points
     std::vector<std::string> rows;
+    const auto write_csv = [&] {
+        if (a.out.empty()) return;
+        write_stream_atomically(a.out, [&](std::ostream& out) {
+            out << csv_header() << "\n";
+            for (const std::string& r : rows) out << r << "\n";
+        });
+    };
     if (!a.quiet)
         std::printf("%-9s %-7s %5s %5s %-7s %7s %10s %12s %12s %12s\n", "integr.", "isa", "pool",
                     "cap", "diffuse", "spp", "seconds", "Mrays/s", "RMSE", "relMSE");
     const std::vector<ConvergePoint> points = run_converge(
         scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
             rows.push_back(csv_row(scene, p));
+            write_csv();
             if (a.quiet) return;
             std::printf("%-9s %-7s %5d %5.2f %-7s %7lld %10.4f %12.2f %12.4g %12.4g\n",
                         p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
@@ -279,11 +290,6 @@ int run_converge_command() {
                      diffuse_name(last->estimator),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }
-    if (!a.out.empty())
-        write_stream_atomically(a.out, [&](std::ostream& out) {
-            out << csv_header() << "\n";
-            for (const std::string& r : rows) out << r << "\n";
-        });
     return 0;
 }
 
