@@ -8,7 +8,7 @@
 #include <map>
 
 #include "integrators/render.h"
-#include "integrators/wavefront/isa_entries.h"
+#include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
 
 namespace cierzo {
@@ -66,7 +66,7 @@ void register_scenes() {
             throw;
         }
         std::vector<std::pair<std::string, std::string>> variants = {{"scalar", "scalar"}};
-        for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
+        for (Isa isa : compiled_isas())
             if (isa_supported(isa)) variants.push_back({"wavefront", isa_name(isa)});
         for (const auto& [integrator, isa] : variants) {
             const std::string label = std::string("render/") + name + "/" +

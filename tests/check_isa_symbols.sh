@@ -1,22 +1,48 @@
 #!/usr/bin/env bash
-# Checks that no per-ISA object (isa_*.o) shares a weak (inline) code symbol with any other
-# object: the linker keeps one copy of such a symbol, and if it kept the AVX-512 one, the
-# SSE path would run AVX-512 code. Arguments: every object file of the library.
+# Checks that no per-ISA object (isa_*.o, or any object of an isa_* object library) shares a
+# weak (inline) code symbol with any other object: the linker keeps one copy of such a
+# symbol, and if it kept the AVX-512 one, the SSE path would run AVX-512 code. Arguments:
+# object files, or CMake lists of them (separated by ';'); the ones after --per-isa are
+# per-ISA whatever their names.
 set -euo pipefail
+objects=()
+per_isa=()
+marked=0
+for arg in "$@"; do
+    if [ "$arg" = --per-isa ]; then marked=1; continue; fi
+    IFS=';' read -ra parts <<<"$arg"
+    for o in "${parts[@]}"; do
+        objects+=("$o")
+        case "$o" in */isa_*) per_isa+=(1) ;; *) per_isa+=("$marked") ;; esac
+    done
+done
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+# The weak symbols of each object, once; the personality-routine reference is data emitted
+# by every C++ object, not code
+isas=0
+for i in "${!objects[@]}"; do
+    o=${objects[$i]}
+    [ -f "$o" ] || { echo "no such object file: $o"; exit 1; }
+    nm -C --defined-only "$o" >"$work/nm" || { echo "nm failed on $o"; exit 1; }
+    awk '$2 ~ /^[WVuw]$/ { $1 = ""; $2 = ""; print }' "$work/nm" |
+        grep -v 'DW.ref.__gxx_personality_v0' | sort -u >"$work/$i" || true
+    isas=$((isas + per_isa[i]))
+done
+# A check over no per-ISA object would pass whatever the build did
+[ "$isas" -gt 0 ] || { echo "no per-ISA object among the ${#objects[@]} objects given"; exit 1; }
 shared=0
-weak() { nm -C --defined-only "$1" | awk '$2 ~ /^[WVuw]$/ { $1 = ""; $2 = ""; print }' | sort -u; }
-for isa in "$@"; do
-    case "$(basename "$isa")" in isa_*) ;; *) continue ;; esac
-    for other in "$@"; do
-        [ "$other" = "$isa" ] && continue
-        # The personality-routine reference is data emitted by every C++ object, not code
-        common=$(comm -12 <(weak "$isa") <(weak "$other") | grep -v 'DW.ref.__gxx_personality_v0' || true)
+for i in "${!objects[@]}"; do
+    [ "${per_isa[$i]}" = 1 ] || continue
+    for j in "${!objects[@]}"; do
+        [ "$i" = "$j" ] && continue
+        common=$(comm -12 "$work/$i" "$work/$j")
         if [ -n "$common" ]; then
-            echo "$(basename "$isa") shares inline symbols with $(basename "$other"):"
+            echo "${objects[$i]} shares inline symbols with ${objects[$j]}:"
             echo "$common" | head -5
             shared=1
         fi
     done
 done
-[ "$shared" = 0 ] && echo "per-ISA objects share no inline code"
+[ "$shared" = 0 ] && echo "$isas per-ISA objects share no inline code with each other or the other $((${#objects[@]} - isas)) objects"
 exit "$shared"

@@ -15,6 +15,7 @@
 #include "apps/converge_command.h"
 #include "core/error.h"
 #include "integrators/render.h"
+#include "integrators/wavefront/isa.h"
 #include "io/atomic_file.h"
 #include "io/image.h"
 #include "scene/scene_json.h"
@@ -79,6 +80,8 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
 }
 
 int run_render(const RenderArgs& a) {
+    // An instruction set this CPU lacks is refused before the scene is read
+    if (a.integrator == "wavefront") require_isa(parse_isa(a.isa), "--isa");
     Scene scene = load_scene(a.scene);
     // Command-line values override the scene file
     RenderSettings& s = scene.settings;
@@ -139,6 +142,20 @@ int run_render(const RenderArgs& a) {
     return st.stopped_by == "interrupted" ? 130 : 0;
 }
 
+// `cierzo isas`: the instruction sets of this build, one per line, tab-separated: name,
+// lanes, whether this CPU runs it ("yes", "yes, auto" for the one auto picks, or "no") and
+// why not.
+int run_isas() {
+    const Isa best = best_isa();
+    for (Isa isa : compiled_isas()) {
+        const bool ok = isa_supported(isa);
+        std::printf("%s\t%d lanes\t%s\t%s\n", isa_name(isa).c_str(), isa_width(isa),
+                    ok ? (isa == best ? "yes, auto" : "yes") : "no",
+                    isa_unsupported_reason(isa).c_str());
+    }
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -173,8 +190,9 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"wavefront", "scalar"}))
         ->capture_default_str();
     r->add_option("--isa", a.isa,
-                  "Wavefront instruction set: auto (the best this CPU has), avx512, avx2, sse4.2")
-        ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2"}))
+                  "Wavefront instruction set: auto (the best this CPU has), avx512, avx2, sse4.2 "
+                  "(x86-64), neon (aarch64); valid on this CPU: " + usable_isa_names())
+        ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2", "neon"}))
         ->capture_default_str();
     r->add_option("--pool", a.pool,
                   "Wavefront paths in flight per thread, a multiple of 16; 0 = default (512)")
@@ -199,10 +217,14 @@ int main(int argc, char** argv) {
         "accumulated so far\n(with the paths per pixel reached in its metadata) and exits with "
         "status 130; a second one ends it at once.");
     CLI::App* converge = add_converge_command(app);
+    CLI::App* isas = app.add_subcommand(
+        "isas", "List the wavefront's instruction sets: lanes, whether this CPU runs each (and "
+                "which auto picks), and why not");
     CLI11_PARSE(app, argc, argv);
     try {
         if (r->parsed()) return run_render(a);
         if (converge->parsed()) return run_converge_command();
+        if (isas->parsed()) return run_isas();
     } catch (const InputError& e) {
         std::fprintf(stderr, "cierzo: %s\n", e.what());
         return 1;

@@ -14,7 +14,7 @@
 #include "apps/app_common.h"
 #include "core/error.h"
 #include "integrators/convergence.h"
-#include "integrators/wavefront/isa_entries.h"
+#include "integrators/wavefront/isa.h"
 #include "io/atomic_file.h"
 #include "io/image.h"
 #include "scene/scene_json.h"
@@ -137,9 +137,11 @@ CLI::App* add_converge_command(CLI::App& app) {
         ->delimiter(',')
         ->check(CLI::IsMember({"wavefront", "scalar"}))
         ->capture_default_str();
-    c->add_option("--isa", a.isas, "Wavefront instruction sets to sweep: auto, avx512, avx2, sse4.2")
+    c->add_option("--isa", a.isas,
+                  "Wavefront instruction sets to sweep: auto, avx512, avx2, sse4.2 (x86-64), "
+                  "neon (aarch64); valid on this CPU: " + usable_isa_names())
         ->delimiter(',')
-        ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2"}))
+        ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2", "neon"}))
         ->capture_default_str();
     c->add_option("--pool", a.pools,
                   "Wavefront pool sizes to sweep (multiples of 16; 0 = the default 512)")
@@ -190,9 +192,7 @@ int run_converge_command() {
     for (int pool : a.pools)
         if (pool % 16 != 0)
             throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
-    for (const std::string& isa : a.isas)
-        if (!isa_supported(parse_isa(isa)))
-            throw InputError("--isa " + isa + ": this CPU does not support it");
+    for (const std::string& isa : a.isas) require_isa(parse_isa(isa), "--isa");
     if (!a.out.empty()) check_writable_folder(a.out, "the measurements");
     if (!a.save_reference.empty()) {
         if (a.save_reference.extension() != ".exr")

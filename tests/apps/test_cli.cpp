@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,8 @@
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
+
+#include "integrators/wavefront/isa.h"
 
 namespace {
 
@@ -88,6 +91,7 @@ std::pair<int, int> exr_size(const fs::path& path) {
 struct Outcome {
     int exit_code = -1;  // -1: did not exit normally (crash, signal)
     std::string err;
+    std::string out;  // standard output
     double seconds = 0.0;
 };
 
@@ -114,9 +118,9 @@ protected:
     // `cierzo render ARGS` (or another subcommand) with a time limit, so a refused render
     // can never hang the suite.
     Outcome run(const std::string& args, const char* subcommand = "render") {
-        const fs::path err = dir_ / "stderr.txt";
+        const fs::path err = dir_ / "stderr.txt", out = dir_ / "stdout.txt";
         const std::string cmd = "timeout 120 " + quote(CIERZO_BINARY_DIR "/cierzo") + " " +
-                                subcommand + " " + args + " >/dev/null 2>" + quote(err);
+                                subcommand + " " + args + " >" + quote(out) + " 2>" + quote(err);
         const auto start = std::chrono::steady_clock::now();
         const int status = std::system(cmd.c_str());
         Outcome r;
@@ -124,7 +128,8 @@ protected:
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
         r.err = read_file(err);
-        fs::remove(err);
+        r.out = read_file(out);
+        fs::remove(err), fs::remove(out);
         return r;
     }
 
@@ -162,6 +167,64 @@ TEST_F(cli, WritesPfmByExtension) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_EQ(read_file(out).substr(0, 7), "PF\n8 8\n");
     EXPECT_FALSE(fs::exists(dir_ / "tiny.exr"));
+}
+
+// Every ISA this CPU cannot run, whether this build lacks its kernels (neon on x86-64,
+// avx512 on aarch64: always at least one) or the CPU lacks its instructions, is refused by
+// render and converge with the reason and a non-zero exit, before anything is written.
+TEST_F(cli, AnIsaThisCpuCannotRunIsRefusedWithTheReason) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    int refused = 0;
+    for (cierzo::Isa isa : {cierzo::Isa::kAvx512, cierzo::Isa::kAvx2, cierzo::Isa::kSse42,
+                            cierzo::Isa::kNeon}) {
+        if (cierzo::isa_supported(isa)) continue;
+        const std::string name = cierzo::isa_name(isa);
+        SCOPED_TRACE(name);
+        const std::string why = cierzo::isa_unsupported_reason(isa);
+        ASSERT_FALSE(why.empty());
+        const fs::path out = dir_ / "refused.exr";
+        const Outcome r = run(quote(scene) + kQuiet + " --isa " + name + " --out " + quote(out));
+        EXPECT_EQ(r.exit_code, 1) << r.err;
+        EXPECT_NE(r.err.find("--isa " + name + ": " + why), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("valid here: " + cierzo::usable_isa_names()), std::string::npos)
+            << r.err;
+        EXPECT_FALSE(fs::exists(out));
+        const Outcome c = run(quote(scene) + " --spp 1 --reference-spp 2 --threads 1 --isa " + name,
+                              "converge");
+        EXPECT_EQ(c.exit_code, 1) << c.err;
+        EXPECT_NE(c.err.find(why), std::string::npos) << c.err;
+        ++refused;
+    }
+    EXPECT_GE(refused, 1);  // the other architecture's ISA at least
+}
+
+// `cierzo isas` lists exactly the ISAs of this build, says which this CPU runs as the
+// library decides it, and marks one (the widest it runs) as auto's choice.
+TEST_F(cli, IsasListsEveryIsaOfThisBuildAndWhatTheCpuRuns) {
+    const Outcome r = run("", "isas");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    std::vector<std::string> names;
+    int autos = 0;
+    std::istringstream lines(r.out);
+    for (std::string line; std::getline(lines, line);) {
+        std::vector<std::string> f;
+        std::istringstream cols(line);
+        for (std::string col; std::getline(cols, col, '\t');) f.push_back(col);
+        ASSERT_GE(f.size(), 3u) << line;
+        const cierzo::Isa isa = cierzo::parse_isa(f[0]);
+        names.push_back(f[0]);
+        EXPECT_EQ(f[1], std::to_string(cierzo::isa_width(isa)) + " lanes");
+        EXPECT_EQ(f[2] != "no", cierzo::isa_supported(isa)) << line;
+        if (f[2] == "yes, auto") {
+            ++autos;
+            EXPECT_EQ(isa, cierzo::best_isa());
+        }
+        EXPECT_EQ(f.size() > 3 ? f[3] : "", cierzo::isa_unsupported_reason(isa)) << line;
+    }
+    std::vector<std::string> expected;
+    for (cierzo::Isa isa : cierzo::compiled_isas()) expected.push_back(cierzo::isa_name(isa));
+    EXPECT_EQ(names, expected);
+    EXPECT_EQ(autos, 1);
 }
 
 TEST_F(cli, StatsAreConsistent) {

@@ -10,7 +10,7 @@
 #include <filesystem>
 
 #include "integrators/render.h"
-#include "integrators/wavefront/isa_entries.h"
+#include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
 
 namespace cierzo {
@@ -71,7 +71,7 @@ TEST(Agreement, WavefrontMatchesScalarOnEverySceneAndIsa) {
         scene.set_resolution(40, 40);
         scene.settings.spp = 16;
         const RenderResult reference = render_with(scene, "scalar", "auto");
-        for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {
+        for (Isa isa : compiled_isas()) {
             if (!isa_supported(isa)) continue;
             SCOPED_TRACE(path.filename().string() + " " + isa_name(isa));
             const RenderResult w = render_with(scene, "wavefront", isa_name(isa));
@@ -93,7 +93,7 @@ TEST(Agreement, EveryPixelGetsItsPathsWhateverThePoolAndTileShapes) {
     Scene scene = load_scene(CIERZO_SOURCE_DIR "/scenes/four_lobes.json");
     scene.set_resolution(37, 23);
     scene.settings.spp = 5;
-    for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {
+    for (Isa isa : compiled_isas()) {
         if (!isa_supported(isa)) continue;
         SCOPED_TRACE(isa_name(isa));
         std::vector<Image> images;
@@ -162,7 +162,7 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
     scene.meshes.push_back(std::move(plain));
     scene.finalize();
     const RenderResult reference = render_with(scene, "scalar", "auto");
-    for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42}) {
+    for (Isa isa : compiled_isas()) {
         if (!isa_supported(isa)) continue;
         SCOPED_TRACE(isa_name(isa));
         const Difference d = compare(render_with(scene, "wavefront", isa_name(isa)).film,

@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "integrators/render.h"
-#include "integrators/wavefront/isa_entries.h"
+#include "integrators/wavefront/isa.h"
 #include "scene/camera.h"
 #include "scene/scene_json.h"
 #include "support/uv_sphere.h"
@@ -41,8 +41,10 @@ struct Variant {
 
 std::vector<Variant> variants() {
     std::vector<Variant> v = {{"scalar", "auto"}};
-    for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
-        if (isa_supported(isa)) v.push_back({"wavefront", isa == Isa::kAvx512 ? "avx512" : isa == Isa::kAvx2 ? "avx2" : "sse4.2"});
+    static std::vector<std::string> names;  // outlives the variants that point into it
+    for (Isa isa : compiled_isas())
+        if (isa_supported(isa)) names.push_back(isa_name(isa));
+    for (const std::string& name : names) v.push_back({"wavefront", name.c_str()});
     return v;
 }
 

@@ -52,42 +52,22 @@ FlatMesh flat_mesh(const Bvh& bvh) {
 
 // ---- Instruction sets ---------------------------------------------------------------------
 
-bool isa_supported(Isa isa) {
+namespace {
+
+RenderTileEntry entry_of(Isa isa) {
     switch (isa) {
-        case Isa::kAvx512:
-            return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                   __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl") &&
-                   __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("fma");
-        case Isa::kAvx2: return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-        case Isa::kSse42: return __builtin_cpu_supports("sse4.2");
-        case Isa::kAuto: return true;
+#if defined(__x86_64__) || defined(__i386__)
+        case Isa::kAvx512: return render_tile_avx512;
+        case Isa::kAvx2: return render_tile_avx2;
+        case Isa::kSse42: return render_tile_sse42;
+#elif defined(__aarch64__)
+        case Isa::kNeon: return render_tile_neon;
+#endif
+        default: throw std::logic_error("no wavefront kernels for " + isa_name(isa));
     }
-    return false;
 }
 
-Isa best_isa() {
-    for (Isa isa : {Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
-        if (isa_supported(isa)) return isa;
-    return Isa::kSse42;
-}
-
-std::string isa_name(Isa isa) {
-    switch (isa) {
-        case Isa::kAvx512: return "avx512";
-        case Isa::kAvx2: return "avx2";
-        case Isa::kSse42: return "sse4.2";
-        case Isa::kAuto: return "auto";
-    }
-    return "?";
-}
-
-Isa parse_isa(const std::string& name) {
-    for (Isa isa : {Isa::kAuto, Isa::kAvx512, Isa::kAvx2, Isa::kSse42})
-        if (name == isa_name(isa)) return isa;
-    throw InputError("unknown ISA '" + name + "' (valid: auto, avx512, avx2, sse4.2)");
-}
-
-int isa_width(Isa isa) { return isa == Isa::kAvx512 ? 16 : (isa == Isa::kAvx2 ? 8 : 4); }
+}  // namespace
 
 // ---- The renderer -----------------------------------------------------------------------------
 
@@ -108,7 +88,7 @@ struct WavefrontRenderer::Data {
     std::vector<int32_t> quadric_material, mesh_material, emitter, phong, textured;
     std::vector<FlatMesh> meshes;
     std::vector<FlatColor> sources;
-    void (*entry)(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&) = nullptr;
+    RenderTileEntry entry = nullptr;
     int32_t pool_size;
     mutable oneapi::tbb::enumerable_thread_specific<PoolMemory> pools;
 
@@ -122,15 +102,13 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
                                      bool specialise)
     : isa_(isa == Isa::kAuto ? best_isa() : isa),
       pool_size_(pool_size > 0 ? pool_size : kDefaultPoolSize) {
-    if (!isa_supported(isa_))
-        throw InputError("--isa " + isa_name(isa_) + ": this CPU does not support it");
+    require_isa(isa_, "--isa");
     if (pool_size_ % 16 != 0 || pool_size_ < 16 || pool_size_ > (1 << 22))
         throw InputError("--pool: the path pool size must be a multiple of 16 in [16, 4194304]");
     data_ = std::make_unique<Data>(scene, pool_size_);
     Data& d = *data_;
     FlatScene& f = d.flat;
-    d.entry = isa_ == Isa::kAvx512 ? render_tile_avx512
-                                   : (isa_ == Isa::kAvx2 ? render_tile_avx2 : render_tile_sse42);
+    d.entry = entry_of(isa_);
 
     // Analytic primitives: padded copies of the scene's SoA arrays, quadrics as 16 floats
     const Spheres& sp = scene.spheres;
