@@ -194,7 +194,7 @@ void BM_CameraRays(benchmark::State& state) {
     for (auto _ : state) {
         TileCursor c = start;
         w.live = 0;
-        generate_camera_paths(w, c);
+        generate_camera_paths<true>(w, c);
         paths += w.live;
     }
     benchmark::DoNotOptimize(mem.pool.dx[kPool - 1]);

@@ -9,6 +9,11 @@ namespace cierzo {
 Film::Film(int width, int height)
     : width_(width), height_(height), pixels_(size_t(width) * size_t(height)) {}
 
+void Film::count_paths(int x0, int y0, int x1, int y1, uint64_t paths) {
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) at(x, y).count += paths;
+}
+
 Image Film::mean() const {
     Image img(width_, height_);
     for (size_t i = 0; i < pixels_.size(); ++i) {

@@ -30,6 +30,22 @@ struct PixelSums {
         }
         ++count;
     }
+
+    // The same for a path already counted as a finite sample (by count_paths): the
+    // wavefront counts every path of a tile up front and hands over only those whose
+    // radiance is not zero, since adding +0 to the sums changes nothing.
+    void add_counted(const Vec3f& L) {
+        if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) {
+            --count;
+            ++nonfinite;
+            return;
+        }
+        const double v[3] = {L.x, L.y, L.z};
+        for (int c = 0; c < 3; ++c) {
+            sum[c] += v[c];
+            sum_sq[c] += v[c] * v[c];
+        }
+    }
 };
 
 class Film {
@@ -43,6 +59,9 @@ public:
     }
     // The pixel at index y * width + x.
     PixelSums& at_index(size_t i) { return pixels_[i]; }
+    // Counts `paths` more finite samples in every pixel of [x0, x1) × [y0, y1), for paths
+    // whose radiance is then given with PixelSums::add_counted (or not at all, if zero).
+    void count_paths(int x0, int y0, int x1, int y1, uint64_t paths);
 
     // The mean radiance per pixel.
     Image mean() const;

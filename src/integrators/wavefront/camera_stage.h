@@ -32,7 +32,9 @@ F floor_divide(const F& a, const F& b, F& remainder) {
     return q;
 }
 
-template <class A>
+// kRadiance: the pool carries each path's radiance (zeroed here); without it, shading hands
+// the emission that ends a path straight to the film.
+template <bool kRadiance, class A>
 CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
@@ -90,8 +92,9 @@ CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
         const Vec3<F> one(F(1.0f)), zero(F(0.0f));
         store3(select(fresh, one, load3<F>(p.beta_r, p.beta_g, p.beta_b, i)), p.beta_r, p.beta_g,
                p.beta_b, i);
-        store3(select(fresh, zero, load3<F>(p.rad_r, p.rad_g, p.rad_b, i)), p.rad_r, p.rad_g,
-               p.rad_b, i);
+        if constexpr (kRadiance)
+            store3(select(fresh, zero, load3<F>(p.rad_r, p.rad_g, p.rad_b, i)), p.rad_r,
+                   p.rad_g, p.rad_b, i);
     }
     w.live = end;
 }

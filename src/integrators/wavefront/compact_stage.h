@@ -3,77 +3,10 @@
 // and the free slots at the back are refilled with new camera paths.
 #pragma once
 
-#include <array>
-
 #include "integrators/wavefront/camera_stage.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
-
-// For the 8-lane mask m, the indices of its set lanes in order, packed 4 bits each (lane 0
-// of the result in the low nibble): the permute that compresses an AVX register.
-constexpr std::array<uint32_t, 256> compress_nibbles() {
-    std::array<uint32_t, 256> table{};
-    for (uint32_t m = 0; m < 256; ++m) {
-        uint32_t packed = 0, at = 0;
-        for (uint32_t l = 0; l < 8; ++l)
-            if (m >> l & 1u) packed |= l << (4 * at++);
-        table[m] = packed;
-    }
-    return table;
-}
-inline constexpr std::array<uint32_t, 256> kCompressNibbles = compress_nibbles();
-
-// The same for 4 lanes as byte-shuffle controls: lane l takes the 4 bytes of lane idx[l].
-struct alignas(16) ShuffleControl {
-    uint8_t byte[16];
-};
-constexpr std::array<ShuffleControl, 16> compress_shuffles() {
-    std::array<ShuffleControl, 16> table{};
-    for (uint32_t m = 0; m < 16; ++m)
-        for (uint32_t l = 0; l < 4; ++l)
-            for (uint32_t b = 0; b < 4; ++b)
-                table[m].byte[4 * l + b] = uint8_t(4 * (kCompressNibbles[m] >> (4 * l) & 15u) + b);
-    return table;
-}
-inline constexpr std::array<ShuffleControl, 16> kCompressShuffles = compress_shuffles();
-
-// The 32-bit lanes of v whose bit is set in `bits` moved to the front, in order; the lanes
-// after them hold anything. AVX-512 compresses in one instruction; AVX2 permutes by a table
-// of 256 index lists, SSE shuffles bytes by the same table.
-template <class A, class T>
-xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
-    using B = xsimd::batch<T, A>;
-    static_assert(sizeof(T) == 4);
-#if defined(__AVX512F__)
-    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {
-        if constexpr (std::is_same_v<T, float>)
-            return B(_mm512_maskz_compress_ps(__mmask16(bits), v.data));
-        else
-            return B(_mm512_maskz_compress_epi32(__mmask16(bits), v.data));
-    }
-#endif
-#if defined(__AVX2__)
-    if constexpr (std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
-        const __m256i idx = _mm256_and_si256(
-            _mm256_srlv_epi32(_mm256_set1_epi32(int(kCompressNibbles[bits])),
-                              _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28)),
-            _mm256_set1_epi32(7));
-        if constexpr (std::is_same_v<T, float>)
-            return B(_mm256_permutevar8x32_ps(v.data, idx));
-        else
-            return B(_mm256_permutevar8x32_epi32(v.data, idx));
-    }
-#endif
-    if constexpr (!std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
-        const auto* control = reinterpret_cast<const __m128i*>(&kCompressShuffles[bits]);
-        const __m128i c = _mm_load_si128(control);
-        if constexpr (std::is_same_v<T, float>)
-            return B(_mm_castsi128_ps(_mm_shuffle_epi8(_mm_castps_si128(v.data), c)));
-        else
-            return B(_mm_shuffle_epi8(v.data, c));
-    }
-}
 
 // Ended paths go to the film's queue; survivors move down to `kept`, bounce + 1. Both keep
 // pool order. A batch is compressed in registers and stored whole at the write position:
@@ -88,7 +21,6 @@ void compact_paths(Wave<A>& w, const TileJob& job) {
     PathPool& p = w.pool;
     float* const fa[12] = {p.ox,     p.oy,     p.oz,     p.dx,    p.dy,    p.dz,
                            p.beta_r, p.beta_g, p.beta_b, p.rad_r, p.rad_g, p.rad_b};
-    float* const rad[3] = {p.rad_r, p.rad_g, p.rad_b};
     float* const out[3] = {p.done_r, p.done_g, p.done_b};
     int32_t kept = 0, done = 0;
     for (int32_t i = 0; i < w.live; i += K) {
@@ -97,10 +29,17 @@ void compact_paths(Wave<A>& w, const TileJob& job) {
         const uint32_t m = mask_bits(mask_f32(I::load_aligned(p.alive + i) != I(0))) & valid;
         const uint32_t ended = ~m & valid;
         if (ended) {
-            compress<A>(U::load_aligned(p.pixel + i), ended).store_unaligned(p.done_pixel + done);
-            for (int c = 0; c < 3; ++c)
-                compress<A>(F::load_aligned(rad[c] + i), ended).store_unaligned(out[c] + done);
-            done += std::popcount(ended);
+            // Of the ended paths only those with radiance (or a non-finite one) go to the
+            // film, which has counted every path of the tile already
+            const Vec3<F> r = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
+            const uint32_t radiant =
+                ended & ~mask_bits((r.x == F(0.0f)) & (r.y == F(0.0f)) & (r.z == F(0.0f)));
+            compress<A>(U::load_aligned(p.pixel + i), radiant)
+                .store_unaligned(p.done_pixel + done);
+            compress<A>(r.x, radiant).store_unaligned(out[0] + done);
+            compress<A>(r.y, radiant).store_unaligned(out[1] + done);
+            compress<A>(r.z, radiant).store_unaligned(out[2] + done);
+            done += std::popcount(radiant);
         }
         for (float* a : fa) compress<A>(F::load_aligned(a + i), m).store_unaligned(a + kept);
         for (uint32_t* a : {p.key, p.pixel})

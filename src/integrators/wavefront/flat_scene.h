@@ -106,7 +106,10 @@ struct TileJob {
     int32_t x0, y0, x1, y1;
     int64_t sample_begin, sample_end;  // the samples of each pixel this job renders
     void* film;
-    // Adds `count` finished paths (pixel index, radiance) to the film, in order.
+    // Adds the radiance of `count` finished paths (pixel index, radiance) to the film, in
+    // order. The film has counted every path of the job before it starts (so paths whose
+    // radiance is zero need not be handed over at all), and takes a non-finite radiance
+    // back out of that count.
     void (*finish)(void* film, int32_t count, const uint32_t* pixel, const float* r,
                    const float* g, const float* b);
 };

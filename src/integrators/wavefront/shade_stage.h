@@ -49,12 +49,23 @@ struct LobeStep {
     }
 };
 
+// Where a shaded batch goes when it is compacted at once (see shade_batch): survivors to
+// [0, kept) of the pool, ended paths with radiance to [0, done) of the film's queue.
+struct Compaction {
+    int32_t kept = 0, done = 0;
+};
+
 // Emission, shadow rays and the roulette for batch `i` (rays `ray`, their surfaces `sf`).
 // kFused is the scene's only lobe, whose continuation then runs here on the same registers;
 // or kLobeCount: the roulette's choice is stored for the lobe buckets (sample_lobes).
-template <int kFused, class A>
+// kCompact (one lobe, no point lights, no textures: no later stage reads the batch, and a
+// path's radiance is only the emission that ends it) retires and compacts the batch here:
+// emitter hits go to the film's queue, survivors move down to `compaction->kept` with
+// bounce + 1, and no radiance is carried in the pool.
+template <int kFused, bool kCompact = false, class A>
 void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
-                 const Surfaces<A>& sf, int32_t& queued) {
+                 const Surfaces<A>& sf, int32_t& queued, Compaction* compaction = nullptr) {
+    static_assert(!kCompact || kFused != kLobeCount, "compaction in shading needs one lobe");
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
@@ -69,7 +80,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i);
     };
     const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
-    Vec3<F> rad = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
+    Vec3<F> rad = kCompact ? Vec3<F>(F(0.0f)) : load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
 
     // An emitter ends the path
     if (f.emitters) {
@@ -77,6 +88,19 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
         rad = select(em, rad + beta * le, rad);
         alive = alive & !em;
+        if constexpr (kCompact) {
+            // The radiant ones (or non-finite) to the film's queue; the film counted them all
+            const uint32_t bits = mask_bits(
+                em & !((rad.x == F(0.0f)) & (rad.y == F(0.0f)) & (rad.z == F(0.0f))));
+            if (bits) {
+                const int32_t at = compaction->done;
+                compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.done_pixel + at);
+                compress<A>(rad.x, bits).store_unaligned(p.done_r + at);
+                compress<A>(rad.y, bits).store_unaligned(p.done_g + at);
+                compress<A>(rad.z, bits).store_unaligned(p.done_b + at);
+                compaction->done = at + std::popcount(bits);
+            }
+        }
     }
     const Bsdf<F> m = hit_bsdf<A>(s, mat, evaluated);
     const Vec3<F>& d = ray.d;
@@ -133,13 +157,34 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         // are written too; their rays are never read again.
         const LobeStep<kFused, A> step(s, m, ray.o, d, pos, n, beta, probability, key, bounce);
         alive = alive & step.alive;
-        store3(step.o, p.ox, p.oy, p.oz, i);
-        store3(step.d, p.dx, p.dy, p.dz, i);
-        store3(step.beta, p.beta_r, p.beta_g, p.beta_b, i);
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
+        if constexpr (kCompact) {
+            // Survivors straight to the front of the pool, in order: writing at kept <= i
+            // never overtakes the batches not yet read (compact_paths says more)
+            const uint32_t bits = mask_bits(alive);
+            const int32_t at = compaction->kept;
+            const Vec3<F>* v[3] = {&step.o, &step.d, &step.beta};
+            float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz},
+                                      {p.beta_r, p.beta_g, p.beta_b}};
+            for (int k = 0; k < 3; ++k) {
+                compress<A>(v[k]->x, bits).store_unaligned(dst[k][0] + at);
+                compress<A>(v[k]->y, bits).store_unaligned(dst[k][1] + at);
+                compress<A>(v[k]->z, bits).store_unaligned(dst[k][2] + at);
+            }
+            compress<A>(key, bits).store_unaligned(p.key + at);
+            compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.pixel + at);
+            compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + at);
+            compaction->kept = at + std::popcount(bits);
+        } else {
+            store3(step.o, p.ox, p.oy, p.oz, i);
+            store3(step.d, p.dx, p.dy, p.dz, i);
+            store3(step.beta, p.beta_r, p.beta_g, p.beta_b, i);
+        }
     }
-    select(mask_i32(alive), I(1), I(0)).store_aligned(p.alive + i);
-    store3(rad, p.rad_r, p.rad_g, p.rad_b, i);
+    if constexpr (!kCompact) {
+        select(mask_i32(alive), I(1), I(0)).store_aligned(p.alive + i);
+        store3(rad, p.rad_r, p.rad_g, p.rad_b, i);
+    }
     w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
     w.counters.lanes_total += uint64_t(K);
 }

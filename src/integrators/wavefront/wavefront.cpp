@@ -19,7 +19,7 @@ void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float*
                   const float* g, const float* b) {
     // Pixel indices are y * width + x: the film's own layout, so no division per path
     Film& f = *static_cast<Film*>(film);
-    for (int32_t i = 0; i < count; ++i) f.at_index(pixel[i]).add({r[i], g[i], b[i]});
+    for (int32_t i = 0; i < count; ++i) f.at_index(pixel[i]).add_counted({r[i], g[i], b[i]});
 }
 
 FlatColor flatten(const ColorSource& c) {
@@ -227,6 +227,8 @@ void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& ray
     PathPool& pool = data_->pools.local().pool;
     const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, tile.s0, tile.s1, &film, finish_paths};
     WavefrontCounters c;
+    // Every path of the job is counted now; the kernels hand over only the radiant ones
+    film.count_paths(tile.x0, tile.y0, tile.x1, tile.y1, uint64_t(tile.s1 - tile.s0));
     data_->entry(data_->flat, pool, job, c);
     rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;
     lanes.shade_active += c.lanes_active, lanes.shade_total += c.lanes_total;

@@ -22,13 +22,17 @@ inline namespace CIERZO_ISA_NAMESPACE {
 // batch at once (no stage between needs the hits reordered), textured ones leave the
 // surfaces in the pool for the material sort. (CIERZO_STAGE_LOOP: every kernel it calls is
 // inlined; wave.h says why.)
-template <int kFused, class A>
-CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w) {
+//
+// kCompact: shading also retires and compacts each batch (shade_batch says when it may), so
+// the wavefront needs no compaction pass and no shadow stage.
+template <int kFused, bool kCompact, class A>
+CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w, const TileJob& job) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
     const bool textures = w.scene.features.textures;
     int32_t queued = 0;
+    Compaction compaction;
     const int32_t end = w.rounded_up(w.live);
     for (int32_t i = 0; i < end; i += Wave<A>::K) {
         const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
@@ -42,10 +46,16 @@ CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w) {
         if (textures)
             prim.store_aligned(p.prim + i);
         else
-            shade_batch<kFused>(w, i, ray, sf, queued);
+            shade_batch<kFused, kCompact>(w, i, ray, sf, queued, &compaction);
     }
-    p.shadow_count = queued;
-    w.counters.shadow += uint64_t(queued);
+    if constexpr (kCompact) {
+        if (compaction.done)
+            job.finish(job.film, compaction.done, p.done_pixel, p.done_r, p.done_g, p.done_b);
+        w.live = compaction.kept;
+    } else {
+        p.shadow_count = queued;
+        w.counters.shadow += uint64_t(queued);
+    }
 }
 
 // The wavefront loop of one tile; kFused is the scene's only lobe kind, or kLobeCount.
@@ -60,10 +70,20 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
     cursor.total = int64_t(cursor.tile_pixels) * (job.sample_end - job.sample_begin);
     cursor.sample = uint32_t(job.sample_begin);
     const FlatFeatures& f = scene.features;
+    if constexpr (kFused != kLobeCount) {
+        // One lobe, no point lights, no textures: shading compacts, no radiance is carried
+        if (!f.lights && !f.textures) {
+            for (;;) {
+                generate_camera_paths<false>(w, cursor);
+                if (w.live == 0) return;
+                trace_paths<kFused, true>(w, job);
+            }
+        }
+    }
     for (;;) {
-        generate_camera_paths(w, cursor);
+        generate_camera_paths<true>(w, cursor);
         if (w.live == 0) break;
-        trace_paths<kFused>(w);
+        trace_paths<kFused, false>(w, job);
         if (f.textures) {
             evaluate_sorted_materials(w, pool.material_starts);
             shade_stored<kFused>(w);
