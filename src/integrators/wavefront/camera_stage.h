@@ -66,11 +66,25 @@ CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     const float inv_w = 1.0f / float(s.width), inv_h = 1.0f / float(s.height);
     const F tile_width(float(c.tile_width)), tile_pixels(float(c.tile_pixels));
     const int32_t end = first + count;
-    for (int32_t i = first / K * K; i < end; i += K) {
+    // Batch i's new paths; kPartial: the batch holding `first` when paths before it in the
+    // same batch are still in flight, whose lanes keep what they have (every other batch is
+    // new in every lane, and is stored without reading the pool)
+    auto generate = [&](int32_t i, auto partial) {
+        constexpr bool kPartial = decltype(partial)::value;
         const auto fresh = Wave<A>::lane_index() >= F(float(first - i));
         const auto fresh_u = mask_u32(fresh);
+        const auto keep_f = [&](const F& v, const float* a) {
+            return kPartial ? select(fresh, v, F::load_aligned(a + i)) : v;
+        };
+        const auto keep_u = [&](const U& v, const uint32_t* a) {
+            return kPartial ? select(fresh_u, v, U::load_aligned(a + i)) : v;
+        };
+        const auto keep3 = [&](const Vec3<F>& v, float* x, float* y, float* z) {
+            keep_f(v.x, x).store_aligned(x + i), keep_f(v.y, y).store_aligned(y + i);
+            keep_f(v.z, z).store_aligned(z + i);
+        };
         // Pixel (x, y) and sample of each new path (lanes before `first` compute nonsense
-        // that the selects below discard)
+        // that the selects discard)
         const F scan = Wave<A>::lane_index() + F(float(start + i - first));
         F at, x;
         const F wraps = floor_divide(max(scan, F(0.0f)), tile_pixels, at);
@@ -79,23 +93,24 @@ CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
         const auto to_u = [](const F& v) { return xsimd::bitwise_cast<U>(to_int(v)); };
         const U pixel = to_u(py) * U(uint32_t(s.width)) + to_u(px);
         const U sample = U(sample0) + to_u(wraps);
-        select(fresh_u, pixel, U::load_aligned(p.pixel + i)).store_aligned(p.pixel + i);
-        const U key = select(fresh_u, path_key(s.seed, pixel, sample), U::load_aligned(p.key + i));
+        keep_u(pixel, p.pixel).store_aligned(p.pixel + i);
+        const U key = keep_u(path_key(s.seed, pixel, sample), p.key);
         key.store_aligned(p.key + i);
-        select(fresh_u, U(0u), U::load_aligned(p.bounce + i)).store_aligned(p.bounce + i);
+        keep_u(U(0u), p.bounce).store_aligned(p.bounce + i);
         const F sx = px + uniform<F>(key, U(0u), Purpose::kPixelX);
         const F sy = py + uniform<F>(key, U(0u), Purpose::kPixelY);
         const Ray<F> ray = pinhole_ray(origin, forward, left, up, sx, sy, inv_w, inv_h);
-        // Lanes before `first` keep their rays
-        store3(select(fresh, ray.o, load3<F>(p.ox, p.oy, p.oz, i)), p.ox, p.oy, p.oz, i);
-        store3(select(fresh, ray.d, load3<F>(p.dx, p.dy, p.dz, i)), p.dx, p.dy, p.dz, i);
-        const Vec3<F> one(F(1.0f)), zero(F(0.0f));
-        store3(select(fresh, one, load3<F>(p.beta_r, p.beta_g, p.beta_b, i)), p.beta_r, p.beta_g,
-               p.beta_b, i);
-        if constexpr (kRadiance)
-            store3(select(fresh, zero, load3<F>(p.rad_r, p.rad_g, p.rad_b, i)), p.rad_r,
-                   p.rad_g, p.rad_b, i);
+        keep3(ray.o, p.ox, p.oy, p.oz);
+        keep3(ray.d, p.dx, p.dy, p.dz);
+        keep3(Vec3<F>(F(1.0f)), p.beta_r, p.beta_g, p.beta_b);
+        if constexpr (kRadiance) keep3(Vec3<F>(F(0.0f)), p.rad_r, p.rad_g, p.rad_b);
+    };
+    int32_t i = first / K * K;
+    if (i < first) {
+        generate(i, std::true_type{});
+        i += K;
     }
+    for (; i < end; i += K) generate(i, std::false_type{});
     w.live = end;
 }
 

@@ -47,18 +47,27 @@ Vec3<xsimd::batch<float, A>> hit_color(const FlatScene& s, int c,
     return col;
 }
 
-template <class A, class Read>
+// The material of K hits. kLobe is the one lobe kind whose parameters are wanted (the
+// scene's only one, or the one a lobe bucket samples): the other lobes are then zero at
+// compile time, so the roulette and the lobe kernels fold them away instead of carrying 12
+// zero lanes through registers. kLobeCount: every lobe the scene has.
+template <int kLobe, class A, class Read>
 Bsdf<xsimd::batch<float, A>> hit_bsdf(const FlatScene& s, const xsimd::batch<int32_t, A>& mat,
                                       const Read& read) {
     using F = xsimd::batch<float, A>;
     const FlatFeatures& f = s.features;
     const Vec3<F> zero(F(0.0f));
-    return {f.diffuse ? hit_color<A>(s, kColKd, mat, read) : zero,
-            f.specular ? hit_color<A>(s, kColKs, mat, read) : zero,
-            f.mirror ? hit_color<A>(s, kColKr, mat, read) : zero,
-            f.refraction ? hit_color<A>(s, kColKt, mat, read) : zero,
-            f.specular ? lookup<A>(s.shininess, s.material_count, mat) : F(0.0f),
-            f.refraction ? lookup<A>(s.ior, s.material_count, mat) : F(1.0f)};
+    constexpr bool every = kLobe == kLobeCount;
+    const bool diffuse = every ? f.diffuse : kLobe == kLobeDiffuse;
+    const bool specular = every ? f.specular : kLobe == kLobeSpecular;
+    const bool mirror = every ? f.mirror : kLobe == kLobeMirror;
+    const bool refraction = every ? f.refraction : kLobe == kLobeRefract;
+    return {diffuse ? hit_color<A>(s, kColKd, mat, read) : zero,
+            specular ? hit_color<A>(s, kColKs, mat, read) : zero,
+            mirror ? hit_color<A>(s, kColKr, mat, read) : zero,
+            refraction ? hit_color<A>(s, kColKt, mat, read) : zero,
+            specular ? lookup<A>(s.shininess, s.material_count, mat) : F(0.0f),
+            refraction ? lookup<A>(s.ior, s.material_count, mat) : F(1.0f)};
 }
 
 // The material sort: p.order lists the live hits on textured materials grouped by material,

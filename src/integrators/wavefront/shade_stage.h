@@ -102,7 +102,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             }
         }
     }
-    const Bsdf<F> m = hit_bsdf<A>(s, mat, evaluated);
+    // (a scene with one lobe kind has that lobe's parameters only: kFused)
+    const Bsdf<F> m = hit_bsdf<kFused, A>(s, mat, evaluated);
     const Vec3<F>& d = ray.d;
     const Vec3<F>& n = sf.n;
     const Vec3<F>& pos = sf.pos;
@@ -218,7 +219,8 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         alignas(64) int32_t idx[K];
         for (int32_t l = 0; l < K; ++l) idx[l] = list[std::min(i + l, size - 1)];
         const I j = I::load_aligned(idx);
-        const auto m = hit_bsdf<A>(w.scene, gather_lanes<A>(p.material, j), [&](int c) {
+        // (only this bucket's lobe is sampled, so only its parameters are read)
+        const auto m = hit_bsdf<kLobe, A>(w.scene, gather_lanes<A>(p.material, j), [&](int c) {
             return gather3<A>(p.col[c][0], p.col[c][1], p.col[c][2], j);
         });
         const LobeStep<kLobe, A> step(
