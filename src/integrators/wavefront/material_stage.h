@@ -56,18 +56,21 @@ Bsdf<xsimd::batch<float, A>> hit_bsdf(const FlatScene& s, const xsimd::batch<int
                                       const Read& read) {
     using F = xsimd::batch<float, A>;
     const FlatFeatures& f = s.features;
-    const Vec3<F> zero(F(0.0f));
     constexpr bool every = kLobe == kLobeCount;
     const bool diffuse = every ? f.diffuse : kLobe == kLobeDiffuse;
     const bool specular = every ? f.specular : kLobe == kLobeSpecular;
     const bool mirror = every ? f.mirror : kLobe == kLobeMirror;
     const bool refraction = every ? f.refraction : kLobe == kLobeRefract;
-    return {diffuse ? hit_color<A>(s, kColKd, mat, read) : zero,
-            specular ? hit_color<A>(s, kColKs, mat, read) : zero,
-            mirror ? hit_color<A>(s, kColKr, mat, read) : zero,
-            refraction ? hit_color<A>(s, kColKt, mat, read) : zero,
-            specular ? lookup<A>(s.shininess, s.material_count, mat) : F(0.0f),
-            refraction ? lookup<A>(s.ior, s.material_count, mat) : F(1.0f)};
+    // Member by member, each from its own expression: an aggregate built from copies of one
+    // zero vector is one GCC leaves in memory
+    Bsdf<F> m;
+    m.kd = diffuse ? hit_color<A>(s, kColKd, mat, read) : Vec3<F>(F(0.0f));
+    m.ks = specular ? hit_color<A>(s, kColKs, mat, read) : Vec3<F>(F(0.0f));
+    m.kr = mirror ? hit_color<A>(s, kColKr, mat, read) : Vec3<F>(F(0.0f));
+    m.kt = refraction ? hit_color<A>(s, kColKt, mat, read) : Vec3<F>(F(0.0f));
+    m.shininess = specular ? lookup<A>(s.shininess, s.material_count, mat) : F(0.0f);
+    m.ior = refraction ? lookup<A>(s.ior, s.material_count, mat) : F(1.0f);
+    return m;
 }
 
 // The material sort: p.order lists the live hits on textured materials grouped by material,
