@@ -69,8 +69,14 @@ struct FlatScene {
     int32_t plane_count;
     const float *plane_nx, *plane_ny, *plane_nz, *plane_d;
     const int32_t* plane_material;
+    // The same four values of each sphere (cx, cy, cz, r) and plane (nx, ny, nz, d), each
+    // repeated in 16 lanes, 64-byte aligned: the intersection loops read them as whole
+    // vectors, an operand of the arithmetic instead of a broadcast per batch
+    const float* sphere_lanes;  // 4 * 16 per sphere
+    const float* plane_lanes;   // 4 * 16 per plane
     int32_t quadric_count;
     const float* quadric;  // 16 floats each: A..J, box min xyz, box max xyz
+    const float* quadric_lanes;  // the same 16 values, each repeated in 16 lanes
     const int32_t* quadric_material;
     int32_t mesh_count;
     const int32_t* mesh_material;

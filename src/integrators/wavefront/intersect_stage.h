@@ -13,11 +13,19 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
+// Quadric j's coefficients and clipping box from the lane table (FlatScene::quadric_lanes).
 template <class F>
-QuadricCoefficients<F> quadric_at(const float* q) {
-    return {F(q[0]), F(q[1]), F(q[2]), F(q[3]), F(q[4]), F(q[5]), F(q[6]), F(q[7]), F(q[8]),
-            F(q[9])};
-}
+struct QuadricLanes {
+    QuadricCoefficients<F> q;
+    Vec3<F> lo, hi;
+    QuadricLanes(const float* table, int32_t j) {
+        const float* v = table + 256 * j;
+        auto at = [&](int k) { return F::load_aligned(v + 16 * k); };
+        q = {at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7), at(8), at(9)};
+        lo = {at(10), at(11), at(12)};
+        hi = {at(13), at(14), at(15)};
+    }
+};
 
 // Closest analytic hit of K rays; `prim` is left as it was where nothing is hit.
 template <class A>
@@ -25,23 +33,29 @@ void closest_analytic(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
                       typename Wave<A>::F& t, typename Wave<A>::I& prim) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
-    auto record = [&](const auto& hit, const F& th, int32_t kind, int32_t j) {
+    // id: (kind << kPrimShift) | j in every lane, counted up with j rather than broadcast
+    auto record = [&](const auto& hit, const F& th, I& id) {
         t = select(hit, th, t);
-        prim = select(mask_i32(hit), I((kind << kPrimShift) | j), prim);
+        prim = select(mask_i32(hit), id, prim);
+        id += I(1);
     };
     F th;
+    I id(kPrimSphere << kPrimShift);
     for (int32_t j = 0; j < s.sphere_count; ++j) {
-        const Vec3<F> c{F(s.sphere_cx[j]), F(s.sphere_cy[j]), F(s.sphere_cz[j])};
-        record(intersect_sphere(ray, c, F(s.sphere_r[j]), t, th), th, kPrimSphere, j);
+        const float* q = s.sphere_lanes + 64 * j;
+        const Vec3<F> c{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
+        record(intersect_sphere(ray, c, F::load_aligned(q + 48), t, th), th, id);
     }
+    id = I(kPrimPlane << kPrimShift);
     for (int32_t j = 0; j < s.plane_count; ++j) {
-        const Vec3<F> n{F(s.plane_nx[j]), F(s.plane_ny[j]), F(s.plane_nz[j])};
-        record(intersect_plane(ray, n, F(s.plane_d[j]), t, th), th, kPrimPlane, j);
+        const float* q = s.plane_lanes + 64 * j;
+        const Vec3<F> n{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
+        record(intersect_plane(ray, n, F::load_aligned(q + 48), t, th), th, id);
     }
+    id = I(kPrimQuadric << kPrimShift);
     for (int32_t j = 0; j < s.quadric_count; ++j) {
-        const float* q = s.quadric + 16 * j;
-        const Vec3<F> lo{F(q[10]), F(q[11]), F(q[12])}, hi{F(q[13]), F(q[14]), F(q[15])};
-        record(intersect_quadric(ray, quadric_at<F>(q), lo, hi, t, th), th, kPrimQuadric, j);
+        const QuadricLanes<F> ql(s.quadric_lanes, j);
+        record(intersect_quadric(ray, ql.q, ql.lo, ql.hi, t, th), th, id);
     }
 }
 
@@ -303,17 +317,18 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
     typename Wave<A>::M blocked(false);
     F th;
     for (int32_t j = 0; j < s.plane_count && !all(blocked); ++j) {
-        const Vec3<F> n{F(s.plane_nx[j]), F(s.plane_ny[j]), F(s.plane_nz[j])};
-        blocked = blocked | intersect_plane(ray, n, F(s.plane_d[j]), tmax, th);
+        const float* q = s.plane_lanes + 64 * j;
+        const Vec3<F> n{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
+        blocked = blocked | intersect_plane(ray, n, F::load_aligned(q + 48), tmax, th);
     }
     for (int32_t j = 0; j < s.sphere_count && !all(blocked); ++j) {
-        const Vec3<F> c{F(s.sphere_cx[j]), F(s.sphere_cy[j]), F(s.sphere_cz[j])};
-        blocked = blocked | intersect_sphere(ray, c, F(s.sphere_r[j]), tmax, th);
+        const float* q = s.sphere_lanes + 64 * j;
+        const Vec3<F> c{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
+        blocked = blocked | intersect_sphere(ray, c, F::load_aligned(q + 48), tmax, th);
     }
     for (int32_t j = 0; j < s.quadric_count && !all(blocked); ++j) {
-        const float* q = s.quadric + 16 * j;
-        const Vec3<F> lo{F(q[10]), F(q[11]), F(q[12])}, hi{F(q[13]), F(q[14]), F(q[15])};
-        blocked = blocked | intersect_quadric(ray, quadric_at<F>(q), lo, hi, tmax, th);
+        const QuadricLanes<F> ql(s.quadric_lanes, j);
+        blocked = blocked | intersect_quadric(ray, ql.q, ql.lo, ql.hi, tmax, th);
     }
     if (s.features.meshes && !all(blocked)) {
         // Meshes: each open ray that enters a mesh's box through its BVH, one by one

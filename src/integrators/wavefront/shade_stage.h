@@ -25,7 +25,8 @@ struct LobeStep {
     Vec3<F> o, d, beta;
     typename Wave<A>::M alive;
 
-    LobeStep(const FlatScene& s, const Bsdf<F>& m, const Vec3<F>& o0, const Vec3<F>& d0,
+    // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset
+    LobeStep(const FlatScene& s, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& beta0, const F& probability,
              const U& key, const U& bounce) {
         const Vec3<F> nf = facing_normal(n, d0);
@@ -43,7 +44,6 @@ struct LobeStep {
         }
         beta = beta0 * sc.weight;
         alive = max_component(beta) > F(0.0f);
-        const F magnitude = max(max_abs(pos), max_abs(o0));
         o = offset_ray_origin(pos, select(dot(sc.dir, n) > F(0.0f), n, -n), magnitude);
         d = sc.dir;
     }
@@ -113,8 +113,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         if (any(phong)) {
             const Vec3<F> nf = facing_normal(n, d);
-            const F magnitude = max(max_abs(pos), max_abs(ray.o));
-            const Vec3<F> origin = offset_ray_origin(pos, nf, magnitude);
+            const Vec3<F> origin = offset_ray_origin(pos, nf, sf.magnitude);
             for (int32_t j = 0; j < s.light_count; ++j) {
                 const float* l = s.light + 6 * j;
                 const Vec3<F> to = Vec3<F>(F(l[0]), F(l[1]), F(l[2])) - origin;
@@ -156,7 +155,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     } else {
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
-        const LobeStep<kFused, A> step(s, m, ray.o, d, pos, n, beta, probability, key, bounce);
+        const LobeStep<kFused, A> step(s, m, sf.magnitude, d, pos, n, beta, probability, key,
+                                       bounce);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
         if constexpr (kCompact) {
@@ -200,9 +200,10 @@ CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
     const int32_t end = w.rounded_up(w.live);
     for (int32_t i = 0; i < end; i += Wave<A>::K) {
         const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
-        const Surfaces<A> sf{load3<F>(p.px, p.py, p.pz, i), load3<F>(p.nx, p.ny, p.nz, i),
-                             I::load_aligned(p.material + i),
-                             mask_f32(I::load_aligned(p.alive + i) != I(0))};
+        const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
+        const Surfaces<A> sf{pos, load3<F>(p.nx, p.ny, p.nz, i), I::load_aligned(p.material + i),
+                             mask_f32(I::load_aligned(p.alive + i) != I(0)),
+                             max(max_abs(pos), max_abs(ray.o))};
         shade_batch<kFused>(w, i, ray, sf, queued);
     }
     p.shadow_count = queued;
@@ -212,6 +213,7 @@ CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
 // A lobe's kernel over its bucket: full batches of gathered lanes.
 template <int kLobe, class A>
 CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
+    using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
@@ -223,9 +225,10 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         const auto m = hit_bsdf<kLobe, A>(w.scene, gather_lanes<A>(p.material, j), [&](int c) {
             return gather3<A>(p.col[c][0], p.col[c][1], p.col[c][2], j);
         });
+        const Vec3<F> pos = gather3<A>(p.px, p.py, p.pz, j);
+        const F magnitude = max(max_abs(pos), max_abs(gather3<A>(p.ox, p.oy, p.oz, j)));
         const LobeStep<kLobe, A> step(
-            w.scene, m, gather3<A>(p.ox, p.oy, p.oz, j),
-            gather3<A>(p.dx, p.dy, p.dz, j), gather3<A>(p.px, p.py, p.pz, j),
+            w.scene, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos,
             gather3<A>(p.nx, p.ny, p.nz, j), gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
             gather_lanes<A>(p.probability, j), gather_lanes<A>(p.key, j),
             gather_lanes<A>(p.bounce, j));

@@ -9,13 +9,16 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
-// The surfaces of one batch: hit point, outward geometric normal, material, and which lanes
-// hit something.
+// The surfaces of one batch: hit point, outward geometric normal, material, which lanes
+// hit something, and the magnitude max(max_abs(pos), max_abs(ray origin)) that sets the
+// offset of rays leaving the point (kept instead of the origin: two vectors fewer to hold
+// through shading).
 template <class A>
 struct Surfaces {
     Vec3<typename Wave<A>::F> pos, n;
     typename Wave<A>::I material;
     typename Wave<A>::M hit;
+    typename Wave<A>::F magnitude;
 };
 
 template <class A>
@@ -71,7 +74,8 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         material = select(m, lookup<A>(s.mesh_material, s.mesh_count, mesh), material);
     }
     const auto hit = w.live_mask(i) & (to_float(prim) >= F(0.0f));
-    return {pos, n, select(mask_i32(hit), material, I(0)), hit};
+    return {pos, n, select(mask_i32(hit), material, I(0)), hit,
+            max(max_abs(pos), max_abs(ray.o))};
 }
 
 // Stores a batch's surfaces for the stages that run after the material sort.

@@ -44,18 +44,16 @@ struct Wave {
     // Lane i of batch starting at `base` is a live path
     M live_mask(int32_t base) const { return lane_index() < F(float(live - base)); }
 
-    // 0, 1, ..., K-1 as floats
-    static F lane_index() {
-        alignas(64) float idx[K];
-        for (int32_t l = 0; l < K; ++l) idx[l] = float(l);
-        return F::load_aligned(idx);
-    }
+    // 0, 1, ..., K-1 as floats (one load of a constant, not an array built per call)
+    static F lane_index() { return F::load_aligned(kLaneIndex); }
     // base, base+1, ..., base+K-1
-    static I lane_ids(int32_t base) {
-        alignas(64) int32_t idx[K];
-        for (int32_t l = 0; l < K; ++l) idx[l] = base + l;
-        return I::load_aligned(idx);
-    }
+    static I lane_ids(int32_t base) { return I::load_aligned(kLaneIds) + I(base); }
+
+private:
+    alignas(64) static constexpr float kLaneIndex[16] = {0, 1, 2,  3,  4,  5,  6,  7,
+                                                         8, 9, 10, 11, 12, 13, 14, 15};
+    alignas(64) static constexpr int32_t kLaneIds[16] = {0, 1, 2,  3,  4,  5,  6,  7,
+                                                         8, 9, 10, 11, 12, 13, 14, 15};
 };
 
 // ---- Loads, stores, gathers of vectors of lanes -----------------------------------------

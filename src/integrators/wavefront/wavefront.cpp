@@ -3,7 +3,9 @@
 // choice of instruction set, and the hand-over of finished paths to the film.
 #include "integrators/wavefront/wavefront.h"
 
+#include <algorithm>
 #include <cstdlib>
+#include <memory>
 #include <new>
 #include <stdexcept>
 
@@ -79,10 +81,38 @@ std::vector<T> padded(const std::vector<T>& v) {
     return out;
 }
 
+// 64-byte aligned floats (the lane tables are read with aligned vector loads).
+struct AlignedFloats {
+    std::unique_ptr<float[], void (*)(void*)> memory{nullptr, std::free};
+    const float* data() const { return memory.get(); }
+};
+
+// Every value of `values` repeated in 16 lanes: value i at [16i, 16i + 16).
+AlignedFloats lanes_of(const std::vector<float>& values) {
+    const size_t bytes = (values.size() * 16 + 16) * sizeof(float);
+    AlignedFloats out;
+    out.memory.reset(static_cast<float*>(std::aligned_alloc(64, (bytes + 63) / 64 * 64)));
+    if (!out.memory) throw std::bad_alloc();
+    for (size_t i = 0; i < values.size(); ++i) std::fill_n(out.memory.get() + 16 * i, 16, values[i]);
+    return out;
+}
+// Value k of primitive j of four SoA arrays, repeated in 16 lanes at [(4j + k) * 16, +16).
+AlignedFloats lanes_of(std::initializer_list<const std::vector<float>*> arrays) {
+    const size_t n = (*arrays.begin())->size();
+    std::vector<float> values(4 * n);
+    size_t k = 0;
+    for (const std::vector<float>* a : arrays) {
+        for (size_t j = 0; j < n; ++j) values[4 * j + k] = (*a)[j];
+        ++k;
+    }
+    return lanes_of(values);
+}
+
 struct WavefrontRenderer::Data {
     const Scene& scene;
     FlatScene flat{};
     std::vector<float> sphere[4], plane[4];
+    AlignedFloats sphere_lanes, plane_lanes, quadric_lanes;
     std::vector<int32_t> sphere_material, plane_material;
     std::vector<float> quadric, color, shininess, ior, light;
     std::vector<int32_t> quadric_material, mesh_material, emitter, phong, textured;
@@ -125,6 +155,9 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.plane_nx = d.plane[0].data(), f.plane_ny = d.plane[1].data();
     f.plane_nz = d.plane[2].data(), f.plane_d = d.plane[3].data();
     f.plane_material = d.plane_material.data();
+    d.sphere_lanes = lanes_of({&sp.cx, &sp.cy, &sp.cz, &sp.radius});
+    d.plane_lanes = lanes_of({&pl.nx, &pl.ny, &pl.nz, &pl.distance});
+    f.sphere_lanes = d.sphere_lanes.data(), f.plane_lanes = d.plane_lanes.data();
     for (const Quadric& q : scene.quadrics) {
         d.quadric.insert(d.quadric.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h,
                                            q.q.i, q.q.j, q.box_min.x, q.box_min.y, q.box_min.z,
@@ -134,6 +167,8 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     d.quadric = padded(d.quadric), d.quadric_material = padded(d.quadric_material);
     f.quadric_count = int32_t(scene.quadrics.size());
     f.quadric = d.quadric.data();
+    d.quadric_lanes = lanes_of(d.quadric);
+    f.quadric_lanes = d.quadric_lanes.data();
     f.quadric_material = d.quadric_material.data();
     for (const Mesh& m : scene.meshes) {
         // Vertex colours gather x, y, z of vertex v at 3v + k with 32-bit indices
