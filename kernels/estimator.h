@@ -43,8 +43,21 @@ struct Bsdf {
 
 // Russian roulette over the lobes. p_i = max RGB of lobe i; if Σ p_i exceeds the survival
 // cap, all are scaled down so they sum to it. Returns the chosen lobe and its probability.
-template <class T>
+// kOnly: the one lobe whose colour may be non-zero, where the caller knows it (a scene with
+// one lobe kind); the others' thresholds are then exactly 0 and the same choice is made
+// from that lobe alone, with bit-identical results.
+template <int kOnly = kLobeCount, class T>
 I32<T> choose_lobe(const Bsdf<T>& m, const T& u, float survival_cap, T& probability) {
+    using I = I32<T>;
+    if constexpr (kOnly != kLobeCount) {
+        const Vec3<T>* colour[4] = {&m.kd, &m.ks, &m.kr, &m.kt};
+        const T p = max_component(*colour[kOnly]);
+        const T c = p * select(p > T(survival_cap), T(survival_cap) / p, T(1.0f));
+        const auto chosen = u < c;
+        // (an absorbed path gets what the general form gives it: the last lobe's share)
+        probability = kOnly == kLobeRefract ? c : select(chosen, c, T(0.0f));
+        return select(mask_i32(chosen), I(kOnly), I(kLobeAbsorbed));
+    }
     const T pd = max_component(m.kd);
     const T ps = max_component(m.ks);
     const T pr = max_component(m.kr);
@@ -53,7 +66,6 @@ I32<T> choose_lobe(const Bsdf<T>& m, const T& u, float survival_cap, T& probabil
     const T scale = select(sum > T(survival_cap), T(survival_cap) / sum, T(1.0f));
     // The lobe index is the number of cumulative thresholds that u has passed
     const T c1 = pd * scale, c2 = c1 + ps * scale, c3 = c2 + pr * scale, c4 = c3 + pt * scale;
-    using I = I32<T>;
     const I one(1), zero(0);
     const I lobe = select(mask_i32(u >= c1), one, zero) + select(mask_i32(u >= c2), one, zero) +
                    select(mask_i32(u >= c3), one, zero) + select(mask_i32(u >= c4), one, zero);

@@ -4,6 +4,7 @@
 // check is tight enough (standard error < 0.5% of the value) to catch a 5% weight error.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <random>
 
@@ -53,6 +54,38 @@ TEST(Roulette, ScaledDownToTheSurvivalCap) {
     // A black material always dies
     EXPECT_EQ(choose_lobe(make(Vec3f(0), Vec3f(0), 0, Vec3f(0), Vec3f(0)), 0.0f, 0.9f, prob),
               kLobeAbsorbed);
+}
+
+// The one-lobe roulette (what a scene with one lobe kind runs) makes exactly the general
+// roulette's choice, with the same probability bit for bit, for materials with only that
+// lobe: below and above the survival cap, black, and u right at the threshold.
+TEST(Roulette, OneLobeFormMatchesTheGeneralOneExactly) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f), c(0.0f, 1.2f);
+    auto check = [&](auto only) {
+        constexpr int kOnly = decltype(only)::value;
+        SCOPED_TRACE(kOnly);
+        for (int i = 0; i < 20000; ++i) {
+            Bsdf<float> m = make(Vec3f(0), Vec3f(0), 20.0f, Vec3f(0), Vec3f(0));
+            Vec3f* colour[4] = {&m.kd, &m.ks, &m.kr, &m.kt};
+            *colour[kOnly] = i % 97 == 0 ? Vec3f(0) : Vec3f{c(rng), c(rng), c(rng)};
+            float un = u(rng);
+            if (i % 13 == 0) {  // exactly at the threshold
+                const float p = max_component(*colour[kOnly]);
+                un = p > 0.9f ? 0.9f : p;
+            }
+            float p_general = -1, p_one = -1;
+            const int general = choose_lobe(m, un, 0.9f, p_general);
+            const int one = choose_lobe<kOnly>(m, un, 0.9f, p_one);
+            ASSERT_EQ(one, general) << "u " << un;
+            ASSERT_EQ(std::bit_cast<uint32_t>(p_one), std::bit_cast<uint32_t>(p_general))
+                << "u " << un << ": " << p_one << " vs " << p_general;
+        }
+    };
+    check(std::integral_constant<int, kLobeDiffuse>{});
+    check(std::integral_constant<int, kLobeSpecular>{});
+    check(std::integral_constant<int, kLobeMirror>{});
+    check(std::integral_constant<int, kLobeRefract>{});
 }
 
 // ∫ ks-free Phong lobe · cos θi dω for view direction d (unit, towards the surface) and

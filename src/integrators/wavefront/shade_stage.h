@@ -145,7 +145,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const U key = U::load_aligned(p.key + i);
     const U bounce = U::load_aligned(p.bounce + i);
     F probability;
-    I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe), s.survival_cap,
+    I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe), s.survival_cap,
                          probability);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
