@@ -24,7 +24,8 @@ constexpr std::array<uint32_t, 256> compress_nibbles() {
 }
 inline constexpr std::array<uint32_t, 256> kCompressNibbles = compress_nibbles();
 
-// The same for 4 lanes as byte-shuffle controls: lane l takes the 4 bytes of lane idx[l].
+// The same for 4 lanes as byte-shuffle controls (SSE's pshufb, NEON's tbl): lane l takes the
+// 4 bytes of lane idx[l].
 struct alignas(16) ShuffleControl {
     uint8_t byte[16];
 };
@@ -40,7 +41,7 @@ inline constexpr std::array<ShuffleControl, 16> kCompressShuffles = compress_shu
 
 // The 32-bit lanes of v whose bit is set in `bits` moved to the front, in order; the lanes
 // after them hold anything. AVX-512 compresses in one instruction; AVX2 permutes by a table
-// of 256 index lists, SSE shuffles bytes by the same table.
+// of 256 index lists, SSE and NEON shuffle bytes by the same table.
 template <class A, class T>
 xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
     using B = xsimd::batch<T, A>;
@@ -65,6 +66,7 @@ xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
             return B(_mm256_permutevar8x32_epi32(v.data, idx));
     }
 #endif
+#if defined(__SSE2__)
     if constexpr (!std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
         const auto* control = reinterpret_cast<const __m128i*>(&kCompressShuffles[bits]);
         const __m128i c = _mm_load_si128(control);
@@ -73,6 +75,18 @@ xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
         else
             return B(_mm_shuffle_epi8(v.data, c));
     }
+#endif
+#if defined(__aarch64__)
+    if constexpr (std::is_base_of_v<xsimd::neon64, A>) {
+        const uint8x16_t c = vld1q_u8(kCompressShuffles[bits].byte);
+        if constexpr (std::is_same_v<T, float>)
+            return B(vreinterpretq_f32_u8(vqtbl1q_u8(vreinterpretq_u8_f32(v.data), c)));
+        else if constexpr (std::is_same_v<T, uint32_t>)
+            return B(vreinterpretq_u32_u8(vqtbl1q_u8(vreinterpretq_u8_u32(v.data), c)));
+        else
+            return B(vreinterpretq_s32_u8(vqtbl1q_u8(vreinterpretq_u8_s32(v.data), c)));
+    }
+#endif
 }
 
 // Ended paths go to the film's queue; survivors move down to `kept`, bounce + 1. Both keep

@@ -75,6 +75,7 @@ void scatter3(const Vec3<F>& v, float* x, float* y, float* z, const I& idx) {
 // xsimd 8.1 emulates gather lane by lane, so these use the native instructions: a table of
 // at most K entries (materials, planes) sits in one register and is indexed by a permute;
 // a larger one is read with the hardware gather. Tables are padded to a multiple of 16.
+// SSE and NEON have no gather: there xsimd's four lane loads are what the CPU would do.
 template <class A, class T>
 xsimd::batch<T, A> lookup(const T* table, int32_t count, const xsimd::batch<int32_t, A>& idx) {
     using B = xsimd::batch<T, A>;
@@ -113,7 +114,8 @@ xsimd::batch<T, A> gather_lanes(const T* array, const xsimd::batch<int32_t, A>& 
     return lookup<A>(array, std::numeric_limits<int32_t>::max(), idx);
 }
 
-// Bits of a mask, lane 0 in bit 0.
+// Bits of a mask, lane 0 in bit 0. NEON has no movemask: each all-ones lane keeps its own
+// bit of {1, 2, 4, 8}, and the lanes are summed.
 template <class A>
 uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
 #if defined(__AVX512F__)
@@ -123,8 +125,16 @@ uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
     if constexpr (std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
         return uint32_t(_mm256_movemask_ps(m.data));
 #endif
+#if defined(__SSE2__)
     if constexpr (!std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
         return uint32_t(_mm_movemask_ps(m.data));
+#endif
+#if defined(__aarch64__)
+    if constexpr (std::is_base_of_v<xsimd::neon64, A>) {
+        constexpr uint32x4_t kLaneBits = {1u, 2u, 4u, 8u};
+        return vaddvq_u32(vandq_u32(m.data, kLaneBits));
+    }
+#endif
 }
 
 // Appends the indices base + l of the lanes set in `bits` to list[size...].
