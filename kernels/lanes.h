@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <type_traits>
 
-#include <xsimd/xsimd.hpp>
+#include "xsimd_neon_ieee.h"
 
 #include "isa.h"
 
