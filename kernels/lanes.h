@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <type_traits>
 
-#include <xsimd/xsimd.hpp>
+#include "xsimd_neon_ieee.h"
 
 #include "isa.h"
 
@@ -82,12 +82,14 @@ inline xsimd::batch<float, A> to_float(const xsimd::batch<int32_t, A>& v) {
     return xsimd::batch_cast<float>(v);
 }
 
-// A mask of float lanes as a mask of 32-bit integer lanes of the same width. On AVX-512
-// both are the same k-register; on SSE/AVX the bits are reinterpreted, never recomputed.
+// A mask of float lanes as a mask of 32-bit integer lanes of the same width. Where both
+// masks have one register type (AVX-512's k-register, NEON's uint32x4_t) it is taken as it
+// is; on SSE/AVX the bits are reinterpreted, never recomputed.
 template <class To, class From, class A>
 inline xsimd::batch_bool<To, A> mask_cast_to(const xsimd::batch_bool<From, A>& m) {
     using TB = xsimd::batch_bool<To, A>;
-    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {  // one k-register for both
+    using FB = xsimd::batch_bool<From, A>;
+    if constexpr (std::is_same_v<typename TB::register_type, typename FB::register_type>) {
         return TB(m.data);
     } else {
         return TB(xsimd::bitwise_cast<xsimd::batch<To, A>>(xsimd::batch<From, A>(m.data)).data);

@@ -29,9 +29,16 @@ T pick(const Vec3<T>& v, const AxisPick<T>& a) {
 // GCC (-ffp-contract=fast, its C++ default) and clang (=on) turn a*b - c*d into
 // fma(a, b, -c*d), which breaks the antisymmetry of the edge functions: rays then leak
 // between neighbouring triangles (test_triangle checks this with an FMA-compiled copy).
+// aarch64 always has FMA, so there every build needs the barrier. The constraint names the
+// register file floats and vectors live in: "v" (SSE/AVX) on x86-64, "w" (FP/SIMD) on aarch64.
+#if defined(__aarch64__)
+#define CIERZO_FP_REGISTER "+w"
+#else
+#define CIERZO_FP_REGISTER "+v"
+#endif
 inline float rounded(float x) {
 #if defined(__GNUC__)
-    __asm__("" : "+v"(x));
+    __asm__("" : CIERZO_FP_REGISTER(x));
 #endif
     return x;
 }
@@ -39,7 +46,7 @@ template <class A>
 inline xsimd::batch<float, A> rounded(const xsimd::batch<float, A>& x) {
     auto r = x.data;
 #if defined(__GNUC__)
-    __asm__("" : "+v"(r));
+    __asm__("" : CIERZO_FP_REGISTER(r));
 #endif
     return xsimd::batch<float, A>(r);
 }

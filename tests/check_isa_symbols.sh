@@ -3,8 +3,10 @@
 # weak (inline) code symbol with any other object: the linker keeps one copy of such a
 # symbol, and if it kept the AVX-512 one, the SSE path would run AVX-512 code. Arguments:
 # object files, or CMake lists of them (separated by ';'); the ones after --per-isa are
-# per-ISA whatever their names.
+# per-ISA whatever their names. $NM names the nm for the objects' target (CMake passes its
+# CMAKE_NM, e.g. aarch64-linux-gnu-nm in a cross build); plain nm otherwise.
 set -euo pipefail
+nm=${NM:-nm}
 objects=()
 per_isa=()
 marked=0
@@ -24,7 +26,7 @@ isas=0
 for i in "${!objects[@]}"; do
     o=${objects[$i]}
     [ -f "$o" ] || { echo "no such object file: $o"; exit 1; }
-    nm -C --defined-only "$o" >"$work/nm" || { echo "nm failed on $o"; exit 1; }
+    "$nm" -C --defined-only "$o" >"$work/nm" || { echo "$nm failed on $o"; exit 1; }
     awk '$2 ~ /^[WVuw]$/ { $1 = ""; $2 = ""; print }' "$work/nm" |
         grep -v 'DW.ref.__gxx_personality_v0' | sort -u >"$work/$i" || true
     isas=$((isas + per_isa[i]))

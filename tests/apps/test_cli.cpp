@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "integrators/wavefront/isa.h"
+#include "support/emulator.h"
 
 namespace {
 
@@ -119,8 +120,9 @@ protected:
     // can never hang the suite.
     Outcome run(const std::string& args, const char* subcommand = "render") {
         const fs::path err = dir_ / "stderr.txt", out = dir_ / "stdout.txt";
-        const std::string cmd = "timeout 120 " + quote(CIERZO_BINARY_DIR "/cierzo") + " " +
-                                subcommand + " " + args + " >" + quote(out) + " 2>" + quote(err);
+        const std::string program = cierzo::test::emulated(quote(CIERZO_BINARY_DIR "/cierzo"));
+        const std::string cmd = "timeout 120 " + program + " " + subcommand + " " + args + " >" +
+                                quote(out) + " 2>" + quote(err);
         const auto start = std::chrono::steady_clock::now();
         const int status = std::system(cmd.c_str());
         Outcome r;

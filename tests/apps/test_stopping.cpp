@@ -12,6 +12,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "support/emulator.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -25,12 +27,15 @@ int run(std::vector<std::string> args, double interrupt_after = 0.0) {
     fs::create_directories(kDir);
     const pid_t pid = fork();
     if (pid == 0) {
+        // Through the emulator in a cross build: exec keeps the pid, so SIGINT reaches it,
+        // and qemu-user hands the signal to the emulated program
+        std::vector<std::string> words = cierzo::test::emulator_words();
+        words.push_back(CIERZO_BINARY_DIR "/cierzo");
+        words.insert(words.end(), args.begin(), args.end());
         std::vector<char*> argv;
-        std::string exe = CIERZO_BINARY_DIR "/cierzo";
-        argv.push_back(exe.data());
-        for (std::string& a : args) argv.push_back(a.data());
+        for (std::string& w : words) argv.push_back(w.data());
         argv.push_back(nullptr);
-        execv(exe.c_str(), argv.data());
+        execvp(argv[0], argv.data());
         _exit(127);
     }
     if (interrupt_after > 0.0) {

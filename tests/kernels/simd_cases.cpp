@@ -46,8 +46,20 @@ void compress_every_mask(float* f_out, uint32_t* u_out) {
     }
 }
 
+void arithmetic(const float* a, const float* b, size_t count, float* const* out) {
+    for (size_t i = 0; i < count; i += K) {
+        const B x = B::load_unaligned(a + i), y = B::load_unaligned(b + i);
+        (x / y).store_unaligned(out[0] + i);
+        xsimd::sqrt(x).store_unaligned(out[1] + i);
+        xsimd::max(x, y).store_unaligned(out[2] + i);
+        xsimd::min(x, y).store_unaligned(out[3] + i);
+    }
+}
+
 }  // namespace
 
-SimdCases CIERZO_SIMD_CASES() { return {int32_t(K), run, dead_batch, compress_every_mask}; }
+SimdCases CIERZO_SIMD_CASES() {
+    return {int32_t(K), run, dead_batch, compress_every_mask, arithmetic};
+}
 
 }  // namespace cierzo

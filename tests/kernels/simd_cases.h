@@ -52,6 +52,10 @@ struct SimdCases {
     // compress<A> of lanes f[l] = 0.5 + l, u[l] = 1000 + l under every mask m < 2^width:
     // the result's lanes at f_out[m * width + l], u_out[m * width + l]
     void (*compress_every_mask)(float* f_out, uint32_t* u_out);
+    // a / b, sqrt(a), max(a, b) and min(a, b) of `count` lanes (a multiple of `width`) into
+    // out[0..3]: the kernels assume IEEE division and square root, and SSE's maxps and minps
+    // (a > b ? a : b, a < b ? a : b), on every ISA
+    void (*arithmetic)(const float* a, const float* b, size_t count, float* const* out);
 };
 
 #if defined(__x86_64__) || defined(__i386__)

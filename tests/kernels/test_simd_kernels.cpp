@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -132,6 +134,38 @@ TEST_P(SimdKernels, CompressKeepsTheChosenLanesInOrder) {
             ASSERT_EQ(u[m * K + at], 1000u + uint32_t(l)) << "mask " << m << ", lane " << l;
             ++at;
         }
+    }
+}
+
+TEST_P(SimdKernels, DivisionSquareRootMinAndMaxAreTheScalarOnes) {
+    // Random operands of every magnitude, then the special values, each against each
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> mantissa(1.0f, 2.0f);
+    std::uniform_int_distribution<int> exponent(-40, 40);
+    std::vector<float> a, b;
+    for (int i = 0; i < 4096; ++i) {
+        a.push_back(std::ldexp(mantissa(rng), exponent(rng)));
+        b.push_back(std::ldexp(mantissa(rng), exponent(rng)) * (i % 3 == 0 ? -1.0f : 1.0f));
+    }
+    const float inf = std::numeric_limits<float>::infinity(), nan = std::nanf("");
+    const float special[] = {0.0f, -0.0f, 1.0f, inf, -inf, nan, 0x1.0p-140f, 3.0f};
+    for (float x : special)
+        for (float y : special) a.push_back(x), b.push_back(y);
+    while (a.size() % 16) a.push_back(1.0f), b.push_back(1.0f);
+    std::vector<float> out[4];
+    for (auto& o : out) o.resize(a.size());
+    float* const outs[4] = {out[0].data(), out[1].data(), out[2].data(), out[3].data()};
+    cases.arithmetic(a.data(), b.data(), a.size(), outs);
+    const auto same = [](float x, float y) {
+        return std::isnan(x) ? std::isnan(y) : std::memcmp(&x, &y, sizeof x) == 0;
+    };
+    for (size_t i = 0; i < a.size(); ++i) {
+        const float x = a[i], y = b[i];
+        EXPECT_PRED2(same, out[0][i], x / y) << x << " / " << y;
+        // (sqrt of a negative number is NaN either way; of -0, -0)
+        EXPECT_PRED2(same, out[1][i], std::sqrt(x)) << "sqrt " << x;
+        EXPECT_PRED2(same, out[2][i], x > y ? x : y) << "max " << x << ", " << y;
+        EXPECT_PRED2(same, out[3][i], x < y ? x : y) << "min " << x << ", " << y;
     }
 }
 

@@ -129,11 +129,21 @@ int count_hits(const Mesh& mesh, const Vec3f& o, const Vec3f& d) {
 
 // The same count with the scalar kernel inlined into code compiled for FMA, where GCC fuses
 // a*b - c*d into fma(a, b, -c*d) unless the kernel prevents it (that would open gaps along
-// shared edges), so this build checks the FMA-enabled code too.
+// shared edges), so this build checks the FMA-enabled code too. x86-64 needs a target
+// attribute (and a CPU with FMA) for that; on aarch64 FMA is in the base ISA, so every build
+// is one, and the inlined copy is what GCC fuses.
 #if defined(__GNUC__) && defined(__x86_64__)
 #define CIERZO_TEST_FMA 1
-[[gnu::target("avx2,fma"), gnu::flatten]] int count_hits_fma(const Mesh& mesh, const Vec3f& o,
-                                                             const Vec3f& d) {
+#define CIERZO_FMA_TARGET gnu::target("avx2,fma"),
+bool cpu_has_fma() { return __builtin_cpu_supports("fma"); }
+#elif defined(__GNUC__) && defined(__aarch64__)
+#define CIERZO_TEST_FMA 1
+#define CIERZO_FMA_TARGET
+bool cpu_has_fma() { return true; }
+#endif
+#if CIERZO_TEST_FMA
+[[CIERZO_FMA_TARGET gnu::flatten]] int count_hits_fma(const Mesh& mesh, const Vec3f& o,
+                                                      const Vec3f& d) {
     const Ray<float> ray{o, d};
     const RayShear<float> shear = make_ray_shear(d);
     int hits = 0;
@@ -227,7 +237,7 @@ void expect_no_leaks(const Mesh& mesh, float inner_radius, int rays, uint32_t se
             << directions[r].z << ")";
     }
 #if CIERZO_TEST_FMA
-    if (__builtin_cpu_supports("fma")) {
+    if (cpu_has_fma()) {
         for (size_t r = 0; r < origins.size(); ++r) {
             ASSERT_GE(count_hits_fma(mesh, origins[r], directions[r]), 1)
                 << "ray " << r << " leaks with FMA";

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "io/image.h"
 #include "tonemap/tonemap.h"
+#include "support/emulator.h"
 
 #include <gtest/gtest.h>
 
@@ -224,8 +225,8 @@ protected:
     // Runs the program with `args` (already quoted as needed); returns its exit status and
     // keeps its standard output and error in out_ and err_.
     int run(const std::string& args) {
-        const std::string command = "'" + binary_.string() + "' " + args + " >'" +
-                                    (dir_ / "stdout.txt").string() + "' 2>'" +
+        const std::string command = test::emulated("'" + binary_.string() + "'") + " " + args +
+                                    " >'" + (dir_ / "stdout.txt").string() + "' 2>'" +
                                     (dir_ / "stderr.txt").string() + "'";
         const int status = std::system(command.c_str());
         out_ = read_text(dir_ / "stdout.txt");

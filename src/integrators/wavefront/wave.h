@@ -74,6 +74,7 @@ void scatter3(const Vec3<F>& v, float* x, float* y, float* z, const I& idx) {
 // xsimd 8.1 emulates gather lane by lane, so these use the native instructions: a table of
 // at most K entries (materials, planes) sits in one register and is indexed by a permute;
 // a larger one is read with the hardware gather. Tables are padded to a multiple of 16.
+// SSE and NEON have no gather: there xsimd's four lane loads are what the CPU would do.
 template <class A, class T>
 xsimd::batch<T, A> lookup(const T* table, int32_t count, const xsimd::batch<int32_t, A>& idx) {
     using B = xsimd::batch<T, A>;
@@ -112,7 +113,8 @@ xsimd::batch<T, A> gather_lanes(const T* array, const xsimd::batch<int32_t, A>& 
     return lookup<A>(array, std::numeric_limits<int32_t>::max(), idx);
 }
 
-// Bits of a mask, lane 0 in bit 0.
+// Bits of a mask, lane 0 in bit 0. NEON has no movemask: each all-ones lane keeps its own
+// bit of {1, 2, 4, 8}, and the lanes are summed.
 template <class A>
 uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
 #if defined(__AVX512F__)
@@ -122,8 +124,16 @@ uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
     if constexpr (std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
         return uint32_t(_mm256_movemask_ps(m.data));
 #endif
+#if defined(__SSE2__)
     if constexpr (!std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
         return uint32_t(_mm_movemask_ps(m.data));
+#endif
+#if defined(__aarch64__)
+    if constexpr (std::is_base_of_v<xsimd::neon64, A>) {
+        constexpr uint32x4_t kLaneBits = {1u, 2u, 4u, 8u};
+        return vaddvq_u32(vandq_u32(m.data, kLaneBits));
+    }
+#endif
 }
 
 // ---- Compression ------------------------------------------------------------------------
@@ -141,7 +151,8 @@ constexpr std::array<uint32_t, 256> compress_nibbles() {
 }
 inline constexpr std::array<uint32_t, 256> kCompressNibbles = compress_nibbles();
 
-// The same for 4 lanes as byte-shuffle controls: lane l takes the 4 bytes of lane idx[l].
+// The same for 4 lanes as byte-shuffle controls (SSE's pshufb, NEON's tbl): lane l takes the
+// 4 bytes of lane idx[l].
 struct alignas(16) ShuffleControl {
     uint8_t byte[16];
 };
@@ -157,7 +168,7 @@ inline constexpr std::array<ShuffleControl, 16> kCompressShuffles = compress_shu
 
 // The 32-bit lanes of v whose bit is set in `bits` moved to the front, in order; the lanes
 // after them hold anything. AVX-512 compresses in one instruction; AVX2 permutes by a table
-// of 256 index lists, SSE shuffles bytes by the same table.
+// of 256 index lists, SSE and NEON shuffle bytes by the same table.
 template <class A, class T>
 xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
     using B = xsimd::batch<T, A>;
@@ -182,6 +193,7 @@ xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
             return B(_mm256_permutevar8x32_epi32(v.data, idx));
     }
 #endif
+#if defined(__SSE2__)
     if constexpr (!std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
         const auto* control = reinterpret_cast<const __m128i*>(&kCompressShuffles[bits]);
         const __m128i c = _mm_load_si128(control);
@@ -190,6 +202,18 @@ xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
         else
             return B(_mm_shuffle_epi8(v.data, c));
     }
+#endif
+#if defined(__aarch64__)
+    if constexpr (std::is_base_of_v<xsimd::neon64, A>) {
+        const uint8x16_t c = vld1q_u8(kCompressShuffles[bits].byte);
+        if constexpr (std::is_same_v<T, float>)
+            return B(vreinterpretq_f32_u8(vqtbl1q_u8(vreinterpretq_u8_f32(v.data), c)));
+        else if constexpr (std::is_same_v<T, uint32_t>)
+            return B(vreinterpretq_u32_u8(vqtbl1q_u8(vreinterpretq_u8_u32(v.data), c)));
+        else
+            return B(vreinterpretq_s32_u8(vqtbl1q_u8(vreinterpretq_u8_s32(v.data), c)));
+    }
+#endif
 }
 
 // Appends the indices base + l of the lanes set in `bits` to list[size...].
