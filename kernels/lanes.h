@@ -69,6 +69,24 @@ using I32 = typename LaneOf<T>::i32;
 template <class T>
 inline constexpr int kWidth = LaneOf<T>::width;
 
+// The constant kValue in every lane of U (uint32_t, int32_t or a batch of them): for batches
+// a load from a table, which the arithmetic takes as a memory operand, where GCC would
+// otherwise build the vector from an immediate with two FP-pipe moves at every use (the
+// hashes' multipliers). The table is deliberately not const: GCC folds a const one back
+// into the immediate form. Nothing writes it.
+template <class U, auto kValue>
+inline U splat() {
+    if constexpr (std::is_arithmetic_v<U>) {
+        return U(kValue);
+    } else {
+        using E = typename U::value_type;
+        alignas(64) static E kTable[16] = {
+            E(kValue), E(kValue), E(kValue), E(kValue), E(kValue), E(kValue), E(kValue), E(kValue),
+            E(kValue), E(kValue), E(kValue), E(kValue), E(kValue), E(kValue), E(kValue), E(kValue)};
+        return U::load_aligned(kTable);
+    }
+}
+
 // Reinterpret and convert between lanes of one width.
 inline float to_float(uint32_t v) { return float(v); }
 inline float to_float(int32_t v) { return float(v); }

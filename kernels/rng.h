@@ -22,9 +22,9 @@ inline constexpr uint32_t kPurposesPerBounce = 8;
 template <class U>
 inline U hash32(U x) {
     x ^= x >> 16;
-    x *= U(0x21f0aaadu);
+    x *= splat<U, 0x21f0aaadu>();
     x ^= x >> 15;
-    x *= U(0xd35a2d97u);
+    x *= splat<U, 0xd35a2d97u>();
     x ^= x >> 15;
     return x;
 }
@@ -41,7 +41,7 @@ template <class T>
 inline T uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
     using U = U32<T>;
     const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
-    const U bits = hash32(key ^ hash32(counter * U(0x85ebca6bu)));
+    const U bits = hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
     return to_float(bits >> 8) * T(0x1.0p-24f);
 }
 
