@@ -5,8 +5,10 @@
    reference against the wavefront on the best ISA, medians of --repetitions runs taken in
    random interleaved order, their ratio, and the wavefront's shading lane utilisation.
 2. The default scene at its own settings (scenes/cornell.json, 500x500, 64 paths per
-   pixel): the scalar reference at 1 thread and the wavefront at 1 and 2 threads, run in
-   alternation --rounds times; medians of rays/s per thread, and the 2-thread speed-up.
+   pixel): the scalar reference at 1 thread, the wavefront at 1 thread on every ISA this
+   CPU runs (`cierzo isas`) and at 2 threads on the best, run in alternation --rounds
+   times; medians of rays/s per thread, the median of each round's own wavefront/scalar
+   ratio per ISA, and the 2-thread speed-up.
 
 Prints Markdown tables and writes them as JSON to OUT_DIR/targets.json.
 Usage: /usr/bin/python3 bench/targets.py [--out OUT_DIR] [--repetitions N] [--rounds N]
@@ -59,28 +61,43 @@ def bench_scenes(repetitions, scene_filter):
     return best.removeprefix("wavefront_"), rows
 
 
-def render_rate(integrator, threads, stats):
+def render_rate(integrator, threads, stats, isa="auto"):
     """One render of the default scene; returns its rays/s per thread."""
     subprocess.run([BUILD / "cierzo", "render", ROOT / "scenes" / "cornell.json",
-                    "--integrator", integrator, "--threads", str(threads), "--quiet",
-                    "--out", stats.with_suffix(".exr"), "--stats", stats],
+                    "--integrator", integrator, "--threads", str(threads), "--isa", isa,
+                    "--quiet", "--out", stats.with_suffix(".exr"), "--stats", stats],
                    check=True, capture_output=True)
     return json.loads(stats.read_text())["rays_per_second_per_thread"]
 
 
+def runnable_isas():
+    """The ISAs `cierzo isas` says this CPU runs, widest first."""
+    out = subprocess.run([BUILD / "cierzo", "isas"], check=True, capture_output=True,
+                         text=True).stdout
+    return [line.split("\t")[0] for line in out.splitlines() if line.split("\t")[2] != "no"]
+
+
 def default_scene(rounds):
     """Part 2: alternating whole renders of cornell.json; medians of rays/s per thread."""
-    runs = {"scalar_1": [], "wavefront_1": [], "wavefront_2": []}
+    isas = runnable_isas()
+    runs = {"scalar_1": [], "wavefront_2": []}
+    runs.update({f"wavefront_{isa}_1": [] for isa in isas})
     with tempfile.TemporaryDirectory() as tmp:
         stats = pathlib.Path(tmp) / "stats.json"
         for _ in range(rounds):
             runs["scalar_1"].append(render_rate("scalar", 1, stats))
-            runs["wavefront_1"].append(render_rate("wavefront", 1, stats))
+            for isa in isas:
+                runs[f"wavefront_{isa}_1"].append(render_rate("wavefront", 1, stats, isa))
             runs["wavefront_2"].append(render_rate("wavefront", 2, stats))
     med = {k: statistics.median(v) for k, v in runs.items()}
-    return {"runs": runs, "median_rays_per_s_per_thread": med,
-            "wavefront_over_scalar_1_thread": med["wavefront_1"] / med["scalar_1"],
-            "two_threads_over_one": 2 * med["wavefront_2"] / med["wavefront_1"]}
+    ratios = {isa: statistics.median(w / s for w, s in zip(runs[f"wavefront_{isa}_1"],
+                                                            runs["scalar_1"]))
+              for isa in isas}
+    best = med[f"wavefront_{isas[0]}_1"]
+    return {"isas": isas, "runs": runs, "median_rays_per_s_per_thread": med,
+            "median_round_ratio_over_scalar": ratios,
+            "wavefront_over_scalar_1_thread": best / med["scalar_1"],
+            "two_threads_over_one": 2 * med["wavefront_2"] / best}
 
 
 def main():
@@ -115,9 +132,16 @@ def main():
     print("| scalar, 1 thread | wavefront, 1 thread | wavefront, 2 threads | wavefront / scalar "
           "| 2 threads / 1 |")
     print("|---|---|---|---|---|")
-    print(f"| {m['scalar_1'] / 1e6:.2f} M | {m['wavefront_1'] / 1e6:.1f} M | "
+    best = m["wavefront_" + d["isas"][0] + "_1"]
+    print(f"| {m['scalar_1'] / 1e6:.2f} M | {best / 1e6:.1f} M | "
           f"{m['wavefront_2'] / 1e6:.1f} M | {d['wavefront_over_scalar_1_thread']:.1f}x | "
           f"{d['two_threads_over_one']:.2f}x |")
+    print("\nPer ISA, 1 thread, same rounds (ratio: the median of each round's own ratio):\n")
+    print("| ISA | rays/s per thread | wavefront / scalar |")
+    print("|---|---|---|")
+    for isa in d["isas"]:
+        print(f"| {isa} | {m[f'wavefront_{isa}_1'] / 1e6:.1f} M | "
+              f"{d['median_round_ratio_over_scalar'][isa]:.1f}x |")
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "targets.json").write_text(json.dumps(

@@ -13,7 +13,9 @@ scripts/fetch_bunny.sh scenes/data || echo "warning: could not fetch the bunny; 
 export CIERZO_BUNNY_PLY="$PWD/scenes/data/bunny.ply"
 (cd build && ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
 scripts/test_sanitized.sh
-scripts/isa_summary.sh build
+native=$(scripts/isa_summary.sh build)
+echo "$native"
 if [ "$(uname -m)" = x86_64 ]; then
     scripts/test_aarch64.sh
+    echo "$native"  # both architectures' lines last
 fi

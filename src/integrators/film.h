@@ -19,32 +19,28 @@ struct PixelSums {
     uint64_t nonfinite = 0;   // samples that were NaN or Inf, excluded
 
     void add(const Vec3f& L) {
-        if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) {
-            ++nonfinite;
-            return;
-        }
-        const double v[3] = {L.x, L.y, L.z};
-        for (int c = 0; c < 3; ++c) {
-            sum[c] += v[c];
-            sum_sq[c] += v[c] * v[c];
-        }
-        ++count;
+        if (accumulate(L)) ++count;
     }
 
     // The same for a path already counted as a finite sample (by count_paths): the
     // wavefront counts every path of a tile up front and hands over only those whose
     // radiance is not zero, since adding +0 to the sums changes nothing.
     void add_counted(const Vec3f& L) {
+        if (!accumulate(L)) --count;
+    }
+
+    // Adds a finite L to the sums and returns true; counts any other as non-finite.
+    bool accumulate(const Vec3f& L) {
         if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) {
-            --count;
             ++nonfinite;
-            return;
+            return false;
         }
         const double v[3] = {L.x, L.y, L.z};
         for (int c = 0; c < 3; ++c) {
             sum[c] += v[c];
             sum_sq[c] += v[c] * v[c];
         }
+        return true;
     }
 };
 
