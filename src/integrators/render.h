@@ -29,7 +29,7 @@ struct RayCounts {
 struct RenderOptions {
     int threads = 0;  // 0: every CPU this process may run on (TBB's default concurrency)
     std::string integrator = "wavefront";  // or "scalar", the reference
-    std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2
+    std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2, neon
     int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
     bool specialise = true;                // wavefront: skip what the scene does not use
     bool progress = true;                  // progress line on stderr
