@@ -8,7 +8,7 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
-// Ended paths go to the film's queue; survivors move down to `kept`, bounce + 1. Both keep
+// Ended paths with radiance go to the film's queue; survivors move down to `kept`, bounce + 1. Both keep
 // pool order. A batch is compressed in registers and stored whole at the write position:
 // writing at kept <= i never overtakes the batch being read, and the lanes stored past the
 // last kept one are overwritten by the next batch or lie beyond the live paths.
@@ -21,26 +21,14 @@ void compact_paths(Wave<A>& w, const TileJob& job) {
     PathPool& p = w.pool;
     float* const fa[12] = {p.ox,     p.oy,     p.oz,     p.dx,    p.dy,    p.dz,
                            p.beta_r, p.beta_g, p.beta_b, p.rad_r, p.rad_g, p.rad_b};
-    float* const out[3] = {p.done_r, p.done_g, p.done_b};
     int32_t kept = 0, done = 0;
     for (int32_t i = 0; i < w.live; i += K) {
         const int32_t lanes = std::min(K, w.live - i);
         const uint32_t valid = (1u << lanes) - 1u;
         const uint32_t m = mask_bits(mask_f32(I::load_aligned(p.alive + i) != I(0))) & valid;
         const uint32_t ended = ~m & valid;
-        if (ended) {
-            // Of the ended paths only those with radiance (or a non-finite one) go to the
-            // film, which has counted every path of the tile already
-            const Vec3<F> r = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
-            const uint32_t radiant =
-                ended & ~mask_bits((r.x == F(0.0f)) & (r.y == F(0.0f)) & (r.z == F(0.0f)));
-            compress<A>(U::load_aligned(p.pixel + i), radiant)
-                .store_unaligned(p.done_pixel + done);
-            compress<A>(r.x, radiant).store_unaligned(out[0] + done);
-            compress<A>(r.y, radiant).store_unaligned(out[1] + done);
-            compress<A>(r.z, radiant).store_unaligned(out[2] + done);
-            done += std::popcount(radiant);
-        }
+        if (ended)
+            done = queue_radiant<A>(p, i, ended, load3<F>(p.rad_r, p.rad_g, p.rad_b, i), done);
         for (float* a : fa) compress<A>(F::load_aligned(a + i), m).store_unaligned(a + kept);
         for (uint32_t* a : {p.key, p.pixel})
             compress<A>(U::load_aligned(a + i), m).store_unaligned(a + kept);

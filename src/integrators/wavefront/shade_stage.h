@@ -88,19 +88,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
         rad = select(em, rad + beta * le, rad);
         alive = alive & !em;
-        if constexpr (kCompact) {
-            // The radiant ones (or non-finite) to the film's queue; the film counted them all
-            const uint32_t bits = mask_bits(
-                em & !((rad.x == F(0.0f)) & (rad.y == F(0.0f)) & (rad.z == F(0.0f))));
-            if (bits) {
-                const int32_t at = compaction->done;
-                compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.done_pixel + at);
-                compress<A>(rad.x, bits).store_unaligned(p.done_r + at);
-                compress<A>(rad.y, bits).store_unaligned(p.done_g + at);
-                compress<A>(rad.z, bits).store_unaligned(p.done_b + at);
-                compaction->done = at + std::popcount(bits);
-            }
-        }
+        if constexpr (kCompact)
+            compaction->done = queue_radiant<A>(p, i, mask_bits(em), rad, compaction->done);
     }
     // (a scene with one lobe kind has that lobe's parameters only: kFused)
     const Bsdf<F> m = hit_bsdf<kFused, A>(s, mat, evaluated);

@@ -216,6 +216,24 @@ xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
 #endif
 }
 
+// The paths of batch `i` set in `ended` whose radiance `rad` is not zero (or not finite), to
+// the film's queue at p.done_*[done...]: the film has counted every path of the tile, so
+// those that bring nothing need not be handed over. Returns the new queue length.
+template <class A>
+int32_t queue_radiant(PathPool& p, int32_t i, uint32_t ended,
+                      const Vec3<xsimd::batch<float, A>>& rad, int32_t done) {
+    using F = xsimd::batch<float, A>;
+    using U = xsimd::batch<uint32_t, A>;
+    const uint32_t bits =
+        ended & ~mask_bits((rad.x == F(0.0f)) & (rad.y == F(0.0f)) & (rad.z == F(0.0f)));
+    if (!bits) return done;
+    compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.done_pixel + done);
+    compress<A>(rad.x, bits).store_unaligned(p.done_r + done);
+    compress<A>(rad.y, bits).store_unaligned(p.done_g + done);
+    compress<A>(rad.z, bits).store_unaligned(p.done_b + done);
+    return done + std::popcount(bits);
+}
+
 // Appends the indices base + l of the lanes set in `bits` to list[size...].
 inline void append_lanes(uint32_t bits, int32_t base, int32_t* list, int32_t& size) {
     while (bits) {
