@@ -13,6 +13,19 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
+// Sphere or plane j from its lane table (FlatScene::sphere_lanes, plane_lanes): the centre
+// and radius, or the normal and distance.
+template <class F>
+struct PrimitiveLanes {
+    Vec3<F> xyz;
+    F w;
+    PrimitiveLanes(const float* table, int32_t j) {
+        const float* v = table + 64 * j;
+        xyz = {F::load_aligned(v), F::load_aligned(v + 16), F::load_aligned(v + 32)};
+        w = F::load_aligned(v + 48);
+    }
+};
+
 // Quadric j's coefficients and clipping box from the lane table (FlatScene::quadric_lanes).
 template <class F>
 struct QuadricLanes {
@@ -42,15 +55,13 @@ void closest_analytic(const FlatScene& s, const Ray<typename Wave<A>::F>& ray,
     F th;
     I id(kPrimSphere << kPrimShift);
     for (int32_t j = 0; j < s.sphere_count; ++j) {
-        const float* q = s.sphere_lanes + 64 * j;
-        const Vec3<F> c{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
-        record(intersect_sphere(ray, c, F::load_aligned(q + 48), t, th), th, id);
+        const PrimitiveLanes<F> q(s.sphere_lanes, j);
+        record(intersect_sphere(ray, q.xyz, q.w, t, th), th, id);
     }
     id = I(kPrimPlane << kPrimShift);
     for (int32_t j = 0; j < s.plane_count; ++j) {
-        const float* q = s.plane_lanes + 64 * j;
-        const Vec3<F> n{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
-        record(intersect_plane(ray, n, F::load_aligned(q + 48), t, th), th, id);
+        const PrimitiveLanes<F> q(s.plane_lanes, j);
+        record(intersect_plane(ray, q.xyz, q.w, t, th), th, id);
     }
     id = I(kPrimQuadric << kPrimShift);
     for (int32_t j = 0; j < s.quadric_count; ++j) {
@@ -317,14 +328,12 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
     typename Wave<A>::M blocked(false);
     F th;
     for (int32_t j = 0; j < s.plane_count && !all(blocked); ++j) {
-        const float* q = s.plane_lanes + 64 * j;
-        const Vec3<F> n{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
-        blocked = blocked | intersect_plane(ray, n, F::load_aligned(q + 48), tmax, th);
+        const PrimitiveLanes<F> q(s.plane_lanes, j);
+        blocked = blocked | intersect_plane(ray, q.xyz, q.w, tmax, th);
     }
     for (int32_t j = 0; j < s.sphere_count && !all(blocked); ++j) {
-        const float* q = s.sphere_lanes + 64 * j;
-        const Vec3<F> c{F::load_aligned(q), F::load_aligned(q + 16), F::load_aligned(q + 32)};
-        blocked = blocked | intersect_sphere(ray, c, F::load_aligned(q + 48), tmax, th);
+        const PrimitiveLanes<F> q(s.sphere_lanes, j);
+        blocked = blocked | intersect_sphere(ray, q.xyz, q.w, tmax, th);
     }
     for (int32_t j = 0; j < s.quadric_count && !all(blocked); ++j) {
         const QuadricLanes<F> ql(s.quadric_lanes, j);
