@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "integrators/wavefront/intersect_stage.h"
-#include "scene/bvh.h"
+#include "accel/bvh.h"
 #include "support/uv_sphere.h"
 
 namespace {
@@ -66,13 +66,14 @@ void BM_BvhBuild(benchmark::State& state) {
     for (auto _ : state) {
         Bvh bvh;
         bvh.build(mesh.positions, mesh.indices);
-        benchmark::DoNotOptimize(bvh.node_count());
+        benchmark::DoNotOptimize(bvh.stats().nodes);
     }
     Bvh bvh;
     bvh.build(mesh.positions, mesh.indices);
-    state.counters["triangles"] = double(bvh.triangle_count());
-    state.counters["nodes"] = double(bvh.node_count());
-    state.counters["depth"] = double(bvh.depth());
+    state.counters["triangles"] = double(bvh.stats().primitives);
+    state.counters["nodes"] = double(bvh.stats().nodes);
+    state.counters["depth"] = double(bvh.stats().depth);
+    state.counters["bytes_per_triangle"] = double(bvh.stats().bytes) / double(bvh.stats().primitives);
 }
 BENCHMARK(BM_BvhBuild)->Unit(benchmark::kMillisecond);
 
@@ -117,7 +118,6 @@ void BM_WideBvh(benchmark::State& state) {
     using F = cierzo::Wave<A>::F;
     constexpr size_t K = size_t(cierzo::Wave<A>::K);
     const Bvh& bvh = bench_bvh();
-    const cierzo::FlatMesh mesh = cierzo::flat_mesh(bvh);
     // The rays in SoA, as the wavefront's path pool holds them
     const std::vector<Ray<float>> rays = random_rays(1 << 16);
     std::vector<float> soa[6];
@@ -130,8 +130,8 @@ void BM_WideBvh(benchmark::State& state) {
             const cierzo::WideRays<A> wide(Ray<F>{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}});
             for (int l = 0; l < int(K); ++l) {
                 float t = 1e30f;
-                uint32_t lane;
-                hits += cierzo::traverse_wide<kAnyHit, A>(mesh, wide, l, t, lane);
+                cierzo::BvhHit hit;
+                hits += cierzo::traverse<kAnyHit, cierzo::NodeLanes<A>>(bvh.view(), wide.lane(l), t, hit);
             }
         }
         traced += rays.size();
@@ -140,7 +140,7 @@ void BM_WideBvh(benchmark::State& state) {
     state.SetLabel(A::name());
     state.counters["rays"] = benchmark::Counter(double(traced), benchmark::Counter::kIsRate);
     state.counters["hit_fraction"] = double(hits) / double(traced);
-    state.counters["wide_nodes"] = double(bvh.wide_node_count());
+    state.counters["wide_nodes"] = double(bvh.stats().nodes);
 }
 BENCHMARK(BM_WideBvh<false>)->Name("BM_WideBvhClosestHit")->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_WideBvh<true>)->Name("BM_WideBvhOccluded")->Unit(benchmark::kMillisecond);

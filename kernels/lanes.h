@@ -146,5 +146,29 @@ inline xsimd::batch<int32_t, A> to_int(const xsimd::batch<float, A>& v) {
     return xsimd::batch_cast<int32_t>(v);
 }
 
+// Bits of a mask, lane 0 in bit 0 (a bool is one lane). NEON has no movemask: each all-ones lane keeps its own
+// bit of {1, 2, 4, 8}, and the lanes are summed.
+template <class A>
+uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
+#if defined(__AVX512F__)
+    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) return uint32_t(m.data);
+#endif
+#if defined(__AVX__)
+    if constexpr (std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
+        return uint32_t(_mm256_movemask_ps(m.data));
+#endif
+#if defined(__SSE2__)
+    if constexpr (!std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
+        return uint32_t(_mm_movemask_ps(m.data));
+#endif
+#if defined(__aarch64__)
+    if constexpr (std::is_base_of_v<xsimd::neon64, A>) {
+        constexpr uint32x4_t kLaneBits = {1u, 2u, 4u, 8u};
+        return vaddvq_u32(vandq_u32(m.data, kLaneBits));
+    }
+#endif
+}
+inline uint32_t mask_bits(bool m) { return m ? 1u : 0u; }
+
 }  // namespace CIERZO_ISA_NAMESPACE
 }  // namespace cierzo

@@ -1,8 +1,12 @@
-// Scene set-up (bounding spheres, BVHs, feature set) and the scalar closest-hit and
-// shadow queries over every primitive kind, using the templated kernels with T = float.
+// Scene set-up (BVHs, feature set) and the scalar closest-hit and shadow queries: the
+// unbounded primitives and the scene BVH through the shared traversal (kernels/traverse.h)
+// with T = float.
 #include "scene/scene.h"
 
+#include <algorithm>
 #include <cmath>
+
+#include "kernels/traverse.h"
 
 namespace cierzo {
 
@@ -21,22 +25,50 @@ Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& u
 }
 
 void Scene::finalize() {
-    for (Mesh& m : meshes) {
-        // Bounding sphere: centre of the bounding box, radius to the farthest vertex
-        Vec3f lo(kRayFar), hi(-kRayFar);
-        for (const Vec3f& p : m.positions) {
-            lo = vmin(lo, p);
-            hi = vmax(hi, p);
-        }
-        m.sphere_center = (lo + hi) * 0.5f;
-        float r2 = 0.0f;
-        for (const Vec3f& p : m.positions) {
-            const Vec3f v = p - m.sphere_center;
-            r2 = std::max(r2, dot(v, v));
-        }
-        m.sphere_radius = std::sqrt(r2) * (1.0f + 1e-5f) + 1e-30f;
-        m.bvh.build(m.positions, m.indices);
+    BvhInput in;
+    for (size_t i = 0; i < meshes.size(); ++i) {
+        Mesh& m = meshes[i];
+        if (m.geometry != int32_t(i)) continue;
+        auto bvh = std::make_shared<Bvh>();
+        bvh->build(m.positions, m.indices);
+        m.bvh = std::move(bvh);
     }
+    for (size_t i = 0; i < meshes.size(); ++i) {
+        const Mesh& m = meshes[i];
+        if (!m.instanced()) {
+            in.triangles.push_back({m.positions, m.indices, uint32_t(i)});
+            continue;
+        }
+        BvhObjectInstance inst;
+        inst.geometry = meshes[size_t(m.geometry)].bvh;
+        std::copy(m.to_object, m.to_object + 12, inst.to_object);
+        std::copy(m.normal_to_world, m.normal_to_world + 9, inst.normal_to_world);
+        std::copy(m.to_world, m.to_world + 12, inst.to_world);
+        inst.mesh = uint32_t(i);
+        in.instances.push_back(inst);
+    }
+    in.sphere_x = spheres.cx, in.sphere_y = spheres.cy, in.sphere_z = spheres.cz;
+    in.sphere_r = spheres.radius;
+    std::vector<float> table;
+    unbounded_quadrics.clear();
+    for (size_t i = 0; i < quadrics.size(); ++i) {
+        const Quadric& q = quadrics[i];
+        table.insert(table.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h, q.q.i,
+                                   q.q.j, q.box_min.x, q.box_min.y, q.box_min.z, q.box_max.x,
+                                   q.box_max.y, q.box_max.z});
+        const bool bounded = std::isfinite(q.box_min.x) && std::isfinite(q.box_min.y) &&
+                             std::isfinite(q.box_min.z) && std::isfinite(q.box_max.x) &&
+                             std::isfinite(q.box_max.y) && std::isfinite(q.box_max.z) &&
+                             q.box_min.x > -kRayFar && q.box_max.x < kRayFar &&
+                             q.box_min.y > -kRayFar && q.box_max.y < kRayFar &&
+                             q.box_min.z > -kRayFar && q.box_max.z < kRayFar;
+        if (bounded)
+            in.quadrics.push_back({uint32_t(i), q.box_min, q.box_max});
+        else
+            unbounded_quadrics.push_back(int32_t(i));
+    }
+    in.quadric_table = table;
+    bvh.build(in);
 }
 
 void Scene::set_resolution(int width, int height) {
@@ -68,70 +100,76 @@ SceneFeatures Scene::features() const {
     return f;
 }
 
+namespace {
+
+// The scene's planes and unbounded quadrics for the shared loops of kernels/traverse.h.
+struct ScalarPlanes {
+    const Planes& p;
+    PlaneLanes<float> operator()(int32_t j) const {
+        const size_t i = size_t(j);
+        return {{p.nx[i], p.ny[i], p.nz[i]}, p.distance[i]};
+    }
+};
+struct ScalarQuadrics {
+    const std::vector<Quadric>& q;
+    const std::vector<int32_t>& list;
+    QuadricOfLanes<float> operator()(int32_t j) const {
+        const int32_t i = list[size_t(j)];
+        const Quadric& x = q[size_t(i)];
+        return {x.q, x.box_min, x.box_max, i};
+    }
+};
+
+// Hit kinds of the unbounded list's ids
+constexpr int32_t kPlaneId = 0;
+constexpr int32_t kQuadricId = 1 << 30;
+
+}  // namespace
+
 bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
     float best = tmax;
-    int kind = -1;  // 0 sphere, 1 plane, 2 quadric, 3 mesh
-    size_t index = 0;
-    TriangleHit tri{};
-    // Analytic primitives, one kernel call each
-    for (size_t i = 0; i < spheres.size(); ++i) {
-        float t;
-        const Vec3f c{spheres.cx[i], spheres.cy[i], spheres.cz[i]};
-        if (intersect_sphere(ray, c, spheres.radius[i], best, t)) best = t, kind = 0, index = i;
-    }
-    for (size_t i = 0; i < planes.size(); ++i) {
-        float t;
-        const Vec3f n{planes.nx[i], planes.ny[i], planes.nz[i]};
-        if (intersect_plane(ray, n, planes.distance[i], best, t)) best = t, kind = 1, index = i;
-    }
-    for (size_t i = 0; i < quadrics.size(); ++i) {
-        float t;
-        const Quadric& q = quadrics[i];
-        if (intersect_quadric(ray, q.q, q.box_min, q.box_max, best, t))
-            best = t, kind = 2, index = i;
-    }
-    // Meshes: the bounding sphere first, then the BVH
-    for (size_t i = 0; i < meshes.size(); ++i) {
-        const Mesh& m = meshes[i];
-        const Vec3f oc = ray.o - m.sphere_center;
-        const float b = dot(oc, ray.d);
-        const float c = dot(oc, oc) - m.sphere_radius * m.sphere_radius;
-        if (c > 0.0f && (b > 0.0f || b * b < c)) continue;  // outside and missing or behind
-        if (c > 0.0f && -b - std::sqrt(b * b - c) >= best) continue;
-        TriangleHit th;
-        if (m.bvh.intersect(ray, best, th)) best = th.t, kind = 3, index = i, tri = th;
-    }
-    if (kind < 0) return false;
+    int32_t id = -1;
+    closest_unbounded(ray, best, id, int32_t(planes.size()), ScalarPlanes{planes}, kPlaneId,
+                      int32_t(unbounded_quadrics.size()),
+                      ScalarQuadrics{quadrics, unbounded_quadrics}, kQuadricId);
+    BvhHit tree{};
+    const bool in_tree =
+        traverse<false, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), best, tree);
+    if (!in_tree && id < 0) return false;
 
     // Hit point and outward geometric normal
     hit.t = best;
     hit.p = fma(ray.d, best, ray.o);
     hit.mesh = -1;
-    switch (kind) {
-        case 0: {
-            const Vec3f c{spheres.cx[index], spheres.cy[index], spheres.cz[index]};
-            hit.n = (hit.p - c) * (1.0f / spheres.radius[index]);
-            hit.n = normalize(hit.n);
-            hit.material = spheres.material[index];
+    const auto quadric = [&](size_t index) {
+        hit.n = normalize(quadric_gradient(quadrics[index].q, hit.p));
+        hit.material = quadrics[index].material;
+    };
+    if (!in_tree) {
+        if (id >= kQuadricId) {
+            quadric(size_t(id - kQuadricId));
+        } else {
+            const size_t i = size_t(id);
+            hit.n = {planes.nx[i], planes.ny[i], planes.nz[i]};
+            hit.material = planes.material[i];
+        }
+        return true;
+    }
+    const BvhView& v = bvh.view();
+    switch (tree.kind) {
+        case kLeafSpheres: {
+            const size_t i = hit_sphere(v, tree);
+            const Vec3f c{spheres.cx[i], spheres.cy[i], spheres.cz[i]};
+            hit.n = normalize((hit.p - c) * (1.0f / spheres.radius[i]));
+            hit.material = spheres.material[i];
             break;
         }
-        case 1:
-            hit.n = {planes.nx[index], planes.ny[index], planes.nz[index]};
-            hit.material = planes.material[index];
-            break;
-        case 2:
-            hit.n = normalize(quadric_gradient(quadrics[index].q, hit.p));
-            hit.material = quadrics[index].material;
-            break;
+        case kLeafQuadrics: quadric(tree.lane); break;
         default: {
-            const Mesh& m = meshes[index];
-            const uint32_t* v = &m.indices[size_t(tri.triangle) * 3];
-            const Vec3f e1 = m.positions[v[1]] - m.positions[v[0]];
-            const Vec3f e2 = m.positions[v[2]] - m.positions[v[0]];
-            hit.n = normalize(cross(e1, e2));
-            hit.material = m.material;
-            hit.mesh = int32_t(index);
-            hit.triangle = tri.triangle;
+            hit.mesh = int32_t(hit_mesh(v, tree));
+            hit.triangle = hit_triangle(v, tree);
+            hit.n = hit_triangle_normal(v, tree);
+            hit.material = meshes[size_t(hit.mesh)].material;
             break;
         }
     }
@@ -139,32 +177,28 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
 }
 
 bool Scene::occluded(const Ray<float>& ray, float tmax) const {
-    float t;
-    for (size_t i = 0; i < planes.size(); ++i) {
-        const Vec3f n{planes.nx[i], planes.ny[i], planes.nz[i]};
-        if (intersect_plane(ray, n, planes.distance[i], tmax, t)) return true;
-    }
-    for (size_t i = 0; i < spheres.size(); ++i) {
-        const Vec3f c{spheres.cx[i], spheres.cy[i], spheres.cz[i]};
-        if (intersect_sphere(ray, c, spheres.radius[i], tmax, t)) return true;
-    }
-    for (const Quadric& q : quadrics) {
-        if (intersect_quadric(ray, q.q, q.box_min, q.box_max, tmax, t)) return true;
-    }
-    for (const Mesh& m : meshes) {
-        if (m.bvh.occluded(ray, tmax)) return true;
-    }
-    return false;
+    if (occluded_unbounded(ray, tmax, false, int32_t(planes.size()), ScalarPlanes{planes},
+                           int32_t(unbounded_quadrics.size()),
+                           ScalarQuadrics{quadrics, unbounded_quadrics}))
+        return true;
+    BvhHit unused;
+    float t = tmax;
+    return traverse<true, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), t, unused);
 }
 
 Vec3f Scene::color_at(const ColorSource& c, const Hit& hit) const {
     if (!c.is_vertex()) return eval_pattern(c, hit.p);
-    if (hit.mesh < 0 || meshes[size_t(hit.mesh)].colors.empty()) return c.a;
-    const Mesh& m = meshes[size_t(hit.mesh)];
+    if (hit.mesh < 0) return c.a;
+    const Mesh& object = meshes[size_t(hit.mesh)];
+    const Mesh& m = geometry_of(object);
+    if (m.colors.empty()) return c.a;
     const uint32_t* idx = &m.indices[size_t(hit.triangle) * 3];
     const Vec3f v[3] = {m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
     const Vec3f col[3] = {m.colors[idx[0]], m.colors[idx[1]], m.colors[idx[2]]};
-    return eval_vertex_color(c, hit.p, v, col);
+    // (an instance's vertices are in the file's space: so is the point)
+    const float p[3] = {hit.p.x, hit.p.y, hit.p.z};
+    const Vec3f at = object.instanced() ? affine_point(object.to_object, p) : hit.p;
+    return eval_vertex_color(c, at, v, col);
 }
 
 Bsdf<float> Scene::bsdf_at(const Hit& hit) const {

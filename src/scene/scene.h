@@ -9,10 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "accel/bvh.h"
 #include "kernels/estimator.h"
-#include "scene/camera.h"
 #include "kernels/intersect.h"
-#include "scene/bvh.h"
 #include "scene/camera.h"
 
 namespace cierzo {
@@ -45,17 +44,26 @@ struct Quadric {
     int32_t material;
 };
 
-// A triangle mesh (from a PLY file, or the scene's loose triangles of one material), with
-// the report's bounding sphere as a first cull and a BVH inside it.
+// A triangle mesh object: a PLY file's triangles, or the scene's loose triangles of one
+// material. A file used by one object has its vertices in world space (the object's
+// transform applied when it was read), and its triangles go into the scene's BVH itself. A
+// file used by several objects is read once: its vertices stay in the file's space, in the
+// first of those objects (`geometry` = its own index), which also holds their BVH, and
+// every one of them (`geometry` = that index) is traced through its transform.
 struct Mesh {
     std::string source;  // file name, for messages
-    std::vector<Vec3f> positions;
+    std::vector<Vec3f> positions;  // world space, or the file's space (geometry owner); or
+                                   // empty (an instance of another entry's geometry)
     std::vector<Vec3f> colors;  // per vertex, or empty
     std::vector<uint32_t> indices;
     int32_t material = 0;
-    Vec3f sphere_center{0.0f};
-    float sphere_radius = 0.0f;
-    Bvh bvh;
+    int32_t geometry = -1;  // -1: own world-space vertices; else the entry with the vertices
+    float to_world[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // row-major 3 × 4 (instances)
+    float to_object[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+    float normal_to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // inverse transpose of to_world
+    bool mirrored = false;  // to_world has a negative determinant
+    std::shared_ptr<const Bvh> bvh;  // geometry owners only: over the file-space triangles
+    bool instanced() const { return geometry >= 0; }
     size_t triangle_count() const { return indices.size() / 3; }
 };
 
@@ -111,8 +119,20 @@ public:
     std::vector<PointLight> lights;
     std::filesystem::path source;  // the scene file, for messages
 
-    // Call once after filling the arrays: builds BVHs and bounding spheres.
+    // The acceleration structure over every bounded primitive (spheres, quadrics with a
+    // finite box, world-space triangles, instances), and the quadrics tested beside it.
+    Bvh bvh;
+    std::vector<int32_t> unbounded_quadrics;
+
+    // Call once after filling the arrays: builds the BVHs (a copy of the scene shares its
+    // meshes' BVHs).
     void finalize();
+
+    // The mesh entry holding the vertices and indices of mesh m (itself, or the geometry it
+    // instances).
+    const Mesh& geometry_of(const Mesh& m) const {
+        return m.instanced() ? meshes[size_t(m.geometry)] : m;
+    }
 
     // Changes the image size; a look_at camera keeps its vertical field of view and takes
     // the new aspect ratio (an explicit frame keeps its vectors, as the file gave them).

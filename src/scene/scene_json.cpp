@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -340,14 +341,29 @@ struct Loader {
         for (uint32_t i = 0; i < 3; ++i) m.indices.push_back(base + i);
     }
 
+    // Mesh files read so far, by path: the file's data and the objects using it
+    struct MeshFile {
+        PlyMesh data;
+        std::vector<size_t> objects;  // indices into scene.meshes
+        std::vector<std::string> where;  // their place in the file, for messages
+    };
+    std::map<fs::path, MeshFile> mesh_files;
+
     void mesh(Reader& t) {
         const fs::path ply = file.parent_path() / t.string("file");
-        PlyMesh data;
-        try {
-            data = read_ply(ply);
-        } catch (const InputError& e) {
-            t.fail(std::string("mesh file: ") + e.what());
+        const fs::path key = ply.lexically_normal();
+        auto found = mesh_files.find(key);
+        if (found == mesh_files.end()) {
+            PlyMesh data;
+            try {
+                data = read_ply(ply);
+            } catch (const InputError& e) {
+                t.fail(std::string("mesh file: ") + e.what());
+            }
+            if (data.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
+            found = mesh_files.emplace(key, MeshFile{std::move(data), {}}).first;
         }
+        const PlyMesh& data = found->second.data;
         Mesh m;
         m.source = ply.string();
         m.material = material_ref(t);
@@ -363,28 +379,114 @@ struct Loader {
         }
         const Vec3f rot = t.vec3("rotate", Vec3f(0.0f)) * (kPi / 180.0f);
         const Vec3f move = t.vec3("translate", Vec3f(0.0f));
-        const size_t n = data.positions.size() / 3;
-        m.positions.reserve(n);
-        for (size_t i = 0; i < n; ++i) {
-            Vec3f p{data.positions[3 * i] * scale.x, data.positions[3 * i + 1] * scale.y,
-                    data.positions[3 * i + 2] * scale.z};
+        const auto transform = [&](Vec3f p) {
+            p = {p.x * scale.x, p.y * scale.y, p.z * scale.z};
             float c = std::cos(rot.x), s = std::sin(rot.x);
             p = {p.x, c * p.y - s * p.z, s * p.y + c * p.z};
             c = std::cos(rot.y), s = std::sin(rot.y);
             p = {c * p.x + s * p.z, p.y, -s * p.x + c * p.z};
             c = std::cos(rot.z), s = std::sin(rot.z);
             p = {c * p.x - s * p.y, s * p.x + c * p.y, p.z};
-            p = p + move;
+            return p + move;
+        };
+        // The world-space vertices (kept if the file turns out to have one object), each
+        // checked to stay in float range
+        const size_t n = data.positions.size() / 3;
+        const bool first = found->second.objects.empty();
+        if (first) m.positions.reserve(n);
+        for (size_t i = 0; i < n; ++i) {
+            const Vec3f p = transform(
+                {data.positions[3 * i], data.positions[3 * i + 1], data.positions[3 * i + 2]});
             if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
                 t.fail("'scale', 'rotate' and 'translate' take vertex " + std::to_string(i) +
                        " of '" + ply.string() + "' beyond float range");
-            m.positions.push_back(p);
+            if (first) m.positions.push_back(p);
         }
-        for (size_t i = 0; i + 2 < data.colors.size(); i += 3)
-            m.colors.push_back({data.colors[i], data.colors[i + 1], data.colors[i + 2]});
-        m.indices = data.indices;
-        if (m.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
+        // The same map as a matrix, for instancing: to_world = T Rz Ry Rx S, in double
+        double a[3][3] = {{scale.x, 0, 0}, {0, scale.y, 0}, {0, 0, scale.z}};
+        const auto rotate = [&](int axis, double angle) {
+            const double c = std::cos(double(float(angle))), s = std::sin(double(float(angle)));
+            double r[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+            const int i = (axis + 1) % 3, j = (axis + 2) % 3;
+            r[i][i] = c, r[i][j] = -s, r[j][i] = s, r[j][j] = c;
+            double out[3][3];
+            for (int x = 0; x < 3; ++x)
+                for (int y = 0; y < 3; ++y)
+                    out[x][y] = r[x][0] * a[0][y] + r[x][1] * a[1][y] + r[x][2] * a[2][y];
+            std::memcpy(a, out, sizeof a);
+        };
+        rotate(0, rot.x), rotate(1, rot.y), rotate(2, rot.z);
+        set_transform(m, a, move);
+        found->second.objects.push_back(scene.meshes.size());
+        found->second.where.push_back(t.where("scale"));
         scene.meshes.push_back(std::move(m));
+    }
+
+    // An object's transform (linear part a, translation) and the maps derived from it.
+    static void set_transform(Mesh& m, const double a[3][3], const Vec3f& move) {
+        const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                           a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+        double inv[3][3];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                // cofactor of a[j][i] over det
+                const int r0 = (j + 1) % 3, r1 = (j + 2) % 3, c0 = (i + 1) % 3, c1 = (i + 2) % 3;
+                inv[i][j] = (a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]) / det;
+            }
+        const double t[3] = {move.x, move.y, move.z};
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) {
+                m.to_world[4 * i + j] = float(a[i][j]);
+                m.to_object[4 * i + j] = float(inv[i][j]);
+                m.normal_to_world[3 * i + j] = float(inv[j][i]);
+            }
+            m.to_world[4 * i + 3] = float(t[i]);
+            m.to_object[4 * i + 3] =
+                float(-(inv[i][0] * t[0] + inv[i][1] * t[1] + inv[i][2] * t[2]));
+        }
+        m.mirrored = det < 0.0;
+    }
+
+    // After all objects: a file used by one object keeps its world-space vertices (with the
+    // winding reversed by a mirroring transform, so its normals are the file's normals
+    // through the inverse transpose, as an instance's are); a file used by several is kept
+    // once, in the file's space, in the first of them, and all are traced as instances.
+    void finish_meshes() {
+        for (auto& [path, f] : mesh_files) {
+            const size_t owner = f.objects.front();
+            if (f.objects.size() == 1) {
+                Mesh& m = scene.meshes[owner];
+                m.indices = std::move(f.data.indices);
+                if (m.mirrored)
+                    for (size_t i = 0; i + 2 < m.indices.size(); i += 3)
+                        std::swap(m.indices[i + 1], m.indices[i + 2]);
+            } else {
+                for (size_t k = 0; k < f.objects.size(); ++k) {
+                    Mesh& m = scene.meshes[f.objects[k]];
+                    for (const float v : m.to_object)
+                        if (!std::isfinite(v))
+                            throw InputError(file.string() + ": " + f.where[k] +
+                                             ": the transform cannot be inverted in float (a "
+                                             "scale below about 1e-38), which an object "
+                                             "sharing its mesh file needs");
+                    m.positions.clear();
+                    m.positions.shrink_to_fit();
+                    m.geometry = int32_t(owner);
+                }
+                Mesh& m = scene.meshes[owner];
+                const size_t n = f.data.positions.size() / 3;
+                m.positions.resize(n);
+                for (size_t i = 0; i < n; ++i)
+                    m.positions[i] = {f.data.positions[3 * i], f.data.positions[3 * i + 1],
+                                      f.data.positions[3 * i + 2]};
+                m.indices = std::move(f.data.indices);
+            }
+            Mesh& m = scene.meshes[owner];
+            for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
+                m.colors.push_back({f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
+        }
+        mesh_files.clear();
     }
 
     void camera(const json& j, float aspect) {
@@ -508,6 +610,7 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
     if (!objects.is_array()) r.fail("'objects' must be an array");
     for (size_t i = 0; i < objects.size(); ++i)
         l.object(objects[i], "objects[" + std::to_string(i) + "]");
+    l.finish_meshes();
     for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
 
     // Point lights

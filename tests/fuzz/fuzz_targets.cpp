@@ -127,7 +127,22 @@ void check_scene(const Scene& s) {
             require(std::isfinite(c), "quadric coefficients finite");
         require(material_ok(q.material), "quadric material in range");
     }
-    for (const Mesh& m : s.meshes) {
+    for (size_t i = 0; i < s.meshes.size(); ++i) {
+        const Mesh& object = s.meshes[i];
+        require(object.geometry < int32_t(s.meshes.size()), "instance geometry in range");
+        if (object.instanced()) {
+            const Mesh& g = s.meshes[size_t(object.geometry)];
+            require(g.geometry == object.geometry && g.bvh, "instance geometry owns its BVH");
+            for (const float v : object.to_world) require(std::isfinite(v), "instance transform finite");
+            for (const float v : object.to_object) require(std::isfinite(v), "instance inverse finite");
+        }
+        if (object.instanced() && object.geometry != int32_t(i)) {
+            require(object.positions.empty() && object.indices.empty(),
+                    "an instance keeps no vertices of its own");
+            require(material_ok(object.material), "mesh material in range");
+            continue;
+        }
+        const Mesh& m = object;
         require(!m.indices.empty() && m.indices.size() % 3 == 0, "mesh has whole triangles");
         for (uint32_t i : m.indices) require(i < m.positions.size(), "mesh index in range");
         for (const Vec3f& p : m.positions) require(finite(p), "mesh vertex finite");

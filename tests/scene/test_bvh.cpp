@@ -2,7 +2,7 @@
 // soup, a sphere mesh and an axis-aligned grid, any-hit against closest-hit, degenerate
 // triangles, closed-mesh watertightness through the tree, and build edge cases; and the
 // 8-wide collapse with the wavefront's single-ray traversal against the binary tree.
-#include "scene/bvh.h"
+#include "accel/bvh.h"
 
 #include <gtest/gtest.h>
 
@@ -122,7 +122,7 @@ Vec3f random_direction(std::mt19937& rng) {
 TEST(Bvh, ClosestHitMatchesBruteForceOnARandomSoup) {
     const Mesh mesh = random_soup(3000, 1);
     const Bvh bvh = build(mesh);
-    EXPECT_EQ(bvh.triangle_count(), 3000u);
+    EXPECT_EQ(bvh.stats().primitives, 3000u);
     std::mt19937 rng(2);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
     int hits = 0;
@@ -222,7 +222,7 @@ TEST(Bvh, DegenerateTrianglesAreKeptButNeverHit) {
                                              base, base + 1, base + 2, base + 3, base + 4, base + 5,
                                              base + 5, base + 3, base + 4});
     const Bvh bvh = build(mesh);
-    EXPECT_EQ(bvh.triangle_count(), good + 5);
+    EXPECT_EQ(bvh.stats().primitives, good);
     // Rays straight down through points of the degenerate triangles hit the grid below
     std::mt19937 rng(8);
     std::uniform_real_distribution<float> frac(0.0f, 1.0f);
@@ -261,11 +261,12 @@ TEST(Bvh, NoLeaksFromInsideAClosedMeshThroughVerticesAndEdges) {
 TEST(Bvh, StructureAndBounds) {
     const Mesh mesh = uv_sphere(32, 64);
     const Bvh bvh = build(mesh);
-    EXPECT_EQ(bvh.triangle_count(), mesh.size());
-    EXPECT_GT(bvh.node_count(), mesh.size() / 4);
-    EXPECT_LT(bvh.node_count(), 2 * mesh.size());
-    EXPECT_GT(bvh.depth(), 5);
-    EXPECT_LT(bvh.depth(), 40);
+    EXPECT_EQ(bvh.stats().primitives, mesh.size());
+    // (8-wide nodes over leaves of up to 16 triangles)
+    EXPECT_GT(bvh.stats().nodes, mesh.size() / 128);
+    EXPECT_LT(bvh.stats().nodes, mesh.size() / 8);
+    EXPECT_GT(bvh.stats().depth, 5);
+    EXPECT_LT(bvh.stats().depth, 40);
     EXPECT_FLOAT_EQ(bvh.bounds_min().z, -1.0f);
     EXPECT_FLOAT_EQ(bvh.bounds_max().z, 1.0f);
     EXPECT_NEAR(bvh.bounds_min().x, -1.0f, 1e-6f);
@@ -279,7 +280,7 @@ TEST(Bvh, EmptyAndSingleTriangle) {
     const Ray<float> ray{Vec3f(0.2f, 0.2f, 1.0f), Vec3f(0.0f, 0.0f, -1.0f)};
     EXPECT_FALSE(empty.intersect(ray, 1e30f, hit));
     EXPECT_FALSE(empty.occluded(ray, 1e30f));
-    EXPECT_EQ(empty.triangle_count(), 0u);
+    EXPECT_EQ(empty.stats().primitives, 0u);
     EXPECT_GT(empty.bounds_min().x, empty.bounds_max().x);
 
     const std::vector<Vec3f> positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
@@ -293,8 +294,8 @@ TEST(Bvh, EmptyAndSingleTriangle) {
     EXPECT_FLOAT_EQ(hit.b2, 0.2f);
     EXPECT_FALSE(one.intersect(ray, 1.0f, hit));
     EXPECT_FALSE(one.occluded(ray, 1.0f));
-    EXPECT_EQ(one.node_count(), 1u);
-    EXPECT_EQ(one.depth(), 1);
+    EXPECT_EQ(one.stats().nodes, 1u);
+    EXPECT_EQ(one.stats().depth, 1);
 }
 
 TEST(Bvh, ManyTrianglesWithTheSameCentroidStillBuild) {
@@ -308,8 +309,8 @@ TEST(Bvh, ManyTrianglesWithTheSameCentroidStillBuild) {
         mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
     }
     const Bvh bvh = build(mesh);
-    EXPECT_LE(bvh.depth(), 16);
-    EXPECT_EQ(bvh.node_count(), 511u);
+    EXPECT_LE(bvh.stats().depth, 16);
+    EXPECT_LE(bvh.stats().nodes, 1000u / 8);
     std::mt19937 rng(10);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
     for (int r = 0; r < 500; ++r) {
@@ -347,7 +348,6 @@ std::vector<WideHit> trace_wide(const Bvh& bvh, const std::vector<Ray<float>>& r
                                 const std::vector<float>& tmax) {
     using F = Wave<TestArch>::F;
     constexpr int K = Wave<TestArch>::K;
-    const FlatMesh mesh = flat_mesh(bvh);
     std::vector<WideHit> out(rays.size());
     for (size_t i = 0; i < rays.size(); i += K) {
         alignas(64) float c[6][K];
@@ -361,9 +361,9 @@ std::vector<WideHit> trace_wide(const Bvh& bvh, const std::vector<Ray<float>>& r
             Ray<F>{{load(0), load(1), load(2)}, {load(3), load(4), load(5)}});
         for (int l = 0; l < K && i + size_t(l) < rays.size(); ++l) {
             float t = tmax[i + size_t(l)];
-            uint32_t lane = 0;
-            const bool hit = traverse_wide<kAnyHit, TestArch>(mesh, wide, l, t, lane);
-            out[i + size_t(l)] = {hit, t, hit && !kAnyHit ? bvh.block_triangle_ids()[lane] : 0u};
+            BvhHit h{};
+            const bool hit = traverse<kAnyHit, NodeLanes<TestArch>>(bvh.view(), wide.lane(l), t, h);
+            out[i + size_t(l)] = {hit, t, hit && !kAnyHit ? hit_triangle(bvh.view(), h) : 0u};
         }
     }
     return out;
@@ -491,8 +491,8 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
     constexpr uint32_t W = kWideBvhWidth;
     std::vector<int> seen(mesh.size(), 0);
     size_t slots = 0;
-    for (size_t n = 0; n < bvh.wide_node_count(); ++n) {
-        const WideBvhNode& node = bvh.wide_nodes()[n];
+    for (size_t n = 0; n < size_t(bvh.view().node_count); ++n) {
+        const WideBvhNode& node = bvh.view().nodes[n];
         EXPECT_GE(node.slots, 1u);
         EXPECT_LE(node.slots, W);
         slots += node.slots;
@@ -507,13 +507,13 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
         for (uint32_t i = 0; i < std::min(node.slots, W); ++i) {
             if (node.count[i] == 0) {  // an inner child, after its parent
                 EXPECT_GT(node.child[i], n);
-                EXPECT_LT(node.child[i], bvh.wide_node_count());
+                EXPECT_LT(node.child[i], uint32_t(bvh.view().node_count));
                 continue;
             }
             EXPECT_LE(node.count[i], 2 * W);
             for (uint32_t j = 0; j < (node.count[i] + W - 1) / W * W; ++j) {
                 const uint32_t lane = node.child[i] * W + j;
-                const TriangleBlock& block = bvh.triangle_blocks()[lane / W];
+                const TriangleBlock& block = bvh.view().triangles[lane / W];
                 for (int k = 0; k < 9; ++k) {
                     const float v = block.v[k][lane % W];
                     if (j >= node.count[i]) {
@@ -523,13 +523,13 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
                     EXPECT_GE(v, node.bounds[k % 3][i]);
                     EXPECT_LE(v, node.bounds[k % 3 + 3][i]);
                 }
-                if (j < node.count[i]) ++seen[bvh.block_triangle_ids()[lane]];
+                if (j < node.count[i]) ++seen[bvh.view().triangle_index[lane]];
             }
         }
     }
     for (size_t t = 0; t < mesh.size(); ++t)
         EXPECT_EQ(seen[t], t < degenerate_from ? 1 : 0) << "triangle " << t;
-    return double(slots) / double(std::max<size_t>(bvh.wide_node_count(), 1));
+    return double(slots) / double(std::max<size_t>(size_t(bvh.view().node_count), 1));
 }
 
 TEST(WideBvh, HoldsEveryTriangleOnceInMostlyFullNodes) {
@@ -580,7 +580,7 @@ TEST(WideBvh, BoxAreasThatOverflowStillGiveAValidTree) {
 TEST(WideBvh, EmptyAndSingleTriangle) {
     Bvh empty;
     empty.build({}, {});
-    EXPECT_EQ(empty.wide_node_count(), 0u);
+    EXPECT_EQ(empty.view().node_count, 0);
     const Ray<float> ray{Vec3f(0.2f, 0.2f, 1.0f), Vec3f(0.0f, 0.0f, -1.0f)};
     EXPECT_FALSE(trace_wide<false>(empty, {ray}, {1e30f})[0].hit);
     EXPECT_FALSE(trace_wide<true>(empty, {ray}, {1e30f})[0].hit);
@@ -589,8 +589,8 @@ TEST(WideBvh, EmptyAndSingleTriangle) {
     const std::vector<uint32_t> indices = {0, 1, 2};
     Bvh one;
     one.build(positions, indices);
-    ASSERT_EQ(one.wide_node_count(), 1u);
-    EXPECT_EQ(one.wide_nodes()[0].slots, 1u);
+    ASSERT_EQ(one.view().node_count, 1);
+    EXPECT_EQ(one.view().nodes[0].slots, 1u);
     const WideHit hit = trace_wide<false>(one, {ray}, {1e30f})[0];
     ASSERT_TRUE(hit.hit);
     EXPECT_EQ(hit.triangle, 0u);

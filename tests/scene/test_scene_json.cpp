@@ -246,9 +246,14 @@ TEST(scene_json_values, TrianglesBecomeOneMeshPerMaterial) {
     expect_vec(white->colors[3], 1, 1, 1);  // no colours: white vertices
     ASSERT_EQ(red->positions.size(), 3u);
     expect_vec(red->positions[2], 0, 1, 1);
-    // finalize() ran: the bounding sphere holds every vertex
-    for (const Vec3f& p : white->positions)
-        EXPECT_LE(length(p - white->sphere_center), white->sphere_radius);
+    // finalize() ran: the scene BVH holds every triangle, within its bounds
+    EXPECT_EQ(s.bvh.stats().primitives, 3u);
+    for (const Vec3f& p : white->positions) {
+        EXPECT_GE(p.x, s.bvh.bounds_min().x);
+        EXPECT_LE(p.x, s.bvh.bounds_max().x);
+        EXPECT_GE(p.y, s.bvh.bounds_min().y);
+        EXPECT_LE(p.y, s.bvh.bounds_max().y);
+    }
 }
 
 TEST(scene_json_values, InlineAndNamedMaterials) {
@@ -474,20 +479,69 @@ TEST(scene_json_values, MeshFileIsRelativeToTheSceneAndTransformed) {
     const Scene s = load_scene(scene);
     ASSERT_EQ(s.meshes.size(), 3u);
     EXPECT_EQ(s.meshes[0].source, (dir.path() / "meshes/tri.ply").string());
-    expect_vec(s.meshes[0].positions[0], 2, 0, 0);
-    expect_vec(s.meshes[0].positions[1], 0, 2, 0);
+    // One file, three objects: read once, kept in the file's space in the first object,
+    // and every object an instance of it
+    for (const Mesh& m : s.meshes) EXPECT_EQ(m.geometry, 0);
+    EXPECT_TRUE(s.meshes[1].positions.empty());
+    EXPECT_TRUE(s.meshes[2].positions.empty());
+    expect_vec(s.meshes[0].positions[1], 0, 1, 0);
     EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2}));
     ASSERT_EQ(s.meshes[0].colors.size(), 3u);
     expect_vec(s.meshes[0].colors[0], 1, 0, 0);
     expect_vec(s.meshes[0].colors[2], 0, 0, 0.2f, 1e-6f);
+    // Vertex k of object i in world space, through its transform
+    const auto world = [&](size_t i, size_t k) {
+        const Vec3f p = s.meshes[0].positions[k];
+        const float* m = s.meshes[i].to_world;
+        return Vec3f(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
+                     m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+                     m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+    };
+    expect_vec(world(0, 0), 2, 0, 0);
+    expect_vec(world(0, 1), 0, 2, 0);
     // x first: (0,1,0) -> (0,0,1), then y: -> (1,0,0); y first then x would give (0,0,1)
-    expect_vec(s.meshes[1].positions[1], 1, 0, 0, 1e-6f);
-    expect_vec(s.meshes[1].positions[0], 0, 0, -1, 1e-6f);  // x: stays, y: -> (0,0,-1)
-    expect_vec(s.meshes[1].positions[2], 0, -1, 0, 1e-6f);  // x: -> (0,-1,0), y: stays
+    expect_vec(world(1, 1), 1, 0, 0, 1e-6f);
+    expect_vec(world(1, 0), 0, 0, -1, 1e-6f);  // x: stays, y: -> (0,0,-1)
+    expect_vec(world(1, 2), 0, -1, 0, 1e-6f);  // x: -> (0,-1,0), y: stays
     // scale (1,2,3), rotate z by 90: (x,y) -> (-y,x), translate
-    expect_vec(s.meshes[2].positions[0], 10, 21, 30, 1e-5f);
-    expect_vec(s.meshes[2].positions[1], 8, 20, 30, 1e-5f);
-    expect_vec(s.meshes[2].positions[2], 10, 20, 33, 1e-5f);
+    expect_vec(world(2, 0), 10, 21, 30, 1e-5f);
+    expect_vec(world(2, 1), 8, 20, 30, 1e-5f);
+    expect_vec(world(2, 2), 10, 20, 33, 1e-5f);
+    // to_object inverts to_world; normal_to_world is its transpose
+    for (const Mesh& m : s.meshes) {
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) {
+                float e = 0.0f;
+                for (int k = 0; k < 3; ++k) e += m.to_object[4 * i + k] * m.to_world[4 * k + j];
+                EXPECT_NEAR(e, i == j ? 1.0f : 0.0f, 1e-6f);
+                EXPECT_EQ(m.normal_to_world[3 * i + j], m.to_object[4 * j + i]);
+            }
+        }
+    }
+}
+
+TEST(scene_json_values, AFileUsedOnceIsInWorldSpaceAndMirroringKeepsItsNormals) {
+    TempDir dir;
+    dir.write("meshes/tri.ply", kTrianglePly);
+    dir.write("meshes/tri2.ply", kTrianglePly);
+    const fs::path scene = dir.write("scene.json", R"({
+        "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+        "objects": [
+            {"type": "mesh", "file": "meshes/tri.ply", "scale": [1, 2, 3], "rotate": [0, 0, 90],
+             "translate": [10, 20, 30], "material": {"kd": 0.5}},
+            {"type": "mesh", "file": "meshes/tri2.ply", "scale": [-1, 1, 1],
+             "material": {"kd": 0.5}}]
+    })");
+    const Scene s = load_scene(scene);
+    ASSERT_EQ(s.meshes.size(), 2u);
+    EXPECT_EQ(s.meshes[0].geometry, -1);
+    expect_vec(s.meshes[0].positions[0], 10, 21, 30, 1e-5f);
+    expect_vec(s.meshes[0].positions[1], 8, 20, 30, 1e-5f);
+    expect_vec(s.meshes[0].positions[2], 10, 20, 33, 1e-5f);
+    EXPECT_EQ(s.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2}));
+    // Mirrored in x: the winding is reversed, so the normal is the file's normal through the
+    // inverse transpose (a mirror image of it), as it is for an instance
+    EXPECT_EQ(s.meshes[1].indices, (std::vector<uint32_t>{0, 2, 1}));
 }
 
 TEST(scene_json_values, LoadSceneReadsTheFile) {

@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "scene/wide_bvh.h"
+#include "accel/bvh.h"
 
 namespace cierzo {
 
@@ -28,32 +28,20 @@ struct FlatColor {
     float axis[3], axis2[3];
 };
 
-// A mesh as the SIMD kernels read it: its 8-wide BVH (layout in scene/wide_bvh.h), and for
-// vertex colours its triangles' vertex indices, positions and colours.
+// A mesh object as the vertex-colour evaluation reads it: its triangles' vertex indices,
+// positions and colours (those of the geometry it instances), and for an instance the
+// world-to-object map (its vertices are in the file's space).
 struct FlatMesh {
-    const WideBvhNode* nodes;      // root first; none when no triangle can be hit
-    const TriangleBlock* blocks;   // the triangles, 8 per block
-    const uint32_t* triangle_ids;  // block lane (8 * block + lane) -> the mesh's triangle index
-    int32_t node_count;
-    float bounds[6];               // min x, y, z, max x, y, z of the whole mesh
-    // (vertex colours only; a mesh traced without them may leave these null)
     const int32_t* indices = nullptr;    // 3 vertex indices per triangle
     const float* positions = nullptr;    // x, y, z per vertex
     const float* colors = nullptr;       // r, g, b per vertex; null when the mesh has none
+    const float* to_object = nullptr;    // row-major 3 × 4; null for world-space vertices
 };
-
-class Bvh;
-// A mesh's 8-wide BVH and bounds as the traversal reads them (the vertex arrays left null;
-// defined in wavefront.cpp).
-FlatMesh flat_mesh(const Bvh& bvh);
-
-// Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches
-// (Ize, "Robust BVH Ray Traversal", JCGT 2013), as in the scalar traversal.
-inline constexpr float kBvhFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f));
 
 // Which stages and primitive loops a scene needs; the kernels skip everything else.
 struct FlatFeatures {
     bool spheres, planes, quadrics, meshes;
+    bool bvh;  // anything bounded: the scene BVH is traversed
     bool lights, emitters;
     bool diffuse, specular, mirror, refraction;
     bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated
@@ -69,15 +57,17 @@ struct FlatScene {
     int32_t plane_count;
     const float *plane_nx, *plane_ny, *plane_nz, *plane_d;
     const int32_t* plane_material;
-    // The same four values of each sphere (cx, cy, cz, r) and plane (nx, ny, nz, d), each
-    // repeated in 16 lanes, 64-byte aligned: the intersection loops read them as whole
-    // vectors, an operand of the arithmetic instead of a broadcast per batch
-    const float* sphere_lanes;  // 4 * 16 per sphere
+    // The same four values of each plane (nx, ny, nz, d), each repeated in 16 lanes, 64-byte
+    // aligned: the intersection loop reads them as whole vectors, an operand of the
+    // arithmetic instead of a broadcast per batch
     const float* plane_lanes;   // 4 * 16 per plane
     int32_t quadric_count;
     const float* quadric;  // 16 floats each: A..J, box min xyz, box max xyz
     const float* quadric_lanes;  // the same 16 values, each repeated in 16 lanes
     const int32_t* quadric_material;
+    int32_t unbounded_quadric_count;     // the quadrics without a finite box, tested beside
+    const int32_t* unbounded_quadrics;   // the BVH: their indices
+    const BvhView* bvh;                  // everything bounded
     int32_t mesh_count;
     const int32_t* mesh_material;
     const FlatMesh* meshes;

@@ -113,29 +113,6 @@ xsimd::batch<T, A> gather_lanes(const T* array, const xsimd::batch<int32_t, A>& 
     return lookup<A>(array, std::numeric_limits<int32_t>::max(), idx);
 }
 
-// Bits of a mask, lane 0 in bit 0. NEON has no movemask: each all-ones lane keeps its own
-// bit of {1, 2, 4, 8}, and the lanes are summed.
-template <class A>
-uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
-#if defined(__AVX512F__)
-    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) return uint32_t(m.data);
-#endif
-#if defined(__AVX__)
-    if constexpr (std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
-        return uint32_t(_mm256_movemask_ps(m.data));
-#endif
-#if defined(__SSE2__)
-    if constexpr (!std::is_base_of_v<xsimd::avx, A> && !std::is_base_of_v<xsimd::avx512f, A>)
-        return uint32_t(_mm_movemask_ps(m.data));
-#endif
-#if defined(__aarch64__)
-    if constexpr (std::is_base_of_v<xsimd::neon64, A>) {
-        constexpr uint32x4_t kLaneBits = {1u, 2u, 4u, 8u};
-        return vaddvq_u32(vandq_u32(m.data, kLaneBits));
-    }
-#endif
-}
-
 // ---- Compression ------------------------------------------------------------------------
 // For the 8-lane mask m, the indices of its set lanes in order, packed 4 bits each (lane 0
 // of the result in the low nibble): the permute that compresses an AVX register.

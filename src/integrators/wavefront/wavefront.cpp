@@ -1,5 +1,5 @@
 // The wavefront integrator's scalar side: the flat view of the scene that the per-ISA
-// kernels read (meshes as their 8-wide BVHs and vertex arrays), per-thread path pools, the
+// kernels read (the scene BVH, the unbounded primitives, meshes' vertex arrays), per-thread path pools, the
 // choice of instruction set, and the hand-over of finished paths to the film.
 #include "integrators/wavefront/wavefront.h"
 
@@ -45,12 +45,6 @@ struct PoolMemory {
 };
 
 }  // namespace
-
-FlatMesh flat_mesh(const Bvh& bvh) {
-    const Vec3f lo = bvh.bounds_min(), hi = bvh.bounds_max();
-    return {bvh.wide_nodes(), bvh.triangle_blocks(), bvh.block_triangle_ids(),
-            int32_t(bvh.wide_node_count()), {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}};
-}
 
 // ---- Instruction sets ---------------------------------------------------------------------
 
@@ -112,10 +106,11 @@ struct WavefrontRenderer::Data {
     const Scene& scene;
     FlatScene flat{};
     std::vector<float> sphere[4], plane[4];
-    AlignedFloats sphere_lanes, plane_lanes, quadric_lanes;
+    AlignedFloats plane_lanes, quadric_lanes;
     std::vector<int32_t> sphere_material, plane_material;
     std::vector<float> quadric, color, shininess, ior, light;
-    std::vector<int32_t> quadric_material, mesh_material, emitter, phong, textured;
+    std::vector<int32_t> quadric_material, unbounded_quadrics, mesh_material, emitter, phong,
+        textured;
     std::vector<FlatMesh> meshes;
     std::vector<FlatColor> sources;
     RenderTileEntry entry = nullptr;
@@ -155,9 +150,10 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.plane_nx = d.plane[0].data(), f.plane_ny = d.plane[1].data();
     f.plane_nz = d.plane[2].data(), f.plane_d = d.plane[3].data();
     f.plane_material = d.plane_material.data();
-    d.sphere_lanes = lanes_of({&sp.cx, &sp.cy, &sp.cz, &sp.radius});
     d.plane_lanes = lanes_of({&pl.nx, &pl.ny, &pl.nz, &pl.distance});
-    f.sphere_lanes = d.sphere_lanes.data(), f.plane_lanes = d.plane_lanes.data();
+    f.plane_lanes = d.plane_lanes.data();
+    if (sp.size() >= size_t(1) << kPrimShift || scene.quadrics.size() >= size_t(1) << kPrimShift)
+        throw InputError(scene.source.string() + ": more than 2^24 spheres or quadrics");
     for (const Quadric& q : scene.quadrics) {
         d.quadric.insert(d.quadric.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h,
                                            q.q.i, q.q.j, q.box_min.x, q.box_min.y, q.box_min.z,
@@ -170,16 +166,22 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     d.quadric_lanes = lanes_of(d.quadric);
     f.quadric_lanes = d.quadric_lanes.data();
     f.quadric_material = d.quadric_material.data();
+    d.unbounded_quadrics = padded(scene.unbounded_quadrics);
+    f.unbounded_quadric_count = int32_t(scene.unbounded_quadrics.size());
+    f.unbounded_quadrics = d.unbounded_quadrics.data();
+    f.bvh = &scene.bvh.view();
     for (const Mesh& m : scene.meshes) {
         // Vertex colours gather x, y, z of vertex v at 3v + k with 32-bit indices
-        if (m.positions.size() > (size_t(1) << 29))
+        const Mesh& g = scene.geometry_of(m);
+        if (g.positions.size() > (size_t(1) << 29))
             throw InputError(m.source + ": more than 2^29 vertices");
         static_assert(sizeof(Vec3f) == 3 * sizeof(float));
         d.mesh_material.push_back(m.material);
-        FlatMesh flat = flat_mesh(m.bvh);
-        flat.indices = reinterpret_cast<const int32_t*>(m.indices.data());
-        flat.positions = &m.positions.data()->x;
-        flat.colors = m.colors.empty() ? nullptr : &m.colors.data()->x;
+        FlatMesh flat;
+        flat.indices = reinterpret_cast<const int32_t*>(g.indices.data());
+        flat.positions = &g.positions.data()->x;
+        flat.colors = g.colors.empty() ? nullptr : &g.colors.data()->x;
+        flat.to_object = m.instanced() ? m.to_object : nullptr;
         d.meshes.push_back(flat);
     }
     f.meshes = d.meshes.data();
@@ -234,7 +236,8 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.cosine_diffuse = scene.settings.estimator.cosine_diffuse;
     f.scene_ior = scene.scene_ior;
     const SceneFeatures sf = scene.features();
-    f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, sf.point_lights, sf.emitters,
+    const bool tree = !scene.bvh.empty();
+    f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, tree, sf.point_lights, sf.emitters,
                   sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
@@ -242,7 +245,7 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
         const bool meshes = f.features.meshes;
-        f.features = {true, true, true, meshes, true, true, true,
+        f.features = {true, true, true, meshes, tree, true, true, true,
                       true, true, true, true, 4,    texture_channels};
     }
 }

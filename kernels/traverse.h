@@ -1,0 +1,387 @@
+// The one traversal of the scene BVH (layout in src/accel/bvh.h), for both integrators: one
+// ray at a time through 8-wide nodes, templated on the lane type N that tests a node's
+// children and a leaf block's primitives — `float` (one child at a time: the scalar
+// reference) or an xsimd batch of 8 floats (or 4, twice: the wavefront). Every primitive
+// kernel is the one of kernels/intersect.h and kernels/triangle.h, so the two integrators
+// find the same hits. Also here: the short list of unbounded primitives (planes, unbounded
+// quadrics) tested beside the tree, for one ray or K rays at once.
+#pragma once
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <type_traits>
+#include <utility>
+
+#include "accel/bvh.h"
+#include "intersect.h"
+#include "triangle.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+// ---- Rays ----------------------------------------------------------------------------------
+// A ray set up for traversal: origin, direction (for spheres and quadrics), reciprocal
+// direction (zero components give ±inf) and the watertight kernel's shear (axes kx, ky, kz
+// and sx, sy, sz; kernels/triangle.h).
+struct TraversalRay {
+    float o[3], d[3], inv[3];
+    int32_t axis[3];
+    float shear[3];
+};
+
+inline TraversalRay make_traversal_ray(const Vec3f& o, const Vec3f& d) {
+    const RayShear<float> s = make_ray_shear(d);
+    return {{o.x, o.y, o.z},
+            {d.x, d.y, d.z},
+            {1.0f / d.x, 1.0f / d.y, 1.0f / d.z},
+            {s.kx, s.ky, s.kz},
+            {s.sx, s.sy, s.sz}};
+}
+
+// What a ray hit in the tree.
+struct BvhHit {
+    uint32_t kind;      // BvhLeafKind
+    uint32_t lane;      // triangles, spheres: block lane (8 * block + lane); quadric: its index
+    int32_t instance;   // the instance a triangle was hit through, or -1
+};
+
+// ---- Lanes ---------------------------------------------------------------------------------
+template <class N>
+inline N load_lanes(const float* p) {
+    if constexpr (std::is_same_v<N, float>) {
+        return *p;
+    } else {
+        return N::load_aligned(p);
+    }
+}
+template <class N>
+inline void store_lanes(const N& v, float* p) {
+    if constexpr (std::is_same_v<N, float>) {
+        *p = v;
+    } else {
+        v.store_aligned(p);
+    }
+}
+template <class N>
+inline constexpr int kNodeLanes = kWidth<N>;
+
+// a > b ? a : b and a < b ? a : b, so a NaN distance a leaves the interval as it was: maxps
+// and minps for batches (kernels/xsimd_neon_ieee.h gives NEON the same), the conditional
+// for a float (std::max(NaN, b) would be NaN).
+template <class N>
+inline N slab_max(const N& a, const N& b) {
+    if constexpr (std::is_same_v<N, float>) {
+        return a > b ? a : b;
+    } else {
+        return max(a, b);
+    }
+}
+template <class N>
+inline N slab_min(const N& a, const N& b) {
+    if constexpr (std::is_same_v<N, float>) {
+        return a < b ? a : b;
+    } else {
+        return min(a, b);
+    }
+}
+
+// The 8 lanes of block row `row` starting at `at`, in N.
+template <class N>
+inline N row(const float (*rows)[kWideBvhWidth], int r, int at) {
+    return load_lanes<N>(rows[r] + at);
+}
+
+inline Vec3f affine_point(const float m[12], const float p[3]) {
+    return {m[0] * p[0] + m[1] * p[1] + m[2] * p[2] + m[3],
+            m[4] * p[0] + m[5] * p[1] + m[6] * p[2] + m[7],
+            m[8] * p[0] + m[9] * p[1] + m[10] * p[2] + m[11]};
+}
+inline Vec3f linear_map(const float m[], int stride, const float v[3]) {
+    return {m[0] * v[0] + m[1] * v[1] + m[2] * v[2],
+            m[stride] * v[0] + m[stride + 1] * v[1] + m[stride + 2] * v[2],
+            m[2 * stride] * v[0] + m[2 * stride + 1] * v[1] + m[2 * stride + 2] * v[2]};
+}
+
+// ---- Traversal -----------------------------------------------------------------------------
+// A ray through the tree. A node's children are tested at once with the robust slab test
+// over [0, t] (a NaN distance leaves the interval as it was; far distances scaled by
+// kBvhFarScale). The leaves entered are tested there and then, in slot order, each unless a
+// hit so far is nearer than its box: that spares them the stack, and their hits shorten the
+// interval before any inner child is visited. The inner children entered go on the stack
+// with their entry distance, the nearest on top for closest hit, and one popped beyond the
+// closest hit so far is dropped. Triangle blocks are tested with the watertight kernel, the
+// ray broadcast and one triangle per lane; sphere blocks likewise; quadrics one at a time;
+// an instance by mapping the ray into its space (t is unchanged) and traversing its mesh's
+// tree (kTop = false: a mesh's tree holds triangles only).
+// Closest hit: whether anything is hit in (0, tmax), then tmax and `hit`: the nearest, and
+// on a tie the first found. Any hit (kAnyHit): whether anything is, stopping at the first.
+// (flatten: the kernels are inlined, so the identity picks below fold away.)
+template <bool kAnyHit, class N, bool kTop = true>
+[[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax,
+                               BvhHit& hit) {
+    using B = Mask<N>;
+    constexpr int kLanes = kNodeLanes<N>;
+    if (bvh.node_count == 0) return false;
+    // The ray in every lane, and the bounds row of each axis' near and far plane
+    N org[3], inv[3];
+    int near_row[3], far_row[3];
+    for (int k = 0; k < 3; ++k) {
+        org[k] = N(r.o[k]), inv[k] = N(r.inv[k]);
+        near_row[k] = std::signbit(r.inv[k]) ? k + 3 : k;
+        far_row[k] = std::signbit(r.inv[k]) ? k : k + 3;
+    }
+    // The triangle kernel's shear is the same in every lane, so the origin and the vertices
+    // are handed to it with their axes already permuted (kx, ky, kz): its per-lane picks are
+    // then the identity, and it computes exactly what it would unpermuted (it reads no
+    // direction)
+    const int32_t* axis = r.axis;
+    const Ray<N> tri_ray{{N(r.o[axis[0]]), N(r.o[axis[1]]), N(r.o[axis[2]])}, Vec3<N>(N(0.0f))};
+    const B yes(true), no(false);
+    const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes}, {no, no},
+                            N(r.shear[0]), N(r.shear[1]), N(r.shear[2])};
+    const Ray<N> ray{{N(r.o[0]), N(r.o[1]), N(r.o[2])}, {N(r.d[0]), N(r.d[1]), N(r.d[2])}};
+    float t = tmax;  // the closest hit so far (a local: the stack cannot alias it)
+    BvhHit best{0, 0, -1};
+    bool found = false;
+
+    // One leaf (kind, start, count); whether it hit (closest hit: t and best updated)
+    const auto test_leaf = [&](uint32_t kind, uint32_t start, uint32_t count) {
+        bool any = false;
+        // Lanes `hits` of a block test at distances th: the nearest below t, first on a tie
+        const auto record = [&](uint32_t hits, const N& th, uint32_t lane0) {
+            alignas(32) float ts[kLanes];
+            store_lanes(th, ts);
+            for (; hits; hits &= hits - 1) {
+                const uint32_t h = uint32_t(std::countr_zero(hits));
+                if (ts[h] < t) t = ts[h], best = {kind, lane0 + h, -1};
+            }
+        };
+        if (kind == kLeafTriangles) {
+            const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
+            for (uint32_t j = start; j < start + blocks; ++j) {
+                const float(*v)[kWideBvhWidth] = bvh.triangles[j].v;
+                for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+                    const auto vertex = [&](int k) {
+                        return Vec3<N>(row<N>(v, 3 * k + axis[0], at), row<N>(v, 3 * k + axis[1], at),
+                                       row<N>(v, 3 * k + axis[2], at));
+                    };
+                    N th(0.0f), b1(0.0f), b2(0.0f);
+                    const uint32_t hits = mask_bits(intersect_triangle(
+                        tri_ray, shear, vertex(0), vertex(1), vertex(2), N(t), th, b1, b2));
+                    if (hits == 0) continue;
+                    if constexpr (kAnyHit) return true;
+                    any = true;
+                    record(hits, th, j * kWideBvhWidth + uint32_t(at));
+                }
+            }
+            return any;
+        }
+        if constexpr (kTop) {
+            if (kind == kLeafSpheres) {
+                const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
+                for (uint32_t j = start; j < start + blocks; ++j) {
+                    const float(*c)[kWideBvhWidth] = bvh.spheres[j].c;
+                    for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+                        const Vec3<N> centre(row<N>(c, 0, at), row<N>(c, 1, at), row<N>(c, 2, at));
+                        N th(0.0f);
+                        const uint32_t hits =
+                            mask_bits(intersect_sphere(ray, centre, row<N>(c, 3, at), N(t), th));
+                        if (hits == 0) continue;
+                        if constexpr (kAnyHit) return true;
+                        any = true;
+                        record(hits, th, j * kWideBvhWidth + uint32_t(at));
+                    }
+                }
+                return any;
+            }
+            const Ray<float> ray1{{r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}};
+            for (uint32_t j = start; j < start + count; ++j) {
+                const uint32_t item = bvh.items[j];
+                if (kind == kLeafQuadrics) {
+                    const float* q = bvh.quadrics + 16 * size_t(item);
+                    const QuadricCoefficients<float> c{q[0], q[1], q[2], q[3], q[4],
+                                                       q[5], q[6], q[7], q[8], q[9]};
+                    float th;
+                    if (!intersect_quadric(ray1, c, Vec3f(q[10], q[11], q[12]),
+                                           Vec3f(q[13], q[14], q[15]), t, th))
+                        continue;
+                    if constexpr (kAnyHit) return true;
+                    any = true;
+                    t = th, best = {kLeafQuadrics, item, -1};
+                } else {
+                    const BvhInstance& inst = bvh.instances[item];
+                    const Vec3f o = affine_point(inst.to_object, r.o);
+                    const Vec3f d = linear_map(inst.to_object, 4, r.d);
+                    const TraversalRay local = make_traversal_ray(o, d);
+                    BvhHit h;
+                    if (!traverse<kAnyHit, N, false>(*inst.geometry, local, t, h)) continue;
+                    if constexpr (kAnyHit) return true;
+                    any = true;
+                    best = {kLeafTriangles, h.lane, int32_t(item)};
+                }
+            }
+        }
+        return any;
+    };
+
+    struct Entry {
+        uint32_t node;  // an inner node
+        float t;        // where the ray enters its box
+    };
+    Entry stack[kWideBvhStackSize];
+    int size = 0;
+    Entry e{0, 0.0f};  // the root
+    for (;;) {
+        // The slab test of every child over [0, t]
+        const WideBvhNode& node = bvh.nodes[e.node];
+        alignas(32) float entry[kWideBvhWidth];
+        uint32_t enter = 0;
+        for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+            N t0(0.0f), t1(t);
+            for (int k = 0; k < 3; ++k) {
+                const N near = load_lanes<N>(node.bounds[near_row[k]] + at);
+                const N far = load_lanes<N>(node.bounds[far_row[k]] + at);
+                t0 = slab_max((near - org[k]) * inv[k], t0);
+                t1 = slab_min((far - org[k]) * inv[k] * N(kBvhFarScale), t1);
+            }
+            enter |= mask_bits(t0 <= t1) << at;
+            store_lanes(t0, entry + at);
+        }
+        enter &= (1u << node.slots) - 1u;
+        // The leaves entered, in slot order
+        if (uint32_t leaves = enter & node.leaves) {
+            for (; leaves; leaves &= leaves - 1) {
+                const int i = std::countr_zero(leaves);
+                if constexpr (!kAnyHit)
+                    if (entry[i] > t) continue;
+                if (test_leaf(node.kind[i], node.child[i], node.count[i])) {
+                    if constexpr (kAnyHit) return true;
+                    found = true;
+                }
+            }
+            enter &= ~node.leaves;
+        }
+        if (enter != 0) {
+            // Into the nearest inner child entered (the first, for any hit); the others onto
+            // the stack, for closest hit sorted by entry distance with the nearest on top
+            int i = std::countr_zero(enter);
+            e = {node.child[i], entry[i]};
+            const int base = size;
+            for (enter &= enter - 1; enter; enter &= enter - 1) {
+                i = std::countr_zero(enter);
+                Entry other{node.child[i], entry[i]};
+                if constexpr (!kAnyHit)
+                    if (other.t < e.t) std::swap(other, e);
+                int j = size++;
+                if constexpr (!kAnyHit)
+                    for (; j > base && stack[j - 1].t < other.t; --j) stack[j] = stack[j - 1];
+                stack[j] = other;
+            }
+            // (the leaves may have hit nearer than every child entered: then the pops below
+            // drop them all)
+            if (e.t <= t) continue;
+        }
+        // Next: the top of the stack, dropping boxes entered beyond the closest hit
+        do {
+            if (size == 0) {
+                if (found) tmax = t, hit = best;
+                return found;
+            }
+            e = stack[--size];
+        } while (e.t > t);
+    }
+}
+
+// ---- Unbounded primitives ------------------------------------------------------------------
+// Planes and quadrics without a finite box, the short list tested beside the tree, for one
+// ray (T = float) or K rays (a batch). plane(j) gives plane j's normal and distance,
+// quadric(j) the j-th unbounded quadric (coefficients, box, scene index) in lanes of T.
+template <class T>
+struct PlaneLanes {
+    Vec3<T> n;
+    T d;
+};
+template <class T>
+struct QuadricOfLanes {
+    QuadricCoefficients<T> q;
+    Vec3<T> lo, hi;
+    int32_t index;
+};
+
+// Closest hit below t: t and id updated where one is nearer (id = plane_id + j for plane j,
+// quadric_id + index for a quadric).
+template <class T, class Planes, class Quadrics>
+void closest_unbounded(const Ray<T>& ray, T& t, I32<T>& id, int32_t plane_count,
+                       const Planes& plane, int32_t plane_id, int32_t quadric_count,
+                       const Quadrics& quadric, int32_t quadric_id) {
+    using I = I32<T>;
+    T th;
+    I next(plane_id);  // counted up with j rather than broadcast
+    for (int32_t j = 0; j < plane_count; ++j) {
+        const PlaneLanes<T> p = plane(j);
+        const auto hit = intersect_plane(ray, p.n, p.d, t, th);
+        t = select(hit, th, t);
+        id = select(mask_i32(hit), next, id);
+        next += I(1);
+    }
+    for (int32_t j = 0; j < quadric_count; ++j) {
+        const QuadricOfLanes<T> q = quadric(j);
+        const auto hit = intersect_quadric(ray, q.q, q.lo, q.hi, t, th);
+        t = select(hit, th, t);
+        id = select(mask_i32(hit), I(quadric_id + q.index), id);
+    }
+}
+
+// Whether an unbounded primitive blocks each ray within tmax; stops once all are blocked.
+template <class T, class Planes, class Quadrics>
+Mask<T> occluded_unbounded(const Ray<T>& ray, const T& tmax, Mask<T> blocked,
+                           int32_t plane_count, const Planes& plane, int32_t quadric_count,
+                           const Quadrics& quadric) {
+    T th;
+    for (int32_t j = 0; j < plane_count && !all(blocked); ++j) {
+        const PlaneLanes<T> p = plane(j);
+        blocked = blocked | intersect_plane(ray, p.n, p.d, tmax, th);
+    }
+    for (int32_t j = 0; j < quadric_count && !all(blocked); ++j) {
+        const QuadricOfLanes<T> q = quadric(j);
+        blocked = blocked | intersect_quadric(ray, q.q, q.lo, q.hi, tmax, th);
+    }
+    return blocked;
+}
+
+// ---- What was hit --------------------------------------------------------------------------
+// The tree (the scene's, or an instance's mesh) whose block a triangle hit is in.
+inline const BvhView& hit_tree(const BvhView& bvh, const BvhHit& h) {
+    return h.instance < 0 ? bvh : *bvh.instances[h.instance].geometry;
+}
+
+// The Scene::meshes entry and the triangle index of a triangle hit.
+inline uint32_t hit_mesh(const BvhView& bvh, const BvhHit& h) {
+    return h.instance < 0 ? bvh.triangle_mesh[h.lane] : bvh.instances[h.instance].mesh;
+}
+inline uint32_t hit_triangle(const BvhView& bvh, const BvhHit& h) {
+    return hit_tree(bvh, h).triangle_index[h.lane];
+}
+
+// The unit geometric normal of a triangle hit, in world space: the cross product of its
+// edges (v1 - v0) × (v2 - v0), through an instance's inverse transpose.
+inline Vec3f hit_triangle_normal(const BvhView& bvh, const BvhHit& h) {
+    const float(*v)[kWideBvhWidth] = hit_tree(bvh, h).triangles[h.lane / kWideBvhWidth].v;
+    const uint32_t j = h.lane % kWideBvhWidth;
+    const Vec3f v0{v[0][j], v[1][j], v[2][j]}, v1{v[3][j], v[4][j], v[5][j]},
+        v2{v[6][j], v[7][j], v[8][j]};
+    Vec3f n = cross(v1 - v0, v2 - v0);
+    if (h.instance >= 0) {
+        const float c[3] = {n.x, n.y, n.z};
+        n = linear_map(bvh.instances[h.instance].normal_to_world, 3, c);
+    }
+    return normalize(n);
+}
+
+// The scene sphere of a sphere hit.
+inline uint32_t hit_sphere(const BvhView& bvh, const BvhHit& h) { return bvh.sphere_index[h.lane]; }
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo

@@ -1,0 +1,595 @@
+// Building the scene BVH (layout in accel/bvh.h):
+//  1. a binary tree by binned SAH (16 bins on the centroid bounds, best of the three axes,
+//     primitives weighted by their test cost), leaves of one primitive kind; subtrees of
+//     more than kParallelBelow primitives are built as parallel TBB tasks;
+//  2. collapsed to 8 children per node with the surface-area cost minimised by dynamic
+//     programming (Ylitie, Karras, Laine, "Efficient Incoherent Ray Traversal on GPUs
+//     Through Compressed Wide BVHs", HPG 2017, section 3.1): each binary subtree becomes a
+//     leaf, a wide node, or is spread over several slots of its parent, whichever costs least;
+//  3. leaves written as SoA blocks of 8 (triangles, spheres) or index lists (quadrics,
+//     instances).
+#include "accel/bvh.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_invoke.h>
+
+#include "core/error.h"
+
+namespace cierzo {
+
+namespace {
+
+constexpr int kBins = 16;
+constexpr uint32_t kLeafSize = 4;       // always a leaf at or below this many (of one kind)
+constexpr int kMaxSahDepth = 64;        // below this, object-median splits bound the depth
+constexpr float kTraversalCost = 1.0f;  // relative to one triangle test
+constexpr uint32_t kParallelBelow = 4096;
+
+// Test cost of one primitive of each kind, in triangle tests (the SAH weights and the
+// collapse's leaf costs): a sphere is about a triangle, a quadric a few, an instance a
+// transform and a traversal of its own.
+constexpr float kKindCost[4] = {1.0f, 1.0f, 3.0f, 8.0f};
+
+// Collapse costs relative to one wide-node visit (the slab test of 8 children and the stack
+// work); one block of 8 triangles costs about 1.4 of them (instructions per visit,
+// measured; the tree and its speed hardly change for any value from 1 to 3).
+constexpr float kNodeCost = 1.0f;
+constexpr float kBlockCost = 1.4f;
+constexpr float kLargestArea = 1e30f;
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+struct Box {
+    Vec3f lo{kInf}, hi{-kInf};
+    void grow(const Vec3f& p) { lo = vmin(lo, p); hi = vmax(hi, p); }
+    void grow(const Box& b) { lo = vmin(lo, b.lo); hi = vmax(hi, b.hi); }
+    // Half the surface area; zero for an empty box, finite for huge ones
+    float half_area() const {
+        if (!(lo.x <= hi.x)) return 0.0f;
+        const Vec3f e = hi - lo;
+        const float a = e.x * e.y + e.y * e.z + e.z * e.x;
+        return a <= kLargestArea ? a : kLargestArea;
+    }
+    bool finite() const {
+        return std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(lo.z) &&
+               std::isfinite(hi.x) && std::isfinite(hi.y) && std::isfinite(hi.z);
+    }
+};
+
+float largest_abs(const Vec3f& v) {
+    return std::max(std::fabs(v.x), std::max(std::fabs(v.y), std::fabs(v.z)));
+}
+
+float component(const Vec3f& v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
+
+// Zero area (collinear or coincident vertices, evaluated in double) or a non-finite vertex.
+bool is_degenerate(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+    for (const Vec3f& p : {a, b, c})
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return true;
+    const double e1[3] = {double(b.x) - a.x, double(b.y) - a.y, double(b.z) - a.z};
+    const double e2[3] = {double(c.x) - a.x, double(c.y) - a.y, double(c.z) - a.z};
+    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                         e1[0] * e2[1] - e1[1] * e2[0]};
+    return n[0] == 0.0 && n[1] == 0.0 && n[2] == 0.0;
+}
+
+Vec3f affine(const float m[12], const Vec3f& p) {
+    return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+            m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
+}
+
+// A primitive as the build sees it.
+struct Ref {
+    Box box;
+    Vec3f centroid;
+    uint8_t kind;
+    uint32_t a, b;  // triangle: set, index; sphere: index; quadric, instance: input index
+};
+
+// A binary build node: a leaf (count > 0) of refs order[first, first + count), or an inner
+// node with two children.
+struct Node {
+    Box box;
+    uint32_t left = 0, right = 0;
+    uint32_t first = 0, count = 0;
+    uint8_t kind = 0;
+};
+
+}  // namespace
+
+Bvh& Bvh::operator=(const Bvh& o) {
+    if (this == &o) return *this;
+    nodes_ = o.nodes_;
+    triangles_ = o.triangles_;
+    triangle_mesh_ = o.triangle_mesh_;
+    triangle_index_ = o.triangle_index_;
+    spheres_ = o.spheres_;
+    sphere_index_ = o.sphere_index_;
+    items_ = o.items_;
+    quadrics_ = o.quadrics_;
+    instances_ = o.instances_;
+    geometries_ = o.geometries_;
+    stats_ = o.stats_;
+    std::copy(o.view_.bounds, o.view_.bounds + 6, view_.bounds);
+    update_view();
+    return *this;
+}
+
+Bvh& Bvh::operator=(Bvh&& o) noexcept {
+    nodes_ = std::move(o.nodes_);
+    triangles_ = std::move(o.triangles_);
+    triangle_mesh_ = std::move(o.triangle_mesh_);
+    triangle_index_ = std::move(o.triangle_index_);
+    spheres_ = std::move(o.spheres_);
+    sphere_index_ = std::move(o.sphere_index_);
+    items_ = std::move(o.items_);
+    quadrics_ = std::move(o.quadrics_);
+    instances_ = std::move(o.instances_);
+    geometries_ = std::move(o.geometries_);
+    stats_ = o.stats_;
+    std::copy(o.view_.bounds, o.view_.bounds + 6, view_.bounds);
+    update_view();
+    o.update_view();
+    return *this;
+}
+
+struct Bvh::Builder {
+    std::vector<Ref> refs;
+    std::vector<uint32_t> order;  // the refs being partitioned
+    std::vector<Node> nodes;      // allocated by `next`
+    std::atomic<uint32_t> next{0};
+    std::atomic<int> depth{0};
+
+    // The bin of a centroid along an axis; the same formula for binning and partitioning.
+    // Clamped in float first: near ±3e38 the scale can be 0 and the position NaN or out of
+    // int range, and converting such a float to int is undefined (NaN goes to bin 0).
+    static int bin_of(float c, float lo, float scale) {
+        const float x = (c - lo) * scale;
+        return x > 0.0f ? int(std::min(x, float(kBins - 1))) : 0;
+    }
+
+    bool one_kind(uint32_t begin, uint32_t end) const {
+        for (uint32_t i = begin + 1; i < end; ++i)
+            if (refs[order[i]].kind != refs[order[begin]].kind) return false;
+        return true;
+    }
+
+    float cost(uint32_t begin, uint32_t end) const {
+        float c = 0.0f;
+        for (uint32_t i = begin; i < end; ++i) c += kKindCost[refs[order[i]].kind];
+        return c;
+    }
+
+    uint32_t add_leaf(Bvh& bvh, const BvhInput& in, const Node& leaf) const;
+
+    // Builds the subtree over order[begin, end) into node `node`.
+    void build(uint32_t node, uint32_t begin, uint32_t end, int level) {
+        int d = depth.load(std::memory_order_relaxed);
+        while (level > d && !depth.compare_exchange_weak(d, level)) {}
+        Box bounds, centroid_bounds;
+        for (uint32_t i = begin; i < end; ++i) {
+            bounds.grow(refs[order[i]].box);
+            centroid_bounds.grow(refs[order[i]].centroid);
+        }
+        Node& out = nodes[node];
+        out.box = bounds;
+        const uint32_t n = end - begin;
+        const bool homogeneous = one_kind(begin, end);
+        auto leaf = [&] {
+            out.first = begin, out.count = n, out.kind = refs[order[begin]].kind;
+        };
+        if (n <= kLeafSize && homogeneous) return leaf();
+        // Split: binned SAH, or by kind where a small mixed node would otherwise be a leaf,
+        // or an object median when the SAH is not usable
+        uint32_t mid = begin;
+        const Vec3f extent = centroid_bounds.hi - centroid_bounds.lo;
+        if (level < kMaxSahDepth && max_component(extent) > 0.0f) {
+            int axis = 0, bin = -1;
+            const float best = find_sah_split(begin, end, centroid_bounds, axis, bin);
+            const float split_cost = kTraversalCost + best / std::max(bounds.half_area(), 1e-30f);
+            if (homogeneous && n <= kBvhMaxLeafSize && split_cost >= cost(begin, end))
+                return leaf();
+            if (bin >= 0) {
+                const float lo = component(centroid_bounds.lo, axis);
+                const float scale = kBins / component(extent, axis);
+                auto* split = std::partition(order.data() + begin, order.data() + end,
+                                             [&](uint32_t r) {
+                    return bin_of(component(refs[r].centroid, axis), lo, scale) < bin;
+                });
+                mid = uint32_t(split - order.data());
+            }
+        }
+        if ((mid == begin || mid == end) && !homogeneous && n <= 4 * kBvhMaxLeafSize) {
+            const uint8_t k = refs[order[begin]].kind;
+            auto* split = std::stable_partition(order.data() + begin, order.data() + end,
+                                                [&](uint32_t r) { return refs[r].kind == k; });
+            mid = uint32_t(split - order.data());
+        }
+        if (mid == begin || mid == end) {
+            const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0
+                                                                           : (extent.y >= extent.z ? 1 : 2);
+            mid = begin + n / 2;
+            std::nth_element(order.data() + begin, order.data() + mid, order.data() + end,
+                             [&](uint32_t a, uint32_t b) {
+                return component(refs[a].centroid, axis) < component(refs[b].centroid, axis);
+            });
+        }
+        const uint32_t left = next.fetch_add(2, std::memory_order_relaxed);
+        out.left = left, out.right = left + 1, out.count = 0;
+        if (n > kParallelBelow) {
+            oneapi::tbb::parallel_invoke([&] { build(left, begin, mid, level + 1); },
+                                         [&] { build(left + 1, mid, end, level + 1); });
+        } else {
+            build(left, begin, mid, level + 1);
+            build(left + 1, mid, end, level + 1);
+        }
+    }
+
+    // The cheapest binned split plane over the three axes: returns its SAH cost (the sum of
+    // child half-areas times test costs) and sets the axis and the first bin of the second
+    // child (bin stays -1 when no plane separates anything).
+    float find_sah_split(uint32_t begin, uint32_t end, const Box& centroid_bounds, int& best_axis,
+                         int& best_bin) const {
+        float best = kInf;
+        for (int axis = 0; axis < 3; ++axis) {
+            const float lo = component(centroid_bounds.lo, axis);
+            const float extent = component(centroid_bounds.hi, axis) - lo;
+            if (!(extent > 0.0f)) continue;
+            const float scale = kBins / extent;
+            Box bin_boxes[kBins];
+            float bin_cost[kBins] = {};
+            uint32_t bin_count[kBins] = {};
+            for (uint32_t i = begin; i < end; ++i) {
+                const Ref& r = refs[order[i]];
+                const int b = bin_of(component(r.centroid, axis), lo, scale);
+                bin_boxes[b].grow(r.box);
+                bin_cost[b] += kKindCost[r.kind];
+                ++bin_count[b];
+            }
+            float right_cost[kBins];
+            Box right;
+            float right_sum = 0.0f;
+            for (int b = kBins - 1; b > 0; --b) {
+                right.grow(bin_boxes[b]);
+                right_sum += bin_cost[b];
+                right_cost[b] = right_sum * right.half_area();
+            }
+            Box left;
+            float left_sum = 0.0f;
+            uint32_t left_count = 0;
+            for (int b = 1; b < kBins; ++b) {
+                left.grow(bin_boxes[b - 1]);
+                left_sum += bin_cost[b - 1];
+                left_count += bin_count[b - 1];
+                if (left_count == 0 || left_count == end - begin) continue;
+                const float c = left_sum * left.half_area() + right_cost[b];
+                if (c < best) best = c, best_axis = axis, best_bin = b;
+            }
+        }
+        return best;
+    }
+};
+
+namespace {
+
+// The collapse of the binary tree into wide nodes and leaf blocks.
+struct Collapser {
+    const std::vector<Node>& nodes;
+    // Per binary node: the cost of its subtree as at most i roots (cost[i], i = 1..8; as one
+    // root it is a leaf or a wide node, whichever is cheaper: leaf); for i >= 2, whether
+    // spreading over i slots beats one root (spread[i]) and how many go to the first child
+    struct Plan {
+        bool leaf = false;
+        std::array<float, kWideBvhWidth + 1> cost{};
+        std::array<bool, kWideBvhWidth + 1> spread{};
+        std::array<int8_t, kWideBvhWidth + 1> split{};
+    };
+    std::vector<Plan> plan;
+
+    static uint32_t blocks(uint32_t n) { return (n + kWideBvhWidth - 1) / kWideBvhWidth; }
+
+    static float leaf_cost(const Node& node) {
+        const float area = node.box.half_area();
+        if (node.kind == kLeafTriangles || node.kind == kLeafSpheres)
+            return area * kBlockCost * float(blocks(node.count));
+        return area * kBlockCost * kKindCost[node.kind] * float(node.count);
+    }
+
+    Collapser(const std::vector<Node>& n, uint32_t used) : nodes(n), plan(used) {
+        if (used > 0) plan_subtree(0);
+    }
+
+    void plan_subtree(uint32_t n) {
+        const Node& node = nodes[n];
+        Plan& p = plan[n];
+        if (node.count != 0) {
+            p.leaf = true;
+            p.cost.fill(leaf_cost(node));
+            return;
+        }
+        plan_subtree(node.left);
+        plan_subtree(node.right);
+        const Plan &a = plan[node.left], &b = plan[node.right];
+        std::array<float, kWideBvhWidth + 1> spread_cost{};
+        for (int j = 2; j <= kWideBvhWidth; ++j) {
+            spread_cost[j] = a.cost[1] + b.cost[j - 1];
+            p.split[j] = 1;
+            for (int k = 2; k < j; ++k) {
+                const float c = a.cost[k] + b.cost[j - k];
+                if (c < spread_cost[j]) spread_cost[j] = c, p.split[j] = int8_t(k);
+            }
+        }
+        p.leaf = false;
+        p.cost[1] = node.box.half_area() * kNodeCost + spread_cost[kWideBvhWidth];
+        for (int i = 2; i <= kWideBvhWidth; ++i) {
+            p.spread[i] = spread_cost[i] < p.cost[1];
+            p.cost[i] = p.spread[i] ? spread_cost[i] : p.cost[1];
+        }
+    }
+
+    // The roots of binary node n's subtree as at most i slots, in order.
+    void roots(uint32_t n, int i, std::vector<uint32_t>& out) const {
+        if (i == 1 || plan[n].leaf || !plan[n].spread[i]) {
+            out.push_back(n);
+            return;
+        }
+        roots(nodes[n].left, plan[n].split[i], out);
+        roots(nodes[n].right, i - plan[n].split[i], out);
+    }
+};
+
+}  // namespace
+
+void Bvh::update_view() {
+    BvhView v;
+    v.nodes = nodes_.data();
+    v.node_count = int32_t(nodes_.size());
+    v.triangles = triangles_.data();
+    v.triangle_mesh = triangle_mesh_.data();
+    v.triangle_index = triangle_index_.data();
+    v.spheres = spheres_.data();
+    v.sphere_index = sphere_index_.data();
+    v.items = items_.data();
+    v.quadrics = quadrics_.data();
+    v.instances = instances_.data();
+    std::copy(view_.bounds, view_.bounds + 6, v.bounds);
+    view_ = v;
+}
+
+void Bvh::build(std::span<const Vec3f> positions, std::span<const uint32_t> indices) {
+    BvhInput in;
+    in.triangles.push_back({positions, indices, 0});
+    build(in);
+}
+
+void Bvh::build(const BvhInput& in) {
+    *this = Bvh();
+    Builder b;
+    // References: every primitive with a finite, hittable box
+    for (size_t s = 0; s < in.triangles.size(); ++s) {
+        const BvhTriangles& set = in.triangles[s];
+        if (set.indices.size() % 3 != 0)
+            throw InputError("BVH: the triangle index count (" + std::to_string(set.indices.size()) +
+                             ") is not a multiple of 3");
+        const size_t count = set.indices.size() / 3;
+        for (size_t i = 0; i < count; ++i) {
+            const uint32_t* tri = &set.indices[3 * i];
+            for (int k = 0; k < 3; ++k)
+                if (tri[k] >= set.positions.size())
+                    throw InputError("BVH: triangle " + std::to_string(i) + " uses vertex " +
+                                     std::to_string(tri[k]) + " but there are only " +
+                                     std::to_string(set.positions.size()) + " vertices");
+        }
+        const size_t first = b.refs.size();
+        b.refs.resize(first + count);
+        std::vector<uint8_t> keep(count);
+        oneapi::tbb::parallel_for(size_t(0), count, [&](size_t i) {
+            const uint32_t* tri = &set.indices[3 * i];
+            const Vec3f &p0 = set.positions[tri[0]], &p1 = set.positions[tri[1]],
+                        &p2 = set.positions[tri[2]];
+            keep[i] = !is_degenerate(p0, p1, p2);
+            Ref& r = b.refs[first + i];
+            r.box.grow(p0), r.box.grow(p1), r.box.grow(p2);
+            r.centroid = (r.box.lo + r.box.hi) * 0.5f;
+            r.kind = kLeafTriangles, r.a = uint32_t(s), r.b = uint32_t(i);
+        });
+        size_t out = first;
+        for (size_t i = 0; i < count; ++i)
+            if (keep[i]) b.refs[out++] = b.refs[first + i];
+        b.refs.resize(out);
+    }
+    const size_t sphere_count = in.sphere_r.size();
+    for (size_t i = 0; i < sphere_count; ++i) {
+        const Vec3f c{in.sphere_x[i], in.sphere_y[i], in.sphere_z[i]};
+        const float r = in.sphere_r[i];
+        // Padded by a relative 2^-20 of the largest magnitude, so rounding in the sphere
+        // test never finds a hit outside the box
+        const float pad = r * 0x1p-20f + largest_abs(c) * 0x1p-20f;
+        Ref ref;
+        ref.box.lo = c - Vec3f(r + pad), ref.box.hi = c + Vec3f(r + pad);
+        if (!(r > 0.0f) || !ref.box.finite()) continue;
+        ref.centroid = c, ref.kind = kLeafSpheres, ref.a = uint32_t(i), ref.b = 0;
+        b.refs.push_back(ref);
+    }
+    for (size_t i = 0; i < in.quadrics.size(); ++i) {
+        Ref ref;
+        ref.box.lo = in.quadrics[i].box_min, ref.box.hi = in.quadrics[i].box_max;
+        if (!ref.box.finite()) continue;
+        ref.centroid = (ref.box.lo + ref.box.hi) * 0.5f;
+        ref.kind = kLeafQuadrics, ref.a = uint32_t(i), ref.b = 0;
+        b.refs.push_back(ref);
+    }
+    for (size_t i = 0; i < in.instances.size(); ++i) {
+        const BvhObjectInstance& inst = in.instances[i];
+        if (inst.geometry->empty()) continue;
+        const Vec3f lo = inst.geometry->bounds_min(), hi = inst.geometry->bounds_max();
+        Ref ref;
+        for (int corner = 0; corner < 8; ++corner)
+            ref.box.grow(affine(inst.to_world, {corner & 1 ? hi.x : lo.x, corner & 2 ? hi.y : lo.y,
+                                                corner & 4 ? hi.z : lo.z}));
+        // (the corners are rounded: pad by a relative 2^-20)
+        const float pad = std::max(largest_abs(ref.box.lo), largest_abs(ref.box.hi)) * 0x1p-20f;
+        ref.box.lo = ref.box.lo - Vec3f(pad), ref.box.hi = ref.box.hi + Vec3f(pad);
+        if (!ref.box.finite()) continue;
+        ref.centroid = (ref.box.lo + ref.box.hi) * 0.5f;
+        ref.kind = kLeafInstances, ref.a = uint32_t(i), ref.b = 0;
+        b.refs.push_back(ref);
+    }
+    quadrics_.assign(in.quadric_table.begin(), in.quadric_table.end());
+    for (const BvhObjectInstance& inst : in.instances) {
+        BvhInstance out;
+        out.geometry = &inst.geometry->view();
+        geometries_.push_back(inst.geometry);
+        std::copy(inst.to_object, inst.to_object + 12, out.to_object);
+        std::copy(inst.normal_to_world, inst.normal_to_world + 9, out.normal_to_world);
+        out.mesh = inst.mesh;
+        instances_.push_back(out);
+    }
+    stats_ = {};
+    stats_.primitives = b.refs.size();
+    if (b.refs.empty()) {
+        update_view();
+        return;
+    }
+
+    // The binary tree
+    const uint32_t n = uint32_t(b.refs.size());
+    b.order.resize(n);
+    for (uint32_t i = 0; i < n; ++i) b.order[i] = i;
+    b.nodes.resize(2 * size_t(n));
+    b.next = 1;
+    b.build(0, 0, n, 1);
+    stats_.depth = b.depth;
+    const Box root = b.nodes[0].box;
+    view_.bounds[0] = root.lo.x, view_.bounds[1] = root.lo.y, view_.bounds[2] = root.lo.z;
+    view_.bounds[3] = root.hi.x, view_.bounds[4] = root.hi.y, view_.bounds[5] = root.hi.z;
+
+    // The wide tree: breadth of each node's slots from the plan, leaves written as blocks
+    const Collapser c(b.nodes, b.next.load());
+    std::vector<uint32_t> kids;
+    struct Todo {
+        uint32_t wide, binary;
+    };
+    std::vector<Todo> todo{{0, 0}};
+    nodes_.emplace_back();
+    while (!todo.empty()) {
+        const Todo t = todo.back();
+        todo.pop_back();
+        kids.clear();
+        const Node& bn = b.nodes[t.binary];
+        if (c.plan[t.binary].leaf) {
+            kids.push_back(t.binary);
+        } else {
+            const int s = c.plan[t.binary].split[kWideBvhWidth];
+            c.roots(bn.left, s, kids);
+            c.roots(bn.right, kWideBvhWidth - s, kids);
+        }
+        WideBvhNode node{};
+        for (int k = 0; k < 3; ++k) {
+            std::fill(node.bounds[k], node.bounds[k] + kWideBvhWidth, kInf);
+            std::fill(node.bounds[k + 3], node.bounds[k + 3] + kWideBvhWidth, -kInf);
+        }
+        node.slots = uint32_t(kids.size());
+        for (size_t i = 0; i < kids.size(); ++i) {
+            const Node& kid = b.nodes[kids[i]];
+            const float box[6] = {kid.box.lo.x, kid.box.lo.y, kid.box.lo.z,
+                                  kid.box.hi.x, kid.box.hi.y, kid.box.hi.z};
+            for (int k = 0; k < 6; ++k) node.bounds[k][i] = box[k];
+            if (c.plan[kids[i]].leaf) {
+                node.child[i] = b.add_leaf(*this, in, kid);
+                node.count[i] = uint16_t(kid.count);
+                node.kind[i] = kid.kind;
+                node.leaves |= 1u << i;
+            } else {
+                node.child[i] = uint32_t(nodes_.size());
+                nodes_.emplace_back();
+                todo.push_back({node.child[i], kids[i]});
+            }
+        }
+        nodes_[t.wide] = node;
+    }
+    stats_.nodes = nodes_.size();
+    stats_.triangle_blocks = triangles_.size();
+    stats_.sphere_blocks = spheres_.size();
+    stats_.items = items_.size();
+    stats_.bytes = nodes_.size() * sizeof(WideBvhNode) +
+                   triangles_.size() * (sizeof(TriangleBlock) + 2 * kWideBvhWidth * sizeof(uint32_t)) +
+                   spheres_.size() * (sizeof(SphereBlock) + kWideBvhWidth * sizeof(uint32_t)) +
+                   items_.size() * sizeof(uint32_t) + quadrics_.size() * sizeof(float) +
+                   instances_.size() * sizeof(BvhInstance);
+    update_view();
+}
+
+// Writes the primitives of binary leaf `leaf` as blocks or items; returns where they start.
+uint32_t Bvh::Builder::add_leaf(Bvh& bvh, const BvhInput& in, const Node& leaf) const {
+    Bvh& self = bvh;
+    auto& triangles_ = self.triangles_;
+    auto& triangle_mesh_ = self.triangle_mesh_;
+    auto& triangle_index_ = self.triangle_index_;
+    auto& spheres_ = self.spheres_;
+    auto& sphere_index_ = self.sphere_index_;
+    auto& items_ = self.items_;
+    const Builder& b = *this;
+    const uint32_t* order = b.order.data() + leaf.first;
+    const uint32_t n = leaf.count;
+    const uint32_t block_count = (n + kWideBvhWidth - 1) / kWideBvhWidth;
+    switch (leaf.kind) {
+        case kLeafTriangles: {
+            const uint32_t first = uint32_t(triangles_.size());
+            triangles_.resize(first + block_count);  // zeros: unused lanes stay degenerate
+            triangle_mesh_.resize(triangles_.size() * kWideBvhWidth, 0);
+            triangle_index_.resize(triangles_.size() * kWideBvhWidth, 0);
+            for (uint32_t j = 0; j < n; ++j) {
+                const Ref& r = b.refs[order[j]];
+                const BvhTriangles& set = in.triangles[r.a];
+                float(*rows)[kWideBvhWidth] = triangles_[first + j / kWideBvhWidth].v;
+                for (int k = 0; k < 3; ++k) {
+                    const Vec3f& p = set.positions[set.indices[3 * size_t(r.b) + size_t(k)]];
+                    rows[3 * k][j % kWideBvhWidth] = p.x;
+                    rows[3 * k + 1][j % kWideBvhWidth] = p.y;
+                    rows[3 * k + 2][j % kWideBvhWidth] = p.z;
+                }
+                const size_t lane = size_t(first) * kWideBvhWidth + j;
+                triangle_mesh_[lane] = set.mesh;
+                triangle_index_[lane] = r.b;
+            }
+            return first;
+        }
+        case kLeafSpheres: {
+            const uint32_t first = uint32_t(spheres_.size());
+            SphereBlock empty;
+            for (int k = 0; k < 3; ++k)
+                std::fill_n(empty.c[k], kWideBvhWidth, std::numeric_limits<float>::quiet_NaN());
+            std::fill_n(empty.c[3], kWideBvhWidth, 0.0f);
+            spheres_.resize(first + block_count, empty);
+            sphere_index_.resize(spheres_.size() * kWideBvhWidth, 0);
+            for (uint32_t j = 0; j < n; ++j) {
+                const uint32_t s = b.refs[order[j]].a;
+                float(*rows)[kWideBvhWidth] = spheres_[first + j / kWideBvhWidth].c;
+                rows[0][j % kWideBvhWidth] = in.sphere_x[s];
+                rows[1][j % kWideBvhWidth] = in.sphere_y[s];
+                rows[2][j % kWideBvhWidth] = in.sphere_z[s];
+                rows[3][j % kWideBvhWidth] = in.sphere_r[s];
+                sphere_index_[size_t(first) * kWideBvhWidth + j] = s;
+            }
+            return first;
+        }
+        default: {
+            const uint32_t first = uint32_t(items_.size());
+            for (uint32_t j = 0; j < n; ++j) {
+                const Ref& r = b.refs[order[j]];
+                items_.push_back(leaf.kind == kLeafQuadrics ? in.quadrics[r.a].index : r.a);
+            }
+            return first;
+        }
+    }
+}
+
+}  // namespace cierzo
