@@ -45,8 +45,9 @@ The scenes:
   has a divisor near the ideal tube resolution, else within about 1%), for BVH build
   benchmarks. mesh_200k is this scene with N = 200,000.
 
-Each scene's time is printed, and the total: the whole default set takes about 2.5 s
-(2.36 s wall, measured under `nice` on a shared two-core machine; mesh_1m is 1.1 s of it).
+Each scene's time is printed, and the total: the whole default set takes 2 to 3 s (1.7 to
+3.2 s wall over six runs under `nice` on a shared two-core machine; mesh_1m is about 1 s
+of it, spheres_10000 about 0.3 s).
 """
 
 import argparse
