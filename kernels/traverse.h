@@ -351,6 +351,88 @@ Mask<T> occluded_unbounded(const Ray<T>& ray, const T& tmax, Mask<T> blocked,
     return blocked;
 }
 
+// ---- Packets over a one-node tree ----------------------------------------------------------
+// A tree that is a single node (at most 8 leaves: a scene of a few dozen primitives at most)
+// is cheaper to test K rays at a time than to traverse one ray at a time: each leaf's box is
+// tested by all rays at once, and each primitive of a leaf that any ray enters is broadcast
+// to all rays, as the report's linear loop did. Whether a tree takes this path.
+inline bool packet_tree(const BvhView& bvh) {
+    if (bvh.node_count != 1) return false;
+    for (uint32_t i = 0; i < bvh.nodes[0].slots; ++i)
+        if (bvh.nodes[0].kind[i] == kLeafInstances) return false;
+    return true;
+}
+
+// K rays (T lanes; inv: reciprocal directions, shear: the watertight kernel's per-ray
+// shear) through a one-node tree (packet_tree). Closest hit: the lanes hit below t, with t,
+// kind (a BvhLeafKind) and lane (block lane, or quadric index) updated where nearer. Any
+// hit (kAnyHit): the lanes hit below t, stopping once every active lane is.
+template <bool kAnyHit, class T>
+Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& inv,
+                        const RayShear<T>& shear, Mask<T> active, T& t, I32<T>& kind,
+                        I32<T>& lane) {
+    using I = I32<T>;
+    const WideBvhNode& node = bvh.nodes[0];
+    Mask<T> hit(false);
+    const T o[3] = {ray.o.x, ray.o.y, ray.o.z}, r[3] = {inv.x, inv.y, inv.z};
+    for (uint32_t i = 0; i < node.slots; ++i) {
+        // The leaf's box over [0, t], the robust slab test of the traversal
+        T t0(0.0f), t1 = t;
+        for (int k = 0; k < 3; ++k) {
+            const T a = (T(node.bounds[k][i]) - o[k]) * r[k];
+            const T b = (T(node.bounds[k + 3][i]) - o[k]) * r[k];
+            const auto forward = r[k] >= T(0.0f);
+            const T near = select(forward, a, b), far = select(forward, b, a) * T(kBvhFarScale);
+            t0 = select(near > t0, near, t0);
+            t1 = select(far < t1, far, t1);
+        }
+        const Mask<T> enter = active & (t0 <= t1);
+        if (none(enter)) continue;
+        const uint32_t start = node.child[i], count = node.count[i];
+        const auto record = [&](const Mask<T>& h, const T& th, uint32_t kind_i, uint32_t lane_i) {
+            t = select(h, th, t);
+            kind = select(mask_i32(h), I(int32_t(kind_i)), kind);
+            lane = select(mask_i32(h), I(int32_t(lane_i)), lane);
+        };
+        for (uint32_t j = 0; j < count; ++j) {
+            T th(0.0f);
+            Mask<T> h(false);
+            uint32_t id = 0;
+            if (node.kind[i] == kLeafTriangles) {
+                id = start * kWideBvhWidth + j;
+                const float(*v)[kWideBvhWidth] = bvh.triangles[id / kWideBvhWidth].v;
+                const uint32_t l = id % kWideBvhWidth;
+                const auto vertex = [&](int k) {
+                    return Vec3<T>(T(v[3 * k][l]), T(v[3 * k + 1][l]), T(v[3 * k + 2][l]));
+                };
+                T b1, b2;
+                h = intersect_triangle(ray, shear, vertex(0), vertex(1), vertex(2), t, th, b1, b2);
+            } else if (node.kind[i] == kLeafSpheres) {
+                id = start * kWideBvhWidth + j;
+                const float(*c)[kWideBvhWidth] = bvh.spheres[id / kWideBvhWidth].c;
+                const uint32_t l = id % kWideBvhWidth;
+                h = intersect_sphere(ray, Vec3<T>(T(c[0][l]), T(c[1][l]), T(c[2][l])), T(c[3][l]),
+                                     t, th);
+            } else {
+                id = bvh.items[start + j];
+                const float* q = bvh.quadrics + 16 * size_t(id);
+                const QuadricCoefficients<T> c{T(q[0]), T(q[1]), T(q[2]), T(q[3]), T(q[4]),
+                                               T(q[5]), T(q[6]), T(q[7]), T(q[8]), T(q[9])};
+                h = intersect_quadric(ray, c, Vec3<T>(T(q[10]), T(q[11]), T(q[12])),
+                                      Vec3<T>(T(q[13]), T(q[14]), T(q[15])), t, th);
+            }
+            h = h & enter;
+            hit = hit | h;
+            if constexpr (kAnyHit) {
+                if (all(hit | !active)) return hit;
+            } else {
+                record(h, th, node.kind[i], id);
+            }
+        }
+    }
+    return hit;
+}
+
 // ---- What was hit --------------------------------------------------------------------------
 // The tree (the scene's, or an instance's mesh) whose block a triangle hit is in.
 inline const BvhView& hit_tree(const BvhView& bvh, const BvhHit& h) {

@@ -93,13 +93,15 @@ struct Ref {
     uint32_t a, b;  // triangle: set, index; sphere: index; quadric, instance: input index
 };
 
-// A binary build node: a leaf (count > 0) of refs order[first, first + count), or an inner
-// node with two children.
+// A binary build node over refs order[first, first + count): a leaf, or an inner node with
+// two children. kind: the kind of all its refs, or kMixed.
+constexpr uint8_t kMixed = 255;
 struct Node {
     Box box;
     uint32_t left = 0, right = 0;
     uint32_t first = 0, count = 0;
     uint8_t kind = 0;
+    bool inner = false;
 };
 
 }  // namespace
@@ -182,9 +184,8 @@ struct Bvh::Builder {
         out.box = bounds;
         const uint32_t n = end - begin;
         const bool homogeneous = one_kind(begin, end);
-        auto leaf = [&] {
-            out.first = begin, out.count = n, out.kind = refs[order[begin]].kind;
-        };
+        out.first = begin, out.count = n, out.kind = homogeneous ? refs[order[begin]].kind : kMixed;
+        auto leaf = [&] { out.inner = false; };
         if (n <= kLeafSize && homogeneous) return leaf();
         // Split: binned SAH, or by kind where a small mixed node would otherwise be a leaf,
         // or an object median when the SAH is not usable
@@ -222,7 +223,7 @@ struct Bvh::Builder {
             });
         }
         const uint32_t left = next.fetch_add(2, std::memory_order_relaxed);
-        out.left = left, out.right = left + 1, out.count = 0;
+        out.left = left, out.right = left + 1, out.inner = true;
         if (n > kParallelBelow) {
             oneapi::tbb::parallel_invoke([&] { build(left, begin, mid, level + 1); },
                                          [&] { build(left + 1, mid, end, level + 1); });
@@ -309,7 +310,7 @@ struct Collapser {
     void plan_subtree(uint32_t n) {
         const Node& node = nodes[n];
         Plan& p = plan[n];
-        if (node.count != 0) {
+        if (!node.inner) {
             p.leaf = true;
             p.cost.fill(leaf_cost(node));
             return;
@@ -326,8 +327,10 @@ struct Collapser {
                 if (c < spread_cost[j]) spread_cost[j] = c, p.split[j] = int8_t(k);
             }
         }
-        p.leaf = false;
-        p.cost[1] = node.box.half_area() * kNodeCost + spread_cost[kWideBvhWidth];
+        // One root: a leaf (if small enough and of one kind) or a wide node over 8 slots
+        const float wide = node.box.half_area() * kNodeCost + spread_cost[kWideBvhWidth];
+        p.leaf = node.kind != kMixed && node.count <= kBvhMaxLeafSize && leaf_cost(node) <= wide;
+        p.cost[1] = p.leaf ? leaf_cost(node) : wide;
         for (int i = 2; i <= kWideBvhWidth; ++i) {
             p.spread[i] = spread_cost[i] < p.cost[1];
             p.cost[i] = p.spread[i] ? spread_cost[i] : p.cost[1];
@@ -336,7 +339,7 @@ struct Collapser {
 
     // The roots of binary node n's subtree as at most i slots, in order.
     void roots(uint32_t n, int i, std::vector<uint32_t>& out) const {
-        if (i == 1 || plan[n].leaf || !plan[n].spread[i]) {
+        if (i == 1 || !nodes[n].inner || !plan[n].spread[i]) {
             out.push_back(n);
             return;
         }

@@ -42,6 +42,7 @@ struct FlatMesh {
 struct FlatFeatures {
     bool spheres, planes, quadrics, meshes;
     bool bvh;  // anything bounded: the scene BVH is traversed
+    bool packet;  // the BVH is one node, tested K rays at a time (kernels/traverse.h)
     bool lights, emitters;
     bool diffuse, specular, mirror, refraction;
     bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated

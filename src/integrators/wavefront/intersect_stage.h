@@ -103,34 +103,57 @@ typename Wave<A>::M slab_hits(const float box[6], const WideRays<A>& rays,
 template <class A>
 using NodeLanes = xsimd::batch<float, WideArch<A>>;
 
+// Path q's hit record from a tree hit: the primitive id, and for a triangle its mesh, index
+// and normal.
+template <class A>
+void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const BvhHit& hit) {
+    if (hit.kind == kLeafSpheres) {
+        p.prim[q] = (kPrimSphere << kPrimShift) | int32_t(hit_sphere(bvh, hit));
+    } else if (hit.kind == kLeafQuadrics) {
+        p.prim[q] = (kPrimQuadric << kPrimShift) | int32_t(hit.lane);
+    } else {
+        const Vec3f n = hit_triangle_normal(bvh, hit);
+        p.prim[q] = kPrimMesh << kPrimShift;
+        p.mesh_nx[q] = n.x, p.mesh_ny[q] = n.y, p.mesh_nz[q] = n.z;
+        p.mesh_id[q] = int32_t(hit_mesh(bvh, hit));
+        p.mesh_tri[q] = hit_triangle(bvh, hit);
+    }
+}
+
 // The closest hits of batch `i` in the scene BVH, after its unbounded ones (in p.t and
-// p.prim): the rays whose interval [0, t] meets the tree's box go through it one by one, and
-// a hit writes t and the primitive (for a triangle also its mesh, index and normal) to the
-// path.
+// p.prim). A one-node tree is tested by all K rays at once (packet_traverse); otherwise the
+// rays whose interval [0, t] meets the tree's box go through it one by one. A hit writes t
+// and the primitive to the path.
 template <class A>
 void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) {
     using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
     PathPool& p = w.pool;
     const BvhView& bvh = *w.scene.bvh;
+    if (w.scene.features.packet) {
+        F t = F::load_aligned(p.t + i);
+        I kind(0), lane(0);
+        const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
+        uint32_t hits = mask_bits(packet_traverse<false>(bvh, ray, inv, make_ray_shear(ray.d),
+                                                         w.live_mask(i), t, kind, lane));
+        if (!hits) return;
+        t.store_aligned(p.t + i);
+        alignas(64) int32_t kinds[Wave<A>::K], lanes[Wave<A>::K];
+        kind.store_aligned(kinds), lane.store_aligned(lanes);
+        for (; hits; hits &= hits - 1) {
+            const int l = std::countr_zero(hits);
+            record_tree_hit<A>(p, bvh, i + l, {uint32_t(kinds[l]), uint32_t(lanes[l]), -1});
+        }
+        return;
+    }
     const WideRays<A> rays(ray);
     const F t = F::load_aligned(p.t + i);
     uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(bvh.bounds, rays, t));
     for (; enter; enter &= enter - 1) {
         const int l = std::countr_zero(enter);
-        const int32_t q = i + l;
         BvhHit hit;
-        if (!traverse<false, NodeLanes<A>>(bvh, rays.lane(l), p.t[q], hit)) continue;
-        if (hit.kind == kLeafSpheres) {
-            p.prim[q] = (kPrimSphere << kPrimShift) | int32_t(hit_sphere(bvh, hit));
-        } else if (hit.kind == kLeafQuadrics) {
-            p.prim[q] = (kPrimQuadric << kPrimShift) | int32_t(hit.lane);
-        } else {
-            const Vec3f n = hit_triangle_normal(bvh, hit);
-            p.prim[q] = kPrimMesh << kPrimShift;
-            p.mesh_nx[q] = n.x, p.mesh_ny[q] = n.y, p.mesh_nz[q] = n.z;
-            p.mesh_id[q] = int32_t(hit_mesh(bvh, hit));
-            p.mesh_tri[q] = hit_triangle(bvh, hit);
-        }
+        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), p.t[i + l], hit))
+            record_tree_hit<A>(p, bvh, i + l, hit);
     }
 }
 
@@ -171,6 +194,13 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
     typename Wave<A>::M blocked = occluded_unbounded(
         ray, tmax, typename Wave<A>::M(false), s.plane_count, PlaneTable<F>{s.plane_lanes},
         s.unbounded_quadric_count, QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics});
+    if (s.features.packet && !all(blocked)) {
+        F t = tmax;
+        typename Wave<A>::I kind(0), lane(0);
+        const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
+        return blocked | packet_traverse<true>(*s.bvh, ray, inv, make_ray_shear(ray.d),
+                                               live & !blocked, t, kind, lane);
+    }
     if (s.features.bvh && !all(blocked)) {
         // The open rays that enter the tree's box through it, one by one
         const WideRays<A> rays(ray);

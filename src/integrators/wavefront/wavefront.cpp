@@ -12,6 +12,7 @@
 #include <oneapi/tbb/enumerable_thread_specific.h>
 
 #include "core/error.h"
+#include "kernels/traverse.h"
 
 namespace cierzo {
 
@@ -237,15 +238,16 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.scene_ior = scene.scene_ior;
     const SceneFeatures sf = scene.features();
     const bool tree = !scene.bvh.empty();
-    f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, tree, sf.point_lights, sf.emitters,
-                  sf.diffuse, sf.specular, sf.mirror, sf.refraction,
+    const bool packet = tree && packet_tree(scene.bvh.view());
+    f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, tree, packet,
+                  sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
                   texture_channels};
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
         const bool meshes = f.features.meshes;
-        f.features = {true, true, true, meshes, tree, true, true, true,
+        f.features = {true, true, true, meshes, tree, packet, true, true, true,
                       true, true, true, true, 4,    texture_channels};
     }
 }
