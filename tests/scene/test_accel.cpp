@@ -1,0 +1,475 @@
+// The scene BVH (src/accel/, kernels/traverse.h) against brute force: closest and any hit on
+// random rays through mixtures of every primitive kind, with instances that rotate, scale
+// non-uniformly and mirror; the wavefront's SIMD traversal and its K-ray packets against the
+// scalar one; watertightness through instances; degenerate and extreme inputs.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "integrators/wavefront/intersect_stage.h"
+#include "kernels/traverse.h"
+#include "scene/scene_json.h"
+#include "support/uv_sphere.h"
+
+namespace cierzo {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A folder of its own under the system's temporary folder, removed at the end.
+struct TempDir {
+    fs::path path;
+    TempDir() {
+        static int counter = 0;
+        path = fs::temp_directory_path() /
+               ("cierzo_accel_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+        fs::create_directories(path);
+    }
+    ~TempDir() { fs::remove_all(path); }
+    fs::path write(const std::string& name, const std::string& text) const {
+        std::ofstream(path / name) << text;
+        return path / name;
+    }
+};
+
+// A closed UV sphere of radius 1 as an ASCII PLY file.
+std::string sphere_ply(int rings, int segments) {
+    const test::TriangleMesh m = test::uv_sphere(rings, segments);
+    std::string s = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(m.positions.size()) +
+                    "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+                    std::to_string(m.indices.size() / 3) +
+                    "\nproperty list uchar int vertex_indices\nend_header\n";
+    char line[128];
+    for (const Vec3f& p : m.positions) {
+        std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", p.x, p.y, p.z);
+        s += line;
+    }
+    for (size_t i = 0; i < m.indices.size(); i += 3)
+        s += "3 " + std::to_string(m.indices[i]) + " " + std::to_string(m.indices[i + 1]) + " " +
+             std::to_string(m.indices[i + 2]) + "\n";
+    return s;
+}
+
+Vec3f to_world(const Mesh& m, const Vec3f& p) {
+    const float* a = m.to_world;
+    return {a[0] * p.x + a[1] * p.y + a[2] * p.z + a[3], a[4] * p.x + a[5] * p.y + a[6] * p.z + a[7],
+            a[8] * p.x + a[9] * p.y + a[10] * p.z + a[11]};
+}
+
+// Every primitive of the scene with the kernels, one after the other: the nearest hit's t,
+// material and normal, and how many primitives are hit within `tie` of it.
+struct Brute {
+    bool hit = false;
+    float t = kRayFar;
+    int32_t material = -1;
+    Vec3f n{0.0f};
+    int near_ties = 0;
+};
+
+Brute brute_force(const Scene& s, const Ray<float>& ray, float tmax, float tie) {
+    struct Candidate {
+        float t;
+        int32_t material;
+        Vec3f n;
+    };
+    std::vector<Candidate> hits;
+    float t;
+    for (size_t i = 0; i < s.spheres.size(); ++i) {
+        const Vec3f c{s.spheres.cx[i], s.spheres.cy[i], s.spheres.cz[i]};
+        if (intersect_sphere(ray, c, s.spheres.radius[i], tmax, t))
+            hits.push_back({t, s.spheres.material[i], normalize(fma(ray.d, t, ray.o) - c)});
+    }
+    for (size_t i = 0; i < s.planes.size(); ++i) {
+        const Vec3f n{s.planes.nx[i], s.planes.ny[i], s.planes.nz[i]};
+        if (intersect_plane(ray, n, s.planes.distance[i], tmax, t))
+            hits.push_back({t, s.planes.material[i], n});
+    }
+    for (const Quadric& q : s.quadrics)
+        if (intersect_quadric(ray, q.q, q.box_min, q.box_max, tmax, t))
+            hits.push_back({t, q.material, normalize(quadric_gradient(q.q, fma(ray.d, t, ray.o)))});
+    const RayShear<float> shear = make_ray_shear(ray.d);
+    for (const Mesh& m : s.meshes) {
+        const Mesh& g = s.geometry_of(m);
+        for (size_t i = 0; i < g.indices.size(); i += 3) {
+            Vec3f v[3];
+            for (int k = 0; k < 3; ++k) {
+                const Vec3f p = g.positions[g.indices[i + size_t(k)]];
+                v[k] = m.instanced() ? to_world(m, p) : p;
+            }
+            float b1, b2;
+            // (a mirroring transform reverses the winding; the normal stays the file's
+            // normal through the inverse transpose)
+            const float side = m.instanced() && m.mirrored ? -1.0f : 1.0f;
+            if (intersect_triangle(ray, shear, v[0], v[1], v[2], tmax, t, b1, b2))
+                hits.push_back({t, m.material, normalize(cross(v[1] - v[0], v[2] - v[0])) * side});
+        }
+    }
+    Brute b;
+    for (const Candidate& c : hits)
+        if (c.t < b.t) b = {true, c.t, c.material, c.n, 0};
+    for (const Candidate& c : hits) b.near_ties += std::abs(c.t - b.t) <= tie * b.t;
+    return b;
+}
+
+Vec3f random_direction(std::mt19937& rng) {
+    std::normal_distribution<float> normal;
+    return normalize(Vec3f(normal(rng), normal(rng), normal(rng)));
+}
+
+// The scene's closest hit and any hit against brute force for random rays from inside the
+// box [-extent, extent]^3: the same hit or miss, t within `tolerance` (relative; 0: equal),
+// the same material and normal unless two primitives tie; any hit on random segments.
+// `allowed` hit/miss disagreements (rays grazing an instance's edge, rounded differently
+// in its space). Returns the number of hits.
+int expect_matches_brute_force(const Scene& s, float extent, float tolerance, int allowed,
+                               uint32_t seed, int rays) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), frac(0.0f, 1.0f);
+    const float tie = std::max(tolerance, 1e-6f) * 4.0f;
+    int hits = 0, disagreements = 0;
+    for (int r = 0; r < rays; ++r) {
+        const Ray<float> ray{Vec3f(unit(rng), unit(rng), unit(rng)) * extent, random_direction(rng)};
+        const float tmax = r % 4 == 0 ? frac(rng) * extent : kRayFar;
+        const Brute want = brute_force(s, ray, tmax, tie);
+        Hit got;
+        const bool hit = s.intersect(ray, tmax, got);
+        if (hit != want.hit) {
+            ++disagreements;
+            continue;
+        }
+        // Any hit on the segment to tmax: whatever the closest hit says
+        if (s.occluded(ray, tmax) != want.hit) ++disagreements;
+        if (!hit) continue;
+        ++hits;
+        if (tolerance == 0.0f) {
+            EXPECT_EQ(got.t, want.t) << "ray " << r;
+        } else {
+            // (relative to the coordinates' size, which sets the rounding error)
+            EXPECT_NEAR(got.t, want.t, tolerance * (want.t + extent)) << "ray " << r;
+        }
+        if (want.near_ties > 1) continue;
+        EXPECT_EQ(got.material, want.material) << "ray " << r;
+        EXPECT_NEAR(dot(got.n, want.n), 1.0f, 1e-3f) << "ray " << r;
+    }
+    EXPECT_LE(disagreements, allowed);
+    return hits;
+}
+
+float frac_of(std::mt19937& rng) { return std::uniform_real_distribution<float>(0.0f, 1.0f)(rng); }
+
+// A mixture in [-10, 10]^3: random spheres (radii 0.05-2), loose triangles, bounded quadrics
+// (ellipsoids in their boxes), an unbounded cylinder and two planes, each with its own
+// material so a wrong primitive shows.
+std::string mixture_objects(uint32_t seed, int spheres, int triangles, int quadrics = 6) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), size(0.05f, 2.0f);
+    std::string o;
+    int material = 0;
+    const auto mat = [&] { return "{\"kd\": " + std::to_string(0.01 * (++material % 97)) + "}"; };
+    const auto v3 = [](const Vec3f& v) {
+        return "[" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) + "]";
+    };
+    for (int i = 0; i < spheres; ++i)
+        o += "{\"type\": \"sphere\", \"center\": " + v3(Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f) +
+             ", \"radius\": " + std::to_string(size(rng)) + ", \"material\": " + mat() + "},\n";
+    for (int i = 0; i < triangles; ++i) {
+        const Vec3f c = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
+        const float s = size(rng);
+        o += "{\"type\": \"triangle\", \"vertices\": [" +
+             v3(c + Vec3f(unit(rng), unit(rng), unit(rng)) * s) + ", " +
+             v3(c + Vec3f(unit(rng), unit(rng), unit(rng)) * s) + ", " +
+             v3(c + Vec3f(unit(rng), unit(rng), unit(rng)) * s) + "], \"material\": " + mat() + "},\n";
+    }
+    for (int i = 0; i < quadrics; ++i) {
+        // (x - c)²/a² + ... = 1, clipped to its box (half of it for the odd ones)
+        const Vec3f c = Vec3f(unit(rng), unit(rng), unit(rng)) * 8.0f;
+        const Vec3f a(1.0f + frac_of(rng), 0.5f + frac_of(rng), 1.0f + frac_of(rng));
+        const float A = 1 / (a.x * a.x), B = 1 / (a.y * a.y), C = 1 / (a.z * a.z);
+        const std::string k = "[" + std::to_string(A) + ", " + std::to_string(B) + ", " +
+                              std::to_string(C) + ", 0, 0, 0, " + std::to_string(-2 * A * c.x) +
+                              ", " + std::to_string(-2 * B * c.y) + ", " +
+                              std::to_string(-2 * C * c.z) + ", " +
+                              std::to_string(A * c.x * c.x + B * c.y * c.y + C * c.z * c.z - 1) + "]";
+        const Vec3f hi = c + a * (i % 2 ? 1.01f : 0.0f) + Vec3f(i % 2 ? 0.0f : 1e-3f);
+        o += "{\"type\": \"quadric\", \"coefficients\": " + k + ", \"bounds\": {\"min\": " +
+             v3(c - a * 1.01f) + ", \"max\": " + v3(vmax(hi, c + Vec3f(1e-3f))) +
+             "}, \"material\": " + mat() + "},\n";
+    }
+    // An unbounded cylinder x² + z² = 0.25 and two planes
+    o += "{\"type\": \"quadric\", \"coefficients\": [1, 0, 1, 0, 0, 0, 0, 0, 0, -0.25], "
+         "\"material\": " + mat() + "},\n";
+    o += "{\"type\": \"plane\", \"normal\": [0, 1, 0], \"distance\": 9.5, \"material\": " + mat() + "},\n";
+    o += "{\"type\": \"plane\", \"normal\": [1, 1, 0], \"distance\": -13, \"material\": " + mat() + "}";
+    return o;
+}
+
+Scene scene_of(const std::string& objects, const fs::path& file) {
+    return parse_scene("{\"camera\": {\"position\": [0, 0, -3], \"look_at\": [0, 0, 0]},\n"
+                       "\"objects\": [" + objects + "]}",
+                       file);
+}
+
+TEST(Accel, ClosestAndAnyHitMatchBruteForceOnAMixtureOfEveryKind) {
+    const TempDir dir;
+    const Scene s = scene_of(mixture_objects(1, 800, 800), dir.path / "mixture.json");
+    EXPECT_EQ(s.unbounded_quadrics.size(), 1u);
+    EXPECT_EQ(s.bvh.stats().primitives, 800u + 800u + 6u);
+    EXPECT_GT(s.bvh.stats().nodes, 10u);
+    // Every primitive outside an instance is tested with the same kernel as brute force, on
+    // the same ray: the same t exactly, the same hits and misses
+    EXPECT_GT(expect_matches_brute_force(s, 14.0f, 0.0f, 0, 2, 10000), 6000);
+}
+
+TEST(Accel, InstancesThatRotateScaleAndMirrorMatchBruteForce) {
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(12, 20));
+    std::string objects = mixture_objects(3, 150, 150) + ",\n";
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    const char* scales[] = {"0.7", "[1, 0.4, 2]", "[-1, 1, 1]", "[-0.5, -1.5, 0.8]", "[2, 2, -0.3]"};
+    for (int i = 0; i < 40; ++i) {
+        const Vec3f t = Vec3f(unit(rng), unit(rng), unit(rng)) * 9.0f;
+        const Vec3f r = Vec3f(unit(rng), unit(rng), unit(rng)) * 180.0f;
+        objects += "{\"type\": \"mesh\", \"file\": \"ball.ply\", \"scale\": " +
+                   std::string(scales[i % 5]) + ", \"rotate\": [" + std::to_string(r.x) + ", " +
+                   std::to_string(r.y) + ", " + std::to_string(r.z) + "], \"translate\": [" +
+                   std::to_string(t.x) + ", " + std::to_string(t.y) + ", " + std::to_string(t.z) +
+                   "], \"material\": {\"kd\": " + std::to_string(0.3 + 0.01 * i) + "}}" +
+                   (i < 39 ? ",\n" : "\n");
+    }
+    const Scene s = scene_of(objects, dir.path / "instances.json");
+    // One file, 40 objects: one set of vertices, one BVH
+    size_t with_vertices = 0;
+    for (const Mesh& m : s.meshes) with_vertices += m.instanced() && !m.positions.empty();
+    EXPECT_EQ(with_vertices, 1u);
+    // (an instance maps the ray, brute force maps the vertices: t agrees to rounding, and a
+    // ray through an edge may be rounded onto different sides)
+    EXPECT_GT(expect_matches_brute_force(s, 14.0f, 2e-4f, 6, 5, 6000), 3000);
+}
+
+// Rays from points inside a closed mesh towards its vertices and edges: none may escape.
+TEST(Accel, NoRayLeaksOutOfAClosedInstancedMeshThroughItsVerticesAndEdges) {
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(16, 24));
+    const Scene s = scene_of(
+        R"({"type": "mesh", "file": "ball.ply", "scale": [1, 0.5, 2], "rotate": [30, 40, 50],
+            "translate": [1, 2, 3], "material": {"kd": 0.5}},
+           {"type": "mesh", "file": "ball.ply", "scale": [-2, 1, 1], "rotate": [10, 0, 70],
+            "translate": [-5, 0, 0], "material": {"kd": 0.5}})",
+        dir.path / "closed.json");
+    std::mt19937 rng(6);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), frac(0.0f, 1.0f);
+    const Mesh& g = s.geometry_of(s.meshes[0]);
+    std::uniform_int_distribution<size_t> pick(0, g.triangle_count() - 1);
+    for (int r = 0; r < 20000; ++r) {
+        const Mesh& m = s.meshes[size_t(r % 2)];
+        const size_t tri = pick(rng);
+        const Vec3f a = to_world(m, g.positions[g.indices[3 * tri + size_t(r % 3)]]);
+        const Vec3f b = to_world(m, g.positions[g.indices[3 * tri + size_t((r + 1) % 3)]]);
+        const Vec3f o = to_world(m, Vec3f(unit(rng), unit(rng), unit(rng)) * 0.4f);
+        const Vec3f target = r % 2 ? a : fma(b - a, r % 4 == 1 ? 0.5f : frac(rng), a);
+        const Ray<float> ray{o, normalize(target - o)};
+        Hit hit;
+        ASSERT_TRUE(s.intersect(ray, kRayFar, hit)) << "ray " << r << " leaks";
+        ASSERT_TRUE(s.occluded(ray, kRayFar)) << "ray " << r << " leaks";
+    }
+}
+
+// ---- The wavefront's traversal ------------------------------------------------------------
+using TestArch = xsimd::default_arch;
+using F = Wave<TestArch>::F;
+constexpr int K = Wave<TestArch>::K;
+
+// K rays at a time from SoA lanes, as the wavefront sets them up.
+Ray<F> batch_of(const std::vector<Ray<float>>& rays, size_t i) {
+    alignas(64) float c[6][K];
+    for (int l = 0; l < K; ++l) {
+        const Ray<float>& r = rays[std::min(i + size_t(l), rays.size() - 1)];
+        const float v[6] = {r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z};
+        for (int k = 0; k < 6; ++k) c[k][l] = v[k];
+    }
+    const auto at = [&](int k) { return F::load_aligned(c[k]); };
+    return {{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
+}
+
+std::vector<Ray<float>> random_rays(size_t n, float extent, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::vector<Ray<float>> rays;
+    for (size_t r = 0; r < n; ++r)
+        rays.push_back({Vec3f(unit(rng), unit(rng), unit(rng)) * extent, random_direction(rng)});
+    return rays;
+}
+
+// The SIMD node lanes, ray by ray, find exactly what the float lanes find.
+TEST(Accel, SimdNodeLanesMatchTheScalarTraversal) {
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(12, 20));
+    const Scene s = scene_of(mixture_objects(7, 500, 500) + R"(,
+        {"type": "mesh", "file": "ball.ply", "scale": [-1, 2, 1], "translate": [3, 0, 0],
+         "material": {"kd": 0.5}},
+        {"type": "mesh", "file": "ball.ply", "rotate": [0, 45, 0], "material": {"kd": 0.6}})",
+                             dir.path / "simd.json");
+    const std::vector<Ray<float>> rays = random_rays(8000, 14.0f, 8);
+    int hits = 0;
+    for (size_t i = 0; i < rays.size(); i += K) {
+        const WideRays<TestArch> wide(batch_of(rays, i));
+        for (int l = 0; l < K && i + size_t(l) < rays.size(); ++l) {
+            const TraversalRay r = make_traversal_ray(rays[i + size_t(l)].o, rays[i + size_t(l)].d);
+            float t_scalar = kRayFar, t_simd = kRayFar;
+            BvhHit a{}, b{};
+            const bool ha = traverse<false, float>(s.bvh.view(), r, t_scalar, a);
+            const bool hb = traverse<false, NodeLanes<TestArch>>(s.bvh.view(), wide.lane(l), t_simd, b);
+            ASSERT_EQ(ha, hb) << "ray " << i + size_t(l);
+            float any_a = kRayFar, any_b = kRayFar;
+            const bool any_scalar = traverse<true, float>(s.bvh.view(), r, any_a, a);
+            using N = NodeLanes<TestArch>;
+            EXPECT_EQ(any_scalar, (traverse<true, N>(s.bvh.view(), wide.lane(l), any_b, b)));
+            if (!ha) continue;
+            ++hits;
+            // The same primitive; a triangle at exactly the same t (its kernel never fuses),
+            // a sphere or quadric to rounding (their dot products fuse where the ISA has
+            // FMA, as std::fma always does)
+            EXPECT_EQ(a.kind, b.kind) << "ray " << i + size_t(l);
+            if (a.kind == kLeafTriangles) {
+                EXPECT_EQ(t_scalar, t_simd) << "ray " << i + size_t(l);
+            } else {
+                EXPECT_NEAR(t_scalar, t_simd, 4e-6f * (t_scalar + 14.0f)) << "ray " << i + size_t(l);
+            }
+        }
+    }
+    EXPECT_GT(hits, 3000);
+}
+
+// A one-node tree tested K rays at a time finds what single rays find.
+TEST(Accel, PacketsOverAOneNodeTreeMatchSingleRays) {
+    const TempDir dir;
+    for (uint32_t seed = 10; seed < 16; ++seed) {
+        const int spheres = int(seed % 3) * 3, triangles = 6 - spheres;
+        const Scene s = scene_of(mixture_objects(seed, spheres, triangles, 2), dir.path / "small.json");
+        ASSERT_TRUE(packet_tree(s.bvh.view())) << "seed " << seed;
+        const std::vector<Ray<float>> rays = random_rays(4000, 14.0f, seed);
+        for (size_t i = 0; i < rays.size(); i += K) {
+            const Ray<F> ray = batch_of(rays, i);
+            const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
+            F t(kRayFar);
+            Wave<TestArch>::I kind(0), lane(0);
+            const uint32_t hits = mask_bits(packet_traverse<false>(
+                s.bvh.view(), ray, inv, make_ray_shear(ray.d), F(0.0f) == F(0.0f), t, kind, lane));
+            F t_any(kRayFar);
+            const uint32_t any = mask_bits(packet_traverse<true>(
+                s.bvh.view(), ray, inv, make_ray_shear(ray.d), F(0.0f) == F(0.0f), t_any, kind, lane));
+            alignas(64) float ts[K];
+            t.store_aligned(ts);
+            for (int l = 0; l < K && i + size_t(l) < rays.size(); ++l) {
+                // (single rays through the same SIMD arithmetic: a sphere's dot products fuse,
+                // or not, alike)
+                float want = kRayFar;
+                BvhHit h;
+                const bool single = traverse<false, NodeLanes<TestArch>>(
+                    s.bvh.view(), WideRays<TestArch>(ray).lane(l), want, h);
+                EXPECT_EQ(bool((hits >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
+                EXPECT_EQ(bool((any >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
+                if (single) EXPECT_EQ(ts[l], want);
+            }
+        }
+    }
+}
+
+// ---- Degenerate and extreme inputs --------------------------------------------------------
+// Builds and traces without a NaN or a crash; what can be hit is hit.
+void expect_sane(const Scene& s, float extent, uint32_t seed) {
+    for (const Ray<float>& ray : random_rays(4000, extent, seed)) {
+        Hit hit;
+        if (!s.intersect(ray, kRayFar, hit)) continue;
+        ASSERT_TRUE(std::isfinite(hit.t) && hit.t > 0.0f);
+        ASSERT_TRUE(std::isfinite(hit.n.x) && std::isfinite(hit.n.y) && std::isfinite(hit.n.z));
+        s.occluded(ray, hit.t);
+    }
+}
+
+TEST(Accel, EveryPrimitiveAtOnePoint) {
+    const TempDir dir;
+    std::string o;
+    for (int i = 0; i < 600; ++i)
+        o += "{\"type\": \"sphere\", \"center\": [1, 2, 3], \"radius\": " +
+             std::to_string(0.5 + 0.001 * i) + ", \"material\": {\"kd\": 0.5}},\n";
+    for (int i = 0; i < 600; ++i)
+        o += "{\"type\": \"triangle\", \"vertices\": [[1, 2, 3], [1, 2, 3], [1, 2, 3]], "
+             "\"material\": {\"kd\": 0.5}},\n";
+    o += "{\"type\": \"triangle\", \"vertices\": [[0, 0, 3], [2, 0, 3], [0, 4, 3]], "
+         "\"material\": {\"kd\": 0.5}}";
+    const Scene s = scene_of(o, dir.path / "point.json");
+    EXPECT_EQ(s.bvh.stats().primitives, 601u);  // the 600 zero-area triangles are left out
+    EXPECT_LE(s.bvh.stats().depth, kBvhMaxDepth);
+    // From outside, the largest sphere is hit first
+    Hit hit;
+    ASSERT_TRUE(s.intersect({{1, 2, -10}, {0, 0, 1}}, kRayFar, hit));
+    EXPECT_NEAR(hit.t, 13.0f - 1.099f, 1e-4f);
+    expect_sane(s, 5.0f, 20);
+}
+
+TEST(Accel, TinyAndHugeSpheresTogether) {
+    const TempDir dir;
+    std::string o;
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int i = 0; i < 500; ++i)
+        o += "{\"type\": \"sphere\", \"center\": [" + std::to_string(unit(rng)) + ", " +
+             std::to_string(unit(rng)) + ", " + std::to_string(unit(rng)) +
+             "], \"radius\": 1e-6, \"material\": {\"kd\": 0.5}},\n";
+    o += "{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1e6, \"material\": {\"kd\": 0.5}},\n";
+    o += "{\"type\": \"sphere\", \"center\": [3e6, 0, 0], \"radius\": 1e6, \"material\": {\"kd\": 0.5}}";
+    const Scene s = scene_of(o, dir.path / "scales.json");
+    expect_sane(s, 2.0f, 22);
+    // A ray aimed at a tiny sphere hits it, not the huge one around it
+    const Vec3f c{s.spheres.cx[7], s.spheres.cy[7], s.spheres.cz[7]};
+    const Vec3f from = c + Vec3f(0.3f, -0.2f, 0.1f);
+    Hit hit;
+    ASSERT_TRUE(s.intersect({from, normalize(c - from)}, kRayFar, hit));
+    EXPECT_NEAR(hit.t, length(c - from) - 1e-6f, 1e-6f);
+    // From inside the huge sphere, every ray hits something within its radius
+    for (const Ray<float>& ray : random_rays(1000, 1.0f, 23)) {
+        ASSERT_TRUE(s.intersect(ray, kRayFar, hit));
+        EXPECT_LT(hit.t, 1.0001e6f);
+    }
+}
+
+TEST(Accel, AMillionTrianglesInOnePlane) {
+    // 708 x 708 unit squares, two triangles each, all in z = 0: every box is flat
+    constexpr int n = 708;
+    std::vector<Vec3f> positions;
+    std::vector<uint32_t> indices;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) positions.push_back({float(i), float(j), 0.0f});
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const uint32_t p = uint32_t(j * (n + 1) + i), q = p + uint32_t(n + 1);
+            indices.insert(indices.end(), {p, p + 1, q + 1, p, q + 1, q});
+        }
+    Bvh bvh;
+    bvh.build(positions, indices);
+    EXPECT_EQ(bvh.stats().primitives, indices.size() / 3);
+    EXPECT_GE(bvh.stats().primitives, 1000000u);
+    std::mt19937 rng(24);
+    std::uniform_real_distribution<float> at(0.0f, float(n));
+    for (int r = 0; r < 2000; ++r) {
+        const Vec3f target{at(rng), at(rng), 0.0f};
+        const Vec3f o = target + Vec3f(0.3f, -0.2f, r % 2 ? 5.0f : -5.0f);
+        TriangleHit hit;
+        ASSERT_TRUE(bvh.intersect({o, normalize(target - o)}, kRayFar, hit)) << "ray " << r;
+        EXPECT_NEAR(hit.t, length(target - o), 1e-3f);
+        // In the plane and parallel to it: nothing
+        EXPECT_FALSE(bvh.occluded({target + Vec3f(0, 0, 1e-3f), {1, 0, 0}}, kRayFar));
+    }
+}
+
+}  // namespace
+}  // namespace cierzo
