@@ -125,10 +125,11 @@ template <bool kAnyHit, class N, bool kTop = true>
     constexpr int kLanes = kNodeLanes<N>;
     if (bvh.node_count == 0) return false;
     // The ray in every lane, and the bounds row of each axis' near and far plane
-    N org[3], inv[3];
+    // (Ize's robust far distances: the far planes' reciprocal scaled by 1 + 2γ(3) once)
+    N org[3], inv[3], inv_far[3];
     int near_row[3], far_row[3];
     for (int k = 0; k < 3; ++k) {
-        org[k] = N(r.o[k]), inv[k] = N(r.inv[k]);
+        org[k] = N(r.o[k]), inv[k] = N(r.inv[k]), inv_far[k] = N(r.inv[k] * kBvhFarScale);
         near_row[k] = std::signbit(r.inv[k]) ? k + 3 : k;
         far_row[k] = std::signbit(r.inv[k]) ? k : k + 3;
     }
@@ -244,12 +245,12 @@ template <bool kAnyHit, class N, bool kTop = true>
                 const N near = load_lanes<N>(node.bounds[near_row[k]] + at);
                 const N far = load_lanes<N>(node.bounds[far_row[k]] + at);
                 t0 = slab_max((near - org[k]) * inv[k], t0);
-                t1 = slab_min((far - org[k]) * inv[k] * N(kBvhFarScale), t1);
+                t1 = slab_min((far - org[k]) * inv_far[k], t1);
             }
             enter |= mask_bits(t0 <= t1) << at;
             store_lanes(t0, entry + at);
         }
-        enter &= (1u << node.slots) - 1u;
+        // (unused slots have empty boxes, min +inf and max -inf, which no ray enters)
         // The leaves entered, in slot order
         if (uint32_t leaves = enter & node.leaves) {
             for (; leaves; leaves &= leaves - 1) {

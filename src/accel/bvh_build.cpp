@@ -27,7 +27,7 @@ namespace cierzo {
 namespace {
 
 constexpr int kBins = 16;
-constexpr uint32_t kLeafSize = 4;       // always a leaf at or below this many (of one kind)
+constexpr uint32_t kLeafSize = 8;       // always a leaf at or below this many (of one kind)
 constexpr int kMaxSahDepth = 64;        // below this, object-median splits bound the depth
 constexpr float kTraversalCost = 1.0f;  // relative to one triangle test
 constexpr uint32_t kParallelBelow = 4096;

@@ -13,6 +13,7 @@
 
 #include "apps/app_common.h"
 #include "apps/converge_command.h"
+#include "apps/trace_command.h"
 #include "core/error.h"
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
@@ -217,6 +218,7 @@ int main(int argc, char** argv) {
         "accumulated so far\n(with the paths per pixel reached in its metadata) and exits with "
         "status 130; a second one ends it at once.");
     CLI::App* converge = add_converge_command(app);
+    CLI::App* trace = add_trace_command(app);
     CLI::App* isas = app.add_subcommand(
         "isas", "List the wavefront's instruction sets: lanes, whether this CPU runs each (and "
                 "which auto picks), and why not");
@@ -224,6 +226,7 @@ int main(int argc, char** argv) {
     try {
         if (r->parsed()) return run_render(a);
         if (converge->parsed()) return run_converge_command();
+        if (trace->parsed()) return run_trace_command();
         if (isas->parsed()) return run_isas();
     } catch (const InputError& e) {
         std::fprintf(stderr, "cierzo: %s\n", e.what());

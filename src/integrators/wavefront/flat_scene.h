@@ -111,6 +111,12 @@ struct TileJob {
                    const float* g, const float* b);
 };
 
+// What `cierzo trace` counts: rays, hits and the sum of the hits' distances.
+struct TraceTotals {
+    uint64_t rays = 0, hits = 0;
+    double sum_t = 0.0;
+};
+
 // Counters a tile returns.
 struct WavefrontCounters {
     uint64_t camera = 0, extension = 0, shadow = 0;

@@ -120,40 +120,81 @@ void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const BvhHit& h
     }
 }
 
-// The closest hits of batch `i` in the scene BVH, after its unbounded ones (in p.t and
-// p.prim). A one-node tree is tested by all K rays at once (packet_traverse); otherwise the
-// rays whose interval [0, t] meets the tree's box go through it one by one. A hit writes t
-// and the primitive to the path.
-template <class A>
-void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) {
+// The closest hits of K rays in the scene BVH below their t (K floats at `t`, updated),
+// for the `live` lanes: a one-node tree is tested by all K rays at once (packet_traverse);
+// otherwise the rays whose interval [0, t] meets the tree's box go through it one by one.
+// on_hit(l, hit) is called for each lane hit.
+template <class A, class OnHit>
+void closest_in_tree(const BvhView& bvh, bool packet, const Ray<typename Wave<A>::F>& ray,
+                     typename Wave<A>::M live, float* t, const OnHit& on_hit) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
-    PathPool& p = w.pool;
-    const BvhView& bvh = *w.scene.bvh;
-    if (w.scene.features.packet) {
-        F t = F::load_aligned(p.t + i);
+    if (packet) {
+        F tt = F::load_aligned(t);
         I kind(0), lane(0);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
-        uint32_t hits = mask_bits(packet_traverse<false>(bvh, ray, inv, make_ray_shear(ray.d),
-                                                         w.live_mask(i), t, kind, lane));
+        uint32_t hits = mask_bits(
+            packet_traverse<false>(bvh, ray, inv, make_ray_shear(ray.d), live, tt, kind, lane));
         if (!hits) return;
-        t.store_aligned(p.t + i);
+        tt.store_aligned(t);
         alignas(64) int32_t kinds[Wave<A>::K], lanes[Wave<A>::K];
         kind.store_aligned(kinds), lane.store_aligned(lanes);
         for (; hits; hits &= hits - 1) {
             const int l = std::countr_zero(hits);
-            record_tree_hit<A>(p, bvh, i + l, {uint32_t(kinds[l]), uint32_t(lanes[l]), -1});
+            on_hit(l, BvhHit{uint32_t(kinds[l]), uint32_t(lanes[l]), -1});
         }
         return;
     }
     const WideRays<A> rays(ray);
-    const F t = F::load_aligned(p.t + i);
-    uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(bvh.bounds, rays, t));
+    uint32_t enter = mask_bits(live & slab_hits<A>(bvh.bounds, rays, F::load_aligned(t)));
     for (; enter; enter &= enter - 1) {
         const int l = std::countr_zero(enter);
         BvhHit hit;
-        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), p.t[i + l], hit))
-            record_tree_hit<A>(p, bvh, i + l, hit);
+        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), t[l], hit)) on_hit(l, hit);
+    }
+}
+
+// The closest hits of batch `i` in the scene BVH, after its unbounded ones (in p.t and
+// p.prim): a hit writes t and the primitive to the path.
+template <class A>
+void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) {
+    PathPool& p = w.pool;
+    const BvhView& bvh = *w.scene.bvh;
+    closest_in_tree<A>(bvh, w.scene.features.packet, ray, w.live_mask(i), p.t + i,
+                       [&](int l, const BvhHit& hit) { record_tree_hit<A>(p, bvh, i + l, hit); });
+}
+
+// Closest hits of `count` rays (7 floats each: origin, direction, tmax) through the whole
+// scene, K at a time as the extension stage traces them: the traversal alone, for
+// measuring it (`cierzo trace`). Adds the rays, hits and the sum of hit distances.
+template <class A>
+void trace_rays_isa(const FlatScene& s, const float* rays, size_t count, TraceTotals& out) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    constexpr int K = Wave<A>::K;
+    for (size_t i = 0; i < count; i += K) {
+        alignas(64) float c[7][K];
+        const int lanes = int(std::min<size_t>(K, count - i));
+        for (int l = 0; l < K; ++l)
+            for (int k = 0; k < 7; ++k) c[k][l] = rays[7 * (i + size_t(std::min(l, lanes - 1))) + k];
+        const auto at = [&](int k) { return F::load_aligned(c[k]); };
+        const Ray<F> ray{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
+        F t = at(6);
+        I prim(-1);
+        closest_unbounded(ray, t, prim, s.plane_count, PlaneTable<F>{s.plane_lanes}, 0,
+                          s.unbounded_quadric_count,
+                          QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics}, 1 << 30);
+        alignas(64) float tt[K];
+        t.store_aligned(tt);
+        uint32_t hit = mask_bits(mask_f32(prim >= I(0)));
+        const auto live = Wave<A>::lane_index() < F(float(lanes));
+        if (s.features.bvh)
+            closest_in_tree<A>(*s.bvh, s.features.packet, ray, live, tt,
+                               [&](int l, const BvhHit&) { hit |= 1u << l; });
+        hit &= (1u << lanes) - 1u;
+        out.hits += uint64_t(std::popcount(hit));
+        for (; hit; hit &= hit - 1) out.sum_t += double(tt[std::countr_zero(hit)]);
+        out.rays += uint64_t(lanes);
     }
 }
 

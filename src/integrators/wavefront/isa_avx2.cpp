@@ -10,4 +10,9 @@ void render_tile_avx2(const FlatScene& scene, PathPool& pool, const TileJob& job
     render_tile_isa<xsimd::fma3<xsimd::avx2>>(scene, pool, job, counters);
 }
 
+void trace_rays_avx2(const FlatScene& scene, const float* rays, size_t count,
+                     TraceTotals& totals) {
+    trace_rays_isa<xsimd::fma3<xsimd::avx2>>(scene, rays, count, totals);
+}
+
 }  // namespace cierzo

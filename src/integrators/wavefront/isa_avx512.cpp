@@ -10,4 +10,9 @@ void render_tile_avx512(const FlatScene& scene, PathPool& pool, const TileJob& j
     render_tile_isa<xsimd::avx512bw>(scene, pool, job, counters);
 }
 
+void trace_rays_avx512(const FlatScene& scene, const float* rays, size_t count,
+                       TraceTotals& totals) {
+    trace_rays_isa<xsimd::avx512bw>(scene, rays, count, totals);
+}
+
 }  // namespace cierzo

@@ -3,6 +3,9 @@
 // isa_neon.cpp). Only the entry of an ISA that isa_supported() accepts may be called.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+
 #include "integrators/wavefront/flat_scene.h"
 #include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/path_pool.h"
@@ -12,12 +15,20 @@ namespace cierzo {
 using RenderTileEntry = void (*)(const FlatScene&, PathPool&, const TileJob&,
                                  WavefrontCounters&);
 
+// Closest hits of ray records (7 floats: origin, direction, tmax) through the scene: the
+// traversal alone (`cierzo trace`).
+using TraceRaysEntry = void (*)(const FlatScene&, const float*, size_t, TraceTotals&);
+
 #if defined(__x86_64__) || defined(__i386__)
 void render_tile_avx512(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
 void render_tile_avx2(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
 void render_tile_sse42(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
+void trace_rays_avx512(const FlatScene&, const float*, size_t, TraceTotals&);
+void trace_rays_avx2(const FlatScene&, const float*, size_t, TraceTotals&);
+void trace_rays_sse42(const FlatScene&, const float*, size_t, TraceTotals&);
 #elif defined(__aarch64__)
 void render_tile_neon(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
+void trace_rays_neon(const FlatScene&, const float*, size_t, TraceTotals&);
 #endif
 
 }  // namespace cierzo

@@ -10,4 +10,9 @@ void render_tile_neon(const FlatScene& scene, PathPool& pool, const TileJob& job
     render_tile_isa<xsimd::neon64>(scene, pool, job, counters);
 }
 
+void trace_rays_neon(const FlatScene& scene, const float* rays, size_t count,
+                     TraceTotals& totals) {
+    trace_rays_isa<xsimd::neon64>(scene, rays, count, totals);
+}
+
 }  // namespace cierzo

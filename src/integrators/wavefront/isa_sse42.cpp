@@ -10,4 +10,9 @@ void render_tile_sse42(const FlatScene& scene, PathPool& pool, const TileJob& jo
     render_tile_isa<xsimd::sse4_2>(scene, pool, job, counters);
 }
 
+void trace_rays_sse42(const FlatScene& scene, const float* rays, size_t count,
+                      TraceTotals& totals) {
+    trace_rays_isa<xsimd::sse4_2>(scene, rays, count, totals);
+}
+
 }  // namespace cierzo

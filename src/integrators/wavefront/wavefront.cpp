@@ -51,6 +51,19 @@ struct PoolMemory {
 
 namespace {
 
+TraceRaysEntry trace_entry_of(Isa isa) {
+    switch (isa) {
+#if defined(__x86_64__) || defined(__i386__)
+        case Isa::kAvx512: return trace_rays_avx512;
+        case Isa::kAvx2: return trace_rays_avx2;
+        case Isa::kSse42: return trace_rays_sse42;
+#elif defined(__aarch64__)
+        case Isa::kNeon: return trace_rays_neon;
+#endif
+        default: throw std::logic_error("no wavefront kernels for " + isa_name(isa));
+    }
+}
+
 RenderTileEntry entry_of(Isa isa) {
     switch (isa) {
 #if defined(__x86_64__) || defined(__i386__)
@@ -273,6 +286,10 @@ void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& ray
     rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;
     lanes.shade_active += c.lanes_active, lanes.shade_total += c.lanes_total;
     lanes.isect_active += c.isect_active, lanes.isect_total += c.isect_total;
+}
+
+void WavefrontRenderer::trace(const float* rays, size_t count, TraceTotals& totals) const {
+    trace_entry_of(isa_)(data_->flat, rays, count, totals);
 }
 
 }  // namespace cierzo

@@ -1,0 +1,122 @@
+// `cierzo trace SCENE.json --rays FILE`: closest hits of every ray of a ray file through the
+// scene, one thread, after one warm-up pass; prints rays/s and what was hit (hits, sum of
+// hit distances) so another program tracing the same file can be checked against it.
+#include "apps/trace_command.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "integrators/wavefront/wavefront.h"
+#include "scene/scene_json.h"
+
+namespace cierzo {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TraceArgs {
+    fs::path scene, rays;
+    std::string integrator = "wavefront";
+    std::string isa = "auto";
+    int repeat = 1;
+};
+TraceArgs g_args;
+
+// The ray file: magic "CZRAYS1\0", uint64 count, then count records of 7 float32 (origin,
+// direction, tmax), little-endian.
+std::vector<float> read_rays(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path.string() + ": cannot open the ray file");
+    char magic[8];
+    uint64_t count = 0;
+    if (!in.read(magic, 8) || std::memcmp(magic, "CZRAYS1\0", 8) != 0)
+        throw InputError(path.string() + ": not a ray file (it must start with CZRAYS1)");
+    if (!in.read(reinterpret_cast<char*>(&count), 8))
+        throw InputError(path.string() + ": truncated: no ray count after the magic");
+    const uintmax_t size = fs::file_size(path);
+    if (count > (size - 16) / 28 || size != 16 + 28 * count)
+        throw InputError(path.string() + ": the header says " + std::to_string(count) +
+                         " rays (" + std::to_string(16 + 28 * count) + " bytes) but the file has " +
+                         std::to_string(size) + " bytes");
+    std::vector<float> rays(size_t(count) * 7);
+    in.read(reinterpret_cast<char*>(rays.data()), std::streamsize(rays.size() * sizeof(float)));
+    for (size_t i = 0; i < rays.size(); ++i)
+        if (!std::isfinite(rays[i]) && i % 7 != 6)
+            throw InputError(path.string() + ": ray " + std::to_string(i / 7) +
+                             " has a non-finite origin or direction");
+    return rays;
+}
+
+}  // namespace
+
+CLI::App* add_trace_command(CLI::App& app) {
+    CLI::App* t = app.add_subcommand(
+        "trace", "Trace the closest hit of every ray of a ray file through a scene, one thread, "
+                 "and print rays/s, hits and the sum of hit distances (the traversal alone)");
+    t->add_option("scene", g_args.scene, "Scene file (JSON; see docs/scene-format.md)")
+        ->required()
+        ->check(CLI::ExistingFile);
+    t->add_option("--rays", g_args.rays,
+                  "Ray file: 'CZRAYS1\\0', uint64 count, count x 7 float32 (ox oy oz dx dy dz "
+                  "tmax), little-endian; e.g. written by bench/peers' embree_pt --dump-rays")
+        ->required()
+        ->check(CLI::ExistingFile);
+    t->add_option("--integrator", g_args.integrator,
+                  "wavefront (its SIMD traversal, K rays set up at a time) or scalar (the "
+                  "reference's, one ray at a time)")
+        ->check(CLI::IsMember({"wavefront", "scalar"}))
+        ->capture_default_str();
+    t->add_option("--isa", g_args.isa, "Wavefront instruction set; valid on this CPU: " +
+                                           usable_isa_names())
+        ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2", "neon"}))
+        ->capture_default_str();
+    t->add_option("--repeat", g_args.repeat, "Timed passes over the rays (after one warm-up pass)")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    return t;
+}
+
+int run_trace_command() {
+    const TraceArgs& a = g_args;
+    const Isa isa = parse_isa(a.isa);
+    if (a.integrator == "wavefront") require_isa(isa, "--isa");
+    const Scene scene = load_scene(a.scene);
+    const std::vector<float> rays = read_rays(a.rays);
+    const size_t count = rays.size() / 7;
+    std::unique_ptr<WavefrontRenderer> wavefront;
+    if (a.integrator == "wavefront") wavefront = std::make_unique<WavefrontRenderer>(scene, isa);
+    const auto pass = [&](TraceTotals& totals) {
+        if (wavefront) return wavefront->trace(rays.data(), count, totals);
+        for (size_t i = 0; i < count; ++i) {
+            const float* r = &rays[7 * i];
+            Hit hit;
+            ++totals.rays;
+            if (scene.intersect({{r[0], r[1], r[2]}, {r[3], r[4], r[5]}}, r[6], hit))
+                ++totals.hits, totals.sum_t += double(hit.t);
+        }
+    };
+    TraceTotals warm, timed;
+    pass(warm);
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < a.repeat; ++k) {
+        TraceTotals t;
+        pass(t);
+        timed.rays += t.rays;
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("integrator: %s\nisa: %s\nrays: %zu\nrepeat: %d\ntrace_seconds: %.6f\n"
+                "rays_per_second: %.0f\nhits: %llu\nsum_t: %.9g\n",
+                a.integrator.c_str(), wavefront ? isa_name(wavefront->isa()).c_str() : "none",
+                count, a.repeat, seconds, double(timed.rays) / seconds,
+                static_cast<unsigned long long>(warm.hits), warm.sum_t);
+    return 0;
+}
+
+}  // namespace cierzo
