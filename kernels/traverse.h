@@ -352,11 +352,13 @@ Mask<T> occluded_unbounded(const Ray<T>& ray, const T& tmax, Mask<T> blocked,
     return blocked;
 }
 
-// ---- Packets over a one-node tree ----------------------------------------------------------
-// A tree that is a single node (at most 8 leaves: a scene of a few dozen primitives at most)
-// is cheaper to test K rays at a time than to traverse one ray at a time: each leaf's box is
-// tested by all rays at once, and each primitive of a leaf that any ray enters is broadcast
-// to all rays, as the report's linear loop did. Whether a tree takes this path.
+// ---- Packets -------------------------------------------------------------------------------
+// K rays at a time through the tree, each node's children tested by all rays at once (one
+// child box broadcast), the primitives of a leaf that any ray enters broadcast to all rays.
+// It pays where the rays go the same way: a one-node tree (a scene of a few dozen
+// primitives at most, which every ray enters: the report's linear loop over the
+// primitives, with boxes), and camera rays of neighbouring pixels. Whether a tree is one
+// node without instances (then every batch takes this path):
 inline bool packet_tree(const BvhView& bvh) {
     if (bvh.node_count != 1) return false;
     for (uint32_t i = 0; i < bvh.nodes[0].slots; ++i)
@@ -364,37 +366,52 @@ inline bool packet_tree(const BvhView& bvh) {
     return true;
 }
 
+// The smallest lane of v.
+template <class T>
+float lane_min(const T& v) {
+    if constexpr (std::is_same_v<T, float>) {
+        return v;
+    } else {
+        alignas(64) float a[T::size];
+        v.store_aligned(a);
+        float m = a[0];
+        for (size_t i = 1; i < T::size; ++i) m = a[i] < m ? a[i] : m;
+        return m;
+    }
+}
+
+// Whether K rays are coherent enough for a packet: one origin (a pinhole camera's rays).
+template <class T>
+bool coherent(const Ray<T>& ray) {
+    if constexpr (std::is_same_v<T, float>) {
+        return true;
+    } else {
+        const auto same = [](const T& v) { return all(v == T(v.get(0))); };
+        return same(ray.o.x) && same(ray.o.y) && same(ray.o.z);
+    }
+}
+
 // K rays (T lanes; inv: reciprocal directions, shear: the watertight kernel's per-ray
-// shear) through a one-node tree (packet_tree). Closest hit: the lanes hit below t, with t,
-// kind (a BvhLeafKind) and lane (block lane, or quadric index) updated where nearer. Any
-// hit (kAnyHit): the lanes hit below t, stopping once every active lane is.
+// shear) through a tree without instances (instances take the single-ray traversal).
+// Closest hit: the lanes hit below t, with t, kind (a BvhLeafKind) and lane (block lane, or
+// quadric index) updated where nearer; inner children are visited nearest first (by the
+// nearest entry of any ray) and skipped once every ray has a hit before their box. Any hit
+// (kAnyHit): the lanes hit below t, stopping once every active lane is.
 template <bool kAnyHit, class T>
 Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& inv,
                         const RayShear<T>& shear, Mask<T> active, T& t, I32<T>& kind,
                         I32<T>& lane) {
     using I = I32<T>;
-    const WideBvhNode& node = bvh.nodes[0];
     Mask<T> hit(false);
+    if (bvh.node_count == 0 || none(active)) return hit;
     const T o[3] = {ray.o.x, ray.o.y, ray.o.z}, r[3] = {inv.x, inv.y, inv.z};
-    for (uint32_t i = 0; i < node.slots; ++i) {
-        // The leaf's box over [0, t], the robust slab test of the traversal
-        T t0(0.0f), t1 = t;
-        for (int k = 0; k < 3; ++k) {
-            const T a = (T(node.bounds[k][i]) - o[k]) * r[k];
-            const T b = (T(node.bounds[k + 3][i]) - o[k]) * r[k];
-            const auto forward = r[k] >= T(0.0f);
-            const T near = select(forward, a, b), far = select(forward, b, a) * T(kBvhFarScale);
-            t0 = select(near > t0, near, t0);
-            t1 = select(far < t1, far, t1);
-        }
-        const Mask<T> enter = active & (t0 <= t1);
-        if (none(enter)) continue;
+    T r_far[3];
+    Mask<T> forward[3];
+    for (int k = 0; k < 3; ++k) r_far[k] = r[k] * T(kBvhFarScale), forward[k] = r[k] >= T(0.0f);
+
+    // One leaf for the rays `enter`
+    const auto test_leaf = [&](const WideBvhNode& node, uint32_t i, const Mask<T>& enter) {
         const uint32_t start = node.child[i], count = node.count[i];
-        const auto record = [&](const Mask<T>& h, const T& th, uint32_t kind_i, uint32_t lane_i) {
-            t = select(h, th, t);
-            kind = select(mask_i32(h), I(int32_t(kind_i)), kind);
-            lane = select(mask_i32(h), I(int32_t(lane_i)), lane);
-        };
         for (uint32_t j = 0; j < count; ++j) {
             T th(0.0f);
             Mask<T> h(false);
@@ -425,13 +442,56 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
             h = h & enter;
             hit = hit | h;
             if constexpr (kAnyHit) {
-                if (all(hit | !active)) return hit;
+                if (all(hit | !active)) return true;
             } else {
-                record(h, th, node.kind[i], id);
+                t = select(h, th, t);
+                kind = select(mask_i32(h), I(int32_t(node.kind[i])), kind);
+                lane = select(mask_i32(h), I(int32_t(id)), lane);
             }
         }
+        return false;
+    };
+
+    struct Entry {
+        uint32_t node;
+        float t;  // the nearest entry of any ray into its box
+    };
+    Entry stack[kWideBvhStackSize];
+    int size = 0;
+    Entry e{0, 0.0f};
+    for (;;) {
+        const WideBvhNode& node = bvh.nodes[e.node];
+        const int base = size;
+        for (uint32_t i = 0; i < node.slots; ++i) {
+            // The child's box over [0, t] for every ray, the robust slab test
+            T t0(0.0f), t1 = t;
+            for (int k = 0; k < 3; ++k) {
+                const T a = T(node.bounds[k][i]) - o[k], b = T(node.bounds[k + 3][i]) - o[k];
+                const T near = select(forward[k], a, b) * r[k];
+                const T far = select(forward[k], b, a) * r_far[k];
+                t0 = select(near > t0, near, t0);
+                t1 = select(far < t1, far, t1);
+            }
+            const Mask<T> enter = active & !(kAnyHit ? hit : Mask<T>(false)) & (t0 <= t1);
+            if (none(enter)) continue;
+            if ((node.leaves >> i) & 1u) {
+                if (test_leaf(node, i, enter)) return hit;
+                continue;
+            }
+            // An inner child: onto the stack, the nearest on top
+            const float near = lane_min(select(enter, t0, T(kRayFar)));
+            Entry other{node.child[i], near};
+            int j = size++;
+            if constexpr (!kAnyHit)
+                for (; j > base && stack[j - 1].t < other.t; --j) stack[j] = stack[j - 1];
+            stack[j] = other;
+        }
+        // Next: the top of the stack, dropping boxes that every ray has a hit before
+        do {
+            if (size == 0) return hit;
+            e = stack[--size];
+        } while (!kAnyHit && all(t < T(e.t) | !active));
     }
-    return hit;
 }
 
 // ---- What was hit --------------------------------------------------------------------------

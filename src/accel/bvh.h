@@ -99,6 +99,7 @@ struct BvhView {
     const uint32_t* items = nullptr;           // quadric or instance indices of leaves
     const float* quadrics = nullptr;           // 16 floats per scene quadric: A..J, box min, max
     const BvhInstance* instances = nullptr;
+    int32_t instance_count = 0;
     float bounds[6] = {0, 0, 0, -1, -1, -1};   // min xyz, max xyz of everything (empty: min > max)
 };
 

@@ -362,6 +362,7 @@ void Bvh::update_view() {
     v.items = items_.data();
     v.quadrics = quadrics_.data();
     v.instances = instances_.data();
+    v.instance_count = int32_t(instances_.size());
     std::copy(view_.bounds, view_.bounds + 6, v.bounds);
     view_ = v;
 }

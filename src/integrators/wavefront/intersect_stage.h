@@ -121,15 +121,16 @@ void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const BvhHit& h
 }
 
 // The closest hits of K rays in the scene BVH below their t (K floats at `t`, updated),
-// for the `live` lanes: a one-node tree is tested by all K rays at once (packet_traverse);
-// otherwise the rays whose interval [0, t] meets the tree's box go through it one by one.
+// for the `live` lanes: a one-node tree, or K rays from one point (a pinhole camera's) in a
+// tree without instances, are traced all at once (packet_traverse); otherwise the rays
+// whose interval [0, t] meets the tree's box go through it one by one.
 // on_hit(l, hit) is called for each lane hit.
 template <class A, class OnHit>
 void closest_in_tree(const BvhView& bvh, bool packet, const Ray<typename Wave<A>::F>& ray,
                      typename Wave<A>::M live, float* t, const OnHit& on_hit) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
-    if (packet) {
+    if (packet || (bvh.instance_count == 0 && coherent(ray))) {
         F tt = F::load_aligned(t);
         I kind(0), lane(0);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
