@@ -250,7 +250,9 @@ template <bool kAnyHit, class N, bool kTop = true>
             enter |= mask_bits(t0 <= t1) << at;
             store_lanes(t0, entry + at);
         }
-        // (unused slots have empty boxes, min +inf and max -inf, which no ray enters)
+        // Unused slots have empty boxes (min +inf, max -inf), which no ray enters, but a NaN
+        // direction leaves every interval as it was: they are masked off too
+        enter &= (1u << node.slots) - 1u;
         // The leaves entered, in slot order
         if (uint32_t leaves = enter & node.leaves) {
             for (; leaves; leaves &= leaves - 1) {
@@ -490,7 +492,7 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
         do {
             if (size == 0) return hit;
             e = stack[--size];
-        } while (!kAnyHit && all(t < T(e.t) | !active));
+        } while (!kAnyHit && all((t < T(e.t)) | !active));
     }
 }
 

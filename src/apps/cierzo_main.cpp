@@ -77,6 +77,17 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
         {"mean_relative_error", st.mean_relative_error},
         {"stopped_by", st.stopped_by},
     };
+    // The acceleration structure: what it holds, its size and how long it took to build
+    const BvhStats& b = scene.bvh.stats();
+    size_t instances = 0, mesh_bytes = 0;
+    for (const Mesh& m : scene.meshes) {
+        instances += m.instanced();
+        if (m.bvh) mesh_bytes += m.bvh->stats().bytes;
+    }
+    j["bvh"] = {{"primitives", b.primitives}, {"nodes", b.nodes}, {"bytes", b.bytes},
+                {"instances", instances}, {"instanced_mesh_bytes", mesh_bytes},
+                {"unbounded", scene.planes.size() + scene.unbounded_quadrics.size()},
+                {"build_seconds", scene.bvh_seconds}};
     write_stream_atomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
 }
 

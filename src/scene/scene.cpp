@@ -4,6 +4,7 @@
 #include "scene/scene.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "kernels/traverse.h"
@@ -25,6 +26,7 @@ Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& u
 }
 
 void Scene::finalize() {
+    const auto start = std::chrono::steady_clock::now();
     BvhInput in;
     for (size_t i = 0; i < meshes.size(); ++i) {
         Mesh& m = meshes[i];
@@ -69,6 +71,7 @@ void Scene::finalize() {
     }
     in.quadric_table = table;
     bvh.build(in);
+    bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 void Scene::set_resolution(int width, int height) {

@@ -123,6 +123,7 @@ public:
     // finite box, world-space triangles, instances), and the quadrics tested beside it.
     Bvh bvh;
     std::vector<int32_t> unbounded_quadrics;
+    double bvh_seconds = 0.0;  // building every BVH, in finalize()
 
     // Call once after filling the arrays: builds the BVHs (a copy of the scene shares its
     // meshes' BVHs).

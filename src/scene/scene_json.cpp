@@ -361,7 +361,7 @@ struct Loader {
                 t.fail(std::string("mesh file: ") + e.what());
             }
             if (data.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
-            found = mesh_files.emplace(key, MeshFile{std::move(data), {}}).first;
+            found = mesh_files.emplace(key, MeshFile{std::move(data), {}, {}}).first;
         }
         const PlyMesh& data = found->second.data;
         Mesh m;

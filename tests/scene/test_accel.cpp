@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -377,7 +378,9 @@ TEST(Accel, PacketsOverAOneNodeTreeMatchSingleRays) {
                     s.bvh.view(), WideRays<TestArch>(ray).lane(l), want, h);
                 EXPECT_EQ(bool((hits >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
                 EXPECT_EQ(bool((any >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
-                if (single) EXPECT_EQ(ts[l], want);
+                if (single) {
+                    EXPECT_EQ(ts[l], want);
+                }
             }
         }
     }
@@ -439,6 +442,29 @@ TEST(Accel, TinyAndHugeSpheresTogether) {
     for (const Ray<float>& ray : random_rays(1000, 1.0f, 23)) {
         ASSERT_TRUE(s.intersect(ray, kRayFar, hit));
         EXPECT_LT(hit.t, 1.0001e6f);
+    }
+}
+
+TEST(Accel, ARayWithANaNDirectionHitsNothing) {
+    // (a NaN slab distance leaves a box's interval as it was, so such a ray enters every
+    // box: the traversal must still end, and report nothing it cannot hit)
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(8, 12));
+    const Scene s = scene_of(mixture_objects(30, 300, 300) + R"(,
+        {"type": "mesh", "file": "ball.ply", "material": {"kd": 0.5}},
+        {"type": "mesh", "file": "ball.ply", "translate": [3, 0, 0], "material": {"kd": 0.5}})",
+                             dir.path / "nan.json");
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (const Vec3f d : {Vec3f(nan, 0, 0), Vec3f(nan, nan, nan), Vec3f(0, nan, 1)}) {
+        Hit hit;
+        s.intersect({{0.1f, 0.2f, 0.3f}, d}, kRayFar, hit);
+        s.occluded({{0.1f, 0.2f, 0.3f}, d}, kRayFar);
+        const TraversalRay r = make_traversal_ray({0.1f, 0.2f, 0.3f}, d);
+        float t = kRayFar;
+        BvhHit h;
+        traverse<false, NodeLanes<TestArch>>(s.bvh.view(), r, t, h);
+        t = kRayFar;
+        traverse<true, NodeLanes<TestArch>>(s.bvh.view(), r, t, h);
     }
 }
 
