@@ -457,14 +457,14 @@ TEST(Accel, ARayWithANaNDirectionHitsNothing) {
     const float nan = std::numeric_limits<float>::quiet_NaN();
     for (const Vec3f d : {Vec3f(nan, 0, 0), Vec3f(nan, nan, nan), Vec3f(0, nan, 1)}) {
         Hit hit;
-        s.intersect({{0.1f, 0.2f, 0.3f}, d}, kRayFar, hit);
-        s.occluded({{0.1f, 0.2f, 0.3f}, d}, kRayFar);
+        EXPECT_FALSE(s.intersect({{0.1f, 0.2f, 0.3f}, d}, kRayFar, hit));
+        EXPECT_FALSE(s.occluded({{0.1f, 0.2f, 0.3f}, d}, kRayFar));
         const TraversalRay r = make_traversal_ray({0.1f, 0.2f, 0.3f}, d);
         float t = kRayFar;
         BvhHit h;
-        traverse<false, NodeLanes<TestArch>>(s.bvh.view(), r, t, h);
+        EXPECT_FALSE((traverse<false, NodeLanes<TestArch>>(s.bvh.view(), r, t, h)));
         t = kRayFar;
-        traverse<true, NodeLanes<TestArch>>(s.bvh.view(), r, t, h);
+        EXPECT_FALSE((traverse<true, NodeLanes<TestArch>>(s.bvh.view(), r, t, h)));
     }
 }
 
