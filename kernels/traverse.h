@@ -360,12 +360,10 @@ Mask<T> occluded_unbounded(const Ray<T>& ray, const T& tmax, Mask<T> blocked,
 // It pays where the rays go the same way: a one-node tree (a scene of a few dozen
 // primitives at most, which every ray enters: the report's linear loop over the
 // primitives, with boxes), and camera rays of neighbouring pixels. Whether a tree is one
-// node without instances (then every batch takes this path):
+// node without instances (then every batch takes this path; rays that scatter into an
+// instance's deeper tree go one by one):
 inline bool packet_tree(const BvhView& bvh) {
-    if (bvh.node_count != 1) return false;
-    for (uint32_t i = 0; i < bvh.nodes[0].slots; ++i)
-        if (bvh.nodes[0].kind[i] == kLeafInstances) return false;
-    return true;
+    return bvh.node_count == 1 && bvh.instance_count == 0;
 }
 
 // The smallest lane of v.
@@ -394,15 +392,16 @@ bool coherent(const Ray<T>& ray) {
 }
 
 // K rays (T lanes; inv: reciprocal directions, shear: the watertight kernel's per-ray
-// shear) through a tree without instances (instances take the single-ray traversal).
-// Closest hit: the lanes hit below t, with t, kind (a BvhLeafKind) and lane (block lane, or
-// quadric index) updated where nearer; inner children are visited nearest first (by the
+// shear) through the tree; an instance maps them all into its space and takes them through
+// its mesh's tree (kTop = false there). Closest hit: the lanes hit below t, with t, kind (a
+// BvhLeafKind), lane (block lane, or quadric index) and instance (-1: none) updated where
+// nearer; inner children are visited nearest first (by the
 // nearest entry of any ray) and skipped once every ray has a hit before their box. Any hit
 // (kAnyHit): the lanes hit below t, stopping once every active lane is.
-template <bool kAnyHit, class T>
+template <bool kAnyHit, class T, bool kTop = true>
 Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& inv,
                         const RayShear<T>& shear, Mask<T> active, T& t, I32<T>& kind,
-                        I32<T>& lane) {
+                        I32<T>& lane, I32<T>& instance) {
     using I = I32<T>;
     Mask<T> hit(false);
     if (bvh.node_count == 0 || none(active)) return hit;
@@ -433,6 +432,33 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                 const uint32_t l = id % kWideBvhWidth;
                 h = intersect_sphere(ray, Vec3<T>(T(c[0][l]), T(c[1][l]), T(c[2][l])), T(c[3][l]),
                                      t, th);
+            } else if (kTop && node.kind[i] == kLeafInstances) {
+                // The rays mapped into the instance's space (t is the same there), through
+                // its mesh's tree
+                id = bvh.items[start + j];
+                const BvhInstance& in = bvh.instances[id];
+                const float* m = in.to_object;
+                const auto row = [&](int r, const Vec3<T>& v, bool point) {
+                    const T x = fma(T(m[4 * r]), v.x, fma(T(m[4 * r + 1]), v.y, T(m[4 * r + 2]) * v.z));
+                    return point ? x + T(m[4 * r + 3]) : x;
+                };
+                const Ray<T> local{{row(0, ray.o, true), row(1, ray.o, true), row(2, ray.o, true)},
+                                   {row(0, ray.d, false), row(1, ray.d, false), row(2, ray.d, false)}};
+                const Vec3<T> local_inv(T(1.0f) / local.d.x, T(1.0f) / local.d.y,
+                                        T(1.0f) / local.d.z);
+                I unused(0);
+                if constexpr (kTop) {
+                    h = packet_traverse<kAnyHit, T, false>(*in.geometry, local, local_inv,
+                                                           make_ray_shear(local.d), enter, t,
+                                                           kind, lane, unused);
+                }
+                hit = hit | h;
+                if constexpr (kAnyHit) {
+                    if (all(hit | !active)) return true;
+                } else {
+                    instance = select(mask_i32(h), I(int32_t(id)), instance);
+                }
+                continue;
             } else {
                 id = bvh.items[start + j];
                 const float* q = bvh.quadrics + 16 * size_t(id);
@@ -449,6 +475,7 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                 t = select(h, th, t);
                 kind = select(mask_i32(h), I(int32_t(node.kind[i])), kind);
                 lane = select(mask_i32(h), I(int32_t(id)), lane);
+                instance = select(mask_i32(h), I(-1), instance);
             }
         }
         return false;

@@ -346,10 +346,22 @@ struct Loader {
         PlyMesh data;
         std::vector<size_t> objects;  // indices into scene.meshes
         std::vector<std::string> where;  // their place in the file, for messages
+        std::vector<int> instance;    // per object: its "instance" (1, 0), or -1 for automatic
+        size_t automatic = 0;         // objects of the file without "instance"
     };
+    // A file used by several objects without "instance" is traced through instances when
+    // their copies would hold more triangles than this in all; below, the copies are put
+    // into world space (a flat BVH traces faster, and the memory is small).
+    static constexpr size_t kInstanceAbove = 65536;
     std::map<fs::path, MeshFile> mesh_files;
 
     void mesh(Reader& t) {
+        int instance = -1;  // automatic
+        if (t.has("instance")) {
+            const json& v = t.get("instance");
+            if (!v.is_boolean()) t.fail("'instance' must be true or false");
+            instance = v.get<bool>() ? 1 : 0;
+        }
         const fs::path ply = file.parent_path() / t.string("file");
         const fs::path key = ply.lexically_normal();
         auto found = mesh_files.find(key);
@@ -361,9 +373,10 @@ struct Loader {
                 t.fail(std::string("mesh file: ") + e.what());
             }
             if (data.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
-            found = mesh_files.emplace(key, MeshFile{std::move(data), {}, {}}).first;
+            found = mesh_files.emplace(key, MeshFile{std::move(data), {}, {}, {}, 0}).first;
         }
-        const PlyMesh& data = found->second.data;
+        MeshFile& f = found->second;
+        const PlyMesh& data = f.data;
         Mesh m;
         m.source = ply.string();
         m.material = material_ref(t);
@@ -391,16 +404,21 @@ struct Loader {
         };
         // The world-space vertices (kept if the file turns out to have one object), each
         // checked to stay in float range
+        // (kept unless the object will surely be an instance: the first object of a file
+        // may be its only one)
         const size_t n = data.positions.size() / 3;
-        const bool first = found->second.objects.empty();
-        if (first) m.positions.reserve(n);
+        const size_t triangles = data.indices.size() / 3;
+        const bool first = f.objects.empty();
+        const bool keep = instance == 0 ||
+                          (instance < 0 && (first || (f.automatic + 1) * triangles <= kInstanceAbove));
+        if (keep) m.positions.reserve(n);
         for (size_t i = 0; i < n; ++i) {
             const Vec3f p = transform(
                 {data.positions[3 * i], data.positions[3 * i + 1], data.positions[3 * i + 2]});
             if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
                 t.fail("'scale', 'rotate' and 'translate' take vertex " + std::to_string(i) +
                        " of '" + ply.string() + "' beyond float range");
-            if (first) m.positions.push_back(p);
+            if (keep) m.positions.push_back(p);
         }
         // The same map as a matrix, for instancing: to_world = T Rz Ry Rx S, in double
         double a[3][3] = {{scale.x, 0, 0}, {0, scale.y, 0}, {0, 0, scale.z}};
@@ -417,8 +435,10 @@ struct Loader {
         };
         rotate(0, rot.x), rotate(1, rot.y), rotate(2, rot.z);
         set_transform(m, a, move);
-        found->second.objects.push_back(scene.meshes.size());
-        found->second.where.push_back(t.where("scale"));
+        f.objects.push_back(scene.meshes.size());
+        f.where.push_back(t.where("scale"));
+        f.instance.push_back(instance);
+        f.automatic += instance < 0;
         scene.meshes.push_back(std::move(m));
     }
 
@@ -448,43 +468,51 @@ struct Loader {
         m.mirrored = det < 0.0;
     }
 
-    // After all objects: a file used by one object keeps its world-space vertices (with the
-    // winding reversed by a mirroring transform, so its normals are the file's normals
-    // through the inverse transpose, as an instance's are); a file used by several is kept
-    // once, in the file's space, in the first of them, and all are traced as instances.
+    // After all objects, for each mesh file: an object traced as an instance ("instance":
+    // true, or automatically when several objects use the file and their copies would hold
+    // more than kInstanceAbove triangles) shares the file's vertices, kept once in the file's
+    // space in the first such object; every other object keeps its world-space vertices
+    // (with the winding reversed by a mirroring transform, so its normals are the file's
+    // normals through the inverse transpose, as an instance's are).
     void finish_meshes() {
         for (auto& [path, f] : mesh_files) {
-            const size_t owner = f.objects.front();
-            if (f.objects.size() == 1) {
-                Mesh& m = scene.meshes[owner];
-                m.indices = std::move(f.data.indices);
-                if (m.mirrored)
-                    for (size_t i = 0; i + 2 < m.indices.size(); i += 3)
-                        std::swap(m.indices[i + 1], m.indices[i + 2]);
-            } else {
-                for (size_t k = 0; k < f.objects.size(); ++k) {
-                    Mesh& m = scene.meshes[f.objects[k]];
-                    for (const float v : m.to_object)
-                        if (!std::isfinite(v))
-                            throw InputError(file.string() + ": " + f.where[k] +
-                                             ": the transform cannot be inverted in float (a "
-                                             "scale below about 1e-38), which an object "
-                                             "sharing its mesh file needs");
-                    m.positions.clear();
-                    m.positions.shrink_to_fit();
-                    m.geometry = int32_t(owner);
+            const size_t triangles = f.data.indices.size() / 3;
+            const bool automatic = f.automatic >= 2 && f.automatic * triangles > kInstanceAbove;
+            int64_t owner = -1;
+            for (size_t k = 0; k < f.objects.size(); ++k) {
+                Mesh& m = scene.meshes[f.objects[k]];
+                const bool instanced = f.instance[k] == 1 || (f.instance[k] < 0 && automatic);
+                if (!instanced) {
+                    m.indices = f.data.indices;
+                    if (m.mirrored)
+                        for (size_t i = 0; i + 2 < m.indices.size(); i += 3)
+                            std::swap(m.indices[i + 1], m.indices[i + 2]);
+                    for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
+                        m.colors.push_back(
+                            {f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
+                    continue;
                 }
-                Mesh& m = scene.meshes[owner];
-                const size_t n = f.data.positions.size() / 3;
-                m.positions.resize(n);
-                for (size_t i = 0; i < n; ++i)
-                    m.positions[i] = {f.data.positions[3 * i], f.data.positions[3 * i + 1],
-                                      f.data.positions[3 * i + 2]};
-                m.indices = std::move(f.data.indices);
+                for (const float v : m.to_object)
+                    if (!std::isfinite(v))
+                        throw InputError(file.string() + ": " + f.where[k] +
+                                         ": the transform cannot be inverted in float (a scale "
+                                         "below about 1e-38), which an instance needs");
+                m.positions.clear();
+                m.positions.shrink_to_fit();
+                if (owner < 0) {
+                    owner = int64_t(f.objects[k]);
+                    const size_t n = f.data.positions.size() / 3;
+                    m.positions.resize(n);
+                    for (size_t i = 0; i < n; ++i)
+                        m.positions[i] = {f.data.positions[3 * i], f.data.positions[3 * i + 1],
+                                          f.data.positions[3 * i + 2]};
+                    m.indices = f.data.indices;
+                    for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
+                        m.colors.push_back(
+                            {f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
+                }
+                m.geometry = int32_t(owner);
             }
-            Mesh& m = scene.meshes[owner];
-            for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
-                m.colors.push_back({f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
         }
         mesh_files.clear();
     }

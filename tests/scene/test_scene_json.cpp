@@ -470,17 +470,18 @@ TEST(scene_json_values, MeshFileIsRelativeToTheSceneAndTransformed) {
     const fs::path scene = dir.write("scene.json", R"({
         "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
         "objects": [
-            {"type": "mesh", "file": "meshes/tri.ply", "scale": 2, "material": {"kd": 0.5}},
+            {"type": "mesh", "file": "meshes/tri.ply", "scale": 2, "material": {"kd": 0.5},
+             "instance": true},
             {"type": "mesh", "file": "meshes/tri.ply", "rotate": [90, 90, 0],
-             "material": {"kd": 0.5}},
+             "material": {"kd": 0.5}, "instance": true},
             {"type": "mesh", "file": "meshes/tri.ply", "scale": [1, 2, 3], "rotate": [0, 0, 90],
-             "translate": [10, 20, 30], "material": {"kd": 0.5}}]
+             "translate": [10, 20, 30], "material": {"kd": 0.5}, "instance": true}]
     })");
     const Scene s = load_scene(scene);
     ASSERT_EQ(s.meshes.size(), 3u);
     EXPECT_EQ(s.meshes[0].source, (dir.path() / "meshes/tri.ply").string());
-    // One file, three objects: read once, kept in the file's space in the first object,
-    // and every object an instance of it
+    // One file, three objects, all instances: read once, kept in the file's space in the
+    // first object
     for (const Mesh& m : s.meshes) EXPECT_EQ(m.geometry, 0);
     EXPECT_TRUE(s.meshes[1].positions.empty());
     EXPECT_TRUE(s.meshes[2].positions.empty());
@@ -542,6 +543,36 @@ TEST(scene_json_values, AFileUsedOnceIsInWorldSpaceAndMirroringKeepsItsNormals) 
     // Mirrored in x: the winding is reversed, so the normal is the file's normal through the
     // inverse transpose (a mirror image of it), as it is for an instance
     EXPECT_EQ(s.meshes[1].indices, (std::vector<uint32_t>{0, 2, 1}));
+}
+
+TEST(scene_json_values, ASmallFileUsedTwiceIsCopiedUnlessInstancingIsAskedFor) {
+    TempDir dir;
+    dir.write("meshes/tri.ply", kTrianglePly);
+    const fs::path scene = dir.write("scene.json", R"({
+        "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+        "objects": [
+            {"type": "mesh", "file": "meshes/tri.ply", "material": {"kd": 0.5}},
+            {"type": "mesh", "file": "meshes/tri.ply", "translate": [5, 0, 0],
+             "material": {"kd": 0.5}},
+            {"type": "mesh", "file": "meshes/tri.ply", "translate": [9, 0, 0],
+             "material": {"kd": 0.5}, "instance": true}]
+    })");
+    const Scene s = load_scene(scene);
+    ASSERT_EQ(s.meshes.size(), 3u);
+    // Two copies of one triangle: in world space, each with its own vertices and colours
+    EXPECT_EQ(s.meshes[0].geometry, -1);
+    EXPECT_EQ(s.meshes[1].geometry, -1);
+    expect_vec(s.meshes[1].positions[0], 6, 0, 0);
+    EXPECT_EQ(s.meshes[1].colors.size(), 3u);
+    // The third asked to be an instance: it owns the file's vertices
+    EXPECT_EQ(s.meshes[2].geometry, 2);
+    expect_vec(s.meshes[2].positions[0], 1, 0, 0);
+    ASSERT_TRUE(s.meshes[2].bvh);
+    EXPECT_EQ(s.bvh.stats().primitives, 3u);  // two triangles and one instance
+    EXPECT_TRUE(text_fails_with(
+        R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]}, "objects": [
+            {"type": "mesh", "file": "meshes/tri.ply", "instance": 1, "material": {"kd": 1}}]})",
+        "'instance' must be true or false", dir.path() / "bad.json"));
 }
 
 TEST(scene_json_values, LoadSceneReadsTheFile) {

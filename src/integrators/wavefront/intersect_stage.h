@@ -121,28 +121,28 @@ void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const BvhHit& h
 }
 
 // The closest hits of K rays in the scene BVH below their t (K floats at `t`, updated),
-// for the `live` lanes: a one-node tree, or K rays from one point (a pinhole camera's) in a
-// tree without instances, are traced all at once (packet_traverse); otherwise the rays
-// whose interval [0, t] meets the tree's box go through it one by one.
+// for the `live` lanes: a one-node tree, or K rays from one point (a pinhole camera's), are
+// traced all at once (packet_traverse); otherwise the rays whose interval [0, t] meets the
+// tree's box go through it one by one.
 // on_hit(l, hit) is called for each lane hit.
 template <class A, class OnHit>
 void closest_in_tree(const BvhView& bvh, bool packet, const Ray<typename Wave<A>::F>& ray,
                      typename Wave<A>::M live, float* t, const OnHit& on_hit) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
-    if (packet || (bvh.instance_count == 0 && coherent(ray))) {
+    if (packet || coherent(ray)) {
         F tt = F::load_aligned(t);
-        I kind(0), lane(0);
+        I kind(0), lane(0), instance(-1);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
-        uint32_t hits = mask_bits(
-            packet_traverse<false>(bvh, ray, inv, make_ray_shear(ray.d), live, tt, kind, lane));
+        uint32_t hits = mask_bits(packet_traverse<false>(bvh, ray, inv, make_ray_shear(ray.d),
+                                                         live, tt, kind, lane, instance));
         if (!hits) return;
         tt.store_aligned(t);
-        alignas(64) int32_t kinds[Wave<A>::K], lanes[Wave<A>::K];
-        kind.store_aligned(kinds), lane.store_aligned(lanes);
+        alignas(64) int32_t kinds[Wave<A>::K], lanes[Wave<A>::K], instances[Wave<A>::K];
+        kind.store_aligned(kinds), lane.store_aligned(lanes), instance.store_aligned(instances);
         for (; hits; hits &= hits - 1) {
             const int l = std::countr_zero(hits);
-            on_hit(l, BvhHit{uint32_t(kinds[l]), uint32_t(lanes[l]), -1});
+            on_hit(l, BvhHit{uint32_t(kinds[l]), uint32_t(lanes[l]), instances[l]});
         }
         return;
     }
@@ -238,10 +238,10 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         s.unbounded_quadric_count, QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics});
     if (s.features.packet && !all(blocked)) {
         F t = tmax;
-        typename Wave<A>::I kind(0), lane(0);
+        typename Wave<A>::I kind(0), lane(0), instance(-1);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
         return blocked | packet_traverse<true>(*s.bvh, ray, inv, make_ray_shear(ray.d),
-                                               live & !blocked, t, kind, lane);
+                                               live & !blocked, t, kind, lane, instance);
     }
     if (s.features.bvh && !all(blocked)) {
         // The open rays that enter the tree's box through it, one by one
