@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -450,3 +452,80 @@ TEST_F(cli, ConvergeRefusesBadReferencesAndKnobs) {
 }
 
 }  // namespace
+
+// ---- cierzo trace ---------------------------------------------------------------------------
+namespace {
+
+// A ray file: the magic, the count, then 7 floats per ray (origin, direction, tmax).
+std::string ray_file(const std::vector<std::array<float, 7>>& rays, uint64_t count) {
+    std::string s("CZRAYS1\0", 8);
+    s.append(reinterpret_cast<const char*>(&count), 8);
+    for (const auto& r : rays) s.append(reinterpret_cast<const char*>(r.data()), 28);
+    return s;
+}
+
+// key: value lines of a program's output.
+std::map<std::string, std::string> key_values(const std::string& text) {
+    std::map<std::string, std::string> m;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+        const size_t colon = line.find(": ");
+        if (colon != std::string::npos) m[line.substr(0, colon)] = line.substr(colon + 2);
+    }
+    return m;
+}
+
+}  // namespace
+
+TEST_F(cli, TraceFindsTheSameHitsWithEveryIntegratorAndIsa) {
+    const fs::path scene = write("s.json", kTinyScene);
+    // Rays from the camera towards the floor, the spheres and the sky, one with a short tmax
+    std::vector<std::array<float, 7>> rays;
+    for (int i = 0; i < 200; ++i) {
+        const float x = float(i % 20) / 10.0f - 1.0f, y = float(i / 20) / 5.0f - 1.0f;
+        const float n = std::sqrt(x * x + y * y + 9.0f);
+        rays.push_back({0, 0, -3, x / n, y / n, 3 / n, i == 7 ? 0.5f : 3.4028235e38f});
+    }
+    const fs::path file = write("r.rays", ray_file(rays, rays.size()));
+    const Outcome scalar = run(quote(scene) + " --rays " + quote(file) + " --integrator scalar", "trace");
+    ASSERT_EQ(scalar.exit_code, 0) << scalar.err;
+    const auto want = key_values(scalar.out);
+    EXPECT_EQ(want.at("rays"), "200");
+    const int hits = std::stoi(want.at("hits"));
+    EXPECT_GT(hits, 50);
+    EXPECT_LT(hits, 200);  // some rays go to the sky
+    for (const cierzo::Isa isa : cierzo::compiled_isas()) {
+        if (!cierzo::isa_supported(isa)) continue;
+        const Outcome w = run(quote(scene) + " --rays " + quote(file) + " --isa " +
+                                  cierzo::isa_name(isa),
+                              "trace");
+        ASSERT_EQ(w.exit_code, 0) << w.err;
+        const auto got = key_values(w.out);
+        EXPECT_EQ(got.at("hits"), want.at("hits")) << cierzo::isa_name(isa);
+        EXPECT_NEAR(std::stod(got.at("sum_t")), std::stod(want.at("sum_t")),
+                    1e-5 * std::stod(want.at("sum_t")));
+    }
+}
+
+TEST_F(cli, TraceRefusesABadRayFileNamingIt) {
+    const fs::path scene = write("s.json", kTinyScene);
+    const std::array<float, 7> ray{0, 0, -3, 0, 0, 1, 1e30f};
+    const struct {
+        const char* name;
+        std::string bytes;
+        const char* phrase;
+    } cases[] = {
+        {"magic.rays", "NOTRAYS!" + std::string(8, '\0'), "not a ray file"},
+        {"short.rays", std::string("CZRAYS1\0", 8), "no ray count"},
+        {"lying.rays", ray_file({ray, ray}, 3), "the header says 3 rays"},
+        {"long.rays", ray_file({ray, ray}, 1), "the header says 1 rays"},
+        {"nan.rays", ray_file({{0, 0, -3, std::nanf(""), 0, 1, 1e30f}}, 1), "non-finite"},
+    };
+    for (const auto& c : cases) {
+        const fs::path file = write(c.name, c.bytes);
+        const Outcome r = run(quote(scene) + " --rays " + quote(file), "trace");
+        EXPECT_EQ(r.exit_code, 1) << c.name;
+        EXPECT_NE(r.err.find(file.string()), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find(c.phrase), std::string::npos) << r.err;
+    }
+}

@@ -372,16 +372,20 @@ TEST(Accel, PacketsOverAOneNodeTreeMatchSingleRays) {
             alignas(64) float ts[K];
             t.store_aligned(ts);
             for (int l = 0; l < K && i + size_t(l) < rays.size(); ++l) {
-                // (single rays through the same SIMD arithmetic: a sphere's dot products fuse,
-                // or not, alike)
+                // A triangle at exactly the same t (its kernel never fuses); a sphere or
+                // quadric to rounding (the compiler may fuse their products differently where
+                // the two paths inline them, as it does on aarch64, and a quadric's root near
+                // a tangent magnifies that)
                 float want = kRayFar;
                 BvhHit h;
                 const bool single = traverse<false, NodeLanes<TestArch>>(
                     s.bvh.view(), WideRays<TestArch>(ray).lane(l), want, h);
                 EXPECT_EQ(bool((hits >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
                 EXPECT_EQ(bool((any >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
-                if (single) {
+                if (single && h.kind == kLeafTriangles) {
                     EXPECT_EQ(ts[l], want);
+                } else if (single) {
+                    EXPECT_NEAR(ts[l], want, 5e-5f * (want + 14.0f));
                 }
             }
         }
