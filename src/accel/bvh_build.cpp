@@ -533,27 +533,19 @@ void Bvh::build(const BvhInput& in) {
 
 // Writes the primitives of binary leaf `leaf` as blocks or items; returns where they start.
 uint32_t Bvh::Builder::add_leaf(Bvh& bvh, const BvhInput& in, const Node& leaf) const {
-    Bvh& self = bvh;
-    auto& triangles_ = self.triangles_;
-    auto& triangle_mesh_ = self.triangle_mesh_;
-    auto& triangle_index_ = self.triangle_index_;
-    auto& spheres_ = self.spheres_;
-    auto& sphere_index_ = self.sphere_index_;
-    auto& items_ = self.items_;
-    const Builder& b = *this;
-    const uint32_t* order = b.order.data() + leaf.first;
+    const uint32_t* order = this->order.data() + leaf.first;
     const uint32_t n = leaf.count;
     const uint32_t block_count = (n + kWideBvhWidth - 1) / kWideBvhWidth;
     switch (leaf.kind) {
         case kLeafTriangles: {
-            const uint32_t first = uint32_t(triangles_.size());
-            triangles_.resize(first + block_count);  // zeros: unused lanes stay degenerate
-            triangle_mesh_.resize(triangles_.size() * kWideBvhWidth, 0);
-            triangle_index_.resize(triangles_.size() * kWideBvhWidth, 0);
+            const uint32_t first = uint32_t(bvh.triangles_.size());
+            bvh.triangles_.resize(first + block_count);  // zeros: unused lanes stay degenerate
+            bvh.triangle_mesh_.resize(bvh.triangles_.size() * kWideBvhWidth, 0);
+            bvh.triangle_index_.resize(bvh.triangles_.size() * kWideBvhWidth, 0);
             for (uint32_t j = 0; j < n; ++j) {
-                const Ref& r = b.refs[order[j]];
+                const Ref& r = refs[order[j]];
                 const BvhTriangles& set = in.triangles[r.a];
-                float(*rows)[kWideBvhWidth] = triangles_[first + j / kWideBvhWidth].v;
+                float(*rows)[kWideBvhWidth] = bvh.triangles_[first + j / kWideBvhWidth].v;
                 for (int k = 0; k < 3; ++k) {
                     const Vec3f& p = set.positions[set.indices[3 * size_t(r.b) + size_t(k)]];
                     rows[3 * k][j % kWideBvhWidth] = p.x;
@@ -561,35 +553,35 @@ uint32_t Bvh::Builder::add_leaf(Bvh& bvh, const BvhInput& in, const Node& leaf) 
                     rows[3 * k + 2][j % kWideBvhWidth] = p.z;
                 }
                 const size_t lane = size_t(first) * kWideBvhWidth + j;
-                triangle_mesh_[lane] = set.mesh;
-                triangle_index_[lane] = r.b;
+                bvh.triangle_mesh_[lane] = set.mesh;
+                bvh.triangle_index_[lane] = r.b;
             }
             return first;
         }
         case kLeafSpheres: {
-            const uint32_t first = uint32_t(spheres_.size());
+            const uint32_t first = uint32_t(bvh.spheres_.size());
             SphereBlock empty;
             for (int k = 0; k < 3; ++k)
                 std::fill_n(empty.c[k], kWideBvhWidth, std::numeric_limits<float>::quiet_NaN());
             std::fill_n(empty.c[3], kWideBvhWidth, 0.0f);
-            spheres_.resize(first + block_count, empty);
-            sphere_index_.resize(spheres_.size() * kWideBvhWidth, 0);
+            bvh.spheres_.resize(first + block_count, empty);
+            bvh.sphere_index_.resize(bvh.spheres_.size() * kWideBvhWidth, 0);
             for (uint32_t j = 0; j < n; ++j) {
-                const uint32_t s = b.refs[order[j]].a;
-                float(*rows)[kWideBvhWidth] = spheres_[first + j / kWideBvhWidth].c;
+                const uint32_t s = refs[order[j]].a;
+                float(*rows)[kWideBvhWidth] = bvh.spheres_[first + j / kWideBvhWidth].c;
                 rows[0][j % kWideBvhWidth] = in.sphere_x[s];
                 rows[1][j % kWideBvhWidth] = in.sphere_y[s];
                 rows[2][j % kWideBvhWidth] = in.sphere_z[s];
                 rows[3][j % kWideBvhWidth] = in.sphere_r[s];
-                sphere_index_[size_t(first) * kWideBvhWidth + j] = s;
+                bvh.sphere_index_[size_t(first) * kWideBvhWidth + j] = s;
             }
             return first;
         }
         default: {
-            const uint32_t first = uint32_t(items_.size());
+            const uint32_t first = uint32_t(bvh.items_.size());
             for (uint32_t j = 0; j < n; ++j) {
-                const Ref& r = b.refs[order[j]];
-                items_.push_back(leaf.kind == kLeafQuadrics ? in.quadrics[r.a].index : r.a);
+                const Ref& r = refs[order[j]];
+                bvh.items_.push_back(leaf.kind == kLeafQuadrics ? in.quadrics[r.a].index : r.a);
             }
             return first;
         }

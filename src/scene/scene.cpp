@@ -58,10 +58,8 @@ void Scene::finalize() {
         table.insert(table.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h, q.q.i,
                                    q.q.j, q.box_min.x, q.box_min.y, q.box_min.z, q.box_max.x,
                                    q.box_max.y, q.box_max.z});
-        const bool bounded = std::isfinite(q.box_min.x) && std::isfinite(q.box_min.y) &&
-                             std::isfinite(q.box_min.z) && std::isfinite(q.box_max.x) &&
-                             std::isfinite(q.box_max.y) && std::isfinite(q.box_max.z) &&
-                             q.box_min.x > -kRayFar && q.box_max.x < kRayFar &&
+        // (a quadric without bounds has the box ±kRayFar)
+        const bool bounded = q.box_min.x > -kRayFar && q.box_max.x < kRayFar &&
                              q.box_min.y > -kRayFar && q.box_max.y < kRayFar &&
                              q.box_min.z > -kRayFar && q.box_max.z < kRayFar;
         if (bounded)

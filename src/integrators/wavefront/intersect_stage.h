@@ -105,8 +105,7 @@ using NodeLanes = xsimd::batch<float, WideArch<A>>;
 
 // Path q's hit record from a tree hit: the primitive id, and for a triangle its mesh, index
 // and normal.
-template <class A>
-void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const BvhHit& hit) {
+inline void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const BvhHit& hit) {
     if (hit.kind == kLeafSpheres) {
         p.prim[q] = (kPrimSphere << kPrimShift) | int32_t(hit_sphere(bvh, hit));
     } else if (hit.kind == kLeafQuadrics) {
@@ -162,7 +161,7 @@ void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) 
     PathPool& p = w.pool;
     const BvhView& bvh = *w.scene.bvh;
     closest_in_tree<A>(bvh, w.scene.features.packet, ray, w.live_mask(i), p.t + i,
-                       [&](int l, const BvhHit& hit) { record_tree_hit<A>(p, bvh, i + l, hit); });
+                       [&](int l, const BvhHit& hit) { record_tree_hit(p, bvh, i + l, hit); });
 }
 
 // Closest hits of `count` rays (7 floats each: origin, direction, tmax) through the whole
