@@ -170,5 +170,34 @@ uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
 }
 inline uint32_t mask_bits(bool m) { return m ? 1u : 0u; }
 
+// table[idx] in every lane: a plain load for one lane, the hardware gather where there is
+// one (xsimd 8.1 emulates gather lane by lane), four lane loads on SSE and NEON.
+template <class E>
+inline E gather_table(const E* table, int32_t idx) {
+    return table[idx];
+}
+template <class E, class A>
+inline xsimd::batch<E, A> gather_table(const E* table, const xsimd::batch<int32_t, A>& idx) {
+    using B = xsimd::batch<E, A>;
+    static_assert(sizeof(E) == 4);
+#if defined(__AVX512F__)
+    if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {
+        if constexpr (std::is_same_v<E, float>)
+            return B(_mm512_i32gather_ps(idx.data, table, 4));
+        else
+            return B(_mm512_i32gather_epi32(idx.data, table, 4));
+    }
+#endif
+#if defined(__AVX2__)
+    if constexpr (std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
+        if constexpr (std::is_same_v<E, float>)
+            return B(_mm256_i32gather_ps(table, idx.data, 4));
+        else
+            return B(_mm256_i32gather_epi32(reinterpret_cast<const int*>(table), idx.data, 4));
+    }
+#endif
+    return B::gather(table, idx);
+}
+
 }  // namespace CIERZO_ISA_NAMESPACE
 }  // namespace cierzo

@@ -15,6 +15,9 @@ enum class Purpose : uint32_t {
     kLobe = 2,      // Russian roulette: which lobe, or death
     kDirection1 = 3,  // the two numbers that sample a direction in the chosen lobe
     kDirection2 = 4,
+    kEmitterPick = 5,  // next-event estimation: which emitter (and, rehashed, its alias slot)
+    kEmitter1 = 6,     // the two numbers that sample a point or direction on it
+    kEmitter2 = 7,
 };
 inline constexpr uint32_t kPurposesPerBounce = 8;
 
@@ -43,6 +46,19 @@ inline T uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
     const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
     const U bits = hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
     return to_float(bits >> 8) * T(0x1.0p-24f);
+}
+
+// Two independent uniforms for one (path, bounce, purpose): the second is the first's hash
+// hashed again, for a choice that needs more than 24 bits (an emitter among many, then its
+// alias slot).
+template <class T>
+inline void uniform_pair(const U32<T>& key, const U32<T>& bounce, Purpose purpose, T& u,
+                         T& v) {
+    using U = U32<T>;
+    const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
+    const U bits = hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
+    u = to_float(bits >> 8) * T(0x1.0p-24f);
+    v = to_float(hash32(bits ^ splat<U, 0x3c6ef372u>()) >> 8) * T(0x1.0p-24f);
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

@@ -41,6 +41,7 @@ struct RenderArgs {
     std::optional<int> width, height;
     std::optional<float> survival_cap;
     std::optional<std::string> diffuse_sampling;
+    std::optional<std::string> estimator;
     int threads = 0;
     std::string integrator = "wavefront";
     std::string isa = "auto";
@@ -64,6 +65,10 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
         {"spp", scene.settings.spp},
         {"spp_reached", st.spp_reached},
         {"seed", scene.settings.seed},
+        {"estimator", estimator_name(scene.settings.estimator.kind)},
+        {"emitters", {{"sampled", scene.emitters.count()},
+                      {"sampled_objects", scene.emitters.sampled_objects},
+                      {"unsampled_objects", scene.emitters.unsampled_objects}}},
         {"seconds", st.seconds},
         {"paths", st.paths},
         {"rays", {{"camera", st.rays.camera}, {"extension", st.rays.extension},
@@ -103,6 +108,7 @@ int run_render(const RenderArgs& a) {
         scene.set_resolution(a.width.value_or(s.width), a.height.value_or(s.height));
     if (a.survival_cap) s.estimator.survival_cap = *a.survival_cap;
     if (a.diffuse_sampling) s.estimator.cosine_diffuse = *a.diffuse_sampling == "cosine";
+    if (a.estimator) s.estimator.kind = *parse_estimator(*a.estimator);
     if (!a.out.empty()) s.output = a.out;
     check_render_size(scene, a.scene);
     const std::string ext = s.output.extension().string();
@@ -132,7 +138,8 @@ int run_render(const RenderArgs& a) {
                           {"cierzo:spp", std::to_string(s.spp)},
                           {"cierzo:spp_reached", std::to_string(st.spp_reached)},
                           {"cierzo:stopped_by", st.stopped_by.empty() ? "done" : st.stopped_by},
-                          {"cierzo:seed", std::to_string(s.seed)}};
+                          {"cierzo:seed", std::to_string(s.seed)},
+                          {"cierzo:estimator", estimator_name(s.estimator.kind)}};
     ImageLayers layers;
     if (a.variance && ext == ".exr") layers = variance_layers(result.film.variance_of_mean());
     write_hdr(s.output, result.film.mean(), meta, layers);
@@ -196,6 +203,12 @@ int main(int argc, char** argv) {
                   "Diffuse directions: uniform (the report's) or cosine (overrides "
                   "render.diffuse_sampling)")
         ->check(CLI::IsMember({"uniform", "cosine"}));
+    r->add_option("--estimator", a.estimator,
+                  "report (the report's: emitters found by chance), nee (plus one emitter "
+                  "sample per Phong vertex) or mis (both, power-heuristic weights); overrides "
+                  "render.estimator, default report. Sampled emitters: spheres and triangles "
+                  "of solid emission")
+        ->check(CLI::IsMember({"report", "nee", "mis"}));
     r->add_option("--integrator", a.integrator,
                   "wavefront (SoA batches, SIMD kernels) or scalar (the reference: one path at "
                   "a time)")

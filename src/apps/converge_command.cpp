@@ -37,6 +37,8 @@ struct ConvergeArgs {
     std::vector<int> pools = {0};
     std::vector<float> survival_caps;
     std::vector<std::string> diffuse_sampling;
+    std::vector<std::string> estimators;
+    std::optional<std::string> reference_estimator;
     std::optional<int> width, height;
     int threads = 0;
     int repeats = 1;
@@ -52,6 +54,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     std::vector<int> diffuse;
     for (const std::string& d : a.diffuse_sampling) diffuse.push_back(d == "cosine");
     if (diffuse.empty()) diffuse.push_back(-1);
+    std::vector<int> estimators;
+    for (const std::string& e : a.estimators) estimators.push_back(int(*parse_estimator(e)));
+    if (estimators.empty()) estimators.push_back(-1);
     std::vector<ConvergeConfig> out;
     for (const std::string& integrator : a.integrators) {
         const bool scalar = integrator == "scalar";
@@ -61,13 +66,15 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
             for (int pool : pools)
                 for (float cap : caps)
                     for (int d : diffuse)
-                        out.push_back({integrator, scalar ? "auto" : isa, pool, cap, d});
+                        for (int e : estimators)
+                            out.push_back({integrator, scalar ? "auto" : isa, pool, cap, d, e});
     }
     return out;
 }
 
 std::string csv_header() {
-    return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,threads,width,height,spp,"
+    return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,estimator,threads,width,"
+           "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
            "estimated_relative_error,efficiency";
@@ -84,10 +91,11 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
-        p.estimator.survival_cap, diffuse_name(p.estimator), p.stats.threads,
+        p.estimator.survival_cap, diffuse_name(p.estimator), estimator_name(p.estimator.kind),
+        p.stats.threads,
         scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
         p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
         e.reference_mse, e.reference_rel_mse, e.mse_corrected(), std::sqrt(e.mse_corrected()),
@@ -156,6 +164,14 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "Diffuse sampling to sweep: uniform, cosine; default: the scene's")
         ->delimiter(',')
         ->check(CLI::IsMember({"uniform", "cosine"}));
+    c->add_option("--estimator", a.estimators,
+                  "Estimators to sweep: report, nee, mis; default: the scene's")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"report", "nee", "mis"}));
+    c->add_option("--reference-estimator", a.reference_estimator,
+                  "Estimator of the rendered reference (all three are unbiased; mis converges "
+                  "fastest where emitters can be sampled); default: the scene's")
+        ->check(CLI::IsMember({"report", "nee", "mis"}));
     c->add_option("--width", a.width, "Image width (overrides render.width)")
         ->check(CLI::Range(1, 1 << 16));
     c->add_option("--height", a.height, "Image height (overrides render.height)")
@@ -222,6 +238,7 @@ int run_converge_command() {
     } else {
         Scene s = scene;
         s.settings.spp = a.reference_spp;
+        if (a.reference_estimator) s.settings.estimator.kind = *parse_estimator(*a.reference_estimator);
         check_render_size(s, a.scene);
         RenderOptions options;
         options.threads = a.threads;
@@ -238,7 +255,8 @@ int run_converge_command() {
             write_hdr(a.save_reference, reference,
                       {{"cierzo:scene", scene.source.string()},
                        {"cierzo:spp", std::to_string(a.reference_spp)},
-                       {"cierzo:seed", std::to_string(scene.settings.seed)}},
+                       {"cierzo:seed", std::to_string(scene.settings.seed)},
+                       {"cierzo:estimator", estimator_name(s.settings.estimator.kind)}},
                       variance_layers(variance));
     }
 
@@ -257,16 +275,18 @@ int run_converge_command() {
         });
     };
     if (!a.quiet)
-        std::printf("%-9s %-7s %5s %5s %-7s %7s %10s %12s %12s %12s\n", "integr.", "isa", "pool",
-                    "cap", "diffuse", "spp", "seconds", "Mrays/s", "RMSE", "relMSE");
+        std::printf("%-9s %-7s %5s %5s %-7s %-6s %7s %10s %12s %12s %12s\n", "integr.", "isa",
+                    "pool", "cap", "diffuse", "est.", "spp", "seconds", "Mrays/s", "RMSE",
+                    "relMSE");
     const std::vector<ConvergePoint> points = run_converge(
         scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
             rows.push_back(csv_row(scene, p));
             write_csv();
             if (a.quiet) return;
-            std::printf("%-9s %-7s %5d %5.2f %-7s %7lld %10.4f %12.2f %12.4g %12.4g\n",
+            std::printf("%-9s %-7s %5d %5.2f %-7s %-6s %7lld %10.4f %12.2f %12.4g %12.4g\n",
                         p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
                         p.estimator.survival_cap, diffuse_name(p.estimator),
+                        estimator_name(p.estimator.kind),
                         static_cast<long long>(p.spp), p.seconds,
                         p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
                         std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
@@ -284,10 +304,10 @@ int run_converge_command() {
         }
         const ConvergePoint* last = &points[first + n - 1];
         std::fprintf(stderr,
-                     "%s %s pool %d cap %.2f %s: MSE ~ spp^%.2f, %.3g s per path per pixel\n",
+                     "%s %s pool %d cap %.2f %s %s: MSE ~ spp^%.2f, %.3g s per path per pixel\n",
                      last->config.integrator.c_str(), last->stats.isa.c_str(),
                      last->stats.pool_size, last->estimator.survival_cap,
-                     diffuse_name(last->estimator),
+                     diffuse_name(last->estimator), estimator_name(last->estimator.kind),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }
     return 0;

@@ -46,6 +46,7 @@ namespace {
 EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& config) {
     if (config.survival_cap >= 0.0f) settings.survival_cap = config.survival_cap;
     if (config.cosine_diffuse >= 0) settings.cosine_diffuse = config.cosine_diffuse;
+    if (config.estimator >= 0) settings.kind = Estimator(config.estimator);
     return settings;
 }
 

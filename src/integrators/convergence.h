@@ -45,6 +45,7 @@ struct ConvergeConfig {
     int pool_size = 0;            // 0: the default
     float survival_cap = -1.0f;   // < 0: the scene's
     int cosine_diffuse = -1;      // -1: the scene's; 0 uniform, 1 cosine
+    int estimator = -1;           // -1: the scene's; else an Estimator
 };
 
 struct ConvergePoint {

@@ -89,6 +89,12 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     if (options.integrator != "scalar" && options.integrator != "wavefront")
         throw InputError("unknown integrator '" + options.integrator +
                          "' (valid: wavefront, scalar)");
+    // (an emitter is chosen from 24 random bits)
+    if (scene.settings.estimator.kind != Estimator::kReport &&
+        scene.emitters.count() > (size_t(1) << 24))
+        throw InputError(scene.source.string() + ": " + std::to_string(scene.emitters.count()) +
+                         " emitting spheres and triangles; the nee and mis estimators sample "
+                         "at most 2^24 (16,777,216)");
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == "wavefront")
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),

@@ -27,6 +27,20 @@ Vec3f direct_point_lights(const Scene& scene, const Bsdf<float>& m, const Hit& h
     return sum;
 }
 
+// One emitter sample at a Phong vertex (next-event estimation, kernels/estimator.h): what it
+// brings if its shadow ray reaches the sampled point.
+Vec3f direct_emitter(const Scene& scene, const EmitterTable& emitters, const Bsdf<float>& m,
+                     const Hit& hit, const Vec3f& d, const Vec3f& nf, float magnitude,
+                     uint32_t key, uint32_t bounce, RayCounts& rays) {
+    const Vec3f origin = offset_ray_origin(hit.p, nf, magnitude);
+    const EmitterShadow<float> s = emitter_shadow(emitters, scene.settings.estimator, m, d, nf,
+                                                  origin, key, bounce);
+    if (!s.ok) return Vec3f(0.0f);
+    ++rays.shadow;
+    if (scene.occluded({origin, s.wi}, s.tmax)) return Vec3f(0.0f);
+    return s.value;
+}
+
 }  // namespace
 
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
@@ -35,6 +49,11 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
+    // Next-event estimation (nee, mis) when the scene has emitters it can sample
+    const bool nee = est.kind != Estimator::kReport && scene.emitters.count() > 0;
+    const EmitterTable emitters = scene.emitters.table();
+    float lobe_pdf = 0.0f;  // the density of the last Phong lobe's direction; 0 after the
+                            // camera, a mirror or a refraction
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) break;
@@ -42,7 +61,11 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
 
         // An emitter ends the path
         if (material.is_emitter()) {
-            radiance += throughput * scene.emission_at(hit);
+            Vec3f le = scene.emission_at(hit);
+            if (nee)
+                le *= emitter_hit_weight<float>(emitters, est.kind, scene.emitter_id(hit),
+                                                lobe_pdf, ray.o, ray.d, hit.t);
+            radiance += throughput * le;
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
@@ -52,6 +75,10 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
         // Point lights through shadow rays at every Phong vertex
         if (material.has_phong() && !scene.lights.empty())
             radiance += throughput * direct_point_lights(scene, m, hit, ray.d, nf, magnitude, rays);
+        // One emitter sample at every Phong vertex
+        if (nee && material.has_phong())
+            radiance += throughput * direct_emitter(scene, emitters, m, hit, ray.d, nf, magnitude,
+                                                    key, bounce, rays);
 
         // Russian roulette picks one lobe, or the path's death
         float p = 0.0f;
@@ -66,6 +93,14 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
             case kLobeMirror: s = sample_mirror(m, ray.d, nf, p); break;
             case kLobeRefract: s = sample_refraction(m, ray.d, hit.n, scene.scene_ior, p); break;
             default: return radiance;
+        }
+        if (nee) {
+            lobe_pdf = lobe == kLobeDiffuse
+                           ? sampled_lobe_pdf<kLobeDiffuse>(m, ray.d, nf, s.dir, p,
+                                                            est.cosine_diffuse)
+                       : lobe == kLobeSpecular
+                           ? sampled_lobe_pdf<kLobeSpecular>(m, ray.d, nf, s.dir, p, false)
+                           : 0.0f;
         }
 
         // Continue with the lobe's weight from just off the surface, on the new side

@@ -25,6 +25,21 @@ Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& u
     return c;
 }
 
+const char* estimator_name(Estimator e) {
+    switch (e) {
+        case Estimator::kNee: return "nee";
+        case Estimator::kMis: return "mis";
+        default: return "report";
+    }
+}
+
+std::optional<Estimator> parse_estimator(std::string_view name) {
+    if (name == "report") return Estimator::kReport;
+    if (name == "nee") return Estimator::kNee;
+    if (name == "mis") return Estimator::kMis;
+    return std::nullopt;
+}
+
 void Scene::finalize() {
     const auto start = std::chrono::steady_clock::now();
     BvhInput in;
@@ -70,6 +85,127 @@ void Scene::finalize() {
     in.quadric_table = table;
     bvh.build(in);
     bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    build_emitters();
+}
+
+namespace {
+
+// Vose's alias table for weights w (all > 0): q[i], alias[i] such that picking a slot
+// uniformly, keeping it with probability q, else taking its alias, chooses i with
+// probability w[i] / Σw.
+void build_alias(const std::vector<double>& w, std::vector<float>& q,
+                 std::vector<int32_t>& alias) {
+    const size_t n = w.size();
+    double total = 0.0;
+    for (double x : w) total += x;
+    std::vector<double> scaled(n);
+    std::vector<int32_t> small, large;
+    for (size_t i = 0; i < n; ++i) {
+        scaled[i] = w[i] * double(n) / total;
+        (scaled[i] < 1.0 ? small : large).push_back(int32_t(i));
+    }
+    q.assign(n, 1.0f);
+    alias.resize(n);
+    for (size_t i = 0; i < n; ++i) alias[i] = int32_t(i);
+    while (!small.empty() && !large.empty()) {
+        const int32_t s = small.back(), l = large.back();
+        small.pop_back();
+        q[size_t(s)] = float(scaled[size_t(s)]);
+        alias[size_t(s)] = l;
+        scaled[size_t(l)] -= 1.0 - scaled[size_t(s)];
+        if (scaled[size_t(l)] < 1.0) {
+            large.pop_back();
+            small.push_back(l);
+        }
+    }
+    // (what is left is 1 up to rounding: kept with probability 1)
+}
+
+}  // namespace
+
+void Scene::build_emitters() {
+    Emitters& e = emitters;
+    e = Emitters{};
+    std::vector<double> power;
+    const auto add = [&](EmitterKind kind, const float (&record)[kEmitterStride], double p) {
+        e.kind.push_back(kind);
+        e.data.insert(e.data.end(), record, record + kEmitterStride);
+        power.push_back(p);
+    };
+    const auto solid_emission = [&](int32_t material, Vec3f& le) {
+        const ColorSource& c = materials[size_t(material)].emission;
+        le = c.a;
+        return c.kind == TextureKind::kSolid && max_component(c.a) > 0.0f;
+    };
+    const auto emits = [&](int32_t material) { return materials[size_t(material)].is_emitter(); };
+    e.sphere_id.assign(spheres.size(), -1);
+    for (size_t i = 0; i < spheres.size(); ++i) {
+        Vec3f le;
+        const float r = spheres.radius[i];
+        if (!emits(spheres.material[i])) continue;
+        const double area = 4.0 * double(kPi) * double(r) * double(r);
+        if (!solid_emission(spheres.material[i], le) || !(area > 0.0) || !std::isfinite(area)) {
+            ++e.unsampled_objects;
+            continue;
+        }
+        e.sphere_id[i] = int32_t(e.kind.size());
+        const float record[kEmitterStride] = {spheres.cx[i], spheres.cy[i], spheres.cz[i], r, 0,
+                                              0, 0, 0, 0, 0, 0, 0, 0, le.x, le.y, le.z};
+        add(kEmitterSphere, record, area * double(max_component(le)));
+        ++e.sampled_objects;
+    }
+    e.mesh_first.assign(meshes.size(), -1);
+    for (size_t i = 0; i < meshes.size(); ++i) {
+        const Mesh& m = meshes[i];
+        Vec3f le;
+        if (!emits(m.material)) continue;
+        if (!solid_emission(m.material, le)) {
+            ++e.unsampled_objects;
+            continue;
+        }
+        const Mesh& g = geometry_of(m);
+        const auto world = [&](const Vec3f& v) {
+            if (!m.instanced()) return v;
+            const float* a = m.to_world;
+            return Vec3f{a[0] * v.x + a[1] * v.y + a[2] * v.z + a[3],
+                         a[4] * v.x + a[5] * v.y + a[6] * v.z + a[7],
+                         a[8] * v.x + a[9] * v.y + a[10] * v.z + a[11]};
+        };
+        e.mesh_first[i] = int32_t(e.kind.size());
+        for (size_t t = 0; t < g.triangle_count(); ++t) {
+            const Vec3f v0 = world(g.positions[g.indices[3 * t]]);
+            const Vec3f e1 = world(g.positions[g.indices[3 * t + 1]]) - v0;
+            const Vec3f e2 = world(g.positions[g.indices[3 * t + 2]]) - v0;
+            const Vec3f c = cross(e1, e2);
+            const float twice = length(c);
+            // (a degenerate triangle keeps its slot, with no power: it is never chosen)
+            const Vec3f n = twice > 0.0f ? c * (1.0f / twice) : Vec3f(0.0f, 0.0f, 1.0f);
+            const float record[kEmitterStride] = {v0.x, v0.y, v0.z, 0.5f * twice, e1.x, e1.y,
+                                                  e1.z, e2.x, e2.y,  e2.z,        n.x,  n.y,
+                                                  n.z,  le.x, le.y,  le.z};
+            const double area = 0.5 * double(twice);
+            add(kEmitterTriangle, record,
+                std::isfinite(area) ? area * double(max_component(le)) : 0.0);
+        }
+        ++e.sampled_objects;
+    }
+    for (size_t i = 0; i < planes.size(); ++i) e.unsampled_objects += emits(planes.material[i]);
+    for (const Quadric& q : quadrics) e.unsampled_objects += emits(q.material);
+    for (double p : power) e.total_power += p;
+    if (!(e.total_power > 0.0) || !std::isfinite(e.total_power)) {
+        // Nothing to sample (or a power that overflows): every emitter keeps the report's
+        // estimator
+        e.unsampled_objects += e.sampled_objects;
+        const size_t unsampled = e.unsampled_objects;
+        e = Emitters{};
+        e.sphere_id.assign(spheres.size(), -1);
+        e.mesh_first.assign(meshes.size(), -1);
+        e.unsampled_objects = unsampled;
+        return;
+    }
+    e.pmf.resize(power.size());
+    for (size_t i = 0; i < power.size(); ++i) e.pmf[i] = float(power[i] / e.total_power);
+    build_alias(power, e.alias_q, e.alias);
 }
 
 void Scene::set_resolution(int width, int height) {
@@ -142,6 +278,7 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
     hit.t = best;
     hit.p = fma(ray.d, best, ray.o);
     hit.mesh = -1;
+    hit.sphere = -1;
     const auto quadric = [&](size_t index) {
         hit.n = normalize(quadric_gradient(quadrics[index].q, hit.p));
         hit.material = quadrics[index].material;
@@ -160,6 +297,7 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
     switch (tree.kind) {
         case kLeafSpheres: {
             const size_t i = hit_sphere(v, tree);
+            hit.sphere = int32_t(i);
             const Vec3f c{spheres.cx[i], spheres.cy[i], spheres.cz[i]};
             hit.n = normalize((hit.p - c) * (1.0f / spheres.radius[i]));
             hit.material = spheres.material[i];

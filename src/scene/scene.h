@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "accel/bvh.h"
@@ -67,6 +68,10 @@ struct Mesh {
     size_t triangle_count() const { return indices.size() / 3; }
 };
 
+// "report", "nee", "mis" and back.
+const char* estimator_name(Estimator e);
+std::optional<Estimator> parse_estimator(std::string_view name);
+
 struct PointLight {
     Vec3f position;
     Vec3f intensity;  // radiant intensity, RGB; irradiance at distance d is I / d²
@@ -96,6 +101,26 @@ struct Hit {
     int32_t material = -1;
     int32_t mesh = -1;  // for vertex colours
     uint32_t triangle = 0;
+    int32_t sphere = -1;  // the sphere's index, when a sphere was hit
+};
+
+// The emitters next-event estimation samples: every sphere and triangle whose material has
+// a solid, non-zero emission (a textured emission, a plane or a quadric is not sampled, and
+// keeps the report's estimator in every estimator). Built by Scene::finalize.
+struct Emitters {
+    std::vector<float> alias_q, pmf, data;  // see EmitterTable
+    std::vector<int32_t> alias, kind;
+    std::vector<int32_t> sphere_id;   // per sphere: its emitter, or -1
+    std::vector<int32_t> mesh_first;  // per mesh entry: the emitter of its triangle 0, or -1
+    size_t sampled_objects = 0;       // sampled spheres and emitting mesh objects
+    size_t unsampled_objects = 0;     // emitting objects no estimator samples
+    double total_power = 0.0;         // Σ area × max Le of the sampled emitters
+
+    size_t count() const { return pmf.size(); }
+    EmitterTable table() const {
+        return {int32_t(pmf.size()), alias_q.data(), alias.data(), pmf.data(), kind.data(),
+                data.data()};
+    }
 };
 
 // A camera given by position, target, up and vertical field of view: kept so the frame can
@@ -124,6 +149,7 @@ public:
     Bvh bvh;
     std::vector<int32_t> unbounded_quadrics;
     double bvh_seconds = 0.0;  // building every BVH, in finalize()
+    Emitters emitters;
 
     // Call once after filling the arrays: builds the BVHs (a copy of the scene shares its
     // meshes' BVHs).
@@ -149,8 +175,16 @@ public:
     // The material's colours at a hit (textures and vertex colours evaluated).
     Bsdf<float> bsdf_at(const Hit& hit) const;
     Vec3f emission_at(const Hit& hit) const;
+    // The sampled emitter a hit is on, or -1 (not an emitter, or one that is not sampled).
+    int32_t emitter_id(const Hit& hit) const {
+        if (hit.sphere >= 0) return emitters.sphere_id[size_t(hit.sphere)];
+        if (hit.mesh < 0) return -1;
+        const int32_t first = emitters.mesh_first[size_t(hit.mesh)];
+        return first < 0 ? -1 : first + int32_t(hit.triangle);
+    }
 
 private:
+    void build_emitters();
     Vec3f color_at(const ColorSource& c, const Hit& hit) const;
 };
 

@@ -582,6 +582,10 @@ struct Loader {
         if (sampling != "uniform" && sampling != "cosine")
             r.fail("'diffuse_sampling' must be \"uniform\" or \"cosine\"");
         s.estimator.cosine_diffuse = sampling == "cosine";
+        const std::string estimator = r.string("estimator", "report");
+        const std::optional<Estimator> kind = parse_estimator(estimator);
+        if (!kind) r.fail("'estimator' must be \"report\", \"nee\" or \"mis\"");
+        s.estimator.kind = *kind;
         if (r.has("output")) s.output = file.parent_path() / r.string("output");
         else r.allow({"output"});
         r.finish();

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "accel/bvh.h"
+#include "kernels/emitter_table.h"
 
 namespace cierzo {
 
@@ -48,6 +49,7 @@ struct FlatFeatures {
     bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated
     int lobe_kinds;  // how many of the four lobes occur (1: no lobe bucketing needed)
     uint32_t texture_channels;  // bit c: some material textures colour channel c
+    bool nee;  // the estimator samples emitters (nee or mis, and the scene has some to sample)
 };
 
 struct FlatScene {
@@ -88,12 +90,20 @@ struct FlatScene {
     int32_t light_count;
     const float* light;
 
+    // Next-event estimation's emitters (kernels/emitter_table.h), the emitter of each sphere
+    // and the first of each mesh (-1: not sampled)
+    EmitterTable emitters;
+    const int32_t* sphere_emitter;
+    const int32_t* mesh_emitter;
+
     // Camera frame and image
     float cam_origin[3], cam_forward[3], cam_left[3], cam_up[3];
     int32_t width, height;
     uint32_t seed;
     float survival_cap;
     bool cosine_diffuse;
+    Estimator estimator;
+    float light_pdf_scale;
     float scene_ior;
     FlatFeatures features;
 };

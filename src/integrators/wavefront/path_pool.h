@@ -18,6 +18,7 @@ struct PathPool {
     float *beta_r, *beta_g, *beta_b;     // throughput
     float *rad_r, *rad_g, *rad_b;        // radiance gathered so far
     uint32_t *key, *pixel, *bounce;
+    float* lobe_pdf;  // nee/mis: the density of the last Phong lobe's direction (0: none)
 
     // Per-bounce scratch: the hit, the surface and its material
     float* t;
@@ -27,6 +28,7 @@ struct PathPool {
     uint32_t* mesh_tri;
     float *px, *py, *pz, *nx, *ny, *nz;
     int32_t* material;
+    int32_t* emitter;  // nee/mis: the sampled emitter hit, or -1
     int32_t* alive;
     float* col[5][3];  // textured emission, kd, ks, kr, kt as the material stage evaluated them
 
@@ -49,7 +51,8 @@ struct PathPool {
     float *done_r, *done_g, *done_b;
 };
 
-// Bytes of memory a pool of `capacity` paths uses with `lights` point lights.
+// Bytes of memory a pool of `capacity` paths uses with `lights` shadow rays per path and
+// bounce (point lights, plus one for an emitter sample).
 size_t path_pool_bytes(int32_t capacity, int32_t lights, int32_t materials);
 // Carves a pool out of `memory` (64-byte aligned, path_pool_bytes long).
 PathPool carve_path_pool(void* memory, int32_t capacity, int32_t lights, int32_t materials);

@@ -23,6 +23,7 @@ struct LobeStep {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     Vec3<F> o, d, beta;
+    F pdf = F(0.0f);  // nee/mis: the density the lobe sampled d with, P(lobe) included (0: a delta lobe)
     typename Wave<A>::M alive;
 
     // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset
@@ -43,6 +44,8 @@ struct LobeStep {
             sc = sample_refraction(m, d0, n, F(s.scene_ior), probability);
         }
         beta = beta0 * sc.weight;
+        if (s.features.nee)
+            pdf = sampled_lobe_pdf<kLobe>(m, d0, nf, sc.dir, probability, s.cosine_diffuse);
         alive = max_component(beta) > F(0.0f);
         o = offset_ray_origin(pos, select(dot(sc.dir, n) > F(0.0f), n, -n), magnitude);
         d = sc.dir;
@@ -82,10 +85,22 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
     Vec3<F> rad = kCompact ? Vec3<F>(F(0.0f)) : load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
 
-    // An emitter ends the path
+    const U key = U::load_aligned(p.key + i);
+    const U bounce = U::load_aligned(p.bounce + i);
+    const Vec3<F>& d = ray.d;
+    const Vec3<F>& n = sf.n;
+    const Vec3<F>& pos = sf.pos;
+
+    // An emitter ends the path (after a Phong bounce, a sampled one is weighted: nee, mis)
     if (f.emitters) {
         const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
-        const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
+        Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
+        if (f.nee && any(em)) {
+            const F lobe_pdf = F::load_aligned(p.lobe_pdf + i);
+            le = le * emitter_hit_weight<F>(s.emitters, s.estimator,
+                                            select(mask_i32(em), sf.emitter, I(-1)), lobe_pdf,
+                                            ray.o, d, length(pos - ray.o));
+        }
         rad = select(em, rad + beta * le, rad);
         alive = alive & !em;
         if constexpr (kCompact)
@@ -93,16 +108,39 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     }
     // (a scene with one lobe kind has that lobe's parameters only: kFused)
     const Bsdf<F> m = hit_bsdf<kFused, A>(s, mat, evaluated);
-    const Vec3<F>& d = ray.d;
-    const Vec3<F>& n = sf.n;
-    const Vec3<F>& pos = sf.pos;
 
-    // Point lights through shadow rays at Phong vertices: queue f·cos θ·I/d² · β
-    if (f.lights) {
+    // Queues the shadow rays of the lanes in `bits`: origin, direction, tmax, contribution
+    const auto queue = [&](uint32_t bits, const Vec3<F>& origin, const Vec3<F>& wi,
+                           const F& tmax, const Vec3<F>& c) {
+        alignas(64) float v[10][K];
+        const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x, &wi.y,
+                            &wi.z,     &tmax,     &c.x,      &c.y,  &c.z};
+        for (int k = 0; k < 10; ++k) src[k]->store_aligned(v[k]);
+        float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy, p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
+        while (bits) {
+            const int32_t l = std::countr_zero(bits);
+            bits &= bits - 1;
+            for (int k = 0; k < 10; ++k) dst[k][queued] = v[k][l];
+            p.sowner[queued++] = i + l;
+        }
+    };
+
+    // Point lights through shadow rays at Phong vertices: queue f·cos θ·I/d² · β; and with
+    // nee or mis one emitter sample (kernels/estimator.h)
+    if (f.lights || f.nee) {
         const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         if (any(phong)) {
             const Vec3<F> nf = facing_normal(n, d);
             const Vec3<F> origin = offset_ray_origin(pos, nf, sf.magnitude);
+            if (f.nee) {
+                const EstimatorSettings est{s.survival_cap, s.cosine_diffuse, s.estimator,
+                                            s.light_pdf_scale};
+                const EmitterShadow<F> es =
+                    emitter_shadow(s.emitters, est, m, d, nf, origin, key, bounce);
+                const Vec3<F> c = beta * es.value;
+                const uint32_t bits = mask_bits(phong & es.ok & (max_component(c) > F(0.0f)));
+                if (bits) queue(bits, origin, es.wi, es.tmax, c);
+            }
             for (int32_t j = 0; j < s.light_count; ++j) {
                 const float* l = s.light + 6 * j;
                 const Vec3<F> to = Vec3<F>(F(l[0]), F(l[1]), F(l[2])) - origin;
@@ -111,28 +149,13 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                 const Vec3<F> wi = to * (F(1.0f) / dist);
                 const Vec3<F> c = beta * phong_f_cos(m, d, nf, wi) *
                                   Vec3<F>(F(l[3]), F(l[4]), F(l[5])) * (F(1.0f) / d2);
-                uint32_t bits = mask_bits(phong & (max_component(c) > F(0.0f)));
-                if (!bits) continue;
-                alignas(64) float v[10][K];
-                const F tmax = dist * F(1.0f - 1e-5f);
-                const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x, &wi.y,
-                                    &wi.z,     &tmax,     &c.x,      &c.y,  &c.z};
-                for (int k = 0; k < 10; ++k) src[k]->store_aligned(v[k]);
-                float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy,
-                                  p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
-                while (bits) {
-                    const int32_t l = std::countr_zero(bits);
-                    bits &= bits - 1;
-                    for (int k = 0; k < 10; ++k) dst[k][queued] = v[k][l];
-                    p.sowner[queued++] = i + l;
-                }
+                const uint32_t bits = mask_bits(phong & (max_component(c) > F(0.0f)));
+                if (bits) queue(bits, origin, wi, dist * F(1.0f - 1e-5f), c);
             }
         }
     }
 
     // Russian roulette over the lobes
-    const U key = U::load_aligned(p.key + i);
-    const U bounce = U::load_aligned(p.bounce + i);
     F probability;
     I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe), s.survival_cap,
                          probability);
@@ -169,6 +192,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             store3(step.o, p.ox, p.oy, p.oz, i);
             store3(step.d, p.dx, p.dy, p.dz, i);
             store3(step.beta, p.beta_r, p.beta_g, p.beta_b, i);
+            if (f.nee) step.pdf.store_aligned(p.lobe_pdf + i);
         }
     }
     if constexpr (!kCompact) {
@@ -190,9 +214,12 @@ CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
     for (int32_t i = 0; i < end; i += Wave<A>::K) {
         const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
         const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
-        const Surfaces<A> sf{pos, load3<F>(p.nx, p.ny, p.nz, i), I::load_aligned(p.material + i),
+        const Surfaces<A> sf{pos,
+                             load3<F>(p.nx, p.ny, p.nz, i),
+                             I::load_aligned(p.material + i),
                              mask_f32(I::load_aligned(p.alive + i) != I(0)),
-                             max(max_abs(pos), max_abs(ray.o))};
+                             max(max_abs(pos), max_abs(ray.o)),
+                             w.scene.features.nee ? I::load_aligned(p.emitter + i) : I(-1)};
         shade_batch<kFused>(w, i, ray, sf, queued);
     }
     p.shadow_count = queued;
@@ -225,6 +252,7 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         scatter3(step.d, p.dx, p.dy, p.dz, j);
         scatter3(step.beta, p.beta_r, p.beta_g, p.beta_b, j);
         select(mask_i32(step.alive), I(1), I(0)).scatter(p.alive, j);
+        if (w.scene.features.nee) step.pdf.scatter(p.lobe_pdf, j);
         const int32_t lanes = std::min(K, size - i);
         w.counters.extension +=
             uint64_t(std::popcount(mask_bits(step.alive) & ((1u << lanes) - 1u)));

@@ -19,6 +19,7 @@ struct Surfaces {
     typename Wave<A>::I material;
     typename Wave<A>::M hit;
     typename Wave<A>::F magnitude;
+    typename Wave<A>::I emitter;  // nee/mis: the sampled emitter hit, or -1
 };
 
 template <class A>
@@ -34,6 +35,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
     const Vec3<F> pos = fma(ray.d, t, ray.o);
     Vec3<F> n(F(0.0f), F(0.0f), F(1.0f));
     I material(0);
+    I emitter(-1);
 
     // Each primitive kind the scene has: gather its data where lanes hit that kind
     if (f.spheres) {
@@ -44,6 +46,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
                         lookup<A>(s.sphere_cz, count, j)};
         n = select(mask_f32(m), normalize(pos - c), n);
         material = select(m, lookup<A>(s.sphere_material, count, j), material);
+        if (f.nee) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
     }
     if (f.planes) {
         const auto m = kind == I(kPrimPlane);
@@ -72,10 +75,15 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         const I mesh = select(m, I::load_aligned(p.mesh_id + i), I(0));
         n = select(mask_f32(m), load3<F>(p.mesh_nx, p.mesh_ny, p.mesh_nz, i), n);
         material = select(m, lookup<A>(s.mesh_material, s.mesh_count, mesh), material);
+        if (f.nee) {
+            const I first = lookup<A>(s.mesh_emitter, s.mesh_count, mesh);
+            const I tri = xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
+            emitter = select(m & (first >= I(0)), first + tri, emitter);
+        }
     }
     const auto hit = w.live_mask(i) & (to_float(prim) >= F(0.0f));
     return {pos, n, select(mask_i32(hit), material, I(0)), hit,
-            max(max_abs(pos), max_abs(ray.o))};
+            max(max_abs(pos), max_abs(ray.o)), emitter};
 }
 
 // Stores a batch's surfaces for the stages that run after the material sort.
@@ -86,6 +94,7 @@ void store_surfaces(Wave<A>& w, int32_t i, const Surfaces<A>& sf) {
     store3(sf.pos, p.px, p.py, p.pz, i);
     store3(sf.n, p.nx, p.ny, p.nz, i);
     sf.material.store_aligned(p.material + i);
+    if (w.scene.features.nee) sf.emitter.store_aligned(p.emitter + i);
     select(mask_i32(sf.hit), I(1), I(0)).store_aligned(p.alive + i);
 }
 

@@ -116,6 +116,9 @@ AlignedFloats lanes_of(std::initializer_list<const std::vector<float>*> arrays) 
     return lanes_of(values);
 }
 
+static bool samples_emitters(const Scene& scene);
+static int32_t shadow_rays_per_vertex(const Scene& scene);
+
 struct WavefrontRenderer::Data {
     const Scene& scene;
     FlatScene flat{};
@@ -124,7 +127,7 @@ struct WavefrontRenderer::Data {
     std::vector<int32_t> sphere_material, plane_material;
     std::vector<float> quadric, color, shininess, ior, light;
     std::vector<int32_t> quadric_material, unbounded_quadrics, mesh_material, emitter, phong,
-        textured;
+        textured, sphere_emitter, mesh_emitter;
     std::vector<FlatMesh> meshes;
     std::vector<FlatColor> sources;
     RenderTileEntry entry = nullptr;
@@ -134,8 +137,18 @@ struct WavefrontRenderer::Data {
     Data(const Scene& s, int32_t size)
         : scene(s),
           pool_size(size),
-          pools(size, int32_t(s.lights.size()), int32_t(s.materials.size())) {}
+          pools(size, shadow_rays_per_vertex(s), int32_t(s.materials.size())) {}
 };
+
+// Whether the estimator samples emitters: nee or mis, and emitters it can sample.
+static bool samples_emitters(const Scene& scene) {
+    return scene.settings.estimator.kind != Estimator::kReport && scene.emitters.count() > 0;
+}
+
+// Shadow rays a Phong vertex may queue: one per point light, one emitter sample.
+static int32_t shadow_rays_per_vertex(const Scene& scene) {
+    return int32_t(scene.lights.size()) + (samples_emitters(scene) ? 1 : 0);
+}
 
 WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size,
                                      bool specialise)
@@ -237,6 +250,15 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
                                        l.intensity.y, l.intensity.z});
     f.light_count = int32_t(scene.lights.size());
     f.light = d.light.data();
+    // Next-event estimation's emitters: the scene's table, and per sphere and mesh the id
+    // of its (first) emitter
+    f.emitters = scene.emitters.table();
+    d.sphere_emitter = padded(scene.emitters.sphere_id);
+    d.mesh_emitter = padded(scene.emitters.mesh_first);
+    f.sphere_emitter = d.sphere_emitter.data();
+    f.mesh_emitter = d.mesh_emitter.data();
+    f.estimator = scene.settings.estimator.kind;
+    f.light_pdf_scale = scene.settings.estimator.light_pdf_scale;
 
     // Camera, settings, features
     const Camera& c = scene.camera;
@@ -256,19 +278,20 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
                   sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
-                  texture_channels};
+                  texture_channels, false};
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
         const bool meshes = f.features.meshes;
         f.features = {true, true, true, meshes, tree, packet, true, true, true,
-                      true, true, true, true, 4,    texture_channels};
+                      true, true, true, true, 4,    texture_channels, false};
     }
+    f.features.nee = samples_emitters(scene);
 }
 
 WavefrontRenderer::~WavefrontRenderer() = default;
 
 size_t WavefrontRenderer::pool_bytes() const {
-    return path_pool_bytes(pool_size_, int32_t(data_->scene.lights.size()),
+    return path_pool_bytes(pool_size_, shadow_rays_per_vertex(data_->scene),
                            int32_t(data_->scene.materials.size()));
 }
 

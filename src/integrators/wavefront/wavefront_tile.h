@@ -71,8 +71,8 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
     cursor.sample = uint32_t(job.sample_begin);
     const FlatFeatures& f = scene.features;
     if constexpr (kFused != kLobeCount) {
-        // One lobe, no point lights, no textures: shading compacts, no radiance is carried
-        if (!f.lights && !f.textures) {
+        // One lobe, no shadow rays, no textures: shading compacts, no radiance is carried
+        if (!f.lights && !f.nee && !f.textures) {
             for (;;) {
                 generate_camera_paths<false>(w, cursor);
                 if (w.live == 0) return;
