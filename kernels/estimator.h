@@ -299,11 +299,14 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         const Vec3<T> dir = to_world(local, axis);
         T t;
         const auto hit = intersect_sphere(Ray<T>{x, dir}, p0, size, T(kRayFar), t);
+        // A direction inside the cone that rounding makes miss (at the silhouette of a
+        // small, far sphere) stops at its closest approach: it touches the sphere there
+        t = select(hit, t, max(dot(to_c, dir), T(0.0f)));
         const T pdf = pmf * select(inside, T(0.25f * kInvPi), T(0.5f * kInvPi) / one_minus);
         out.wi = select(sphere, dir, out.wi);
         out.t = select(sphere, t, out.t);
         out.pdf = select(sphere, pdf, out.pdf);
-        out.ok = sphere & hit & (inside | (one_minus > T(0.0f)));
+        out.ok = sphere & (inside | ((one_minus > T(0.0f)) & (t > T(0.0f))));
     }
     const auto triangle = !sphere;
     if (any(triangle)) {

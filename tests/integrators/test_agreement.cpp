@@ -1,5 +1,5 @@
-// Wavefront against the scalar reference, on every scene in scenes/ and on every ISA this
-// CPU has. Both integrators draw the same random numbers for the same path vertex, so they
+// Wavefront against the scalar reference, on every scene in scenes/ (with each estimator
+// that samples its emitters) and on every ISA this CPU has. Both integrators draw the same random numbers for the same path vertex, so they
 // trace the same paths and their images differ only where rounding sends a path elsewhere.
 // Tolerances (per channel): the image means within 0.3%, and fewer than 2% of pixels off
 // by more than 2% of the image mean. A 5% error in any one lobe's weight breaks them (the
@@ -70,16 +70,24 @@ TEST(Agreement, WavefrontMatchesScalarOnEverySceneAndIsa) {
         }
         scene.set_resolution(40, 40);
         scene.settings.spp = 16;
-        const RenderResult reference = render_with(scene, "scalar", "auto");
-        for (Isa isa : compiled_isas()) {
-            if (!isa_supported(isa)) continue;
-            SCOPED_TRACE(path.filename().string() + " " + isa_name(isa));
-            const RenderResult w = render_with(scene, "wavefront", isa_name(isa));
-            EXPECT_EQ(w.stats.paths, reference.stats.paths);
-            const Difference d = compare(w.film, reference.film);
-            for (int c = 0; c < 3; ++c) {
-                EXPECT_LT(d.mean_rel[c], 0.003) << "channel " << c;
-                EXPECT_LT(d.pixels_off[c], 0.02) << "channel " << c;
+        // Every estimator that differs from the report's here (nee and mis, where the scene
+        // has emitters they sample)
+        for (Estimator e : {Estimator::kReport, Estimator::kNee, Estimator::kMis}) {
+            if (e != Estimator::kReport && scene.emitters.count() == 0) continue;
+            scene.settings.estimator.kind = e;
+            const RenderResult reference = render_with(scene, "scalar", "auto");
+            for (Isa isa : compiled_isas()) {
+                if (!isa_supported(isa)) continue;
+                SCOPED_TRACE(path.filename().string() + " " + isa_name(isa) + " " +
+                             estimator_name(e));
+                const RenderResult w = render_with(scene, "wavefront", isa_name(isa));
+                EXPECT_EQ(w.stats.paths, reference.stats.paths);
+                EXPECT_EQ(w.stats.rays.shadow > 0, reference.stats.rays.shadow > 0);
+                const Difference d = compare(w.film, reference.film);
+                for (int c = 0; c < 3; ++c) {
+                    EXPECT_LT(d.mean_rel[c], 0.003) << "channel " << c;
+                    EXPECT_LT(d.pixels_off[c], 0.02) << "channel " << c;
+                }
             }
         }
     }

@@ -1,0 +1,316 @@
+// Emitter sampling for next-event estimation (kernels/estimator.h), checked against its
+// stated densities: chi-square of the directions a sphere's cone sampler and an inside
+// sampler produce, of the points a triangle's area sampler produces, and of the emitters
+// the alias table chooses (against powers computed here); the hit-side density equals the
+// sampling side's and integrates to 1 over the emitter; and the two MIS weights of one
+// direction sum to 1 for random vertices, materials and emitters.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "kernels/estimator.h"
+#include "scene/scene_json.h"
+#include "support/statistics.h"
+
+namespace cierzo {
+namespace {
+
+// A scene of the given objects (JSON) with emitters, for its emitter table.
+Scene scene_of(const std::string& objects) {
+    return parse_scene(R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0], "vfov": 40},
+        "materials": {"L": {"emission": [2, 1, 0.5]}, "M": {"emission": 7}, "w": {"kd": 0.5}},
+        "objects": [)" + objects + "]}",
+                       "/tmp/emitters.json");
+}
+
+struct Uniforms {
+    std::mt19937 rng{12345};
+    std::uniform_real_distribution<float> u{0.0f, 1.0f};
+    float operator()() {
+        // [0, 1) with 24 bits, as the estimator's numbers
+        return std::floor(u(rng) * 16777216.0f) * 0x1.0p-24f;
+    }
+};
+
+// Equal-solid-angle bins of a direction around `axis` within a cone of 1 - cos = one_minus:
+// 16 bands of 1 - cos θ, 16 sectors of φ measured in a frame built here (not the sampler's).
+int cone_bin(const Vec3f& dir, const Vec3f& axis, double one_minus) {
+    const Vec3f helper = std::abs(axis.x) < 0.9f ? Vec3f(1, 0, 0) : Vec3f(0, 1, 0);
+    const Vec3f t = normalize(cross(axis, helper)), b = cross(axis, t);
+    // 1 - cos θ from sin²θ = |dir × axis|² in double (1 - dot cancels for a narrow cone)
+    const double cx = double(dir.y) * axis.z - double(dir.z) * axis.y;
+    const double cy = double(dir.z) * axis.x - double(dir.x) * axis.z;
+    const double cz = double(dir.x) * axis.y - double(dir.y) * axis.x;
+    const double sin2 = cx * cx + cy * cy + cz * cz;
+    const double cos_t = double(dir.x) * axis.x + double(dir.y) * axis.y + double(dir.z) * axis.z;
+    const double band = (cos_t > 0 ? sin2 / (1.0 + cos_t) : 1.0 - cos_t) / one_minus;
+    const double phi = std::atan2(double(dot(dir, b)), double(dot(dir, t))) + M_PI;
+    const int i = std::min(15, std::max(0, int(band * 16.0)));
+    const int j = std::min(15, std::max(0, int(phi / (2.0 * M_PI) * 16.0)));
+    return i * 16 + j;
+}
+
+TEST(EmitterSampling, SphereConeIsUniformInSolidAngleAndHitsTheSphere) {
+    // Near (the cone is wide), far (narrow) and very far (1 - cos θmax ≈ 5e-9 would cancel
+    // in 1 - cos)
+    for (const float distance : {1.5f, 6.0f, 5000.0f}) {
+        SCOPED_TRACE(distance);
+        const Scene scene = scene_of(R"({"type": "sphere", "center": [0.3, -0.2, 0.5],
+                                         "radius": 0.5, "material": "L"})");
+        const EmitterTable e = scene.emitters.table();
+        ASSERT_EQ(e.count, 1);
+        const Vec3f c{0.3f, -0.2f, 0.5f};
+        const Vec3f x = c + normalize(Vec3f{1.0f, 2.0f, -0.5f}) * distance;
+        const double d = double(distance), sin2 = 0.25 / (d * d);
+        const double one_minus = sin2 / (1.0 + std::sqrt(1.0 - sin2));
+        const Vec3f axis = normalize(c - x);
+        Uniforms u;
+        std::vector<double> observed(256, 0.0);
+        const int n = 256 * 400;
+        for (int k = 0; k < n; ++k) {
+            const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u());
+            ASSERT_TRUE(s.ok);
+            // Its density: 1 / (2π(1 - cos θmax)); the hit side computes the same
+            ASSERT_NEAR(s.pdf * 2.0 * M_PI * one_minus, 1.0, 1e-3);
+            ASSERT_NEAR(emitter_pdf<float>(e, 0, x, s.wi, s.t) / s.pdf, 1.0, 1e-5);
+            // The point lies on the sphere (to float resolution at that distance)
+            const Vec3f p = x + s.wi * s.t;
+            ASSERT_NEAR(length(p - c), 0.5f, 4e-6f * std::max(1.0f, distance));
+            observed[size_t(cone_bin(s.wi, axis, one_minus))] += 1.0;
+        }
+        const std::vector<double> expected(256, double(n) / 256.0);
+        const auto [stat, dof] = test::chi_square(observed, expected);
+        EXPECT_LT(stat, test::chi_square_critical(dof));
+    }
+}
+
+TEST(EmitterSampling, FromInsideASphereEveryDirectionIsEquallyLikely) {
+    const Scene scene =
+        scene_of(R"({"type": "sphere", "center": [0, 0, 0], "radius": 10, "material": "L"})");
+    const EmitterTable e = scene.emitters.table();
+    const Vec3f x{2.0f, -3.0f, 1.0f};
+    Uniforms u;
+    std::vector<double> observed(256, 0.0);
+    const int n = 256 * 400;
+    for (int k = 0; k < n; ++k) {
+        const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u());
+        ASSERT_TRUE(s.ok);
+        ASSERT_NEAR(s.pdf * 4.0 * M_PI, 1.0, 1e-5);
+        ASSERT_NEAR(emitter_pdf<float>(e, 0, x, s.wi, s.t) / s.pdf, 1.0, 1e-5);
+        ASSERT_NEAR(length(x + s.wi * s.t), 10.0f, 1e-4f);
+        // (the whole sphere of directions is a cone with 1 - cos θmax = 2)
+        observed[size_t(cone_bin(s.wi, Vec3f(0, 0, 1), 2.0))] += 1.0;
+    }
+    const std::vector<double> expected(256, double(n) / 256.0);
+    const auto [stat, dof] = test::chi_square(observed, expected);
+    EXPECT_LT(stat, test::chi_square_critical(dof));
+}
+
+TEST(EmitterSampling, TriangleIsUniformInAreaWithTheSolidAngleDensity) {
+    const Vec3f v0{-1.0f, 0.5f, 2.0f}, v1{1.5f, 0.2f, 2.5f}, v2{0.0f, 2.0f, 1.0f};
+    const Scene scene = scene_of(
+        R"({"type": "triangle", "vertices": [[-1, 0.5, 2], [1.5, 0.2, 2.5], [0, 2, 1]],
+            "material": "L"})");
+    const EmitterTable e = scene.emitters.table();
+    ASSERT_EQ(e.count, 1);
+    const Vec3f x{0.2f, -0.5f, -1.0f};
+    const Vec3f nc = cross(v1 - v0, v2 - v0);
+    const double area = 0.5 * double(length(nc));
+    const Vec3f n = normalize(nc);
+    // Bins: the triangle cut into 8 × 8 × ... = 64 congruent sub-triangles of equal area,
+    // found from the barycentric coordinates of each point (solved here, not the sampler's)
+    const int k = 8;
+    std::vector<double> observed(size_t(k * k), 0.0);
+    Uniforms u;
+    const int n_samples = 64 * 800;
+    for (int s_i = 0; s_i < n_samples; ++s_i) {
+        const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u());
+        ASSERT_TRUE(s.ok);
+        const Vec3f p = x + s.wi * s.t;
+        // Density d² / (A |cos θl|), and the hit side's
+        const double cos_l = std::abs(double(dot(n, s.wi)));
+        ASSERT_NEAR(double(s.pdf) * area * cos_l / (double(s.t) * s.t), 1.0, 1e-4);
+        ASSERT_NEAR(emitter_pdf<float>(e, 0, x, s.wi, s.t) / s.pdf, 1.0, 1e-5);
+        // Barycentrics by least squares on the two edges
+        const Vec3f q = p - v0, e1 = v1 - v0, e2 = v2 - v0;
+        const double a11 = dot(e1, e1), a12 = dot(e1, e2), a22 = dot(e2, e2);
+        const double b1 = dot(q, e1), b2 = dot(q, e2), det = a11 * a22 - a12 * a12;
+        const double beta = (b1 * a22 - b2 * a12) / det, gamma = (a11 * b2 - a12 * b1) / det;
+        ASSERT_GE(beta, -1e-5);
+        ASSERT_GE(gamma, -1e-5);
+        ASSERT_LE(beta + gamma, 1.0 + 1e-5);
+        // Cell (i, j) of the k × k grid of the unit right triangle, upper or lower half
+        const double fb = std::clamp(beta, 0.0, 1.0 - 1e-9) * k;
+        const double fg = std::clamp(gamma, 0.0, 1.0 - 1e-9) * k;
+        const int i = std::min(int(fb), k - 1), j = std::min(int(fg), k - 1 - i);
+        const bool upper = (fb - i) + (fg - j) > 1.0;
+        // Row i has 2(k - i) - 1 cells
+        int index = 0;
+        for (int r = 0; r < i; ++r) index += 2 * (k - r) - 1;
+        index += 2 * j + (upper ? 1 : 0);
+        observed[size_t(std::min(index, k * k - 1))] += 1.0;
+    }
+    const std::vector<double> expected(size_t(k * k), double(n_samples) / (k * k));
+    const auto [stat, dof] = test::chi_square(observed, expected);
+    EXPECT_LT(stat, test::chi_square_critical(dof));
+}
+
+TEST(EmitterSampling, DensityIntegratesToOneOverTheEmitter) {
+    // ∫ pdf(ω) dω over the directions that reach the emitter, by uniform directions from x:
+    // 1 for a sampling density that is normalised (a wrong d² or cos would not be)
+    const Scene scene = scene_of(
+        R"({"type": "triangle", "vertices": [[-1, -1, 2], [1.5, -0.5, 2.5], [0, 1.5, 1.5]],
+            "material": "L"},
+           {"type": "sphere", "center": [-1, 0.5, 1.2], "radius": 0.6, "material": "M"})");
+    const EmitterTable e = scene.emitters.table();
+    ASSERT_EQ(e.count, 2);
+    const Vec3f x{0.0f, 0.0f, -0.5f};
+    std::vector<test::MeanEstimate> integral(2);
+    Uniforms u;
+    for (int k = 0; k < 400000; ++k) {
+        const float z = 1.0f - 2.0f * u(), phi = 2.0f * float(M_PI) * u();
+        const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+        const Vec3f d{r * std::cos(phi), r * std::sin(phi), z};
+        Hit hit;
+        const bool found = scene.intersect({x, d}, kRayFar, hit);
+        const int32_t id = found ? scene.emitter_id(hit) : -1;
+        for (int32_t j = 0; j < 2; ++j) {
+            const double pdf = id == j ? emitter_pdf<float>(e, j, x, d, hit.t) / e.pmf[j] : 0.0;
+            integral[size_t(j)].add(pdf * 4.0 * M_PI);
+        }
+    }
+    for (int j = 0; j < 2; ++j) {
+        SCOPED_TRACE(j);
+        EXPECT_NEAR(integral[size_t(j)].mean(), 1.0, 4.0 * integral[size_t(j)].standard_error());
+        EXPECT_LT(integral[size_t(j)].standard_error(), 0.012);
+    }
+}
+
+TEST(EmitterSampling, AliasTableChoosesEmittersInProportionToPower) {
+    // Powers area × max Le computed here: spheres 4πr²·Le, triangles ½|e1 × e2|·Le
+    const Scene scene = scene_of(
+        R"({"type": "sphere", "center": [0, 0, 3], "radius": 0.2, "material": "L"},
+           {"type": "sphere", "center": [1, 0, 3], "radius": 0.05, "material": "M"},
+           {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "M"},
+           {"type": "sphere", "center": [2, 0, 3], "radius": 0.3, "material": "w"},
+           {"type": "triangle", "vertices": [[0, 0, 1], [3, 0, 1], [0, 0.1, 1]], "material": "L"},
+           {"type": "sphere", "center": [-1, 0, 3], "radius": 0.01, "material": "L"})");
+    const EmitterTable e = scene.emitters.table();
+    ASSERT_EQ(e.count, 5);  // the diffuse sphere is not an emitter
+    struct Known {
+        int32_t kind;
+        float le, size;  // max Le; radius or area
+        double power;
+    };
+    const double pi = M_PI;
+    const Known known[5] = {{kEmitterSphere, 2, 0.2f, 4 * pi * 0.04 * 2},
+                            {kEmitterSphere, 7, 0.05f, 4 * pi * 0.0025 * 7},
+                            {kEmitterSphere, 2, 0.01f, 4 * pi * 1e-4 * 2},
+                            {kEmitterTriangle, 7, 0.5f, 0.5 * 7},
+                            {kEmitterTriangle, 2, 0.15f, 0.15 * 2}};
+    double total = 0;
+    for (const Known& k : known) total += k.power;
+    // Which known emitter each table entry is
+    int of[5];
+    for (int j = 0; j < 5; ++j) {
+        of[j] = -1;
+        for (int k = 0; k < 5; ++k)
+            if (e.kind[j] == known[k].kind && e.data[j * kEmitterStride + 13] == known[k].le &&
+                std::abs(e.data[j * kEmitterStride + 3] - known[k].size) < 1e-6f)
+                of[j] = k;
+        ASSERT_GE(of[j], 0) << j;
+        EXPECT_NEAR(e.pmf[j], known[of[j]].power / total, 1e-6) << j;
+    }
+    // Samples from a point that sees every emitter; the chosen one is told by its Le, its
+    // kind and its density (the hit-side density of the right emitter equals it)
+    std::vector<double> observed(5, 0.0), expected(5);
+    Uniforms u;
+    const int n = 400000;
+    const Vec3f x{0.3f, 0.2f, -20.0f};
+    for (int k = 0; k < n; ++k) {
+        const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u());
+        int which = -1;
+        for (int j = 0; j < 5; ++j)
+            if (bool(s.sphere) == (e.kind[j] == kEmitterSphere) &&
+                s.le.x == e.data[j * kEmitterStride + 13] &&
+                std::abs(s.pdf / emitter_pdf<float>(e, j, x, s.wi, s.t) - 1.0f) < 1e-3f)
+                which = of[j];
+        ASSERT_GE(which, 0);
+        observed[size_t(which)] += 1.0;
+    }
+    for (int k = 0; k < 5; ++k) expected[size_t(k)] = known[k].power / total * n;
+    const auto [stat, dof] = test::chi_square(observed, expected);
+    EXPECT_LT(stat, test::chi_square_critical(dof));
+}
+
+TEST(Mis, TheTwoWeightsOfADirectionSumToOne) {
+    // For random vertices, Phong materials and emitters: a direction's light-side weight
+    // (computed as an emitter sample would) plus its BSDF-side weight (as a path that
+    // sampled it and hit the emitter would) is 1, for the diffuse and the specular lobe
+    const Scene scene = scene_of(
+        R"({"type": "sphere", "center": [0.5, 1, 2], "radius": 0.7, "material": "L"},
+           {"type": "triangle", "vertices": [[-2, -1, 3], [2, -1, 3.5], [0, 2, 4]],
+            "material": "M"},
+           {"type": "sphere", "center": [0, 0, 0], "radius": 30, "material": "M"})");
+    const EmitterTable e = scene.emitters.table();
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    int checked = 0;
+    for (int k = 0; k < 20000; ++k) {
+        const Vec3f x{4 * u(rng) - 2, 4 * u(rng) - 2, 3 * u(rng) - 2};
+        const Vec3f nf = normalize(Vec3f{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f});
+        const Vec3f d = normalize(Vec3f{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f});
+        if (dot(d, nf) >= 0) continue;
+        const float shininess = std::array<float, 4>{0.0f, 1.0f, 20.0f, 1e4f}[k % 4];
+        const Bsdf<float> m{Vec3f(0.6f * u(rng)), Vec3f(0.4f * u(rng)), Vec3f(0.1f * u(rng)),
+                            Vec3f(0.0f), shininess, 1.0f};
+        const bool cosine = k % 2 == 0;
+        const EmitterSample<float> s = sample_emitter(e, x, u(rng), u(rng), u(rng), u(rng));
+        // (a direction below the surface is one no lobe samples: its light weight is 1)
+        if (!s.ok || dot(s.wi, nf) <= 0.0f) continue;
+        const PhongLobes<float> f = phong_lobes(m, d, nf, s.wi, cosine);
+        float pd, ps;
+        phong_lobe_probabilities(m, 0.9f, pd, ps);
+        // The emitter the sample landed on, found by tracing the direction
+        Hit hit;
+        ASSERT_TRUE(scene.intersect({x, s.wi}, kRayFar, hit));
+        const int32_t id = scene.emitter_id(hit);
+        ASSERT_GE(id, 0);
+        if (std::abs(hit.t - s.t) > 1e-3f * s.t) continue;  // something else in front
+        const float lobe_pdf[2] = {
+            sampled_lobe_pdf<kLobeDiffuse>(m, d, nf, s.wi, pd, cosine),
+            sampled_lobe_pdf<kLobeSpecular>(m, d, nf, s.wi, ps, false)};
+        const float light_side[2] = {power_heuristic(s.pdf, pd * f.pdf_diffuse),
+                                     power_heuristic(s.pdf, ps * f.pdf_specular)};
+        for (int lobe = 0; lobe < 2; ++lobe) {
+            if (!(lobe_pdf[lobe] > 0.0f)) continue;
+            const float hit_side = emitter_hit_weight<float>(e, Estimator::kMis, id,
+                                                             lobe_pdf[lobe], x, s.wi, hit.t);
+            ASSERT_NEAR(light_side[lobe] + hit_side, 1.0f, 2e-4f)
+                << "lobe " << lobe << " s " << shininess << " pdfs " << s.pdf << " "
+                << lobe_pdf[lobe];
+            ASSERT_TRUE(hit_side >= 0.0f && hit_side <= 1.0f);
+            ++checked;
+        }
+        // nee counts the hit side not at all after a Phong lobe, the camera's in full
+        EXPECT_EQ(emitter_hit_weight<float>(e, Estimator::kNee, id, 0.5f, x, s.wi, hit.t), 0.0f);
+        EXPECT_EQ(emitter_hit_weight<float>(e, Estimator::kMis, id, 0.0f, x, s.wi, hit.t), 1.0f);
+        EXPECT_EQ(emitter_hit_weight<float>(e, Estimator::kMis, -1, 0.5f, x, s.wi, hit.t), 1.0f);
+    }
+    EXPECT_GT(checked, 5000);
+}
+
+TEST(Mis, PowerHeuristicAtTheExtremesIsFinite) {
+    for (float a : {0.0f, 1e-30f, 1.0f, 1e30f, std::numeric_limits<float>::max()})
+        for (float b : {0.0f, 1e-30f, 1.0f, 1e30f, std::numeric_limits<float>::max()}) {
+            const float w = power_heuristic(a, b);
+            EXPECT_TRUE(w >= 0.0f && w <= 1.0f) << a << " " << b << " " << w;
+        }
+    EXPECT_EQ(power_heuristic(1.0f, 0.0f), 1.0f);
+    EXPECT_NEAR(power_heuristic(1.0f, 1.0f), 0.5f, 1e-7f);
+    EXPECT_NEAR(power_heuristic(3.0f, 1.0f), 0.9f, 1e-6f);
+}
+
+}  // namespace
+}  // namespace cierzo
