@@ -193,15 +193,20 @@ PhongLobes<T> phong_lobes(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
                           const Vec3<T>& wi, bool cosine) {
     const T cos_i = dot(wi, nf);
     const auto above = cos_i > T(0.0f);
-    const T cos_a = dot(wi, normalize(reflect(d, nf)));
-    const T s = m.shininess;
-    const T lobe = select(cos_a > T(0.0f), pow_s(max(cos_a, T(0.0f)), s), T(0.0f));
     const T c = select(above, cos_i, T(0.0f));
     PhongLobes<T> out;
     out.diffuse = m.kd * (T(kInvPi) * c);
-    out.specular = m.ks * ((s + T(2.0f)) * T(0.5f * kInvPi) * lobe * c);
     out.pdf_diffuse = cosine ? c * T(kInvPi) : select(above, T(0.5f * kInvPi), T(0.0f));
-    out.pdf_specular = (s + T(1.0f)) * T(0.5f * kInvPi) * lobe;
+    out.specular = Vec3<T>(T(0.0f));
+    out.pdf_specular = T(0.0f);
+    // (cos^s α only where some lane has a specular lobe: it costs an exp and a log)
+    if (any(max_component(m.ks) > T(0.0f))) {
+        const T cos_a = dot(wi, normalize(reflect(d, nf)));
+        const T s = m.shininess;
+        const T lobe = select(cos_a > T(0.0f), pow_s(max(cos_a, T(0.0f)), s), T(0.0f));
+        out.specular = m.ks * ((s + T(2.0f)) * T(0.5f * kInvPi) * lobe * c);
+        out.pdf_specular = (s + T(1.0f)) * T(0.5f * kInvPi) * lobe;
+    }
     return out;
 }
 
@@ -251,10 +256,17 @@ T cone_one_minus_cos(const T& r2, const T& dc2) {
     return sin2 / (T(1.0f) + sqrt(max(T(1.0f) - sin2, T(0.0f))));
 }
 
-// The emitter's pmf and record at id, for the two densities below.
+// Field k of emitter id's record; a scene with one emitter broadcasts it (no gather).
 template <class T>
 T emitter_field(const EmitterTable& e, const I32<T>& id, int k) {
+    if (e.count == 1) return T(e.data[k]);
     return gather_table(e.data, id * I32<T>(kEmitterStride) + I32<T>(k));
+}
+template <class T, class E>
+auto emitter_entry(const EmitterTable& e, const E* table, const I32<T>& id) {
+    using Lanes = std::conditional_t<std::is_same_v<E, float>, T, I32<T>>;
+    if (e.count == 1) return Lanes(table[0]);
+    return Lanes(gather_table(table, id));
 }
 
 // Chooses an emitter by power (alias table) and samples it from x:
@@ -268,13 +280,14 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
                                 const T& u_alias, const T& u1, const T& u2) {
     using I = I32<T>;
     const I slot = min(to_int(u_pick * T(float(e.count))), I(e.count - 1));
-    const I id = select(mask_i32(u_alias < gather_table(e.alias_q, slot)), slot,
-                        gather_table(e.alias, slot));
+    const I id = e.count == 1 ? I(0)
+                              : select(mask_i32(u_alias < gather_table(e.alias_q, slot)), slot,
+                                       gather_table(e.alias, slot));
     const auto at = [&](int k) { return emitter_field<T>(e, id, k); };
     const Vec3<T> p0{at(0), at(1), at(2)};
     const T size = at(3);
-    const T pmf = gather_table(e.pmf, id);
-    const auto sphere = mask_f32(gather_table(e.kind, id) == I(kEmitterSphere));
+    const T pmf = emitter_entry<T>(e, e.pmf, id);
+    const auto sphere = mask_f32(emitter_entry<T>(e, e.kind, id) == I(kEmitterSphere));
     EmitterSample<T> out;
     out.le = {at(13), at(14), at(15)};
     out.sphere = sphere;
@@ -333,9 +346,9 @@ template <class T>
 T emitter_pdf(const EmitterTable& e, const I32<T>& id, const Vec3<T>& x, const Vec3<T>& d,
               const T& t) {
     const auto at = [&](int k) { return emitter_field<T>(e, id, k); };
-    const T pmf = gather_table(e.pmf, id);
+    const T pmf = emitter_entry<T>(e, e.pmf, id);
     const T size = at(3);
-    const auto sphere = mask_f32(gather_table(e.kind, id) == I32<T>(kEmitterSphere));
+    const auto sphere = mask_f32(emitter_entry<T>(e, e.kind, id) == I32<T>(kEmitterSphere));
     T pdf = T(0.0f);
     if (any(sphere)) {
         const Vec3<T> to_c = Vec3<T>{at(0), at(1), at(2)} - x;

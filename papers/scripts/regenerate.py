@@ -5,8 +5,9 @@
 
 Parts, in order: figures (every scene by both integrators, tone-mapped, kept as JPEG), series (the
 report's resolution and paths-per-pixel table), threads (the thread table, oversubscribed
-2x and 4x), converge (error against time per integrator, knob, material and light), report
-(the tables and figures of REPORT.md, between its BEGIN/END markers). --quick divides every
+2x and 4x), converge (error against time per integrator, knob, material and light), beyond
+(the estimators beyond the report's: report, nee and mis per scene, both integrators),
+report (the tables and figures of REPORT.md, between its BEGIN/END markers). --quick divides every
 path count by about 16, for checking the script; the committed results are never --quick.
 
 Measurements land in papers/data/ (CSV, JSON), images in papers/images/, plots in
@@ -190,6 +191,101 @@ def converge(args):
     run(["/usr/bin/python3", os.path.join(PAPERS, "scripts", "plot_converge.py")])
 
 
+# Beyond the report: the three estimators on the scenes where they differ most, and on scenes
+# where they should not (emitters that cannot be sampled: soft_shadow's ceiling is a plane)
+BEYOND_SCENES = ["small_emitter", "bleeding", "soft_shadow", "four_lobes", "caustic",
+                 "quad_light", "box"]
+BEYOND_SIZE = 128
+BEYOND_SPP = "4,8,16,32,64,128,256"
+BEYOND_REFERENCE_SPP = 4096
+BEYOND_SCALAR_SPP = 16  # the scalar reference at one point: the wavefront/scalar ratio
+
+
+def beyond(args):
+    """Each BEYOND_SCENES scene with the report, nee and mis estimators: an error-against-time
+    sweep of the wavefront, and the scalar reference at one point, against one mis reference
+    of BEYOND_REFERENCE_SPP paths per pixel (all three are unbiased; mis converges fastest)."""
+    spp = ",".join(dict.fromkeys(str(max(1, int(s) // args.divisor)) for s in BEYOND_SPP.split(",")))
+    ref_spp = max(64, BEYOND_REFERENCE_SPP // args.divisor)
+    for scene in BEYOND_SCENES:
+        if args.sweep and scene not in args.sweep:
+            continue
+        ref = os.path.join(OUT, f"reference_mis_{scene}_{BEYOND_SIZE}_{ref_spp}.exr")
+        reference = (["--reference", ref] if os.path.exists(ref)
+                     else ["--reference-spp", str(ref_spp), "--reference-estimator", "mis",
+                           "--save-reference", ref])
+        common = [CIERZO, "converge", os.path.join(ROOT, "scenes", scene + ".json"), "--width",
+                  str(BEYOND_SIZE), "--height", str(BEYOND_SIZE), "--quiet",
+                  "--repeats", str(SWEEP_REPEATS), "--estimator", "report,nee,mis"]
+        run(common + ["--spp", spp, "--integrator", "wavefront",
+                      "--out", os.path.join(DATA, f"beyond_{scene}.csv"), *reference])
+        run(common + ["--spp", str(max(1, BEYOND_SCALAR_SPP // args.divisor)), "--integrator",
+                      "scalar,wavefront", "--reference", ref,
+                      "--out", os.path.join(DATA, f"beyond_ratio_{scene}.csv")])
+    plot_beyond()
+
+
+def plot_beyond():
+    """papers/plots/beyond.png: relative MSE against seconds per scene, one line per estimator."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    scenes = [s for s in BEYOND_SCENES if os.path.exists(os.path.join(DATA, f"beyond_{s}.csv"))]
+    if not scenes:
+        return
+    cols = 4
+    rowsn = (len(scenes) + cols - 1) // cols
+    fig, axes = plt.subplots(rowsn, cols, figsize=(3.2 * cols, 3.0 * rowsn), dpi=110, squeeze=False)
+    for ax in axes.flat[len(scenes):]:
+        ax.axis("off")
+    for ax, scene in zip(axes.flat, scenes):
+        rows = read_csv(os.path.join(DATA, f"beyond_{scene}.csv"))
+        for est in ("report", "nee", "mis"):
+            g = [r for r in rows if r["estimator"] == est and float(r["rel_mse_corrected"]) > 0]
+            ax.loglog([float(r["seconds"]) for r in g], [float(r["rel_mse_corrected"]) for r in g],
+                      marker="o", markersize=3, label=est)
+        ax.set_title(scene, fontsize=9)
+        ax.set_xlabel("seconds", fontsize=8)
+        ax.set_ylabel("relative MSE", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(True, which="both", linewidth=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(PLOTS, "beyond.png"))
+    plt.close(fig)
+
+
+def beyond_table():
+    """Per scene and estimator: relative MSE and efficiency at the largest point (wavefront),
+    efficiency against the report's, wavefront rays/s per core (shadow rays counted), and the
+    wavefront/scalar speed ratio at BEYOND_SCALAR_SPP."""
+    out = []
+    for scene in BEYOND_SCENES:
+        path = os.path.join(DATA, f"beyond_{scene}.csv")
+        if not os.path.exists(path):
+            continue
+        rows = read_csv(path)
+        ratio_rows = read_csv(os.path.join(DATA, f"beyond_ratio_{scene}.csv"))
+        last = {}
+        for r in rows:
+            last[r["estimator"]] = r  # rows are in spp order: the largest point last
+        base = float(last["report"]["efficiency"])
+        for est in ("report", "nee", "mis"):
+            r = last[est]
+            speed = {x["integrator"]: float(x["rays_per_second"]) for x in ratio_rows
+                     if x["estimator"] == est}
+            eff = float(r["efficiency"])
+            out.append([scene, est, f"{float(r['rel_mse_corrected']):.2e}",
+                        f"{float(r['seconds']):.2f} s", f"{eff:.3g}",
+                        f"{eff / base:.2f}×" if base > 0 else "–",
+                        f"{float(r['rays_per_second']) / int(r['threads']) / 1e6:.1f} M",
+                        f"{speed['wavefront'] / speed['scalar']:.1f}×"])
+    isa = read_csv(os.path.join(DATA, f"beyond_{BEYOND_SCENES[0]}.csv"))[0]["isa"]
+    return table(["scene", "estimator", f"relMSE at {BEYOND_SPP.split(',')[-1]} spp",
+                  "time", "efficiency", "vs report", f"wavefront ({isa}) rays/s per core",
+                  "wavefront / scalar"], out)
+
+
 def write_csv(path, rows):
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
@@ -278,7 +374,8 @@ def converge_table():
         rows = read_csv(os.path.join(DATA, f"converge_{name}.csv"))
         groups = {}
         for r in rows:
-            key = (r["integrator"], r["isa"], r["pool"], r["survival_cap"], r["diffuse_sampling"])
+            key = (r["integrator"], r["isa"], r["pool"], r["survival_cap"], r["diffuse_sampling"],
+                   r.get("estimator", "report"))
             groups.setdefault(key, []).append(r)
         for key, g in groups.items():
             xs = [float(r["spp"]) for r in g]
@@ -305,7 +402,7 @@ def report(args):
     """Replaces each `<!-- BEGIN name -->...<!-- END name -->` block of REPORT.md."""
     blocks = {"figures": figures_gallery, "figures-table": figures_table,
               "series-table": series_table, "threads-table": threads_table,
-              "converge-table": converge_table}
+              "converge-table": converge_table, "beyond-table": beyond_table}
     path = os.path.join(PAPERS, "REPORT.md")
     with open(path) as f:
         text = f.read()
@@ -324,14 +421,14 @@ def report(args):
 
 
 PARTS = {"figures": figures, "series": series, "threads": threads, "converge": converge,
-         "report": report}
+         "beyond": beyond, "report": report}
 
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="about 1/16 of the paths, to check the script")
     p.add_argument("--only", nargs="+", choices=list(PARTS), help="run only these parts")
-    p.add_argument("--sweep", nargs="+", help="converge: run only these sweeps")
+    p.add_argument("--sweep", nargs="+", help="converge, beyond: run only these sweeps (scenes)")
     args = p.parse_args()
     args.divisor = 16 if args.quick else 1
     for d in (DATA, IMAGES, PLOTS, OUT):
