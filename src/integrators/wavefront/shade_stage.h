@@ -110,19 +110,16 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const Bsdf<F> m = hit_bsdf<kFused, A>(s, mat, evaluated);
 
     // Queues the shadow rays of the lanes in `bits`: origin, direction, tmax, contribution
+    // and owner, each compressed in its register and stored whole at the queue's end (the
+    // queue has K entries of slack; the lanes past the new end are overwritten next)
     const auto queue = [&](uint32_t bits, const Vec3<F>& origin, const Vec3<F>& wi,
                            const F& tmax, const Vec3<F>& c) {
-        alignas(64) float v[10][K];
         const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x, &wi.y,
                             &wi.z,     &tmax,     &c.x,      &c.y,  &c.z};
-        for (int k = 0; k < 10; ++k) src[k]->store_aligned(v[k]);
         float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy, p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
-        while (bits) {
-            const int32_t l = std::countr_zero(bits);
-            bits &= bits - 1;
-            for (int k = 0; k < 10; ++k) dst[k][queued] = v[k][l];
-            p.sowner[queued++] = i + l;
-        }
+        for (int k = 0; k < 10; ++k) compress<A>(*src[k], bits).store_unaligned(dst[k] + queued);
+        compress<A>(Wave<A>::lane_ids(i), bits).store_unaligned(p.sowner + queued);
+        queued += std::popcount(bits);
     };
 
     // Point lights through shadow rays at Phong vertices: queue f·cos θ·I/d² · β; and with
