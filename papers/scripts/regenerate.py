@@ -216,12 +216,18 @@ def beyond(args):
                            "--save-reference", ref])
         common = [CIERZO, "converge", os.path.join(ROOT, "scenes", scene + ".json"), "--width",
                   str(BEYOND_SIZE), "--height", str(BEYOND_SIZE), "--quiet",
-                  "--repeats", str(SWEEP_REPEATS), "--estimator", "report,nee,mis"]
-        run(common + ["--spp", spp, "--integrator", "wavefront",
-                      "--out", os.path.join(DATA, f"beyond_{scene}.csv"), *reference])
-        run(common + ["--spp", str(max(1, BEYOND_SCALAR_SPP // args.divisor)), "--integrator",
-                      "scalar,wavefront", "--reference", ref,
-                      "--out", os.path.join(DATA, f"beyond_ratio_{scene}.csv")])
+                  "--repeats", str(SWEEP_REPEATS)]
+        # Two passes, the estimators in opposite orders, so a machine that slows down or
+        # speeds up during a sweep favours none of them (the table averages the passes)
+        for suffix, order in (("", "report,nee,mis"), ("_reverse", "mis,nee,report")):
+            run(common + ["--estimator", order, "--spp", spp, "--integrator", "wavefront",
+                          "--out", os.path.join(DATA, f"beyond_{scene}{suffix}.csv"),
+                          *reference])
+            reference = ["--reference", ref]
+            run(common + ["--estimator", order, "--spp",
+                          str(max(1, BEYOND_SCALAR_SPP // args.divisor)), "--integrator",
+                          "scalar,wavefront", "--reference", ref,
+                          "--out", os.path.join(DATA, f"beyond_ratio_{scene}{suffix}.csv")])
     plot_beyond()
 
 
@@ -239,7 +245,7 @@ def plot_beyond():
     for ax in axes.flat[len(scenes):]:
         ax.axis("off")
     for ax, scene in zip(axes.flat, scenes):
-        rows = read_csv(os.path.join(DATA, f"beyond_{scene}.csv"))
+        rows = read_csv(os.path.join(DATA, f"beyond_{scene}.csv"))  # the first pass
         for est in ("report", "nee", "mis"):
             g = [r for r in rows if r["estimator"] == est and float(r["rel_mse_corrected"]) > 0]
             ax.loglog([float(r["seconds"]) for r in g], [float(r["rel_mse_corrected"]) for r in g],
@@ -255,35 +261,48 @@ def plot_beyond():
     plt.close(fig)
 
 
+def beyond_rows(name):
+    """The rows of papers/data/NAME.csv and of its reverse-order pass, if there is one."""
+    rows = read_csv(os.path.join(DATA, name + ".csv"))
+    reverse = os.path.join(DATA, name + "_reverse.csv")
+    return rows + (read_csv(reverse) if os.path.exists(reverse) else [])
+
+
 def beyond_table():
-    """Per scene and estimator: relative MSE and efficiency at the largest point (wavefront),
-    efficiency against the report's, wavefront rays/s per core (shadow rays counted), and the
+    """Per scene and estimator, at the largest point of the wavefront sweep (the two passes
+    averaged: relative MSE, seconds, rays): relative MSE, time, efficiency 1/(relMSE·s) and
+    against the report's, wavefront rays/s per core (shadow rays counted), and the
     wavefront/scalar speed ratio at BEYOND_SCALAR_SPP."""
+    def mean(xs):
+        return sum(xs) / len(xs)
     out = []
+    largest = BEYOND_SPP.split(",")[-1]
     for scene in BEYOND_SCENES:
-        path = os.path.join(DATA, f"beyond_{scene}.csv")
-        if not os.path.exists(path):
+        if not os.path.exists(os.path.join(DATA, f"beyond_{scene}.csv")):
             continue
-        rows = read_csv(path)
-        ratio_rows = read_csv(os.path.join(DATA, f"beyond_ratio_{scene}.csv"))
-        last = {}
-        for r in rows:
-            last[r["estimator"]] = r  # rows are in spp order: the largest point last
-        base = float(last["report"]["efficiency"])
+        rows = [r for r in beyond_rows(f"beyond_{scene}") if r["spp"] == largest]
+        ratio_rows = beyond_rows(f"beyond_ratio_{scene}")
+        eff = {}
         for est in ("report", "nee", "mis"):
-            r = last[est]
-            speed = {x["integrator"]: float(x["rays_per_second"]) for x in ratio_rows
-                     if x["estimator"] == est}
-            eff = float(r["efficiency"])
-            out.append([scene, est, f"{float(r['rel_mse_corrected']):.2e}",
-                        f"{float(r['seconds']):.2f} s", f"{eff:.3g}",
-                        f"{eff / base:.2f}×" if base > 0 else "–",
-                        f"{float(r['rays_per_second']) / int(r['threads']) / 1e6:.1f} M",
-                        f"{speed['wavefront'] / speed['scalar']:.1f}×"])
+            g = [r for r in rows if r["estimator"] == est]
+            rel = mean([float(r["rel_mse_corrected"]) for r in g])
+            sec = mean([float(r["seconds"]) for r in g])
+            eff[est] = (rel, sec, mean([float(r["rays"]) for r in g]) / sec / int(g[0]["threads"]))
+        base = 1.0 / (eff["report"][0] * eff["report"][1])
+        for est in ("report", "nee", "mis"):
+            rel, sec, per_core = eff[est]
+            e = 1.0 / (rel * sec)
+            speed = {}
+            for integrator in INTEGRATORS:
+                g = [float(x["seconds"]) for x in ratio_rows
+                     if x["estimator"] == est and x["integrator"] == integrator]
+                speed[integrator] = mean(g)
+            out.append([scene, est, f"{rel:.2e}", f"{sec:.2f} s", f"{e:.3g}", f"{e / base:.2f}×",
+                        f"{per_core / 1e6:.1f} M",
+                        f"{speed['scalar'] / speed['wavefront']:.1f}×"])
     isa = read_csv(os.path.join(DATA, f"beyond_{BEYOND_SCENES[0]}.csv"))[0]["isa"]
-    return table(["scene", "estimator", f"relMSE at {BEYOND_SPP.split(',')[-1]} spp",
-                  "time", "efficiency", "vs report", f"wavefront ({isa}) rays/s per core",
-                  "wavefront / scalar"], out)
+    return table(["scene", "estimator", f"relMSE at {largest} spp", "time", "efficiency",
+                  "vs report", f"wavefront ({isa}) rays/s per core", "wavefront / scalar"], out)
 
 
 def write_csv(path, rows):

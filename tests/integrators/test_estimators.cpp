@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -197,6 +198,14 @@ std::vector<fs::path> all_scenes() {
     return out;
 }
 
+// Under an emulator (CIERZO_TEST_EMULATED=1: scripts/test_aarch64.sh runs the suite in
+// qemu, about 100 times slower) the scene-by-scene agreement covers the scenes with sampled
+// emitters only: elsewhere the three estimators run the same code.
+bool emulated() {
+    const char* e = std::getenv("CIERZO_TEST_EMULATED");
+    return e != nullptr && *e != '\0' && *e != '0';
+}
+
 TEST(Estimators, AgreeWithinThreeSigmaOnEveryScene) {
     // Each scene with each estimator in 8 independent batches (seeds differ); σ of an image
     // mean is the larger of the batches' spread and the pixels' own variances (either alone
@@ -215,6 +224,7 @@ TEST(Estimators, AgreeWithinThreeSigmaOnEveryScene) {
             throw;
         }
         SCOPED_TRACE(path.filename().string());
+        if (emulated() && scene.emitters.count() == 0) continue;
         scene.set_resolution(32, 32);
         scene.settings.spp = 32;
         ImageMean m[3][3];

@@ -5,6 +5,7 @@
 // (gathered by index).
 #pragma once
 
+#include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/surface_stage.h"
 
@@ -65,10 +66,15 @@ struct Compaction {
 // path's radiance is only the emission that ends it) retires and compacts the batch here:
 // emitter hits go to the film's queue, survivors move down to `compaction->kept` with
 // bounce + 1, and no radiance is carried in the pool.
-template <int kFused, bool kCompact = false, class A>
+// kInlineNee (with kCompact; nee or mis): the emitter sample's shadow ray is traced here, on
+// the batch's registers, so a one-lobe scene without point lights keeps this single pass;
+// radiance is then carried, and every path that ends goes to the film's queue.
+template <int kFused, bool kCompact = false, bool kInlineNee = false, class A>
 void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                  const Surfaces<A>& sf, int32_t& queued, Compaction* compaction = nullptr) {
     static_assert(!kCompact || kFused != kLobeCount, "compaction in shading needs one lobe");
+    static_assert(!kInlineNee || kCompact, "inline shadow rays are for the compacting pass");
+    constexpr bool kCarried = !kCompact || kInlineNee;  // radiance is kept in the pool
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
@@ -83,7 +89,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i);
     };
     const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
-    Vec3<F> rad = kCompact ? Vec3<F>(F(0.0f)) : load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
+    Vec3<F> rad = kCarried ? load3<F>(p.rad_r, p.rad_g, p.rad_b, i) : Vec3<F>(F(0.0f));
 
     const U key = U::load_aligned(p.key + i);
     const U bounce = U::load_aligned(p.bounce + i);
@@ -103,7 +109,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         }
         rad = select(em, rad + beta * le, rad);
         alive = alive & !em;
-        if constexpr (kCompact)
+        if constexpr (kCompact && !kInlineNee)
             compaction->done = queue_radiant<A>(p, i, mask_bits(em), rad, compaction->done);
     }
     // (a scene with one lobe kind has that lobe's parameters only: kFused)
@@ -135,8 +141,17 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                 const EmitterShadow<F> es =
                     emitter_shadow(s.emitters, est, m, d, nf, origin, key, bounce);
                 const Vec3<F> c = beta * es.value;
-                const uint32_t bits = mask_bits(phong & es.ok & (max_component(c) > F(0.0f)));
-                if (bits) queue(bits, origin, es.wi, es.tmax, c);
+                const auto want = phong & es.ok & (max_component(c) > F(0.0f));
+                const uint32_t bits = mask_bits(want);
+                if constexpr (kInlineNee) {
+                    if (bits) {
+                        const auto blocked = occluded<A>(s, Ray<F>{origin, es.wi}, es.tmax, want);
+                        rad = select(want & !blocked, rad + c, rad);
+                        w.counters.shadow += uint64_t(std::popcount(bits));
+                    }
+                } else if (bits) {
+                    queue(bits, origin, es.wi, es.tmax, c);
+                }
             }
             for (int32_t j = 0; j < s.light_count; ++j) {
                 const float* l = s.light + 6 * j;
@@ -173,6 +188,12 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             // never overtakes the batches not yet read (compact_paths says more)
             const uint32_t bits = mask_bits(alive);
             const int32_t at = compaction->kept;
+            // Every path that ended here hands over what it gathered (before the survivors'
+            // stores below overwrite this batch's pixels)
+            if constexpr (kInlineNee) {
+                const uint32_t ended = mask_bits(w.live_mask(i)) & ~bits;
+                compaction->done = queue_radiant<A>(p, i, ended, rad, compaction->done);
+            }
             const Vec3<F>* v[3] = {&step.o, &step.d, &step.beta};
             float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz},
                                       {p.beta_r, p.beta_g, p.beta_b}};
@@ -184,6 +205,13 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             compress<A>(key, bits).store_unaligned(p.key + at);
             compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.pixel + at);
             compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + at);
+            if constexpr (kInlineNee) {
+                // Survivors keep their radiance and their lobe's density
+                compress<A>(rad.x, bits).store_unaligned(p.rad_r + at);
+                compress<A>(rad.y, bits).store_unaligned(p.rad_g + at);
+                compress<A>(rad.z, bits).store_unaligned(p.rad_b + at);
+                compress<A>(step.pdf, bits).store_unaligned(p.lobe_pdf + at);
+            }
             compaction->kept = at + std::popcount(bits);
         } else {
             store3(step.o, p.ox, p.oy, p.oz, i);

@@ -25,7 +25,7 @@ inline namespace CIERZO_ISA_NAMESPACE {
 //
 // kCompact: shading also retires and compacts each batch (shade_batch says when it may), so
 // the wavefront needs no compaction pass and no shadow stage.
-template <int kFused, bool kCompact, class A>
+template <int kFused, bool kCompact, bool kInlineNee = false, class A>
 CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w, const TileJob& job) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
@@ -46,7 +46,7 @@ CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w, const TileJob& job) {
         if (textures)
             prim.store_aligned(p.prim + i);
         else
-            shade_batch<kFused, kCompact>(w, i, ray, sf, queued, &compaction);
+            shade_batch<kFused, kCompact, kInlineNee>(w, i, ray, sf, queued, &compaction);
     }
     if constexpr (kCompact) {
         if (compaction.done)
@@ -71,12 +71,20 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
     cursor.sample = uint32_t(job.sample_begin);
     const FlatFeatures& f = scene.features;
     if constexpr (kFused != kLobeCount) {
-        // One lobe, no shadow rays, no textures: shading compacts, no radiance is carried
-        if (!f.lights && !f.nee && !f.textures) {
+        // One lobe, no point lights, no textures: shading compacts, no radiance is carried;
+        // with nee or mis, shading also traces the emitter sample and carries radiance
+        if (!f.lights && !f.textures && !f.nee) {
             for (;;) {
                 generate_camera_paths<false>(w, cursor);
                 if (w.live == 0) return;
                 trace_paths<kFused, true>(w, job);
+            }
+        }
+        if (!f.lights && !f.textures && f.nee) {
+            for (;;) {
+                generate_camera_paths<true>(w, cursor);
+                if (w.live == 0) return;
+                trace_paths<kFused, true, true>(w, job);
             }
         }
     }
