@@ -198,13 +198,15 @@ BEYOND_SCENES = ["small_emitter", "bleeding", "soft_shadow", "four_lobes", "caus
 BEYOND_SIZE = 128
 BEYOND_SPP = "4,8,16,32,64,128,256"
 BEYOND_REFERENCE_SPP = 4096
-BEYOND_SCALAR_SPP = 16  # the scalar reference at one point: the wavefront/scalar ratio
+BEYOND_RATIO_SPP = 64  # whole renders of both integrators for the wavefront/scalar ratio
+BEYOND_RATIO_ROUNDS = 3
 
 
 def beyond(args):
     """Each BEYOND_SCENES scene with the report, nee and mis estimators: an error-against-time
-    sweep of the wavefront, and the scalar reference at one point, against one mis reference
-    of BEYOND_REFERENCE_SPP paths per pixel (all three are unbiased; mis converges fastest)."""
+    sweep of the wavefront (two passes, in opposite estimator orders) against one mis
+    reference of BEYOND_REFERENCE_SPP paths per pixel (all three are unbiased; mis converges
+    fastest), and interleaved whole renders of both integrators for their speed ratio."""
     spp = ",".join(dict.fromkeys(str(max(1, int(s) // args.divisor)) for s in BEYOND_SPP.split(",")))
     ref_spp = max(64, BEYOND_REFERENCE_SPP // args.divisor)
     for scene in BEYOND_SCENES:
@@ -224,10 +226,19 @@ def beyond(args):
                           "--out", os.path.join(DATA, f"beyond_{scene}{suffix}.csv"),
                           *reference])
             reference = ["--reference", ref]
-            run(common + ["--estimator", order, "--spp",
-                          str(max(1, BEYOND_SCALAR_SPP // args.divisor)), "--integrator",
-                          "scalar,wavefront", "--reference", ref,
-                          "--out", os.path.join(DATA, f"beyond_ratio_{scene}{suffix}.csv")])
+        # The wavefront/scalar speed ratio: interleaved rounds of whole renders
+        rows = []
+        for rnd in range(BEYOND_RATIO_ROUNDS):
+            for est in ("report", "nee", "mis"):
+                for integrator in INTEGRATORS:
+                    st = render(scene, integrator, os.path.join(OUT, "beyond_ratio.exr"),
+                                os.path.join(OUT, "beyond_ratio.json"),
+                                ["--width", BEYOND_SIZE, "--height", BEYOND_SIZE, "--spp",
+                                 max(1, BEYOND_RATIO_SPP // args.divisor), "--estimator", est])
+                    rows.append({"round": rnd, "estimator": est, "integrator": integrator,
+                                 "seconds": st["seconds"], "rays": st["rays"]["total"],
+                                 "threads": st["threads"], "isa": st["isa"]})
+        write_csv(os.path.join(DATA, f"beyond_ratio_{scene}.csv"), rows)
     plot_beyond()
 
 
@@ -272,7 +283,8 @@ def beyond_table():
     """Per scene and estimator, at the largest point of the wavefront sweep (the two passes
     averaged: relative MSE, seconds, rays): relative MSE, time, efficiency 1/(relMSE·s) and
     against the report's, wavefront rays/s per core (shadow rays counted), and the
-    wavefront/scalar speed ratio at BEYOND_SCALAR_SPP."""
+    wavefront/scalar speed ratio (median of BEYOND_RATIO_ROUNDS interleaved rounds of
+    BEYOND_RATIO_SPP paths per pixel)."""
     def mean(xs):
         return sum(xs) / len(xs)
     out = []
@@ -281,7 +293,7 @@ def beyond_table():
         if not os.path.exists(os.path.join(DATA, f"beyond_{scene}.csv")):
             continue
         rows = [r for r in beyond_rows(f"beyond_{scene}") if r["spp"] == largest]
-        ratio_rows = beyond_rows(f"beyond_ratio_{scene}")
+        ratio_rows = read_csv(os.path.join(DATA, f"beyond_ratio_{scene}.csv"))
         eff = {}
         for est in ("report", "nee", "mis"):
             g = [r for r in rows if r["estimator"] == est]
@@ -292,14 +304,15 @@ def beyond_table():
         for est in ("report", "nee", "mis"):
             rel, sec, per_core = eff[est]
             e = 1.0 / (rel * sec)
-            speed = {}
-            for integrator in INTEGRATORS:
-                g = [float(x["seconds"]) for x in ratio_rows
-                     if x["estimator"] == est and x["integrator"] == integrator]
-                speed[integrator] = mean(g)
+            # The median over rounds of scalar seconds / wavefront seconds
+            by = {(x["round"], x["integrator"]): float(x["seconds"]) for x in ratio_rows
+                  if x["estimator"] == est}
+            ratios = sorted(by[(r, "scalar")] / by[(r, "wavefront")]
+                            for r in {x["round"] for x in ratio_rows})
+            ratio = ratios[len(ratios) // 2]
             out.append([scene, est, f"{rel:.2e}", f"{sec:.2f} s", f"{e:.3g}", f"{e / base:.2f}×",
                         f"{per_core / 1e6:.1f} M",
-                        f"{speed['scalar'] / speed['wavefront']:.1f}×"])
+                        f"{ratio:.1f}×"])
     isa = read_csv(os.path.join(DATA, f"beyond_{BEYOND_SCENES[0]}.csv"))[0]["isa"]
     return table(["scene", "estimator", f"relMSE at {largest} spp", "time", "efficiency",
                   "vs report", f"wavefront ({isa}) rays/s per core", "wavefront / scalar"], out)

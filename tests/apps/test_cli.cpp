@@ -294,6 +294,52 @@ TEST_F(cli, OptionsOverrideTheFile) {
     EXPECT_EQ(exr_size(out), std::make_pair(8, 3));
 }
 
+TEST_F(cli, TheEstimatorIsChosenRecordedAndChecked) {
+    // The scene's lamp is a sphere: sampled by nee and mis. The default is the report's.
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path out = dir_ / "o.exr", stats = dir_ / "s.json";
+    uint64_t shadow[3] = {};
+    const char* names[3] = {"report", "nee", "mis"};
+    for (int k = 0; k < 3; ++k) {
+        SCOPED_TRACE(names[k]);
+        const std::string option = k == 0 ? "" : std::string(" --estimator ") + names[k];
+        const Outcome r = run(quote(scene) + kQuiet + option + " --out " + quote(out) +
+                              " --stats " + quote(stats));
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        const json j = json::parse(read_file(stats));
+        EXPECT_EQ(j["estimator"], names[k]);
+        EXPECT_EQ(j["emitters"]["sampled"], 1);
+        EXPECT_EQ(j["emitters"]["unsampled_objects"], 0);
+        shadow[k] = j["rays"]["shadow"];
+        const auto header = exr_header(out);
+        ASSERT_TRUE(header.count("cierzo:estimator"));
+        EXPECT_EQ(header.at("cierzo:estimator"), names[k]);
+    }
+    // One emitter sample per Phong vertex on top of the point light's shadow rays
+    EXPECT_GT(shadow[1], shadow[0]);
+    EXPECT_EQ(shadow[1], shadow[2]);
+
+    // From the scene file, and refused when unknown (file and option)
+    std::string text = kTinyScene;
+    text.replace(text.find("\"seed\": 3"), 9, "\"seed\": 3, \"estimator\": \"mis\"");
+    const fs::path with = write("with.json", text);
+    ASSERT_EQ(run(quote(with) + kQuiet + " --out " + quote(out) + " --stats " + quote(stats))
+                  .exit_code,
+              0);
+    EXPECT_EQ(json::parse(read_file(stats))["estimator"], "mis");
+    text.replace(text.find("\"mis\""), 5, "\"path\"");
+    const fs::path bad = write("bad.json", text);
+    const Outcome b = run(quote(bad) + kQuiet);
+    EXPECT_EQ(b.exit_code, 1);
+    EXPECT_NE(b.err.find("bad.json"), std::string::npos) << b.err;
+    EXPECT_NE(b.err.find("'estimator' must be \"report\", \"nee\" or \"mis\""),
+              std::string::npos)
+        << b.err;
+    const Outcome o = run(quote(scene) + kQuiet + " --estimator bdpt");
+    EXPECT_GT(o.exit_code, 0);
+    EXPECT_NE(o.err.find("--estimator"), std::string::npos) << o.err;
+}
+
 TEST_F(cli, MissingSceneFile) {
     const fs::path scene = dir_ / "absent.json";
     const Outcome r = run(quote(scene) + kQuiet);
@@ -424,6 +470,25 @@ TEST_F(cli, ConvergeWritesOneRowPerPoint) {
     ASSERT_EQ(rows2.size(), 3u);
     for (const char* c : {"mse", "reference_mse", "rel_mse_corrected"})
         EXPECT_EQ(rows2[1][col(c)], rows[1][col(c)]) << c;
+}
+
+TEST_F(cli, ConvergeSweepsTheEstimator) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path csv = dir_ / "c.csv";
+    const Outcome r = run(quote(scene) + kQuiet + " --spp 4 --integrator wavefront " +
+                              "--estimator report,nee,mis --reference-spp 64 " +
+                              "--reference-estimator mis --out " + quote(csv),
+                          "converge");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto rows = read_csv(csv);
+    ASSERT_EQ(rows.size(), 4u);
+    const auto& h = rows[0];
+    const size_t col = size_t(std::find(h.begin(), h.end(), "estimator") - h.begin());
+    ASSERT_LT(col, h.size());
+    EXPECT_EQ(rows[1][col], "report");
+    EXPECT_EQ(rows[2][col], "nee");
+    EXPECT_EQ(rows[3][col], "mis");
+    EXPECT_GT(run(quote(scene) + kQuiet + " --estimator mcmc", "converge").exit_code, 0);
 }
 
 TEST_F(cli, ConvergeRefusesBadReferencesAndKnobs) {
