@@ -29,33 +29,15 @@
 #include "integrators/wavefront/isa.h"
 #include "scene/camera.h"
 #include "scene/scene_json.h"
+#include "support/render_variants.h"
 #include "support/uv_sphere.h"
 
 namespace cierzo {
 namespace {
 
-struct Variant {
-    const char* integrator;
-    const char* isa;
-};
-
-std::vector<Variant> variants() {
-    std::vector<Variant> v = {{"scalar", "auto"}};
-    static std::vector<std::string> names;  // outlives the variants that point into it
-    for (Isa isa : compiled_isas())
-        if (isa_supported(isa)) names.push_back(isa_name(isa));
-    for (const std::string& name : names) v.push_back({"wavefront", name.c_str()});
-    return v;
-}
-
-RenderResult run(const Scene& scene, const Variant& v) {
-    RenderOptions o;
-    o.integrator = v.integrator;
-    o.isa = v.isa;
-    o.threads = 2;
-    o.progress = false;
-    return render(scene, o);
-}
+using test::Variant;
+using test::run;
+using test::variants;
 
 // Mean of a channel over the image, and whether every pixel is finite.
 double image_mean(const Film& film, int c, bool* finite = nullptr) {

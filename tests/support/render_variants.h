@@ -1,0 +1,58 @@
+// What the integrator tests render with: the scalar reference and the wavefront on every
+// ISA this CPU runs, two threads; and every scene file of scenes/ that can be read here.
+#pragma once
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "integrators/render.h"
+#include "integrators/wavefront/isa.h"
+#include "scene/scene_json.h"
+
+namespace cierzo::test {
+
+struct Variant {
+    std::string integrator, isa;
+};
+
+// The scalar reference, then the wavefront on each ISA the CPU runs.
+inline std::vector<Variant> variants() {
+    std::vector<Variant> v = {{"scalar", "auto"}};
+    for (Isa isa : compiled_isas())
+        if (isa_supported(isa)) v.push_back({"wavefront", isa_name(isa)});
+    return v;
+}
+
+inline RenderResult run(const Scene& scene, const Variant& v) {
+    RenderOptions o;
+    o.integrator = v.integrator;
+    o.isa = v.isa;
+    o.threads = 2;
+    o.progress = false;
+    return render(scene, o);
+}
+
+// Every .json file of scenes/, sorted.
+inline std::vector<std::filesystem::path> all_scenes() {
+    std::vector<std::filesystem::path> out;
+    for (const auto& e : std::filesystem::directory_iterator(CIERZO_SOURCE_DIR "/scenes"))
+        if (e.path().extension() == ".json") out.push_back(e.path());
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+// The scene at `path`, or false when it reads a mesh file that is fetched at build time and
+// absent here (the bunny); any other error is thrown.
+inline bool load_present_scene(const std::filesystem::path& path, Scene& scene) {
+    try {
+        scene = load_scene(path);
+    } catch (const std::exception& e) {
+        if (std::string(e.what()).find(".ply") != std::string::npos) return false;
+        throw;
+    }
+    return true;
+}
+
+}  // namespace cierzo::test
