@@ -77,9 +77,11 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
         {"rays_per_second_per_thread", st.rays_per_second() / st.threads},
         {"nonfinite_samples", st.nonfinite_samples},
         {"lane_utilisation", {{"shading", st.shade_lane_utilisation},
-                              {"intersection", st.isect_lane_utilisation}}},
+                              {"intersection", st.isect_lane_utilisation},
+                              {"shadow", st.shadow_lane_utilisation}}},
         {"pool", {{"paths", st.pool_size}, {"bytes", st.pool_bytes}}},
-        {"mean_relative_error", st.mean_relative_error},
+        {"mean_relative_error", st.mean_relative_error ? nlohmann::json(*st.mean_relative_error)
+                                                       : nlohmann::json(nullptr)},
         {"stopped_by", st.stopped_by},
     };
     // The acceleration structure: what it holds, its size and how long it took to build
@@ -148,10 +150,12 @@ int run_render(const RenderArgs& a) {
     // The summary line; an early stop says why and how far it got
     std::string summary = fmt::format(
         "{}: {}x{}, {} spp, {} ({}), {} threads: {:.3f} s, {:.2f} Mrays/s ({:.2f} per thread), "
-        "relative error {:.4f}",
+        "{}",
         s.output.string(), s.width, s.height, s.spp, st.integrator, st.isa, st.threads,
         st.seconds, st.rays_per_second() * 1e-6, st.rays_per_second() * 1e-6 / st.threads,
-        st.mean_relative_error);
+        st.mean_relative_error
+            ? fmt::format("relative error {:.4f}", *st.mean_relative_error)
+            : std::string("relative error not available (one path per pixel gives no variance)"));
     if (st.nonfinite_samples)
         summary += fmt::format(", {} non-finite samples excluded", st.nonfinite_samples);
     if (!st.stopped_by.empty())

@@ -83,7 +83,8 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
                 point.error.rel_mse += e.rel_mse / point.repeats;
                 point.error.reference_mse = e.reference_mse;
                 point.error.reference_rel_mse = e.reference_rel_mse;
-                point.estimated_relative_error += r.stats.mean_relative_error / point.repeats;
+                point.estimated_relative_error +=
+                    r.stats.mean_relative_error.value_or(std::nan("")) / point.repeats;
                 seconds.push_back(r.stats.seconds);
                 if (k == 0) {
                     point.stats = r.stats;

@@ -39,12 +39,13 @@ Image Film::variance_of_mean() const {
     return img;
 }
 
-double Film::mean_relative_error() const {
+std::optional<double> Film::mean_relative_error() const {
     // Per pixel: the mean over its non-black channels of standard error / |mean|
     double total = 0.0;
-    size_t used = 0;
+    size_t used = 0, estimable = 0;
     for (const PixelSums& p : pixels_) {
         if (p.count < 2) continue;
+        ++estimable;
         const double n = double(p.count);
         double rel = 0.0;
         int channels = 0;
@@ -59,6 +60,7 @@ double Film::mean_relative_error() const {
         total += rel / channels;
         ++used;
     }
+    if (estimable == 0) return std::nullopt;
     return used ? total / double(used) : 0.0;
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "io/image.h"
@@ -63,8 +64,9 @@ public:
     Image mean() const;
     // The variance of each pixel's mean (sample variance / count), per channel.
     Image variance_of_mean() const;
-    // Mean over pixels of (standard error / |mean|), skipping pixels whose mean is ~0.
-    double mean_relative_error() const;
+    // Mean over pixels of (standard error / |mean|), skipping pixels whose mean is ~0;
+    // nothing where no pixel has two paths yet (one path gives no variance).
+    std::optional<double> mean_relative_error() const;
     uint64_t nonfinite_samples() const;
     uint64_t min_samples() const;
 

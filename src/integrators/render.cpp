@@ -3,6 +3,7 @@
 #include "integrators/render.h"
 
 #include <chrono>
+#include <limits>
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
@@ -152,7 +153,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
             } else if (options.time_budget > 0.0 && elapsed >= options.time_budget) {
                 stopped_by = "time budget";
             } else if (options.target_error > 0.0 && pass_end[size_t(pass)] >= 16 &&
-                       result.film.mean_relative_error() <= options.target_error) {
+                       result.film.mean_relative_error().value_or(std::numeric_limits<double>::infinity()) <=
+                           options.target_error) {
                 // (from 16 paths per pixel on: fewer give no trustworthy variance)
                 stopped_by = "target error";
             }
@@ -177,10 +179,12 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         for (const LaneStats& l : lane_stats) {
             lanes.shade_active += l.shade_active, lanes.shade_total += l.shade_total;
             lanes.isect_active += l.isect_active, lanes.isect_total += l.isect_total;
+            lanes.shadow_active += l.shadow_active, lanes.shadow_total += l.shadow_total;
         }
         st.isa = isa_name(wavefront->isa());
         st.shade_lane_utilisation = double(lanes.shade_active) / double(std::max<uint64_t>(lanes.shade_total, 1));
         st.isect_lane_utilisation = double(lanes.isect_active) / double(std::max<uint64_t>(lanes.isect_total, 1));
+        st.shadow_lane_utilisation = double(lanes.shadow_active) / double(std::max<uint64_t>(lanes.shadow_total, 1));
         st.pool_size = wavefront->pool_size();
         st.pool_bytes = wavefront->pool_bytes();
     }

@@ -47,11 +47,12 @@ struct RenderStats {
     uint64_t paths = 0;
     RayCounts rays;
     uint64_t nonfinite_samples = 0;
-    double mean_relative_error = 0.0;
+    std::optional<double> mean_relative_error;  // none at 1 path per pixel
     int64_t spp_reached = 0;
     std::string stopped_by;  // empty, or "time budget", "target error", "interrupted"
     // Wavefront only: lane utilisation (live lanes / lanes computed) and the pool
     double shade_lane_utilisation = 0.0, isect_lane_utilisation = 0.0;
+    double shadow_lane_utilisation = 0.0;  // of the batches of shadow rays traced
     int pool_size = 0;
     size_t pool_bytes = 0;
     double rays_per_second() const { return seconds > 0 ? double(rays.total()) / seconds : 0.0; }

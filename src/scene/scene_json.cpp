@@ -598,16 +598,56 @@ struct Loader {
 Scene parse_scene(const std::string& text, const fs::path& path) {
     json root;
     try {
-        // The callback refuses deep nesting as it is read, before any recursion on it
-        const json::parser_callback_t limit_depth = [&](int depth, json::parse_event_t event,
-                                                        json&) {
-            if (depth >= kMaxNesting && (event == json::parse_event_t::object_start ||
-                                         event == json::parse_event_t::array_start))
+        // The callback refuses, as the text is read: deep nesting (before any recursion on
+        // it), and a key given twice in one object (the parser would keep the last)
+        struct Frame {
+            bool array = false;
+            int index = -1;    // an array's current element
+            std::string name;  // where it is, for messages: "render", "objects[2]"
+            std::string last_key;
+            std::set<std::string> keys;
+        };
+        std::vector<Frame> frames;
+        const auto child_name = [&]() -> std::string {
+            if (frames.empty()) return "scene";
+            Frame& parent = frames.back();
+            if (parent.array) return parent.name + "[" + std::to_string(++parent.index) + "]";
+            return frames.size() == 1 ? parent.last_key : parent.name + "." + parent.last_key;
+        };
+        const json::parser_callback_t check = [&](int depth, json::parse_event_t event,
+                                                  json& parsed) {
+            using E = json::parse_event_t;
+            if (depth >= kMaxNesting && (event == E::object_start || event == E::array_start))
                 throw InputError(path.string() + ": invalid JSON: arrays and objects nested " +
                                  "deeper than " + std::to_string(kMaxNesting) + " levels");
+            switch (event) {
+                case E::object_start:
+                case E::array_start: {
+                    Frame f;
+                    f.array = event == E::array_start;
+                    f.name = child_name();
+                    frames.push_back(std::move(f));
+                    break;
+                }
+                case E::object_end:
+                case E::array_end:
+                    if (!frames.empty()) frames.pop_back();
+                    break;
+                case E::key: {
+                    Frame& f = frames.back();
+                    f.last_key = parsed.get<std::string>();
+                    if (!f.keys.insert(f.last_key).second)
+                        throw InputError(path.string() + ": " + f.name + ": duplicate key '" +
+                                         f.last_key + "' (each key may be given once)");
+                    break;
+                }
+                case E::value:
+                    if (!frames.empty() && frames.back().array) ++frames.back().index;
+                    break;
+            }
             return true;
         };
-        root = json::parse(text, limit_depth, true, /*ignore_comments=*/true);
+        root = json::parse(text, check, true, /*ignore_comments=*/true);
     } catch (const json::exception& e) {
         // parse_error (with line and column), or out_of_range for a number such as 1e400
         // that overflows a double

@@ -266,6 +266,14 @@ TEST_F(cli, StatsAreConsistent) {
         EXPECT_NEAR(rps, seconds > 0 ? double(total) / seconds : 0.0, 1e-6 * rps + 1e-9);
         EXPECT_EQ(j["rays_per_second_per_thread"].get<double>(), rps);  // 1 thread
         EXPECT_EQ(j["nonfinite_samples"], 0);
+        if (integrator == "wavefront") {
+            // Lane utilisation of shading, intersection and shadow-ray batches
+            for (const char* stage : {"shading", "intersection", "shadow"}) {
+                const double u = j["lane_utilisation"][stage];
+                EXPECT_GT(u, 0.0) << stage;
+                EXPECT_LE(u, 1.0) << stage;
+            }
+        }
         fs::remove(stats);
     }
 }
@@ -338,6 +346,20 @@ TEST_F(cli, TheEstimatorIsChosenRecordedAndChecked) {
     const Outcome o = run(quote(scene) + kQuiet + " --estimator bdpt");
     EXPECT_GT(o.exit_code, 0);
     EXPECT_NE(o.err.find("--estimator"), std::string::npos) << o.err;
+}
+
+TEST_F(cli, OnePathPerPixelHasNoRelativeError) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path stats = dir_ / "s.json";
+    const Outcome one = run(quote(scene) + " --threads 1 --spp 1 --stats " + quote(stats));
+    ASSERT_EQ(one.exit_code, 0) << one.err;
+    EXPECT_NE(one.err.find("relative error not available"), std::string::npos) << one.err;
+    EXPECT_EQ(one.err.find("relative error 0"), std::string::npos) << one.err;
+    EXPECT_TRUE(json::parse(read_file(stats))["mean_relative_error"].is_null());
+    const Outcome two = run(quote(scene) + " --threads 1 --spp 2 --stats " + quote(stats));
+    ASSERT_EQ(two.exit_code, 0) << two.err;
+    EXPECT_NE(two.err.find("relative error 0."), std::string::npos) << two.err;
+    EXPECT_GT(json::parse(read_file(stats))["mean_relative_error"].get<double>(), 0.0);
 }
 
 TEST_F(cli, MissingSceneFile) {

@@ -647,6 +647,39 @@ TEST(scene_json_errors, UnknownTopLevelKey) {
     EXPECT_TRUE(fails_with(j, "unknown key 'light'"));
 }
 
+TEST(scene_json_errors, ADuplicateKeyIsRefusedWhereverItIs) {
+    // (written as text: a JSON object cannot hold one key twice)
+    const std::string camera = R"("camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]})";
+    const std::string objects =
+        R"("objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"}])";
+    const std::string materials = R"("materials": {"w": {"kd": 0.5}})";
+    const auto scene = [&](const std::string& render, const std::string& mats,
+                           const std::string& objs) {
+        return "{" + render + camera + ", " + mats + ", " + objs + "}";
+    };
+    // The given case: spp twice renders neither silently
+    EXPECT_TRUE(text_fails_with(scene(R"("render": {"spp": 64, "spp": 2}, )", materials, objects),
+                                "render: duplicate key 'spp'"));
+    EXPECT_TRUE(text_fails_with(
+        scene("", R"("materials": {"w": {"kd": 0.5, "kd": 0.1}})", objects),
+        "materials.w: duplicate key 'kd'"));
+    EXPECT_TRUE(text_fails_with(
+        scene("", R"("materials": {"w": {"kd": 0.5}, "w": {"kd": 0.1}})", objects),
+        "materials: duplicate key 'w'"));
+    EXPECT_TRUE(text_fails_with(
+        scene("", materials,
+              R"("objects": [{"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "w"},
+                             {"type": "sphere", "radius": 1, "center": [0, 0, 0], "radius": 2,
+                              "material": "w"}])"),
+        "objects[1]: duplicate key 'radius'"));
+    EXPECT_TRUE(text_fails_with(scene(R"("render": {"width": 8}, "render": {"width": 9}, )",
+                                      materials, objects),
+                                "scene: duplicate key 'render'"));
+    // The same key in different objects is no duplicate
+    EXPECT_NO_THROW(parse_text(scene(R"("render": {"width": 8, "height": 8}, )",
+                                     R"("materials": {"w": {"kd": 0.5}, "v": {"kd": 0.5}})",
+                                     objects)));
+}
 TEST(scene_json_errors, UnknownKeyInAMaterialListsTheValidOnes) {
     json j = base_scene();
     j["materials"]["white"]["shininnes"] = 10;

@@ -132,6 +132,7 @@ struct WavefrontCounters {
     uint64_t camera = 0, extension = 0, shadow = 0;
     uint64_t lanes_active = 0, lanes_total = 0;  // shading lane utilisation
     uint64_t isect_active = 0, isect_total = 0;  // intersection lane utilisation
+    uint64_t shadow_active = 0, shadow_total = 0;  // shadow-ray lane utilisation
 };
 
 }  // namespace cierzo

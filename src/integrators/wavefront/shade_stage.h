@@ -1,6 +1,6 @@
 // Wavefront stage 5, shading, with the estimator of kernels/estimator.h: emitters end their
-// paths; Phong vertices queue one shadow ray per point light; the roulette picks each path's
-// lobe. A scene with one lobe kind runs that lobe on the same batch in registers; otherwise
+// paths; Phong vertices queue one shadow ray per point light and, with nee or mis, one
+// emitter sample; the roulette picks each path's lobe. A scene with one lobe kind runs that lobe on the same batch in registers; otherwise
 // hits are bucketed by lobe and each lobe's kernel runs on full batches of its own lanes
 // (gathered by index).
 #pragma once
@@ -148,6 +148,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                         const auto blocked = occluded<A>(s, Ray<F>{origin, es.wi}, es.tmax, want);
                         rad = select(want & !blocked, rad + c, rad);
                         w.counters.shadow += uint64_t(std::popcount(bits));
+                        w.counters.shadow_active += uint64_t(std::popcount(bits));
+                        w.counters.shadow_total += uint64_t(K);
                     }
                 } else if (bits) {
                     queue(bits, origin, es.wi, es.tmax, c);

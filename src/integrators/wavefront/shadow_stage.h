@@ -1,6 +1,7 @@
-// Wavefront stage 6, shadow rays: the queued rays towards point lights, K at a time, any-hit
-// against the analytic primitives and the meshes (one ray at a time through their 8-wide
-// BVHs); an unblocked ray adds its contribution to its path's radiance.
+// Wavefront stage 6, shadow rays: the queued rays towards point lights and emitter samples
+// (nee, mis), K at a time, any-hit against the analytic primitives and the meshes (one ray
+// at a time through their 8-wide BVHs); an unblocked ray adds its contribution to its
+// path's radiance.
 #pragma once
 
 #include "integrators/wavefront/intersect_stage.h"
@@ -20,6 +21,8 @@ CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
         const F tmax = F::load_aligned(p.stmax + i);
         // Lanes of this chunk that hold a queued ray and are not blocked
         const int32_t lanes = std::min(K, count - i);
+        w.counters.shadow_active += uint64_t(lanes);
+        w.counters.shadow_total += uint64_t(K);
         const auto queued = Wave<A>::lane_index() < F(float(lanes));
         uint32_t open = ~mask_bits(occluded<A>(s, ray, tmax, queued)) & ((1u << lanes) - 1u);
         // The radiance update, per unblocked ray (one path may own several rays)

@@ -309,6 +309,7 @@ void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& ray
     rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;
     lanes.shade_active += c.lanes_active, lanes.shade_total += c.lanes_total;
     lanes.isect_active += c.isect_active, lanes.isect_total += c.isect_total;
+    lanes.shadow_active += c.shadow_active, lanes.shadow_total += c.shadow_total;
 }
 
 void WavefrontRenderer::trace(const float* rays, size_t count, TraceTotals& totals) const {

@@ -14,6 +14,7 @@ namespace cierzo {
 struct LaneStats {
     uint64_t shade_active = 0, shade_total = 0;
     uint64_t isect_active = 0, isect_total = 0;
+    uint64_t shadow_active = 0, shadow_total = 0;
 };
 
 class WavefrontRenderer {
