@@ -71,46 +71,42 @@ void scatter3(const Vec3<F>& v, float* x, float* y, float* z, const I& idx) {
 }
 
 // ---- Table look-ups ---------------------------------------------------------------------
-// xsimd 8.1 emulates gather lane by lane, so these use the native instructions: a table of
-// at most K entries (materials, planes) sits in one register and is indexed by a permute;
-// a larger one is read with the hardware gather. Tables are padded to a multiple of 16.
-// SSE and NEON have no gather: there xsimd's four lane loads are what the CPU would do.
+// A table of at most K entries (materials, planes) sits in one register and is indexed by a
+// permute; a larger one is read with gather_table (kernels/lanes.h: the hardware gather,
+// where there is one). Tables are padded to a multiple of 16.
 template <class A, class T>
 xsimd::batch<T, A> lookup(const T* table, int32_t count, const xsimd::batch<int32_t, A>& idx) {
     using B = xsimd::batch<T, A>;
     constexpr int32_t K = int32_t(B::size);
 #if defined(__AVX512F__)
     if constexpr (std::is_base_of_v<xsimd::avx512f, A>) {
-        if constexpr (std::is_same_v<T, float>) {
-            if (count <= K) return B(_mm512_permutexvar_ps(idx.data, _mm512_loadu_ps(table)));
-            return B(_mm512_i32gather_ps(idx.data, table, 4));
-        } else {
-            if (count <= K)
+        if (count <= K) {
+            if constexpr (std::is_same_v<T, float>)
+                return B(_mm512_permutexvar_ps(idx.data, _mm512_loadu_ps(table)));
+            else
                 return B(_mm512_permutexvar_epi32(idx.data, _mm512_loadu_si512(table)));
-            return B(_mm512_i32gather_epi32(idx.data, table, 4));
         }
     }
 #endif
 #if defined(__AVX2__)
     if constexpr (std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
-        if constexpr (std::is_same_v<T, float>) {
-            if (count <= K) return B(_mm256_permutevar8x32_ps(_mm256_loadu_ps(table), idx.data));
-            return B(_mm256_i32gather_ps(table, idx.data, 4));
-        } else {
-            const __m256i t = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(table));
-            if (count <= K) return B(_mm256_permutevar8x32_epi32(t, idx.data));
-            return B(_mm256_i32gather_epi32(reinterpret_cast<const int*>(table), idx.data, 4));
+        if (count <= K) {
+            if constexpr (std::is_same_v<T, float>)
+                return B(_mm256_permutevar8x32_ps(_mm256_loadu_ps(table), idx.data));
+            else
+                return B(_mm256_permutevar8x32_epi32(
+                    _mm256_loadu_si256(reinterpret_cast<const __m256i*>(table)), idx.data));
         }
     }
 #endif
     (void)count;
     (void)K;
-    return B::gather(table, idx);
+    return gather_table(table, idx);
 }
 // A gather from a per-path array (any size).
 template <class A, class T>
 xsimd::batch<T, A> gather_lanes(const T* array, const xsimd::batch<int32_t, A>& idx) {
-    return lookup<A>(array, std::numeric_limits<int32_t>::max(), idx);
+    return gather_table(array, idx);
 }
 
 // ---- Compression ------------------------------------------------------------------------
