@@ -4,6 +4,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <algorithm>
 #include <filesystem>
 #include <thread>
 
@@ -15,8 +16,11 @@
 #include "apps/converge_command.h"
 #include "apps/trace_command.h"
 #include "core/error.h"
+#include "integrators/checkpoint.h"
+#include "integrators/distributed.h"
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
+#include "integrators/wavefront/wavefront.h"
 #include "io/atomic_file.h"
 #include "io/image.h"
 #include "scene/scene_json.h"
@@ -52,6 +56,9 @@ struct RenderArgs {
     bool quiet = false;
     double time_budget = 0.0;
     double target_error = 0.0;
+    fs::path checkpoint;
+    double checkpoint_every = 300.0;
+    fs::path resume;
 };
 
 void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st) {
@@ -83,7 +90,26 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
         {"mean_relative_error", st.mean_relative_error ? nlohmann::json(*st.mean_relative_error)
                                                        : nlohmann::json(nullptr)},
         {"stopped_by", st.stopped_by},
+        {"spp_resumed", st.spp_resumed},
+        {"warnings", st.warnings},
     };
+    // Under MPI: each rank's rays, time and rays/s, and the sum over ranks
+    if (!st.ranks.empty()) {
+        nlohmann::json ranks = nlohmann::json::array();
+        uint64_t rays = 0;
+        int threads = 0;
+        for (const RankStats& r : st.ranks) {
+            ranks.push_back({{"rank", r.rank}, {"host", r.host}, {"threads", r.threads},
+                             {"units", r.units}, {"rays", r.rays}, {"seconds", r.seconds},
+                             {"rays_per_second", r.rays_per_second()}});
+            rays += r.rays, threads += r.threads;
+        }
+        j["mpi"] = {{"ranks", st.ranks.size()},
+                    {"threads", threads},
+                    {"rays_traced", rays},
+                    {"rays_traced_per_second", st.seconds > 0 ? double(rays) / st.seconds : 0.0},
+                    {"per_rank", ranks}};
+    }
     // The acceleration structure: what it holds, its size and how long it took to build
     const BvhStats& b = scene.bvh.stats();
     size_t instances = 0, mesh_bytes = 0;
@@ -98,7 +124,15 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
     write_stream_atomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
 }
 
+// Whether `spp` ends a pass of an uninterrupted render (pass_bounds from zero).
+bool on_pass_schedule(int64_t spp) {
+    for (int64_t b : pass_bounds(0, spp)) if (b == spp) return true;
+    return false;
+}
+
 int run_render(const RenderArgs& a) {
+    const mpi::World& world = mpi::world();
+    const bool root = world.rank == 0;
     // An instruction set this CPU lacks is refused before the scene is read
     if (a.integrator == "wavefront") require_isa(parse_isa(a.isa), "--isa");
     Scene scene = load_scene(a.scene);
@@ -116,8 +150,10 @@ int run_render(const RenderArgs& a) {
     const std::string ext = s.output.extension().string();
     if (ext != ".exr" && ext != ".pfm")
         throw InputError(s.output.string() + ": output must end in .exr or .pfm");
-    check_writable_folder(s.output, "the image");
-    if (!a.stats.empty()) check_writable_folder(a.stats, "the statistics");
+    if (root) {
+        check_writable_folder(s.output, "the image");
+        if (!a.stats.empty()) check_writable_folder(a.stats, "the statistics");
+    }
 
     RenderOptions options;
     options.threads = a.threads;
@@ -129,9 +165,47 @@ int run_render(const RenderArgs& a) {
     options.cancel = &g_interrupted;
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
-    options.progress = !a.quiet;
-    const RenderResult result = render(scene, options);
-    const RenderStats& st = result.stats;
+    options.progress = !a.quiet && root;
+
+    // Checkpoints: what the pixels depend on, the state to continue from, where to write
+    const int pool = a.integrator == "wavefront" ? (a.pool > 0 ? a.pool : WavefrontRenderer::kDefaultPoolSize) : 0;
+    const std::string isa = a.integrator == "wavefront" ? isa_name(parse_isa(a.isa) == Isa::kAuto ? best_isa() : parse_isa(a.isa)) : "scalar";
+    const CheckpointIdentity identity = checkpoint_identity(scene, a.integrator, isa, pool);
+    std::optional<Checkpoint> resumed;
+    std::vector<std::string> resume_warnings;
+    const fs::path checkpoint = !a.checkpoint.empty() ? a.checkpoint : a.resume;
+    if (root && !a.resume.empty()) {
+        resumed = read_checkpoint(a.resume);
+        resume_warnings = check_resume(a.resume, *resumed, identity);
+        const int64_t done = resumed->state.spp_done;
+        if (done > s.spp)
+            throw InputError(fmt::format("{}: the checkpoint already has {} paths per pixel, "
+                                         "more than the {} asked for", a.resume.string(), done, s.spp));
+        if (!on_pass_schedule(done) && done < s.spp)
+            resume_warnings.push_back(fmt::format(
+                "{}: the checkpoint is a finished render of {} paths per pixel; continued to {}, "
+                "the image is right but not bit-identical to an uninterrupted render of {}",
+                a.resume.string(), done, s.spp, s.spp));
+        for (const std::string& w : resume_warnings) std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
+        options.resume = &resumed->state;
+    }
+    if (root && !checkpoint.empty()) {
+        if (checkpoint.extension() != ".exr")
+            throw InputError(checkpoint.string() + ": a checkpoint must end in .exr");
+        check_writable_folder(checkpoint, "the checkpoint");
+        options.checkpoint_every = a.checkpoint_every;
+        options.checkpoint = [&](const RenderState& state) {
+            write_checkpoint(checkpoint, identity, state);
+        };
+    }
+    RenderResult result = render(scene, options);
+    if (!root) return 0;
+    RenderStats& st = result.stats;
+    st.warnings.insert(st.warnings.begin(), resume_warnings.begin(), resume_warnings.end());
+    for (const std::string& w : st.warnings)
+        if (std::find(resume_warnings.begin(), resume_warnings.end(), w) == resume_warnings.end() &&
+            w.find("the previous checkpoint is kept") == std::string::npos)
+            std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
 
     // The image, its metadata, and optionally the variance of each pixel's mean
     ImageMetadata meta = {{"cierzo:scene", scene.source.string()},
@@ -151,7 +225,9 @@ int run_render(const RenderArgs& a) {
     std::string summary = fmt::format(
         "{}: {}x{}, {} spp, {} ({}), {} threads: {:.3f} s, {:.2f} Mrays/s ({:.2f} per thread), "
         "{}",
-        s.output.string(), s.width, s.height, s.spp, st.integrator, st.isa, st.threads,
+        s.output.string(), s.width, s.height, s.spp, st.integrator, st.isa,
+        st.ranks.empty() ? std::to_string(st.threads)
+                         : fmt::format("{} ranks × {}", st.ranks.size(), st.threads),
         st.seconds, st.rays_per_second() * 1e-6, st.rays_per_second() * 1e-6 / st.threads,
         st.mean_relative_error
             ? fmt::format("relative error {:.4f}", *st.mean_relative_error)
@@ -179,9 +255,7 @@ int run_isas() {
     return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run_main(int argc, char** argv) {
     CLI::App app{"cierzo: a data-oriented SIMD research path tracer"};
     app.require_subcommand(1);
     RenderArgs a;
@@ -240,28 +314,67 @@ int main(int argc, char** argv) {
                   "Stop once the mean relative standard error of the pixels is at most this "
                   "(checked after each pass from 16 paths per pixel on), e.g. 0.01")
         ->check(CLI::NonNegativeNumber);
+    r->add_option("--checkpoint", a.checkpoint,
+                  "Write the render's exact state to this .exr file every --checkpoint-every "
+                  "seconds, when stopped and at the end (atomically: a failed write keeps the "
+                  "previous one); continue it with --resume")
+        ->check(CLI::NonexistentPath | CLI::ExistingFile);
+    r->add_option("--checkpoint-every", a.checkpoint_every,
+                  "Seconds between checkpoints (a crash loses at most this much work)")
+        ->check(CLI::Range(0.01, 1e9))
+        ->capture_default_str();
+    r->add_option("--resume", a.resume,
+                  "Continue the render in this checkpoint to --spp paths per pixel (the same "
+                  "image, bit for bit, as an uninterrupted render); refused for another scene, "
+                  "resolution, seed, estimator or integrator. Checkpoints then go on into the "
+                  "same file unless --checkpoint names another")
+        ->check(CLI::ExistingFile);
     r->add_flag("--quiet", a.quiet, "No progress line");
     r->footer(
-        "Ctrl-C (SIGINT) or SIGTERM stops the render after its current pass, writes the image "
-        "accumulated so far\n(with the paths per pixel reached in its metadata) and exits with "
-        "status 130; a second one ends it at once.");
+        "Ctrl-C (SIGINT) or SIGTERM stops the render at once (after its first pass at the "
+        "earliest), writes the image of the\npasses finished (with the paths per pixel reached "
+        "in its metadata; a checkpoint also keeps the tiles done of the\npass in progress) and "
+        "exits with status 130; a second one ends it at once.\n\n"
+        "Under MPI (mpirun -np N cierzo render ..., or srun) every rank renders with its "
+        "threads, rank 0 hands out the\nwork and writes the outputs; the image is "
+        "bit-identical to a one-process render. See docs/distributed.md.");
     CLI::App* converge = add_converge_command(app);
     CLI::App* trace = add_trace_command(app);
     CLI::App* isas = app.add_subcommand(
         "isas", "List the wavefront's instruction sets: lanes, whether this CPU runs each (and "
                 "which auto picks), and why not");
     CLI11_PARSE(app, argc, argv);
+    const mpi::World& world = mpi::world();
+    // Messages of a rank other than 0 say which rank they come from
+    const std::string who =
+        world.rank == 0 ? "cierzo" : fmt::format("cierzo (rank {} of {})", world.rank, world.size);
     try {
+        if (world.size > 1 && !r->parsed())
+            throw InputError("only `cierzo render` runs across MPI ranks; run this command in "
+                             "one process");
         if (r->parsed()) return run_render(a);
         if (converge->parsed()) return run_converge_command();
         if (trace->parsed()) return run_trace_command();
         if (isas->parsed()) return run_isas();
     } catch (const InputError& e) {
-        std::fprintf(stderr, "cierzo: %s\n", e.what());
+        std::fprintf(stderr, "%s: %s\n", who.c_str(), e.what());
         return 1;
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "cierzo: internal error: %s\n", e.what());
+        std::fprintf(stderr, "%s: internal error: %s\n", who.c_str(), e.what());
         return 2;
     }
     return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    // A write past `ulimit -f` fails with EFBIG (and is reported) instead of killing cierzo
+    std::signal(SIGXFSZ, SIG_IGN);
+    mpi::init(&argc, &argv);
+    const int code = run_main(argc, argv);
+    // A failure on any rank ends them all (the others would wait for it forever)
+    if (mpi::world().size > 1 && code != 0 && code != 130) mpi::abort(code);
+    mpi::finalize();
+    return code;
 }

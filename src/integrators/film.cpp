@@ -9,9 +9,12 @@ namespace cierzo {
 Film::Film(int width, int height)
     : width_(width), height_(height), pixels_(size_t(width) * size_t(height)) {}
 
-void Film::count_paths(int x0, int y0, int x1, int y1, uint64_t paths) {
-    for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x) at(x, y).count += paths;
+void Film::merge(const FilmTile& tile) {
+    const std::vector<PixelSums>& src = tile.pixels();
+    const size_t w = size_t(tile.x1() - tile.x0());
+    for (int y = tile.y0(); y < tile.y1(); ++y)
+        for (int x = tile.x0(); x < tile.x1(); ++x)
+            at(x, y).merge(src[size_t(y - tile.y0()) * w + size_t(x - tile.x0())]);
 }
 
 Image Film::mean() const {

@@ -31,6 +31,16 @@ struct PixelSums {
     }
 
     // Adds a finite L to the sums and returns true; counts any other as non-finite.
+    // Adds another set of sums (of later samples of the same pixel).
+    void merge(const PixelSums& o) {
+        for (int c = 0; c < 3; ++c) {
+            sum[c] += o.sum[c];
+            sum_sq[c] += o.sum_sq[c];
+        }
+        count += o.count;
+        nonfinite += o.nonfinite;
+    }
+
     bool accumulate(const Vec3f& L) {
         if (!std::isfinite(L.x) || !std::isfinite(L.y) || !std::isfinite(L.z)) {
             ++nonfinite;
@@ -45,6 +55,41 @@ struct PixelSums {
     }
 };
 
+// The sums of one tile of pixels [x0, x1) × [y0, y1) over one pass, starting from zero: what
+// a thread (or another process) renders, merged into the film with Film::merge once the
+// whole pass is done. Each pixel's image is therefore the sum, in pass order, of per-pass
+// sums, whichever thread or process rendered each pass: the same bits for any split of the
+// work.
+class FilmTile {
+public:
+    FilmTile() = default;
+    FilmTile(int x0, int y0, int x1, int y1, int image_width)
+        : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
+          pixels_(size_t(x1 - x0) * size_t(y1 - y0)) {}
+    int x0() const { return x0_; }
+    int y0() const { return y0_; }
+    int x1() const { return x1_; }
+    int y1() const { return y1_; }
+    PixelSums& at(int x, int y) {
+        return pixels_[size_t(y - y0_) * size_t(x1_ - x0_) + size_t(x - x0_)];
+    }
+    // The pixel whose index in the whole image is y * image width + x.
+    PixelSums& at_index(size_t image_index) {
+        return at(int(image_index % size_t(image_width_)), int(image_index / size_t(image_width_)));
+    }
+    // Counts `paths` more finite samples in every pixel, for paths whose radiance is then
+    // given with PixelSums::add_counted (or not at all, if zero).
+    void count_paths(uint64_t paths) {
+        for (PixelSums& p : pixels_) p.count += paths;
+    }
+    std::vector<PixelSums>& pixels() { return pixels_; }
+    const std::vector<PixelSums>& pixels() const { return pixels_; }
+
+private:
+    int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, image_width_ = 0;
+    std::vector<PixelSums> pixels_;
+};
+
 class Film {
 public:
     Film(int width, int height);
@@ -54,11 +99,11 @@ public:
     const PixelSums& at(int x, int y) const {
         return pixels_[size_t(y) * size_t(width_) + size_t(x)];
     }
-    // The pixel at index y * width + x.
-    PixelSums& at_index(size_t i) { return pixels_[i]; }
-    // Counts `paths` more finite samples in every pixel of [x0, x1) × [y0, y1), for paths
-    // whose radiance is then given with PixelSums::add_counted (or not at all, if zero).
-    void count_paths(int x0, int y0, int x1, int y1, uint64_t paths);
+    // Adds a tile's sums of one pass to its pixels.
+    void merge(const FilmTile& tile);
+    // Every pixel, row by row (for checkpoints).
+    std::vector<PixelSums>& pixels() { return pixels_; }
+    const std::vector<PixelSums>& pixels() const { return pixels_; }
 
     // The mean radiance per pixel.
     Image mean() const;

@@ -1,11 +1,17 @@
-// Rendering a scene: the integrator choice, threads, progress, statistics. The image is
-// split into tiles that threads take in any order; each pixel's samples are summed in a
-// fixed order, so the image is bit-identical for every thread count.
+// Rendering a scene: the integrator choice, threads, processes, progress, statistics,
+// checkpoints. The image is split into tiles and the paths per pixel into passes; threads
+// (and, under MPI, other processes) render tile × pass units in any order, each from zero,
+// and the units of a pass are added to the film in pass order once the whole pass is done.
+// So the image is bit-identical for every thread count, process count and interruption.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "integrators/film.h"
 #include "scene/scene.h"
@@ -26,6 +32,20 @@ struct RayCounts {
     }
 };
 
+// What a render has reached, as a checkpoint holds it: the film of the passes finished
+// (every pixel has `spp_done` paths) and, for the pass in progress [spp_done, pending_end),
+// the sums of the tiles already done (`pending_tiles`, by tile index of kTileSize tiles in
+// row order; their pixels' sums in `pending`, the rest zero).
+struct RenderState {
+    Film film{0, 0};
+    int64_t spp_done = 0;
+    int64_t pending_end = 0;
+    std::vector<uint8_t> pending_tiles;
+    Film pending{0, 0};
+    RayCounts rays;        // rays of the passes in `film` (all runs)
+    double seconds = 0.0;  // render time of all runs so far
+};
+
 struct RenderOptions {
     int threads = 0;  // 0: every CPU this process may run on (TBB's default concurrency)
     std::string integrator = "wavefront";  // or "scalar", the reference
@@ -36,7 +56,26 @@ struct RenderOptions {
     // Stopping early (the image then holds fewer paths per pixel, the same in every pixel):
     double time_budget = 0.0;    // seconds; 0 = none
     double target_error = 0.0;   // mean relative standard error to reach; 0 = none
-    const std::atomic<bool>* cancel = nullptr;  // set (e.g. by SIGINT) to stop after a pass
+    // Set (e.g. by SIGINT) to stop: the image then holds the passes finished so far (at
+    // least the first), and a checkpoint also keeps the tiles done of the pass in progress
+    const std::atomic<bool>* cancel = nullptr;
+    // Checkpoints: every `checkpoint_every` seconds, on interruption and at the end, the
+    // state is handed to `checkpoint` (which writes it; see integrators/checkpoint.h)
+    double checkpoint_every = 0.0;
+    std::function<void(const RenderState&)> checkpoint;
+    // Continue from this state (read from a checkpoint) instead of from zero
+    const RenderState* resume = nullptr;
+};
+
+// Per-process figures of a distributed render (one entry per MPI rank).
+struct RankStats {
+    int rank = 0;
+    std::string host;
+    int threads = 1;
+    uint64_t rays = 0;       // traced by this rank (passes abandoned at a stop included)
+    uint64_t units = 0;      // tile × pass units rendered
+    double seconds = 0.0;    // from the start of the render to its last unit
+    double rays_per_second() const { return seconds > 0 ? double(rays) / seconds : 0.0; }
 };
 
 struct RenderStats {
@@ -45,8 +84,11 @@ struct RenderStats {
     std::string integrator;
     std::string isa = "scalar";
     uint64_t paths = 0;
-    RayCounts rays;
+    RayCounts rays;  // of the passes in the image, this run's (a resumed run: its own)
     uint64_t nonfinite_samples = 0;
+    int64_t spp_resumed = 0;  // paths per pixel the resumed checkpoint already had
+    std::vector<RankStats> ranks;  // under MPI: one per rank (empty for one process)
+    std::vector<std::string> warnings;  // e.g. a checkpoint that could not be written
     std::optional<double> mean_relative_error;  // none at 1 path per pixel
     int64_t spp_reached = 0;
     std::string stopped_by;  // empty, or "time budget", "target error", "interrupted"
@@ -70,9 +112,20 @@ struct Tile {
     int64_t s0 = 0, s1 = 0;
 };
 
+// The passes: pass k renders samples [bounds[k], bounds[k + 1]) of every pixel. From zero,
+// passes of 1, 2, 4, 8 and then 16 paths per pixel, the last one cut at `spp`: a fixed
+// schedule (so the image does not depend on timing), fine enough to stop soon after a
+// request. From `start` (a resumed render), the same boundaries above `start`.
+std::vector<int64_t> pass_bounds(int64_t start, int64_t spp);
+
+// The tiles of a width × height image, kTileSize square, in row order.
+std::vector<Tile> image_tiles(int width, int height);
+
 // Renders the scene with its settings (resolution, spp, seed) and the options, in passes of
 // a few paths per pixel over the whole image, so it can stop between passes with the same
 // number of paths in every pixel. Samples are keyed by index: passes change nothing else.
+// Under MPI (integrators/distributed.h, when this process is one of several ranks) every
+// rank calls it; rank 0 hands out the work and returns the image, the others an empty film.
 RenderResult render(const Scene& scene, const RenderOptions& options);
 
 }  // namespace cierzo

@@ -113,7 +113,7 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
     return radiance;
 }
 
-void render_tile_scalar(const Scene& scene, const Tile& tile, Film& film, RayCounts& rays) {
+void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays) {
     const RenderSettings& rs = scene.settings;
     const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
     for (int y = tile.y0; y < tile.y1; ++y) {

@@ -11,7 +11,7 @@ namespace cierzo {
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
                  RayCounts& rays);
 
-// Samples [tile.s0, tile.s1) of the tile's pixels, added to the film.
-void render_tile_scalar(const Scene& scene, const Tile& tile, Film& film, RayCounts& rays);
+// Samples [tile.s0, tile.s1) of the tile's pixels, added to the tile's sums.
+void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays);
 
 }  // namespace cierzo

@@ -20,8 +20,8 @@ namespace {
 
 void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float* r,
                   const float* g, const float* b) {
-    // Pixel indices are y * width + x: the film's own layout, so no division per path
-    Film& f = *static_cast<Film*>(film);
+    // Pixel indices are y * width + x in the whole image (one division per radiant path)
+    FilmTile& f = *static_cast<FilmTile*>(film);
     for (int32_t i = 0; i < count; ++i) f.at_index(pixel[i]).add_counted({r[i], g[i], b[i]});
 }
 
@@ -295,7 +295,7 @@ size_t WavefrontRenderer::pool_bytes() const {
                            int32_t(data_->scene.materials.size()));
 }
 
-void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& rays,
+void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts& rays,
                                     LaneStats& lanes) const {
     // The camera stage splits path numbers into pixel and sample in float lanes (exact below 2^24)
     if (int64_t(tile.x1 - tile.x0) * (tile.y1 - tile.y0) >= (int64_t(1) << 23))
@@ -304,7 +304,7 @@ void WavefrontRenderer::render_tile(const Tile& tile, Film& film, RayCounts& ray
     const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, tile.s0, tile.s1, &film, finish_paths};
     WavefrontCounters c;
     // Every path of the job is counted now; the kernels hand over only the radiant ones
-    film.count_paths(tile.x0, tile.y0, tile.x1, tile.y1, uint64_t(tile.s1 - tile.s0));
+    film.count_paths(uint64_t(tile.s1 - tile.s0));
     data_->entry(data_->flat, pool, job, c);
     rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;
     lanes.shade_active += c.lanes_active, lanes.shade_total += c.lanes_total;

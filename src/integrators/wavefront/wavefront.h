@@ -30,7 +30,7 @@ public:
     int32_t pool_size() const { return pool_size_; }
     size_t pool_bytes() const;
     // Thread-safe: each calling thread uses its own path pool.
-    void render_tile(const Tile& tile, Film& film, RayCounts& rays, LaneStats& lanes) const;
+    void render_tile(const Tile& tile, FilmTile& film, RayCounts& rays, LaneStats& lanes) const;
     // Closest hits of `count` ray records (7 floats: origin, direction, tmax) through the
     // scene, with this ISA's traversal alone; adds to `totals`.
     void trace(const float* rays, size_t count, TraceTotals& totals) const;

@@ -1,0 +1,273 @@
+// Checkpoints in one process: every state a render hands out (mid-pass ones included), when
+// resumed, ends in the very film of the uninterrupted render, bit for bit; the file keeps
+// the state exactly; a checkpoint of another scene or setting is refused naming what
+// differs; a damaged file is refused naming the file.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+
+#include <unistd.h>
+
+#include "core/error.h"
+#include "integrators/checkpoint.h"
+#include "integrators/render.h"
+#include "io/image.h"
+#include "scene/scene_json.h"
+#include "support/render_variants.h"
+
+namespace cierzo {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kDir = fs::temp_directory_path() / ("cierzo_ckpt_" + std::to_string(getpid()));
+
+Scene scene_at(const char* file, int w, int h, int64_t spp) {
+    Scene s = load_scene(fs::path(CIERZO_SOURCE_DIR "/scenes") / file);
+    s.set_resolution(w, h);
+    s.settings.spp = spp;
+    return s;
+}
+
+// Bit-for-bit equality of every pixel's sums and counts.
+::testing::AssertionResult same_film(const Film& a, const Film& b) {
+    if (a.width() != b.width() || a.height() != b.height())
+        return ::testing::AssertionFailure() << "sizes differ";
+    for (size_t i = 0; i < a.pixels().size(); ++i) {
+        const PixelSums &p = a.pixels()[i], &q = b.pixels()[i];
+        if (std::memcmp(p.sum, q.sum, sizeof(p.sum)) || std::memcmp(p.sum_sq, q.sum_sq, sizeof(p.sum_sq)) ||
+            p.count != q.count || p.nonfinite != q.nonfinite)
+            return ::testing::AssertionFailure()
+                   << "pixel " << i << " differs: " << p.sum[0] << " vs " << q.sum[0] << ", "
+                   << p.count << " vs " << q.count << " paths";
+    }
+    return ::testing::AssertionSuccess();
+}
+
+RenderOptions options_for(const test::Variant& v, int threads) {
+    RenderOptions o;
+    o.integrator = v.integrator;
+    o.isa = v.isa;
+    o.threads = threads;
+    o.progress = false;
+    return o;
+}
+
+TEST(PassBounds, StartAtZeroOrAtAResumedCountAndEndAtSpp) {
+    EXPECT_EQ(pass_bounds(0, 40), (std::vector<int64_t>{0, 1, 3, 7, 15, 31, 40}));
+    EXPECT_EQ(pass_bounds(0, 1), (std::vector<int64_t>{0, 1}));
+    // From a boundary: the same boundaries above it
+    EXPECT_EQ(pass_bounds(15, 40), (std::vector<int64_t>{15, 31, 40}));
+    // From a finished render's count (not a boundary): the first pass is shorter
+    EXPECT_EQ(pass_bounds(20, 40), (std::vector<int64_t>{20, 31, 40}));
+    EXPECT_EQ(pass_bounds(40, 40), (std::vector<int64_t>{40}));
+}
+
+// The heart of it: states taken every few milliseconds, each resumed, each ending in the
+// film of the uninterrupted render, for the scalar reference and every wavefront ISA.
+TEST(Checkpoint, EveryStateResumesToTheUninterruptedFilm) {
+    size_t mid_total = 0;
+    for (const test::Variant& v : test::variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        Scene scene = scene_at("cornell.json", 96, 80, v.integrator == "scalar" ? 24 : 80);
+        const RenderResult full = render(scene, options_for(v, 2));
+
+        std::vector<RenderState> states;
+        std::mutex m;
+        RenderOptions o = options_for(v, 2);
+        o.checkpoint_every = 0.002;
+        o.checkpoint = [&](const RenderState& s) {
+            std::lock_guard lock(m);
+            states.push_back(s);
+        };
+        const RenderResult again = render(scene, o);
+        ASSERT_TRUE(same_film(full.film, again.film)) << "checkpointing changed the image";
+        ASSERT_FALSE(states.empty());
+        // The last state is the finished render
+        EXPECT_EQ(states.back().spp_done, scene.settings.spp);
+        EXPECT_TRUE(same_film(states.back().film, full.film));
+
+        // Up to 8 mid-render states, spread over the render
+        std::vector<const RenderState*> mids;
+        for (const RenderState& s : states)
+            if (s.spp_done < scene.settings.spp) mids.push_back(&s);
+        const size_t step = std::max<size_t>(1, mids.size() / 8);
+        size_t mid = 0, with_pending = 0;
+        for (size_t i = 0; i < mids.size(); i += step) {
+            const RenderState& s = *mids[i];
+            ++mid;
+            with_pending += !s.pending_tiles.empty();
+            // The film of a state holds whole passes: the same paths in every pixel
+            for (const PixelSums& p : s.film.pixels()) ASSERT_EQ(int64_t(p.count + p.nonfinite), s.spp_done);
+            RenderOptions r = options_for(v, 1);  // another thread count, too
+            r.resume = &s;
+            const RenderResult resumed = render(scene, r);
+            ASSERT_TRUE(same_film(full.film, resumed.film))
+                << "resumed from " << s.spp_done << " paths per pixel with "
+                << std::count(s.pending_tiles.begin(), s.pending_tiles.end(), 1) << " tiles of the next pass";
+            EXPECT_EQ(resumed.stats.spp_resumed, s.spp_done);
+            // ...and it rendered only what the state lacked (a resume that started over
+            // would end in the same film, so the paths traced tell them apart)
+            uint64_t have = 0;
+            for (const PixelSums& p : s.pending.pixels()) have += p.count + p.nonfinite;
+            EXPECT_EQ(resumed.stats.rays.camera,
+                      uint64_t(96 * 80) * uint64_t(scene.settings.spp - s.spp_done) - have);
+        }
+        std::printf("%s %s: %zu mid-render states resumed, %zu with tiles of a pass\n",
+                    v.integrator.c_str(), v.isa.c_str(), mid, with_pending);
+        mid_total += mid;
+    }
+    // (timing decides how many states fall mid-render; a run that saw none checked only
+    // the finished state, so it says so)
+    if (mid_total == 0) GTEST_SKIP() << "every render ended before a checkpoint was taken";
+}
+
+// An interrupted render's final state keeps the tiles done of the pass in progress; resumed,
+// it ends in the uninterrupted film. Deterministic: the cancel flag is set by the
+// checkpoint callback itself once a first pass is in the film.
+TEST(Checkpoint, AnInterruptedStateWithTilesOfAPassResumesExactly) {
+    const test::Variant v = test::variants().back();
+    Scene scene = scene_at("caustic.json", 80, 64, 64);
+    const RenderResult full = render(scene, options_for(v, 2));
+    std::atomic<bool> cancel{false};
+    std::vector<RenderState> states;
+    RenderOptions o = options_for(v, 2);
+    o.cancel = &cancel;
+    o.checkpoint_every = 0.001;
+    o.checkpoint = [&](const RenderState& s) {
+        states.push_back(s);
+        if (s.spp_done > 0) cancel = true;
+    };
+    const RenderResult stopped = render(scene, o);
+    ASSERT_FALSE(states.empty());
+    const RenderState& last = states.back();
+    if (stopped.stats.stopped_by != "interrupted") GTEST_SKIP() << "the render ended before the stop";
+    EXPECT_EQ(last.spp_done, stopped.stats.spp_reached);
+    EXPECT_TRUE(same_film(last.film, stopped.film));
+    ASSERT_FALSE(last.pending_tiles.empty()) << "no tiles of the pass in progress were kept";
+    RenderOptions r = options_for(v, 2);
+    r.resume = &last;
+    const RenderResult resumed = render(scene, r);
+    EXPECT_TRUE(same_film(full.film, resumed.film));
+    uint64_t have = 0;
+    for (const PixelSums& p : last.pending.pixels()) have += p.count + p.nonfinite;
+    EXPECT_GT(have, 0u);
+    EXPECT_EQ(resumed.stats.rays.camera, uint64_t(80 * 64) * uint64_t(64 - last.spp_done) - have);
+}
+
+TEST(CheckpointFile, KeepsTheStateExactlyWithTilesOfAPass) {
+    fs::create_directories(kDir);
+    Scene scene = scene_at("cornell.json", 37, 21, 8);  // tiles cut at the edges
+    RenderState s;
+    s.film = render(scene, options_for(test::variants().front(), 2)).film;
+    s.spp_done = 8;
+    s.pending_end = 15;
+    s.rays = {1, 2, 3};
+    s.seconds = 1.5;
+    const std::vector<Tile> tiles = image_tiles(37, 21);
+    s.pending_tiles.assign(tiles.size(), 0);
+    s.pending = Film(37, 21);
+    s.pending_tiles[1] = s.pending_tiles[4] = 1;
+    for (size_t t : {size_t(1), size_t(4)})
+        for (int y = tiles[t].y0; y < tiles[t].y1; ++y)
+            for (int x = tiles[t].x0; x < tiles[t].x1; ++x) {
+                PixelSums& p = s.pending.at(x, y);
+                p.sum[0] = 0.1 * x + 1e-17, p.sum_sq[2] = -0.0, p.count = 6, p.nonfinite = 1;
+            }
+    const CheckpointIdentity id = checkpoint_identity(scene, "scalar", "scalar", 0);
+    write_checkpoint(kDir / "k.exr", id, s);
+    const Checkpoint c = read_checkpoint(kDir / "k.exr");
+    EXPECT_TRUE(same_film(c.state.film, s.film));
+    EXPECT_TRUE(same_film(c.state.pending, s.pending));
+    EXPECT_EQ(c.state.pending_tiles, s.pending_tiles);
+    EXPECT_EQ(c.state.spp_done, 8);
+    EXPECT_EQ(c.state.pending_end, 15);
+    EXPECT_EQ(c.state.rays.shadow, 3u);
+    EXPECT_EQ(c.id.fingerprint, id.fingerprint);
+    EXPECT_NO_THROW(check_resume(kDir / "k.exr", c, id));
+    // Its R, G, B are the image so far
+    const Image img = read_exr(kDir / "k.exr");
+    EXPECT_FLOAT_EQ(img.rgb[0], float(s.film.pixels()[0].sum[0] / 8.0));
+}
+
+TEST(CheckpointFile, AResumeOfAnotherRenderIsRefusedNamingWhatDiffers) {
+    fs::create_directories(kDir);
+    Scene scene = scene_at("cornell.json", 16, 16, 4);
+    RenderState s;
+    s.film = Film(16, 16);
+    const CheckpointIdentity id = checkpoint_identity(scene, "wavefront", "avx2", 512);
+    write_checkpoint(kDir / "id.exr", id, s);
+    const Checkpoint c = read_checkpoint(kDir / "id.exr");
+    auto refused = [&](const CheckpointIdentity& now, const std::string& needle) {
+        try {
+            check_resume(kDir / "id.exr", c, now);
+        } catch (const InputError& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find("id.exr"), std::string::npos) << what;
+            EXPECT_NE(what.find(needle), std::string::npos) << what;
+            return;
+        }
+        ADD_FAILURE() << "not refused: " << needle;
+    };
+    CheckpointIdentity other = id;
+    other.seed = 9;
+    refused(other, "seed 1 (this render: 9)");
+    other = id, other.estimator = "mis";
+    refused(other, "estimator report (this render: mis)");
+    other = id, other.width = 32;
+    refused(other, "resolution 16x16 (this render: 32x16)");
+    other = id, other.integrator = "scalar";
+    refused(other, "integrator wavefront (this render: scalar)");
+    Scene box = scene_at("box.json", 16, 16, 4);
+    refused(checkpoint_identity(box, "wavefront", "avx2", 512), "scene content fingerprint");
+    // Other kernels: allowed, with a warning that the bits may differ
+    other = id, other.isa = "sse4.2";
+    const std::vector<std::string> w = check_resume(kDir / "id.exr", c, other);
+    ASSERT_EQ(w.size(), 1u);
+    EXPECT_NE(w[0].find("not bit-identical"), std::string::npos);
+    // The fingerprint follows the content, not the render settings
+    Scene reseeded = scene;
+    reseeded.settings.seed = 77;
+    EXPECT_EQ(scene_fingerprint(reseeded), id.fingerprint);
+}
+
+TEST(CheckpointFile, ADamagedOrForeignFileIsRefusedNamingIt) {
+    fs::create_directories(kDir);
+    Scene scene = scene_at("cornell.json", 32, 32, 4);
+    RenderState s;
+    s.film = render(scene, options_for(test::variants().front(), 2)).film;
+    s.spp_done = 4;
+    write_checkpoint(kDir / "good.exr", checkpoint_identity(scene, "scalar", "scalar", 0), s);
+    auto refused = [&](const fs::path& p, const std::string& needle) {
+        try {
+            read_checkpoint(p);
+        } catch (const InputError& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find(p.filename().string()), std::string::npos) << what;
+            EXPECT_NE(what.find(needle), std::string::npos) << what;
+            return;
+        }
+        ADD_FAILURE() << p << " was read";
+    };
+    // Truncated
+    {
+        std::ifstream in(kDir / "good.exr", std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(in)), {});
+        std::ofstream(kDir / "cut.exr", std::ios::binary).write(bytes.data(), std::streamsize(bytes.size() * 2 / 3));
+    }
+    refused(kDir / "cut.exr", "truncated");
+    // An ordinary image is no checkpoint
+    write_exr(kDir / "image.exr", Image(8, 8));
+    refused(kDir / "image.exr", "not a cierzo checkpoint");
+    refused(kDir / "missing.exr", "no such checkpoint");
+    // Pixels that do not hold the paths the header claims
+    s.film.pixels()[5].count += 1;
+    write_checkpoint(kDir / "lying.exr", checkpoint_identity(scene, "scalar", "scalar", 0), s);
+    refused(kDir / "lying.exr", "do not all hold");
+}
+
+}  // namespace
+}  // namespace cierzo
