@@ -61,7 +61,16 @@ struct RenderArgs {
     fs::path resume;
 };
 
-void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st) {
+// Threads of the whole run: this process's, or under MPI every rank's.
+int total_threads(const RenderStats& st) {
+    if (st.ranks.empty()) return st.threads;
+    int n = 0;
+    for (const RankStats& r : st.ranks) n += r.threads;
+    return n;
+}
+
+void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st,
+                 const fs::path& checkpoint) {
     nlohmann::json j = {
         {"scene", scene.source.string()},
         {"integrator", st.integrator},
@@ -81,7 +90,7 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
         {"rays", {{"camera", st.rays.camera}, {"extension", st.rays.extension},
                   {"shadow", st.rays.shadow}, {"total", st.rays.total()}}},
         {"rays_per_second", st.rays_per_second()},
-        {"rays_per_second_per_thread", st.rays_per_second() / st.threads},
+        {"rays_per_second_per_thread", st.rays_per_second() / total_threads(st)},
         {"nonfinite_samples", st.nonfinite_samples},
         {"lane_utilisation", {{"shading", st.shade_lane_utilisation},
                               {"intersection", st.isect_lane_utilisation},
@@ -93,6 +102,15 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
         {"spp_resumed", st.spp_resumed},
         {"warnings", st.warnings},
     };
+    if (!checkpoint.empty()) {
+        std::error_code ec;
+        const auto bytes = fs::file_size(checkpoint, ec);
+        j["checkpoint"] = {{"file", checkpoint.string()},
+                           {"writes", st.checkpoint_writes},
+                           {"last_write_seconds", st.checkpoint_last_seconds},
+                           {"write_seconds", st.checkpoint_seconds},
+                           {"bytes", ec ? nlohmann::json(nullptr) : nlohmann::json(bytes)}};
+    }
     // Under MPI: each rank's rays, time and rays/s, and the sum over ranks
     if (!st.ranks.empty()) {
         nlohmann::json ranks = nlohmann::json::array();
@@ -105,6 +123,9 @@ void write_stats(const fs::path& path, const Scene& scene, const RenderStats& st
             rays += r.rays, threads += r.threads;
         }
         j["mpi"] = {{"ranks", st.ranks.size()},
+                    {"service_seconds", st.service_seconds},
+                    {"units_received", st.units_received},
+                    {"bytes_received", st.bytes_received},
                     {"threads", threads},
                     {"rays_traced", rays},
                     {"rays_traced_per_second", st.seconds > 0 ? double(rays) / st.seconds : 0.0},
@@ -219,7 +240,7 @@ int run_render(const RenderArgs& a) {
     ImageLayers layers;
     if (a.variance && ext == ".exr") layers = variance_layers(result.film.variance_of_mean());
     write_hdr(s.output, result.film.mean(), meta, layers);
-    if (!a.stats.empty()) write_stats(a.stats, scene, st);
+    if (!a.stats.empty()) write_stats(a.stats, scene, st, checkpoint);
 
     // The summary line; an early stop says why and how far it got
     std::string summary = fmt::format(
@@ -227,8 +248,8 @@ int run_render(const RenderArgs& a) {
         "{}",
         s.output.string(), s.width, s.height, s.spp, st.integrator, st.isa,
         st.ranks.empty() ? std::to_string(st.threads)
-                         : fmt::format("{} ranks × {}", st.ranks.size(), st.threads),
-        st.seconds, st.rays_per_second() * 1e-6, st.rays_per_second() * 1e-6 / st.threads,
+                         : fmt::format("{} ranks, {}", st.ranks.size(), total_threads(st)),
+        st.seconds, st.rays_per_second() * 1e-6, st.rays_per_second() * 1e-6 / total_threads(st),
         st.mean_relative_error
             ? fmt::format("relative error {:.4f}", *st.mean_relative_error)
             : std::string("relative error not available (one path per pixel gives no variance)"));

@@ -497,8 +497,10 @@ public:
     // Handles what has arrived; returns whether anything happened.
     bool poll() {
         bool acted = false;
+        const auto start = Clock::now();
         while (std::optional<mpi::Message> m = mpi::try_receive(kTagRequest)) {
             acted = true;
+            bytes_ += m->bytes.size();
             size_t at = 0;
             const RequestHeader h = read<RequestHeader>(m->bytes, at);
             for (int32_t i = 0; i < h.results; ++i) {
@@ -515,6 +517,7 @@ public:
                 std::memcpy(px.data(), m->bytes.data() + at, bytes);
                 at += bytes;
                 coord_.complete(std::move(r));
+                ++units_;
             }
             waiting_[size_t(m->source)] = {true, h.want, h.holding};
         }
@@ -535,8 +538,13 @@ public:
             if (over) told_over_[r] = true;
             acted = true;
         }
+        if (acted) seconds_ += seconds_since(start);
         return acted;
     }
+
+    double seconds() const { return seconds_; }
+    uint64_t units() const { return units_; }
+    uint64_t bytes() const { return bytes_; }
 
     bool all_told() const {
         return std::all_of(told_over_.begin(), told_over_.end(), [](bool b) { return b; });
@@ -551,6 +559,8 @@ private:
     };
     std::vector<Waiting> waiting_;  // each rank's unanswered request
     std::vector<bool> told_over_;
+    double seconds_ = 0.0;
+    uint64_t units_ = 0, bytes_ = 0;
 };
 
 void copy_name(char (&dst)[64], const std::string& s) {
@@ -629,7 +639,12 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         std::mutex warnings_mutex;
         auto write_state = [&](const RenderState& state) {
             try {
+                const auto t = Clock::now();
                 options.checkpoint(state);
+                std::lock_guard lock(warnings_mutex);
+                ++st.checkpoint_writes;
+                st.checkpoint_last_seconds = seconds_since(t);
+                st.checkpoint_seconds += st.checkpoint_last_seconds;
             } catch (const InputError& e) {
                 const std::string w = std::string(e.what()) + "; the previous checkpoint is kept";
                 std::fprintf(stderr, "\ncierzo: %s\n", w.c_str());
@@ -691,6 +706,11 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         if (options.checkpoint) write_state(coord.snapshot(resume));
         mine.rays = rays, mine.units = units;
         mine.seconds = double(last_ns.load()) * 1e-9;
+        if (service) {
+            st.service_seconds = service->seconds();
+            st.units_received = service->units();
+            st.bytes_received = service->bytes();
+        }
         st.stopped_by = coord.stopped_by();
         st.rays = coord.rays();
         const LaneStats lanes = coord.lanes();

@@ -88,6 +88,13 @@ struct RenderStats {
     uint64_t nonfinite_samples = 0;
     int64_t spp_resumed = 0;  // paths per pixel the resumed checkpoint already had
     std::vector<RankStats> ranks;  // under MPI: one per rank (empty for one process)
+    // Under MPI, rank 0's service of the others: time spent receiving and merging their
+    // units, how many and how many bytes
+    double service_seconds = 0.0;
+    uint64_t units_received = 0, bytes_received = 0;
+    // Checkpoints written, and the time of the last write (and of all)
+    int checkpoint_writes = 0;
+    double checkpoint_last_seconds = 0.0, checkpoint_seconds = 0.0;
     std::vector<std::string> warnings;  // e.g. a checkpoint that could not be written
     std::optional<double> mean_relative_error;  // none at 1 path per pixel
     int64_t spp_reached = 0;

@@ -90,11 +90,11 @@ TEST(Checkpoint, EveryStateResumesToTheUninterruptedFilm) {
         EXPECT_EQ(states.back().spp_done, scene.settings.spp);
         EXPECT_TRUE(same_film(states.back().film, full.film));
 
-        // Up to 8 mid-render states, spread over the render
+        // Up to 4 mid-render states, spread over the render
         std::vector<const RenderState*> mids;
         for (const RenderState& s : states)
             if (s.spp_done < scene.settings.spp) mids.push_back(&s);
-        const size_t step = std::max<size_t>(1, mids.size() / 8);
+        const size_t step = std::max<size_t>(1, (mids.size() + 3) / 4);
         size_t mid = 0, with_pending = 0;
         for (size_t i = 0; i < mids.size(); i += step) {
             const RenderState& s = *mids[i];

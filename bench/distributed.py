@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""Measures distributed renders on this machine: rays/s with 1, 2 and 4 MPI ranks against
+one process (interleaved rounds, medians), and the costs docs/distributed.md's model is built
+from: the time per tile x pass unit, rank 0's service time per unit received, the bytes per
+unit, and a checkpoint's size and write time.
+
+    /usr/bin/python3 bench/distributed.py [--build build] [--scene scenes/cornell.json]
+        [--width 960 --height 540 --spp 64] [--rounds 3] [--out bench/results/distributed.json]
+
+Needs a build with MPI (mpirun on the PATH). As root it sets Open MPI's allow-run-as-root
+variables. On a machine of 2 cores, more than 2 threads in all only share those 2 cores:
+the figures measure the overhead of ranks, not a speed-up.
+"""
+import argparse, json, os, statistics, subprocess, sys, tempfile, time
+
+def run(cmd, env):
+    t = time.time()
+    subprocess.run(cmd, check=True, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return time.time() - t
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default="build")
+    ap.add_argument("--scene", default="scenes/cornell.json")
+    ap.add_argument("--width", type=int, default=960)
+    ap.add_argument("--height", type=int, default=540)
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--out", default="")
+    a = ap.parse_args()
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    cierzo = os.path.join(a.build, "cierzo")
+    tmp = tempfile.mkdtemp(prefix="cierzo_dist_bench_")
+    base = [cierzo, "render", a.scene, "--quiet", "--width", str(a.width), "--height", str(a.height),
+            "--spp", str(a.spp), "--out", os.path.join(tmp, "img.exr")]
+    # (label, ranks, threads per rank); ranks 0: no mpirun at all
+    configs = [("one process, 2 threads", 0, 2), ("1 rank x 2 threads", 1, 2),
+               ("2 ranks x 1 thread", 2, 1), ("4 ranks x 1 thread", 4, 1)]
+    results = {c[0]: [] for c in configs}
+    for r in range(a.rounds):
+        order = configs if r % 2 == 0 else list(reversed(configs))
+        for label, ranks, threads in order:
+            stats = os.path.join(tmp, "s.json")
+            cmd = base + ["--threads", str(threads), "--stats", stats]
+            if ranks:
+                cmd = ["mpirun", "-np", str(ranks), "--oversubscribe", "--bind-to", "none"] + cmd
+            run(cmd, env)
+            with open(stats) as f:
+                results[label].append(json.load(f))
+    table = []
+    one = statistics.median(s["rays_per_second"] for s in results[configs[0][0]])
+    for label, ranks, threads in configs:
+        runs = results[label]
+        traced = [s["mpi"]["rays_traced_per_second"] if "mpi" in s else s["rays_per_second"] for s in runs]
+        row = {"config": label, "ranks": ranks, "threads_per_rank": threads,
+               "rays_per_second": statistics.median(traced),
+               "rays_per_second_per_core": statistics.median(traced) / 2.0,
+               "vs_one_process": statistics.median(traced) / one,
+               "seconds": statistics.median(s["seconds"] for s in runs)}
+        m = [s["mpi"] for s in runs if "mpi" in s]
+        if m:
+            units = [sum(r["units"] for r in x["per_rank"]) for x in m]
+            row["units"] = units[0]
+            row["unit_seconds_per_thread"] = statistics.median(
+                sum(r["seconds"] * r["threads"] for r in x["per_rank"]) / u for x, u in zip(m, units))
+            row["service_seconds_per_remote_unit"] = statistics.median(
+                x["service_seconds"] / max(1, x["units_received"]) for x in m)
+            row["bytes_per_remote_unit"] = statistics.median(
+                x["bytes_received"] / max(1, x["units_received"]) for x in m)
+        table.append(row)
+    # A checkpoint of this film: size and write time (the final write of a short render)
+    ck = os.path.join(tmp, "ck.exr")
+    stats = os.path.join(tmp, "ck.json")
+    run(base[:0] + [cierzo, "render", a.scene, "--quiet", "--width", str(a.width), "--height", str(a.height),
+         "--spp", "2", "--out", os.path.join(tmp, "c.exr"), "--checkpoint", ck, "--stats", stats], env)
+    with open(stats) as f:
+        c = json.load(f)["checkpoint"]
+    out = {"scene": a.scene, "width": a.width, "height": a.height, "spp": a.spp, "rounds": a.rounds,
+           "cpu": open("/proc/cpuinfo").read().split("model name")[1].split("\n")[0].strip(": \t"),
+           "cores": os.cpu_count(), "configs": table, "checkpoint": c}
+    text = json.dumps(out, indent=2)
+    print(text)
+    if a.out:
+        os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
+        with open(a.out, "w") as f:
+            f.write(text + "\n")
+
+if __name__ == "__main__":
+    main()

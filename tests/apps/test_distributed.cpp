@@ -1,0 +1,369 @@
+// Renders that outlive one process, through the cierzo program: under mpirun with 2 and 3
+// ranks the image is byte-identical to a one-process render (scalar and wavefront); a time
+// budget or SIGINT to mpirun stops every rank with the same paths in every pixel; a killed
+// rank ends the run non-zero in bounded time. A render killed with SIGKILL and resumed from
+// its checkpoint gives the uninterrupted image; a resume of another render is refused; a
+// checkpoint that cannot be written (a file-size limit) leaves the previous one readable.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "integrators/checkpoint.h"
+#include "io/image.h"
+#include "support/emulator.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+const fs::path kDir = fs::temp_directory_path() / ("cierzo_dist_" + std::to_string(getpid()));
+const std::string kScenes = CIERZO_SOURCE_DIR "/scenes/";
+const std::string kCierzo = CIERZO_BINARY_DIR "/cierzo";
+
+struct Launch {
+    Launch(std::vector<std::string> a, int r = 0, std::optional<rlim_t> limit = std::nullopt)
+        : args(std::move(a)), ranks(r), file_size_limit(limit) {}
+    std::vector<std::string> args;  // after the program
+    int ranks = 0;                  // > 0: through mpirun with this many ranks
+    std::optional<rlim_t> file_size_limit;
+};
+
+struct Running {
+    pid_t pid = -1;
+    fs::path err;
+};
+
+// Starts cierzo (through mpirun, or the emulator of a cross build), stderr into a file.
+Running start(const Launch& l, const std::string& name) {
+    fs::create_directories(kDir);
+    Running r{-1, kDir / (name + ".stderr")};
+    std::vector<std::string> words;
+    if (l.ranks > 0) {
+        words = {CIERZO_TEST_MPIEXEC, "-np", std::to_string(l.ranks), "--oversubscribe"};
+    } else {
+        words = cierzo::test::emulator_words();
+    }
+    words.push_back(kCierzo);
+    words.insert(words.end(), l.args.begin(), l.args.end());
+    r.pid = fork();
+    if (r.pid == 0) {
+        // Open MPI refuses root without these (CI runs as root)
+        setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+        setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+        setpgid(0, 0);
+        // Under AddressSanitizer, Open MPI's own allocations (in plugins it unloads, so the
+        // reports cannot even name them) would fail every run at exit: leak checking is off
+        // for the ranks only; addresses and undefined behaviour are still checked
+        if (const char* asan = std::getenv("ASAN_OPTIONS"); asan && l.ranks > 0)
+            setenv("ASAN_OPTIONS", (std::string(asan) + ":detect_leaks=0").c_str(), 1);
+        if (l.file_size_limit) {
+            rlimit lim{*l.file_size_limit, *l.file_size_limit};
+            setrlimit(RLIMIT_FSIZE, &lim);
+        }
+        if (!freopen(r.err.c_str(), "w", stderr)) _exit(126);
+        std::vector<char*> argv;
+        for (std::string& w : words) argv.push_back(w.data());
+        argv.push_back(nullptr);
+        execvp(argv[0], argv.data());
+        _exit(127);
+    }
+    return r;
+}
+
+// Waits at most `timeout` seconds; the exit status (128 + signal if killed), or -1 on timeout
+// (the process group is then killed).
+int finish(const Running& r, double timeout = 600.0) {
+    const auto end = Clock::now() + std::chrono::duration<double>(timeout);
+    int status = 0;
+    while (waitpid(r.pid, &status, WNOHANG) == 0) {
+        if (Clock::now() > end) {
+            kill(-r.pid, SIGKILL);
+            waitpid(r.pid, &status, 0);
+            return -1;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+int run(const Launch& l, const std::string& name) { return finish(start(l, name)); }
+
+std::string text(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+nlohmann::json stats(const fs::path& p) { return nlohmann::json::parse(text(p)); }
+
+// Every float of the image and of its variance layers, bit for bit.
+::testing::AssertionResult same_pixels(const fs::path& a, const fs::path& b) {
+    cierzo::ImageLayers la, lb;
+    const cierzo::Image ia = cierzo::read_exr(a, nullptr, &la);
+    const cierzo::Image ib = cierzo::read_exr(b, nullptr, &lb);
+    if (ia.rgb.size() != ib.rgb.size() || la.size() != lb.size())
+        return ::testing::AssertionFailure() << a << " and " << b << " differ in size";
+    if (std::memcmp(ia.rgb.data(), ib.rgb.data(), ia.rgb.size() * sizeof(float)) != 0)
+        return ::testing::AssertionFailure() << a << " and " << b << " differ in their pixels";
+    for (const auto& [name, data] : la)
+        if (!lb.count(name) || std::memcmp(data.data(), lb[name].data(), data.size() * sizeof(float)))
+            return ::testing::AssertionFailure() << a << " and " << b << " differ in " << name;
+    return ::testing::AssertionSuccess();
+}
+
+bool have_mpi() { return std::strlen(CIERZO_TEST_MPIEXEC) > 0; }
+
+#define REQUIRE_MPI()                                                                    \
+    if (!have_mpi()) GTEST_SKIP() << "built without MPI (CIERZO_MPI=OFF or no MPI found)"
+
+std::vector<std::string> render_args(const std::string& scene, const fs::path& out,
+                                     std::vector<std::string> more) {
+    std::vector<std::string> a = {"render", kScenes + scene, "--quiet", "--out", out.string()};
+    a.insert(a.end(), more.begin(), more.end());
+    return a;
+}
+
+TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
+    REQUIRE_MPI();
+    struct Case {
+        std::string scene, integrator;
+        std::vector<std::string> extra;
+    };
+    const std::vector<Case> cases = {
+        {"cornell.json", "wavefront", {"--spp", "40", "--width", "72", "--height", "56"}},
+        {"cornell.json", "scalar", {"--spp", "12", "--width", "40", "--height", "36"}},
+        {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis"}},
+    };
+    int k = 0;
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.scene + " " + c.integrator);
+        std::vector<std::string> extra = c.extra;
+        extra.insert(extra.end(), {"--integrator", c.integrator, "--variance"});
+        const fs::path one = kDir / ("one" + std::to_string(k) + ".exr");
+        ASSERT_EQ(run({render_args(c.scene, one, extra)}, "one"), 0) << text(kDir / "one.stderr");
+        for (int ranks : {2, 3}) {
+            const fs::path out = kDir / ("mpi" + std::to_string(k) + "_" + std::to_string(ranks) + ".exr");
+            const fs::path js = kDir / ("mpi" + std::to_string(k) + ".json");
+            std::vector<std::string> a = render_args(c.scene, out, extra);
+            a.insert(a.end(), {"--stats", js.string()});
+            ASSERT_EQ(run({a, ranks}, "mpi"), 0) << text(kDir / "mpi.stderr");
+            EXPECT_TRUE(same_pixels(one, out)) << ranks << " ranks";
+            const auto j = stats(js);
+            ASSERT_TRUE(j.contains("mpi"));
+            EXPECT_EQ(j["mpi"]["ranks"], ranks);
+            EXPECT_EQ(j["mpi"]["per_rank"].size(), size_t(ranks));
+            uint64_t traced = 0;
+            for (const auto& r : j["mpi"]["per_rank"]) traced += r["rays"].get<uint64_t>();
+            EXPECT_EQ(traced, j["mpi"]["rays_traced"].get<uint64_t>());
+            EXPECT_GE(traced, j["rays"]["total"].get<uint64_t>());  // (plus any work after a stop)
+        }
+        ++k;
+    }
+}
+
+TEST(Mpi, ATimeBudgetStopsEveryRankWithEqualPathsPerPixel) {
+    REQUIRE_MPI();
+    const fs::path js = kDir / "tb.json";
+    ASSERT_EQ(run({render_args("cornell.json", kDir / "tb.exr",
+                               {"--spp", "1000000", "--width", "120", "--height", "100",
+                                "--time-budget", "1", "--stats", js.string()}),
+                   3},
+                  "tb"),
+              0)
+        << text(kDir / "tb.stderr");
+    const auto j = stats(js);
+    EXPECT_EQ(j["stopped_by"], "time budget");
+    const int64_t spp = j["spp_reached"];
+    EXPECT_GT(spp, 0);
+    EXPECT_LT(spp, 1000000);
+    EXPECT_EQ(j["paths"].get<int64_t>(), 120 * 100 * spp);
+    EXPECT_EQ(j["mpi"]["ranks"], 3);
+}
+
+TEST(Mpi, SigintToMpirunWritesTheImageOfWholePasses) {
+    REQUIRE_MPI();
+    const fs::path out = kDir / "int.exr", js = kDir / "int.json";
+    fs::remove(out);
+    const Running r = start({render_args("cornell.json", out,
+                                         {"--spp", "1000000", "--width", "120", "--height", "100",
+                                          "--stats", js.string()}),
+                             3},
+                            "int");
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    kill(r.pid, SIGINT);
+    const int code = finish(r, 60);
+    ASSERT_NE(code, -1) << "mpirun did not end within 60 s of SIGINT";
+    ASSERT_TRUE(fs::exists(out)) << text(kDir / "int.stderr");
+    const auto j = stats(js);
+    EXPECT_EQ(j["stopped_by"], "interrupted");
+    const int64_t spp = j["spp_reached"];
+    EXPECT_GT(spp, 0);
+    EXPECT_EQ(j["paths"].get<int64_t>(), 120 * 100 * spp);
+}
+
+// The pid of the process of `rank` whose command line has `token`, or -1.
+pid_t find_rank(const std::string& token, int rank) {
+    for (const auto& e : fs::directory_iterator("/proc")) {
+        const std::string name = e.path().filename();
+        if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+        std::string cmd = text(e.path() / "cmdline"), env = text(e.path() / "environ");
+        std::replace(cmd.begin(), cmd.end(), '\0', ' ');
+        if (cmd.find(token) == std::string::npos || cmd.find("mpirun") != std::string::npos) continue;
+        const std::string want = "OMPI_COMM_WORLD_RANK=" + std::to_string(rank);
+        for (size_t at = 0; (at = env.find(want, at)) != std::string::npos; at += want.size())
+            if ((at == 0 || env[at - 1] == '\0') && (at + want.size() == env.size() || env[at + want.size()] == '\0'))
+                return pid_t(std::stoi(name));
+    }
+    return -1;
+}
+
+TEST(Mpi, AKilledRankEndsTheRunNonZeroInBoundedTime) {
+    REQUIRE_MPI();
+    const fs::path out = kDir / "killed_rank.exr";
+    fs::remove(out);
+    const Running r = start({render_args("cornell.json", out, {"--spp", "1000000"}), 3}, "killed");
+    pid_t victim = -1;
+    for (int i = 0; i < 300 && victim < 0; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        victim = find_rank("killed_rank.exr", 2);
+    }
+    ASSERT_GT(victim, 0) << "rank 2 never started";
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    kill(victim, SIGKILL);
+    const auto killed = Clock::now();
+    const int code = finish(r, 60);
+    ASSERT_NE(code, -1) << "the run hung after a rank was killed";
+    EXPECT_NE(code, 0);
+    EXPECT_LT(std::chrono::duration<double>(Clock::now() - killed).count(), 60.0);
+    EXPECT_FALSE(fs::exists(out)) << "an image was written by a run that lost a rank";
+}
+
+// A checkpointed render is killed (SIGKILL) once a checkpoint holds part of it; the resume
+// ends in the image of an uninterrupted render, byte for byte. Under MPI too, resumed in one
+// process.
+void kill_and_resume(int ranks) {
+    const std::string tag = ranks ? "mpi" : "one";
+    const fs::path full = kDir / ("full_" + tag + ".exr"), ck = kDir / ("ck_" + tag + ".exr");
+    const fs::path part = kDir / ("part_" + tag + ".exr"), resumed = kDir / ("resumed_" + tag + ".exr");
+    const std::vector<std::string> scene = {"--spp", "300", "--width", "160", "--height", "120", "--variance"};
+    ASSERT_EQ(run({render_args("cornell.json", full, scene)}, "full"), 0);
+    fs::remove(ck), fs::remove(part);
+    std::vector<std::string> a = render_args("cornell.json", part, scene);
+    a.insert(a.end(), {"--checkpoint", ck.string(), "--checkpoint-every", "0.1"});
+    const Running r = start({a, ranks}, "part");
+    int64_t reached = 0;
+    for (int i = 0; i < 2000 && reached == 0; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        try {
+            if (fs::exists(ck)) reached = cierzo::read_checkpoint(ck).state.spp_done;
+        } catch (const std::exception&) {
+        }
+    }
+    // mpirun (or cierzo) and every rank (ranks may be in process groups of their own)
+    kill(-r.pid, SIGKILL);
+    for (int rank = 0; rank < ranks; ++rank)
+        for (pid_t p; (p = find_rank(part.filename().string(), rank)) > 0;) {
+            kill(p, SIGKILL);
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+    finish(r, 60);
+    ASSERT_GT(reached, 0) << "no checkpoint with a finished pass was written";
+    const cierzo::Checkpoint c = cierzo::read_checkpoint(ck);
+    if (c.state.spp_done == 300) GTEST_SKIP() << "the render finished before it was killed";
+    EXPECT_FALSE(fs::exists(part));
+    std::vector<std::string> more = scene;
+    more.insert(more.end(), {"--resume", ck.string(), "--stats", (kDir / "res.json").string()});
+    ASSERT_EQ(run({render_args("cornell.json", resumed, more)}, "resume"), 0) << text(kDir / "resume.stderr");
+    EXPECT_TRUE(same_pixels(full, resumed)) << "resumed from " << c.state.spp_done;
+    EXPECT_EQ(stats(kDir / "res.json")["spp_resumed"].get<int64_t>(), c.state.spp_done);
+    // The resume kept checkpointing into the same file, which now holds the finished render
+    EXPECT_EQ(cierzo::read_checkpoint(ck).state.spp_done, 300);
+}
+
+TEST(Checkpoints, KilledAndResumedGivesTheUninterruptedImage) { kill_and_resume(0); }
+
+TEST(Checkpoints, KilledUnderMpiAndResumedInOneProcessGivesTheSameImage) {
+    REQUIRE_MPI();
+    kill_and_resume(2);
+}
+
+TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
+    const fs::path ck = kDir / "other.exr", out = kDir / "keep.pfm";
+    ASSERT_EQ(run({render_args("cornell.json", kDir / "o.exr",
+                               {"--spp", "4", "--width", "32", "--height", "32", "--checkpoint", ck.string()})},
+                  "other"),
+              0);
+    std::ofstream(out) << "precious";
+    const std::string before = text(ck);
+    struct Case {
+        std::vector<std::string> args;
+        std::string says;
+    };
+    const std::vector<Case> cases = {
+        {{"--seed", "5"}, "seed 1 (this render: 5)"},
+        {{"--estimator", "nee"}, "estimator report (this render: nee)"},
+        {{"--width", "48", "--height", "32"}, "resolution 32x32 (this render: 48x32)"},
+        {{"--integrator", "scalar"}, "integrator wavefront (this render: scalar)"},
+        {{"--spp", "2"}, "already has 4 paths per pixel"},
+    };
+    for (const Case& c : cases) {
+        std::vector<std::string> a = {"render", kScenes + "cornell.json", "--quiet", "--out", out.string(),
+                                      "--resume", ck.string()};
+        a.insert(a.end(), c.args.begin(), c.args.end());
+        // (the settings the case does not change are the checkpoint's)
+        for (const char* o : {"--width", "--height", "--spp"})
+            if (std::find(c.args.begin(), c.args.end(), o) == c.args.end())
+                a.insert(a.end(), {o, std::string(o) == "--spp" ? "8" : "32"});
+        EXPECT_EQ(run({a}, "refused"), 1) << c.says;
+        const std::string err = text(kDir / "refused.stderr");
+        EXPECT_NE(err.find(c.says), std::string::npos) << err;
+        EXPECT_NE(err.find("other.exr"), std::string::npos) << err;
+    }
+    // Another scene
+    EXPECT_EQ(run({render_args("box.json", out, {"--width", "32", "--height", "32", "--spp", "8", "--resume", ck.string()})}, "refused"), 1);
+    EXPECT_NE(text(kDir / "refused.stderr").find("scene content fingerprint"), std::string::npos);
+    EXPECT_EQ(text(out), "precious");
+    EXPECT_EQ(text(ck), before);
+}
+
+TEST(Checkpoints, AWriteOverAFileSizeLimitKeepsThePreviousCheckpoint) {
+    const fs::path ck = kDir / "limited.exr";
+    ASSERT_EQ(run({render_args("cornell.json", kDir / "l.exr",
+                               {"--spp", "2", "--width", "96", "--height", "96", "--checkpoint", ck.string()})},
+                  "first"),
+              0);
+    const std::string before = text(ck);
+    ASSERT_GT(before.size(), 400000u);
+    // A longer render into the same checkpoint, with files limited to 300 kB: every
+    // checkpoint write fails (EFBIG), the image (a 110 kB PFM) is written
+    Launch l{render_args("cornell.json", kDir / "l.pfm",
+                         {"--spp", "64", "--width", "96", "--height", "96", "--checkpoint", ck.string(),
+                          "--checkpoint-every", "0.05", "--stats", (kDir / "l.json").string()}),
+             0, rlim_t(300000)};
+    EXPECT_EQ(run(l, "limited"), 0) << text(kDir / "limited.stderr");
+    const std::string err = text(kDir / "limited.stderr");
+    EXPECT_NE(err.find("limited.exr: cannot write"), std::string::npos) << err;
+    EXPECT_NE(err.find("the previous checkpoint is kept"), std::string::npos) << err;
+    EXPECT_EQ(text(ck), before);
+    EXPECT_EQ(cierzo::read_checkpoint(ck).state.spp_done, 2);
+    EXPECT_TRUE(fs::exists(kDir / "l.pfm"));
+    EXPECT_FALSE(stats(kDir / "l.json")["warnings"].empty());
+    // No temporary file is left behind
+    for (const auto& e : fs::directory_iterator(kDir))
+        EXPECT_EQ(e.path().filename().string().find(".limited.exr.tmp"), std::string::npos) << e.path();
+}
+
+}  // namespace
