@@ -35,10 +35,19 @@ struct Message {
     std::vector<char> bytes;
 };
 
-// Point-to-point messages of bytes with a tag. `send` returns once the buffer may be reused.
-void send(int dest, int tag, const void* data, size_t bytes);
-// A message with this tag, from `source` (-1: any rank), if one has arrived; never blocks.
+// Point-to-point messages of bytes with a tag, none of which blocks: a blocked MPI call
+// spins its core in most MPI libraries, and a large message waits for the receiver.
+// `send` starts sending (the bytes are kept until sent); `progress` moves pending sends on
+// and returns whether none is left; call it in every turn of a polling loop.
+void send(int dest, int tag, std::vector<char> bytes);
+bool progress();
+// A message with this tag, from `source` (-1: any rank), once it has fully arrived (the
+// receive is started by an earlier call when needed); messages of one sender and tag come in
+// the order they were sent.
 std::optional<Message> try_receive(int tag, int source = -1);
+// Hands a received message's buffer back for later receives (large buffers would otherwise
+// be fresh pages, faulted in one by one, for every message).
+void recycle(std::vector<char>&& bytes);
 // Rank 0 receives every rank's `bytes` (the same size on every rank), in rank order;
 // the other ranks receive nothing.
 std::vector<std::vector<char>> gather(const void* data, size_t bytes);

@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <stdexcept>
 #include <string>
 
@@ -53,6 +54,8 @@ void init(int* argc, char*** argv) {
 }
 
 void finalize() {
+    while (!progress()) {
+    }
     if (g_started) MPI_Finalize();
     g_started = false;
 }
@@ -71,26 +74,85 @@ std::string host_name() {
     return name;
 }
 
-void send(int dest, int tag, const void* data, size_t bytes) {
-    if (bytes > size_t(INT32_MAX)) throw std::length_error("MPI message of more than 2 GiB");
-    check(MPI_Send(data, int(bytes), MPI_BYTE, dest, tag, MPI_COMM_WORLD), "MPI_Send");
+namespace {
+
+struct Transfer {
+    MPI_Request request = MPI_REQUEST_NULL;
+    int tag = 0;
+    Message message;
+};
+std::deque<Transfer> g_sends, g_receives;  // in the order started
+std::vector<std::vector<char>> g_buffers;     // recycled receive buffers
+
+}  // namespace
+
+void send(int dest, int tag, std::vector<char> bytes) {
+    if (bytes.size() > size_t(INT32_MAX)) throw std::length_error("MPI message of more than 2 GiB");
+    Transfer& t = g_sends.emplace_back();
+    t.tag = tag;
+    t.message.bytes = std::move(bytes);
+    check(MPI_Isend(t.message.bytes.data(), int(t.message.bytes.size()), MPI_BYTE, dest, tag,
+                    MPI_COMM_WORLD, &t.request),
+          "MPI_Isend");
+}
+
+bool progress() {
+    while (!g_sends.empty()) {
+        int done = 0;
+        check(MPI_Test(&g_sends.front().request, &done, MPI_STATUS_IGNORE), "MPI_Test");
+        if (!done) break;
+        g_sends.pop_front();
+    }
+    return g_sends.empty();
 }
 
 std::optional<Message> try_receive(int tag, int source) {
-    int flag = 0;
-    MPI_Status status;
-    check(MPI_Iprobe(source < 0 ? MPI_ANY_SOURCE : source, tag, MPI_COMM_WORLD, &flag, &status),
-          "MPI_Iprobe");
-    if (!flag) return std::nullopt;
-    int count = 0;
-    MPI_Get_count(&status, MPI_BYTE, &count);
-    Message m;
-    m.source = status.MPI_SOURCE;
-    m.bytes.resize(size_t(count));
-    check(MPI_Recv(m.bytes.data(), count, MPI_BYTE, status.MPI_SOURCE, tag, MPI_COMM_WORLD,
-                   MPI_STATUS_IGNORE),
-          "MPI_Recv");
-    return m;
+    progress();
+    // Start receiving every message that has begun to arrive (matched probes, so each is
+    // received by the receive started for it)
+    for (;;) {
+        int flag = 0;
+        MPI_Message handle;
+        MPI_Status status;
+        check(MPI_Improbe(source < 0 ? MPI_ANY_SOURCE : source, tag, MPI_COMM_WORLD, &flag,
+                          &handle, &status),
+              "MPI_Improbe");
+        if (!flag) break;
+        int count = 0;
+        MPI_Get_count(&status, MPI_BYTE, &count);
+        Transfer& t = g_receives.emplace_back();
+        t.tag = tag;
+        t.message.source = status.MPI_SOURCE;
+        if (!g_buffers.empty()) {
+            t.message.bytes = std::move(g_buffers.back());
+            g_buffers.pop_back();
+        }
+        t.message.bytes.resize(size_t(count));
+        check(MPI_Imrecv(t.message.bytes.data(), count, MPI_BYTE, &handle, &t.request), "MPI_Imrecv");
+    }
+    // The first complete one of this tag and source (earlier ones of a sender first)
+    for (auto it = g_receives.begin(); it != g_receives.end(); ++it) {
+        if (it->tag != tag || (source >= 0 && it->message.source != source)) continue;
+        int done = 0;
+        check(MPI_Test(&it->request, &done, MPI_STATUS_IGNORE), "MPI_Test");
+        if (!done) {
+            // (a later message of the same sender must not overtake this one)
+            if (source >= 0) break;
+            continue;
+        }
+        bool earlier_pending = false;
+        for (auto e = g_receives.begin(); e != it; ++e)
+            earlier_pending |= e->tag == tag && e->message.source == it->message.source;
+        if (earlier_pending) continue;
+        Message m = std::move(it->message);
+        g_receives.erase(it);
+        return m;
+    }
+    return std::nullopt;
+}
+
+void recycle(std::vector<char>&& bytes) {
+    if (g_buffers.size() < 16) g_buffers.push_back(std::move(bytes));
 }
 
 std::vector<std::vector<char>> gather(const void* data, size_t bytes) {

@@ -23,6 +23,8 @@
 #include <optional>
 #include <thread>
 
+#include <time.h>
+
 #include <oneapi/tbb/info.h>
 #include <unistd.h>
 
@@ -39,6 +41,13 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// CPU time of the calling thread.
+double thread_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
 // One tile's samples [s0, s1): pass `pass` of tile `tile`.
@@ -401,6 +410,16 @@ public:
         std::lock_guard lock(mutex_);
         --busy_;
         results_.push_back(std::move(r));
+        if (units_.size() + busy_ < low_ || wake_on_result_) done_cv_.notify_all();
+    }
+    // Waits until fewer than `low` units are held, or (with `any_result`) until a unit is
+    // finished, or `timeout` passes.
+    void wait(size_t low, bool any_result, std::chrono::microseconds timeout) {
+        std::unique_lock lock(mutex_);
+        low_ = low, wake_on_result_ = any_result;
+        done_cv_.wait_for(lock, timeout, [&] {
+            return units_.size() + busy_ < low || (any_result && !results_.empty()) || over_;
+        });
     }
     void set_over() {
         std::lock_guard lock(mutex_);
@@ -413,6 +432,10 @@ public:
         std::lock_guard lock(mutex_);
         return units_.size() + busy_;
     }
+    bool has_results() {
+        std::lock_guard lock(mutex_);
+        return !results_.empty();
+    }
     std::vector<UnitResult> take_results() {
         std::lock_guard lock(mutex_);
         return std::exchange(results_, {});
@@ -420,38 +443,59 @@ public:
 
 private:
     std::mutex mutex_;
-    std::condition_variable cv_;
+    std::condition_variable cv_, done_cv_;
     std::deque<Unit> units_;
     std::vector<UnitResult> results_;
     size_t busy_ = 0;
+    size_t low_ = 0;
+    bool wake_on_result_ = false;
     bool over_ = false;
 };
 
 // A worker rank (not 0): asks rank 0 for units, renders them on its threads, sends them back.
+// It keeps enough units queued for its threads to work through a round trip to rank 0:
+// at least two per thread, and at least kQueuedSeconds of work at the units' measured speed.
+// When it holds fewer than half of that it sends its finished units and asks for more; in
+// between its main thread sleeps (it polls MPI only while it waits for an answer).
+constexpr double kQueuedSeconds = 0.01;
+
 void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine) {
     LocalQueue queue;
-    std::atomic<uint64_t> rays{0}, units{0};
+    std::atomic<uint64_t> rays{0}, units{0}, busy_ns{0};
     const auto start = Clock::now();
     std::atomic<int64_t> last_ns{0};
     std::vector<std::thread> workers;
     for (int i = 0; i < threads; ++i)
         workers.emplace_back([&] {
             while (std::optional<Unit> u = queue.pop()) {
+                const auto t0 = Clock::now();
                 UnitResult r = renderer.render(*u);
+                const auto t1 = Clock::now();
                 rays += r.rays.total(), ++units;
-                last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start).count();
+                busy_ns += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+                last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - start).count();
                 queue.finished(std::move(r));
             }
         });
     bool waiting = false, over = false, last_had_units = true;
-    const size_t low = size_t(threads), high = 2 * size_t(threads);
     while (!over) {
         bool acted = false;
+        // How many units to hold: two per thread, or kQueuedSeconds of work if more
+        const uint64_t done = units.load();
+        const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
+        const size_t high = std::min<size_t>(
+            4096, std::max<size_t>(2 * size_t(threads),
+                                   unit_seconds > 0 ? size_t(kQueuedSeconds * threads / unit_seconds) : 0));
+        const size_t low = std::max<size_t>(size_t(threads), high / 2);
         if (!waiting) {
             const size_t pending = queue.pending();
-            std::vector<UnitResult> results = queue.take_results();
-            if (!results.empty() || pending == 0 || (pending < low && last_had_units)) {
+            if (pending == 0 || (pending < low && (last_had_units || queue.has_results()))) {
+                const std::vector<UnitResult> results = queue.take_results();
+                size_t bytes = sizeof(RequestHeader);
+                for (const UnitResult& r : results)
+                    bytes += sizeof(ResultHeader) + r.sums.pixels().size() * sizeof(PixelSums);
                 std::vector<char> msg;
+                msg.reserve(bytes);
                 append(msg, RequestHeader{int32_t(pending < high ? high - pending : 0),
                                           int32_t(results.size()), int32_t(pending)});
                 for (const UnitResult& r : results) {
@@ -462,7 +506,7 @@ void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine)
                     const char* p = reinterpret_cast<const char*>(px.data());
                     msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
                 }
-                mpi::send(0, kTagRequest, msg.data(), msg.size());
+                mpi::send(0, kTagRequest, std::move(msg));
                 waiting = acted = true;
             }
         } else if (std::optional<mpi::Message> m = mpi::try_receive(kTagGrant, 0)) {
@@ -478,9 +522,14 @@ void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine)
             last_had_units = !granted.empty();
             waiting = false, acted = true;
         }
-        if (!acted) std::this_thread::sleep_for(std::chrono::microseconds(500));
+        if (waiting) {
+            if (!acted) std::this_thread::sleep_for(std::chrono::microseconds(100));
+        } else if (!acted) {
+            queue.wait(low, !last_had_units, std::chrono::microseconds(20000));
+        }
     }
     for (std::thread& t : workers) t.join();
+    while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
     mine.rays = rays, mine.units = units;
     mine.seconds = double(last_ns.load()) * 1e-9;
 }
@@ -497,7 +546,7 @@ public:
     // Handles what has arrived; returns whether anything happened.
     bool poll() {
         bool acted = false;
-        const auto start = Clock::now();
+        const double cpu_start = thread_seconds();
         while (std::optional<mpi::Message> m = mpi::try_receive(kTagRequest)) {
             acted = true;
             bytes_ += m->bytes.size();
@@ -519,6 +568,7 @@ public:
                 coord_.complete(std::move(r));
                 ++units_;
             }
+            mpi::recycle(std::move(m->bytes));
             waiting_[size_t(m->source)] = {true, h.want, h.holding};
         }
         // Answer the ranks that wait: with units, with none (a rank that holds units), or
@@ -533,12 +583,12 @@ public:
             std::vector<char> msg;
             append(msg, GrantHeader{over ? 1 : 0, int32_t(units.size())});
             for (const Unit& u : units) append(msg, u);
-            mpi::send(int(r), kTagGrant, msg.data(), msg.size());
+            mpi::send(int(r), kTagGrant, std::move(msg));
             w = {};
             if (over) told_over_[r] = true;
             acted = true;
         }
-        if (acted) seconds_ += seconds_since(start);
+        if (acted) seconds_ += thread_seconds() - cpu_start;
         return acted;
     }
 
@@ -694,7 +744,9 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                                                      std::chrono::duration<double>(options.checkpoint_every));
             }
             if (service) {
-                if (!service->poll()) std::this_thread::sleep_for(std::chrono::microseconds(500));
+                // (the other ranks hold kQueuedSeconds of work: a poll every half
+                // millisecond keeps them fed)
+                if (!service->poll()) coord.wait(std::chrono::microseconds(500));
             } else {
                 coord.wait(std::chrono::milliseconds(20));
             }
@@ -722,6 +774,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
 
     // Every rank's figures, on rank 0
     if (world.size > 1) {
+        while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
         RankRecord rec{mine.seconds, mine.rays, mine.units, threads, {}, {}};
         copy_name(rec.host, mine.host);
         std::strncpy(rec.isa, st.isa.c_str(), sizeof(rec.isa) - 1);

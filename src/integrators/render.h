@@ -88,8 +88,8 @@ struct RenderStats {
     uint64_t nonfinite_samples = 0;
     int64_t spp_resumed = 0;  // paths per pixel the resumed checkpoint already had
     std::vector<RankStats> ranks;  // under MPI: one per rank (empty for one process)
-    // Under MPI, rank 0's service of the others: time spent receiving and merging their
-    // units, how many and how many bytes
+    // Under MPI, rank 0's service of the others: the CPU time its main thread spent
+    // receiving their units, adding them up and answering, how many units and bytes
     double service_seconds = 0.0;
     uint64_t units_received = 0, bytes_received = 0;
     // Checkpoints written, and the time of the last write (and of all)
