@@ -30,7 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace cierzo;
 
-// Set by SIGINT or SIGTERM: the render stops after its current pass and writes what it has.
+// Set by SIGINT or SIGTERM: the render stops at once with the passes it finished and writes them.
 // A second signal ends the program at once (the handler restores the default).
 std::atomic<bool> g_interrupted{false};
 extern "C" void on_signal(int sig) {
@@ -58,6 +58,7 @@ struct RenderArgs {
     double target_error = 0.0;
     fs::path checkpoint;
     double checkpoint_every = 300.0;
+    bool checkpoint_every_given = false;
     fs::path resume;
 };
 
@@ -210,6 +211,8 @@ int run_render(const RenderArgs& a) {
         for (const std::string& w : resume_warnings) std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
         options.resume = &resumed->state;
     }
+    if (a.checkpoint_every_given && checkpoint.empty())
+        throw InputError("--checkpoint-every needs --checkpoint FILE.exr (or --resume FILE.exr)");
     if (root && !checkpoint.empty()) {
         if (checkpoint.extension() != ".exr")
             throw InputError(checkpoint.string() + ": a checkpoint must end in .exr");
@@ -373,6 +376,7 @@ int run_main(int argc, char** argv) {
         if (world.size > 1 && !r->parsed())
             throw InputError("only `cierzo render` runs across MPI ranks; run this command in "
                              "one process");
+        a.checkpoint_every_given = r->count("--checkpoint-every") > 0;
         if (r->parsed()) return run_render(a);
         if (converge->parsed()) return run_converge_command();
         if (trace->parsed()) return run_trace_command();
