@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <cstring>
 #include <deque>
+#include <exception>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -211,6 +212,18 @@ public:
         cv_.notify_all();
     }
 
+    // Stops now because a render thread failed; the error is rethrown by rethrow_failure.
+    void fail(std::exception_ptr e) {
+        std::lock_guard lock(mutex_);
+        if (!failure_) failure_ = e;
+        stopping_ = true;
+        cv_.notify_all();
+    }
+    void rethrow_failure() const {
+        std::lock_guard lock(mutex_);
+        if (failure_) std::rethrow_exception(failure_);
+    }
+
     // Stops now if interrupted (once a first pass is in the film).
     void poll_interrupt() {
         std::lock_guard lock(mutex_);
@@ -335,6 +348,7 @@ private:
     int first_ = 0;         // work_[first_] is the pass in progress, the other the next
     PassWork work_[2];
     bool stopping_ = false;
+    std::exception_ptr failure_;
     std::string stopped_by_;
     RayCounts rays_;
     LaneStats lane_stats_;
@@ -465,20 +479,35 @@ void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine)
     const auto start = Clock::now();
     std::atomic<int64_t> last_ns{0};
     std::vector<std::thread> workers;
+    std::mutex failure_mutex;
+    std::exception_ptr failure;
+    std::atomic<bool> failed{false};
     for (int i = 0; i < threads; ++i)
         workers.emplace_back([&] {
-            while (std::optional<Unit> u = queue.pop()) {
-                const auto t0 = Clock::now();
-                UnitResult r = renderer.render(*u);
-                const auto t1 = Clock::now();
-                rays += r.rays.total(), ++units;
-                busy_ns += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
-                last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - start).count();
-                queue.finished(std::move(r));
+            try {
+                while (std::optional<Unit> u = queue.pop()) {
+                    const auto t0 = Clock::now();
+                    UnitResult r = renderer.render(*u);
+                    const auto t1 = Clock::now();
+                    rays += r.rays.total(), ++units;
+                    busy_ns += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+                    last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - start).count();
+                    queue.finished(std::move(r));
+                }
+            } catch (...) {
+                std::lock_guard lock(failure_mutex);
+                if (!failure) failure = std::current_exception();
+                failed = true;
             }
         });
     bool waiting = false, over = false, last_had_units = true;
     while (!over) {
+        if (failed) {
+            // (main() ends every rank: rank 0 would wait for this one's units forever)
+            queue.set_over();
+            for (std::thread& t : workers) t.join();
+            std::rethrow_exception(failure);
+        }
         bool acted = false;
         // How many units to hold: two per thread, or kQueuedSeconds of work if more
         const uint64_t done = units.load();
@@ -695,7 +724,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                 ++st.checkpoint_writes;
                 st.checkpoint_last_seconds = seconds_since(t);
                 st.checkpoint_seconds += st.checkpoint_last_seconds;
-            } catch (const InputError& e) {
+            } catch (const std::exception& e) {  // (InputError: the file's name and why)
                 const std::string w = std::string(e.what()) + "; the previous checkpoint is kept";
                 std::fprintf(stderr, "\ncierzo: %s\n", w.c_str());
                 std::lock_guard lock(warnings_mutex);
@@ -716,18 +745,22 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         std::vector<std::thread> workers;
         for (int i = 0; i < threads; ++i)
             workers.emplace_back([&] {
-                for (;;) {
-                    std::vector<Unit> u = coord.grant(1);
-                    if (u.empty()) {
-                        if (coord.stopping()) break;
-                        coord.wait(std::chrono::milliseconds(5));
-                        continue;
+                try {
+                    for (;;) {
+                        std::vector<Unit> u = coord.grant(1);
+                        if (u.empty()) {
+                            if (coord.stopping()) break;
+                            coord.wait(std::chrono::milliseconds(5));
+                            continue;
+                        }
+                        UnitResult r = renderer.render(u[0]);
+                        rays += r.rays.total(), ++units;
+                        last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                      Clock::now() - start).count();
+                        coord.complete(std::move(r));
                     }
-                    UnitResult r = renderer.render(u[0]);
-                    rays += r.rays.total(), ++units;
-                    last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                  Clock::now() - start).count();
-                    coord.complete(std::move(r));
+                } catch (...) {
+                    coord.fail(std::current_exception());
                 }
             });
         std::optional<RankService> service;
@@ -754,6 +787,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         for (std::thread& t : workers) t.join();
         progress.stop();
         if (writer.joinable()) writer.join();
+        coord.rethrow_failure();  // (a render thread's error, e.g. out of memory)
         // The final state (with the tiles done of the pass in progress, after a stop)
         if (options.checkpoint) write_state(coord.snapshot(resume));
         mine.rays = rays, mine.units = units;
