@@ -199,6 +199,25 @@ TEST(Mpi, ATimeBudgetStopsEveryRankWithEqualPathsPerPixel) {
     EXPECT_EQ(j["mpi"]["ranks"], 3);
 }
 
+// Rank 0 decides on the film it holds, so a target error stops at the same pass, with the
+// same image, as in one process.
+TEST(Mpi, ATargetErrorStopsAtTheSamePassWithTheSameImageAsOneProcess) {
+    REQUIRE_MPI();
+    const std::vector<std::string> args = {"--spp", "100000", "--width", "48", "--height", "40",
+                                           "--target-error", "0.08"};
+    std::vector<std::string> one = render_args("cornell.json", kDir / "te1.exr", args);
+    one.insert(one.end(), {"--stats", (kDir / "te1.json").string()});
+    ASSERT_EQ(run({one}, "te1"), 0) << text(kDir / "te1.stderr");
+    std::vector<std::string> three = render_args("cornell.json", kDir / "te3.exr", args);
+    three.insert(three.end(), {"--stats", (kDir / "te3.json").string()});
+    ASSERT_EQ(run({three, 3}, "te3"), 0) << text(kDir / "te3.stderr");
+    const auto a = stats(kDir / "te1.json"), b = stats(kDir / "te3.json");
+    EXPECT_EQ(a["stopped_by"], "target error");
+    EXPECT_EQ(b["stopped_by"], "target error");
+    EXPECT_EQ(a["spp_reached"], b["spp_reached"]);
+    EXPECT_TRUE(same_pixels(kDir / "te1.exr", kDir / "te3.exr"));
+}
+
 TEST(Mpi, SigintToMpirunWritesTheImageOfWholePasses) {
     REQUIRE_MPI();
     const fs::path out = kDir / "int.exr", js = kDir / "int.json";
