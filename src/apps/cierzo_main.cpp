@@ -190,12 +190,18 @@ int run_render(const RenderArgs& a) {
     options.progress = !a.quiet && root;
 
     // Checkpoints: what the pixels depend on, the state to continue from, where to write
-    const int pool = a.integrator == "wavefront" ? (a.pool > 0 ? a.pool : WavefrontRenderer::kDefaultPoolSize) : 0;
-    const std::string isa = a.integrator == "wavefront" ? isa_name(parse_isa(a.isa) == Isa::kAuto ? best_isa() : parse_isa(a.isa)) : "scalar";
-    const CheckpointIdentity identity = checkpoint_identity(scene, a.integrator, isa, pool);
+    const int pool = a.integrator == "wavefront"
+                         ? (a.pool > 0 ? a.pool : WavefrontRenderer::kDefaultPoolSize)
+                         : 0;
+    const Isa chosen = parse_isa(a.isa) == Isa::kAuto ? best_isa() : parse_isa(a.isa);
+    const std::string isa = a.integrator == "wavefront" ? isa_name(chosen) : "scalar";
+    const fs::path checkpoint = !a.checkpoint.empty() ? a.checkpoint : a.resume;
+    // (the fingerprint reads every mesh: only rank 0, and only with checkpoints)
+    const CheckpointIdentity identity = root && !checkpoint.empty()
+                                            ? checkpoint_identity(scene, a.integrator, isa, pool)
+                                            : CheckpointIdentity{};
     std::optional<Checkpoint> resumed;
     std::vector<std::string> resume_warnings;
-    const fs::path checkpoint = !a.checkpoint.empty() ? a.checkpoint : a.resume;
     if (root && !a.resume.empty()) {
         resumed = read_checkpoint(a.resume);
         resume_warnings = check_resume(a.resume, *resumed, identity);
@@ -216,6 +222,9 @@ int run_render(const RenderArgs& a) {
     if (root && !checkpoint.empty()) {
         if (checkpoint.extension() != ".exr")
             throw InputError(checkpoint.string() + ": a checkpoint must end in .exr");
+        if (fs::weakly_canonical(checkpoint) == fs::weakly_canonical(s.output))
+            throw InputError(checkpoint.string() + ": the checkpoint and the image (--out) must "
+                             "be different files");
         check_writable_folder(checkpoint, "the checkpoint");
         options.checkpoint_every = a.checkpoint_every;
         options.checkpoint = [&](const RenderState& state) {

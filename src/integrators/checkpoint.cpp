@@ -28,12 +28,19 @@ namespace {
 
 constexpr const char* kFormat = "cierzo checkpoint 1";
 
-// FNV-1a, 64 bits.
+// FNV-1a, 64 bits, taken eight bytes at a time (a mesh of millions of triangles is
+// hundreds of megabytes: byte by byte took a second).
 struct Hash {
     uint64_t h = 1469598103934665603ull;
     void bytes(const void* data, size_t n) {
         const auto* p = static_cast<const unsigned char*>(data);
-        for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+        size_t i = 0;
+        for (; i + 8 <= n; i += 8) {
+            uint64_t w;
+            std::memcpy(&w, p + i, 8);
+            h = (h ^ w) * 1099511628211ull;
+        }
+        for (; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
     }
     template <typename T>
     void vec(const std::vector<T>& v) {

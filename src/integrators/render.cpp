@@ -649,10 +649,14 @@ void copy_name(char (&dst)[64], const std::string& s) {
 }  // namespace
 
 std::vector<int64_t> pass_bounds(int64_t start, int64_t spp) {
+    // Boundaries 1, 2, 4, 8, 16 and then every 16: so a finished render of a power of two or a
+    // multiple of 16 paths per pixel ends on a boundary, and can be continued to more
+    // paths with the very bits of an uninterrupted render of more
     std::vector<int64_t> bounds{start};
-    for (int64_t done = 0, size = 1; done < spp; size = std::min<int64_t>(size * 2, 16)) {
-        done = std::min(spp, done + size);
-        if (done > start) bounds.push_back(done);
+    for (int64_t b = 1; b < spp + 16; b = b < 16 ? 2 * b : b + 16) {
+        const int64_t end = std::min(b, spp);
+        if (end > bounds.back()) bounds.push_back(end);
+        if (end == spp) break;
     }
     return bounds;
 }

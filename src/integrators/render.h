@@ -120,9 +120,9 @@ struct Tile {
 };
 
 // The passes: pass k renders samples [bounds[k], bounds[k + 1]) of every pixel. From zero,
-// passes of 1, 2, 4, 8 and then 16 paths per pixel, the last one cut at `spp`: a fixed
-// schedule (so the image does not depend on timing), fine enough to stop soon after a
-// request. From `start` (a resumed render), the same boundaries above `start`.
+// the boundaries are 1, 2, 4, 8, 16 and then every 16 paths per pixel, the last one cut at
+// `spp`: a fixed schedule (so the image does not depend on timing), fine enough to stop
+// soon after a request. From `start` (a resumed render), the same boundaries above `start`.
 std::vector<int64_t> pass_bounds(int64_t start, int64_t spp);
 
 // The tiles of a width × height image, kTileSize square, in row order.

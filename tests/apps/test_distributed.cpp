@@ -361,6 +361,9 @@ TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
     // Another scene
     EXPECT_EQ(run({render_args("box.json", out, {"--width", "32", "--height", "32", "--spp", "8", "--resume", ck.string()})}, "refused"), 1);
     EXPECT_NE(text(kDir / "refused.stderr").find("scene content fingerprint"), std::string::npos);
+    // The checkpoint and the image in one file
+    EXPECT_EQ(run({render_args("cornell.json", ck, {"--checkpoint", ck.string()})}, "refused"), 1);
+    EXPECT_NE(text(kDir / "refused.stderr").find("must be different files"), std::string::npos);
     // An interval without a checkpoint file
     EXPECT_EQ(run({render_args("cornell.json", out, {"--checkpoint-every", "5"})}, "refused"), 1);
     EXPECT_NE(text(kDir / "refused.stderr").find("--checkpoint-every needs --checkpoint"), std::string::npos);

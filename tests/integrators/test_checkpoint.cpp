@@ -4,11 +4,13 @@
 // differs; a damaged file is refused naming the file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
 
 #include <unistd.h>
 
@@ -71,13 +73,21 @@ RenderOptions options_for(const test::Variant& v, int threads) {
 }
 
 TEST(PassBounds, StartAtZeroOrAtAResumedCountAndEndAtSpp) {
-    EXPECT_EQ(pass_bounds(0, 40), (std::vector<int64_t>{0, 1, 3, 7, 15, 31, 40}));
+    EXPECT_EQ(pass_bounds(0, 40), (std::vector<int64_t>{0, 1, 2, 4, 8, 16, 32, 40}));
     EXPECT_EQ(pass_bounds(0, 1), (std::vector<int64_t>{0, 1}));
-    // From a boundary: the same boundaries above it
-    EXPECT_EQ(pass_bounds(15, 40), (std::vector<int64_t>{15, 31, 40}));
-    // From a finished render's count (not a boundary): the first pass is shorter
-    EXPECT_EQ(pass_bounds(20, 40), (std::vector<int64_t>{20, 31, 40}));
+    EXPECT_EQ(pass_bounds(0, 3), (std::vector<int64_t>{0, 1, 2, 3}));
+    EXPECT_EQ(pass_bounds(0, 48), (std::vector<int64_t>{0, 1, 2, 4, 8, 16, 32, 48}));
+    // From a boundary: the same boundaries above it; a finished render of a power of two or a
+    // multiple of 16 is on a boundary
+    EXPECT_EQ(pass_bounds(16, 40), (std::vector<int64_t>{16, 32, 40}));
+    const std::vector<int64_t> big = pass_bounds(0, 16384);
+    EXPECT_NE(std::find(big.begin(), big.end(), 4096), big.end());
+    EXPECT_EQ(pass_bounds(4096, 4128), (std::vector<int64_t>{4096, 4112, 4128}));
+    // From a finished render's count that is not a boundary: the first pass is shorter
+    EXPECT_EQ(pass_bounds(20, 40), (std::vector<int64_t>{20, 32, 40}));
     EXPECT_EQ(pass_bounds(40, 40), (std::vector<int64_t>{40}));
+    // Passes never exceed 16 paths per pixel
+    for (size_t i = 1; i < big.size(); ++i) EXPECT_LE(big[i] - big[i - 1], 16);
 }
 
 // The heart of it: states taken every few milliseconds, each resumed, each ending in the
@@ -171,6 +181,27 @@ TEST(Checkpoint, AnInterruptedStateWithTilesOfAPassResumesExactly) {
     for (const PixelSums& p : last.pending.pixels()) have += p.count + p.nonfinite;
     EXPECT_GT(have, 0u);
     EXPECT_EQ(resumed.stats.rays.camera, uint64_t(80 * 64) * uint64_t(64 - last.spp_done) - have);
+}
+
+// A finished render of 16 paths per pixel (a pass boundary), continued to 48: the film of
+// an uninterrupted render of 48.
+TEST(Checkpoint, AFinishedRenderOnABoundaryContinuesToTheBitsOfALongerOne) {
+    const test::Variant v = test::variants().back();
+    Scene longer = scene_at("caustic.json", 40, 32, 48);
+    const RenderResult full = render(longer, options_for(v, 2));
+    Scene shorter = longer;
+    shorter.settings.spp = 16;
+    std::optional<RenderState> last;
+    RenderOptions o = options_for(v, 2);
+    o.checkpoint = [&](const RenderState& s) { last = s; };
+    render(shorter, o);
+    ASSERT_TRUE(last);
+    ASSERT_EQ(last->spp_done, 16);
+    RenderOptions r = options_for(v, 2);
+    r.resume = &*last;
+    const RenderResult continued = render(longer, r);
+    EXPECT_TRUE(same_film(full.film, continued.film));
+    EXPECT_EQ(continued.stats.rays.camera, uint64_t(40 * 32 * 32));
 }
 
 TEST(CheckpointFile, KeepsTheStateExactlyWithTilesOfAPass) {
