@@ -66,6 +66,13 @@ public:
     FilmTile(int x0, int y0, int x1, int y1, int image_width)
         : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
           pixels_(size_t(x1 - x0) * size_t(y1 - y0)) {}
+    // The same in the memory of `storage` (a tile given back with release()), zeroed.
+    FilmTile(int x0, int y0, int x1, int y1, int image_width, std::vector<PixelSums>&& storage)
+        : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
+          pixels_(std::move(storage)) {
+        pixels_.assign(size_t(x1 - x0) * size_t(y1 - y0), PixelSums{});
+    }
+    std::vector<PixelSums> release() { return std::move(pixels_); }
     int x0() const { return x0_; }
     int y0() const { return y0_; }
     int x1() const { return x1_; }

@@ -120,17 +120,46 @@ private:
     std::thread thread_;
 };
 
+// Tiles' memory, handed back after use: a pass's tiles are freed together when the pass is
+// added to the film, and fresh ones would be new pages, faulted in one by one (that showed
+// in rank 0's profile).
+class TilePool {
+public:
+    explicit TilePool(size_t keep) : keep_(keep) {}
+    FilmTile make(const Tile& g, int image_width) {
+        std::vector<PixelSums> memory;
+        {
+            std::lock_guard lock(mutex_);
+            if (!free_.empty()) {
+                memory = std::move(free_.back());
+                free_.pop_back();
+            }
+        }
+        return FilmTile(g.x0, g.y0, g.x1, g.y1, image_width, std::move(memory));
+    }
+    void give(FilmTile&& tile) {
+        std::vector<PixelSums> memory = tile.release();
+        std::lock_guard lock(mutex_);
+        if (free_.size() < keep_) free_.push_back(std::move(memory));
+    }
+
+private:
+    size_t keep_;
+    std::mutex mutex_;
+    std::vector<std::vector<PixelSums>> free_;
+};
+
 // Renders units with this process's integrator.
 class UnitRenderer {
 public:
     UnitRenderer(const Scene& scene, const WavefrontRenderer* wavefront,
-                 const std::vector<Tile>& tiles)
-        : scene_(scene), wavefront_(wavefront), tiles_(tiles) {}
+                 const std::vector<Tile>& tiles, TilePool& pool)
+        : scene_(scene), wavefront_(wavefront), tiles_(tiles), pool_(pool) {}
 
     UnitResult render(const Unit& u) const {
         Tile t = tiles_[size_t(u.tile)];
         t.s0 = u.s0, t.s1 = u.s1;
-        UnitResult r{u, FilmTile(t.x0, t.y0, t.x1, t.y1, scene_.settings.width), {}, {}};
+        UnitResult r{u, pool_.make(t, scene_.settings.width), {}, {}};
         if (wavefront_) {
             wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
         } else {
@@ -143,6 +172,7 @@ private:
     const Scene& scene_;
     const WavefrontRenderer* wavefront_;
     const std::vector<Tile>& tiles_;
+    TilePool& pool_;
 };
 
 // The one owner of the film (rank 0): hands out units in pass order, keeps the units of the
@@ -153,9 +183,9 @@ class Coordinator {
 public:
     Coordinator(const Scene& scene, const RenderOptions& options, const std::vector<Tile>& tiles,
                 std::vector<int64_t> bounds, Film& film, Clock::time_point start,
-                Progress& progress)
+                Progress& progress, TilePool& pool)
         : options_(options), tiles_(tiles), bounds_(std::move(bounds)), film_(film),
-          start_(start), progress_(progress), width_(scene.settings.width) {
+          start_(start), progress_(progress), pool_(pool), width_(scene.settings.width) {
         passes_ = int32_t(bounds_.size()) - 1;
         for (PassWork& w : work_) w.reset(tiles_.size());
         if (passes_ <= 0) stopping_ = true;
@@ -311,7 +341,10 @@ private:
     void commit_passes() {
         while (!stopping_ && work_[first_].done_count == tiles_.size()) {
             PassWork& w = work_[first_];
-            for (const std::optional<FilmTile>& f : w.sums) film_.merge(*f);
+            for (std::optional<FilmTile>& f : w.sums) {
+                film_.merge(*f);
+                pool_.give(std::move(*f));
+            }
             rays_ += w.rays;
             w.reset(tiles_.size());
             first_ ^= 1;
@@ -342,6 +375,7 @@ private:
     Film& film_;
     Clock::time_point start_;
     Progress& progress_;
+    TilePool& pool_;
     int width_;
     int32_t passes_ = 0;
     int32_t frontier_ = 0;  // the pass in progress; passes before it are in the film
@@ -473,7 +507,7 @@ private:
 // between its main thread sleeps (it polls MPI only while it waits for an answer).
 constexpr double kQueuedSeconds = 0.01;
 
-void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine) {
+void serve_as_worker(const UnitRenderer& renderer, TilePool& pool, int threads, RankStats& mine) {
     LocalQueue queue;
     std::atomic<uint64_t> rays{0}, units{0}, busy_ns{0};
     const auto start = Clock::now();
@@ -519,7 +553,7 @@ void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine)
         if (!waiting) {
             const size_t pending = queue.pending();
             if (pending == 0 || (pending < low && (last_had_units || queue.has_results()))) {
-                const std::vector<UnitResult> results = queue.take_results();
+                std::vector<UnitResult> results = queue.take_results();
                 size_t bytes = sizeof(RequestHeader);
                 for (const UnitResult& r : results)
                     bytes += sizeof(ResultHeader) + r.sums.pixels().size() * sizeof(PixelSums);
@@ -536,6 +570,7 @@ void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine)
                     msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
                 }
                 mpi::send(0, kTagRequest, std::move(msg));
+                for (UnitResult& r : results) pool.give(std::move(r.sums));
                 waiting = acted = true;
             }
         } else if (std::optional<mpi::Message> m = mpi::try_receive(kTagGrant, 0)) {
@@ -567,8 +602,9 @@ void serve_as_worker(const UnitRenderer& renderer, int threads, RankStats& mine)
 // been told the render is over. Returns when that is done and `local_done` is true.
 class RankService {
 public:
-    RankService(Coordinator& coord, const std::vector<Tile>& tiles, int ranks)
-        : coord_(coord), tiles_(tiles), waiting_(size_t(ranks)), told_over_(size_t(ranks), false) {
+    RankService(Coordinator& coord, const std::vector<Tile>& tiles, int ranks, TilePool& pool)
+        : coord_(coord), tiles_(tiles), pool_(pool), waiting_(size_t(ranks)),
+          told_over_(size_t(ranks), false) {
         told_over_[0] = true;
     }
 
@@ -587,7 +623,7 @@ public:
                     throw std::runtime_error("a rank sent a unit of an unknown tile");
                 const Tile& g = tiles_[size_t(rh.tile)];
                 UnitResult r{Unit{rh.tile, rh.pass, rh.s0, rh.s1},
-                             FilmTile(g.x0, g.y0, g.x1, g.y1, 0),
+                             pool_.make(g, 0),
                              RayCounts{rh.rays[0], rh.rays[1], rh.rays[2]}, rh.lanes};
                 auto& px = r.sums.pixels();
                 const size_t bytes = px.size() * sizeof(PixelSums);
@@ -632,6 +668,7 @@ public:
 private:
     Coordinator& coord_;
     const std::vector<Tile>& tiles_;
+    TilePool& pool_;
     struct Waiting {
         bool asked = false;
         int32_t want = 0, holding = 0;
@@ -689,7 +726,9 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
     const std::vector<Tile> tiles = image_tiles(rs.width, rs.height);
-    const UnitRenderer renderer(scene, wavefront.get(), tiles);
+    // (enough for two passes in flight and every thread's unit)
+    TilePool pool(2 * tiles.size() + 8 * size_t(threads));
+    const UnitRenderer renderer(scene, wavefront.get(), tiles, pool);
     RenderResult result{root ? Film(rs.width, rs.height) : Film(0, 0), {}};
     RenderStats& st = result.stats;
     st.threads = threads;
@@ -700,7 +739,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     const auto start = Clock::now();
 
     if (!root) {
-        serve_as_worker(renderer, threads, mine);
+        serve_as_worker(renderer, pool, threads, mine);
     } else {
         const RenderState* resume = options.resume;
         if (resume) {
@@ -712,7 +751,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         std::vector<int64_t> bounds = pass_bounds(resume ? resume->spp_done : 0, rs.spp);
         Progress progress(options.progress && isatty(STDERR_FILENO),
                           tiles.size() * (bounds.size() - 1));
-        Coordinator coord(scene, options, tiles, bounds, result.film, start, progress);
+        Coordinator coord(scene, options, tiles, bounds, result.film, start, progress, pool);
         if (resume) coord.restore_pending(*resume);
 
         // Checkpoints are written by a thread of their own (the main thread keeps serving
@@ -768,7 +807,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                 }
             });
         std::optional<RankService> service;
-        if (world.size > 1) service.emplace(coord, tiles, world.size);
+        if (world.size > 1) service.emplace(coord, tiles, world.size, pool);
         auto next_checkpoint = start + std::chrono::duration_cast<Clock::duration>(
                                            std::chrono::duration<double>(options.checkpoint_every));
         // The main thread: interruption, checkpoints, and the other ranks
