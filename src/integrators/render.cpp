@@ -535,62 +535,68 @@ void serve_as_worker(const UnitRenderer& renderer, TilePool& pool, int threads, 
             }
         });
     bool waiting = false, over = false, last_had_units = true;
-    while (!over) {
-        if (failed) {
-            // (main() ends every rank: rank 0 would wait for this one's units forever)
-            queue.set_over();
-            for (std::thread& t : workers) t.join();
-            std::rethrow_exception(failure);
-        }
-        bool acted = false;
-        // How many units to hold: two per thread, or kQueuedSeconds of work if more
-        const uint64_t done = units.load();
-        const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
-        const size_t high = std::min<size_t>(
-            4096, std::max<size_t>(2 * size_t(threads),
-                                   unit_seconds > 0 ? size_t(kQueuedSeconds * threads / unit_seconds) : 0));
-        const size_t low = std::max<size_t>(size_t(threads), high / 2);
-        if (!waiting) {
-            const size_t pending = queue.pending();
-            if (pending == 0 || (pending < low && (last_had_units || queue.has_results()))) {
-                std::vector<UnitResult> results = queue.take_results();
-                size_t bytes = sizeof(RequestHeader);
-                for (const UnitResult& r : results)
-                    bytes += sizeof(ResultHeader) + r.sums.pixels().size() * sizeof(PixelSums);
-                std::vector<char> msg;
-                msg.reserve(bytes);
-                append(msg, RequestHeader{int32_t(pending < high ? high - pending : 0),
-                                          int32_t(results.size()), int32_t(pending)});
-                for (const UnitResult& r : results) {
-                    append(msg, ResultHeader{r.unit.tile, r.unit.pass, r.unit.s0, r.unit.s1,
-                                             {r.rays.camera, r.rays.extension, r.rays.shadow},
-                                             r.lanes});
-                    const auto& px = r.sums.pixels();
-                    const char* p = reinterpret_cast<const char*>(px.data());
-                    msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
+    try {
+        while (!over) {
+            if (failed) {
+                // (main() ends every rank: rank 0 would wait for this one's units forever)
+                std::rethrow_exception(failure);
+            }
+            bool acted = false;
+            // How many units to hold: two per thread, or kQueuedSeconds of work if more
+            const uint64_t done = units.load();
+            const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
+            const size_t high = std::min<size_t>(
+                4096, std::max<size_t>(2 * size_t(threads),
+                                       unit_seconds > 0 ? size_t(kQueuedSeconds * threads / unit_seconds) : 0));
+            const size_t low = std::max<size_t>(size_t(threads), high / 2);
+            if (!waiting) {
+                const size_t pending = queue.pending();
+                if (pending == 0 || (pending < low && (last_had_units || queue.has_results()))) {
+                    std::vector<UnitResult> results = queue.take_results();
+                    size_t bytes = sizeof(RequestHeader);
+                    for (const UnitResult& r : results)
+                        bytes += sizeof(ResultHeader) + r.sums.pixels().size() * sizeof(PixelSums);
+                    std::vector<char> msg;
+                    msg.reserve(bytes);
+                    append(msg, RequestHeader{int32_t(pending < high ? high - pending : 0),
+                                              int32_t(results.size()), int32_t(pending)});
+                    for (const UnitResult& r : results) {
+                        append(msg, ResultHeader{r.unit.tile, r.unit.pass, r.unit.s0, r.unit.s1,
+                                                 {r.rays.camera, r.rays.extension, r.rays.shadow},
+                                                 r.lanes});
+                        const auto& px = r.sums.pixels();
+                        const char* p = reinterpret_cast<const char*>(px.data());
+                        msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
+                    }
+                    mpi::send(0, kTagRequest, std::move(msg));
+                    for (UnitResult& r : results) pool.give(std::move(r.sums));
+                    waiting = acted = true;
                 }
-                mpi::send(0, kTagRequest, std::move(msg));
-                for (UnitResult& r : results) pool.give(std::move(r.sums));
-                waiting = acted = true;
+            } else if (std::optional<mpi::Message> m = mpi::try_receive(kTagGrant, 0)) {
+                size_t at = 0;
+                const GrantHeader h = read<GrantHeader>(m->bytes, at);
+                std::vector<Unit> granted;
+                for (int32_t i = 0; i < h.units; ++i) granted.push_back(read<Unit>(m->bytes, at));
+                if (h.over) {
+                    queue.set_over();
+                    over = true;
+                }
+                queue.push(granted);
+                last_had_units = !granted.empty();
+                waiting = false, acted = true;
             }
-        } else if (std::optional<mpi::Message> m = mpi::try_receive(kTagGrant, 0)) {
-            size_t at = 0;
-            const GrantHeader h = read<GrantHeader>(m->bytes, at);
-            std::vector<Unit> granted;
-            for (int32_t i = 0; i < h.units; ++i) granted.push_back(read<Unit>(m->bytes, at));
-            if (h.over) {
-                queue.set_over();
-                over = true;
+            if (waiting) {
+                if (!acted) std::this_thread::sleep_for(std::chrono::microseconds(100));
+            } else if (!acted) {
+                queue.wait(low, !last_had_units, std::chrono::microseconds(20000));
             }
-            queue.push(granted);
-            last_had_units = !granted.empty();
-            waiting = false, acted = true;
         }
-        if (waiting) {
-            if (!acted) std::this_thread::sleep_for(std::chrono::microseconds(100));
-        } else if (!acted) {
-            queue.wait(low, !last_had_units, std::chrono::microseconds(20000));
-        }
+    } catch (...) {
+        // (the render threads are stopped before the error is passed on)
+        queue.set_over();
+        for (std::thread& t : workers)
+            if (t.joinable()) t.join();
+        throw;
     }
     for (std::thread& t : workers) t.join();
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
@@ -810,22 +816,27 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         if (world.size > 1) service.emplace(coord, tiles, world.size, pool);
         auto next_checkpoint = start + std::chrono::duration_cast<Clock::duration>(
                                            std::chrono::duration<double>(options.checkpoint_every));
-        // The main thread: interruption, checkpoints, and the other ranks
-        while (!coord.stopping() || (service && !service->all_told())) {
-            coord.poll_interrupt();
-            if (options.checkpoint && options.checkpoint_every > 0.0 && Clock::now() >= next_checkpoint &&
-                !coord.stopping()) {
-                start_checkpoint();
-                next_checkpoint = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                     std::chrono::duration<double>(options.checkpoint_every));
+        // The main thread: interruption, checkpoints, and the other ranks (an error here,
+        // e.g. a malformed message, stops the render threads before it is passed on)
+        try {
+            while (!coord.stopping() || (service && !service->all_told())) {
+                coord.poll_interrupt();
+                if (options.checkpoint && options.checkpoint_every > 0.0 &&
+                    Clock::now() >= next_checkpoint && !coord.stopping()) {
+                    start_checkpoint();
+                    next_checkpoint = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                         std::chrono::duration<double>(options.checkpoint_every));
+                }
+                if (service) {
+                    // (the other ranks hold kQueuedSeconds of work: a poll every half
+                    // millisecond keeps them fed)
+                    if (!service->poll()) coord.wait(std::chrono::microseconds(500));
+                } else {
+                    coord.wait(std::chrono::milliseconds(20));
+                }
             }
-            if (service) {
-                // (the other ranks hold kQueuedSeconds of work: a poll every half
-                // millisecond keeps them fed)
-                if (!service->poll()) coord.wait(std::chrono::microseconds(500));
-            } else {
-                coord.wait(std::chrono::milliseconds(20));
-            }
+        } catch (...) {
+            coord.fail(std::current_exception());
         }
         for (std::thread& t : workers) t.join();
         progress.stop();
