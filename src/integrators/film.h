@@ -80,6 +80,9 @@ public:
     PixelSums& at(int x, int y) {
         return pixels_[size_t(y - y0_) * size_t(x1_ - x0_) + size_t(x - x0_)];
     }
+    const PixelSums& at(int x, int y) const {
+        return pixels_[size_t(y - y0_) * size_t(x1_ - x0_) + size_t(x - x0_)];
+    }
     // The pixel whose index in the whole image is y * image width + x.
     PixelSums& at_index(size_t image_index) {
         return at(int(image_index % size_t(image_width_)), int(image_index / size_t(image_width_)));

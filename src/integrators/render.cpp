@@ -295,7 +295,7 @@ public:
                 const FilmTile& f = *w.sums[t];
                 for (int y = f.y0(); y < f.y1(); ++y)
                     for (int x = f.x0(); x < f.x1(); ++x)
-                        s.pending.at(x, y) = const_cast<FilmTile&>(f).at(x, y);
+                        s.pending.at(x, y) = f.at(x, y);
             }
         }
         return s;
