@@ -113,7 +113,7 @@ void BM_Lobe(benchmark::State& state) {
         if constexpr (kLobe == kLobeDiffuse) s = sample_diffuse(m, n, u1, u2, p, false);
         if constexpr (kLobe == kLobeSpecular) s = sample_specular(m, d, n, u1, u2, p);
         if constexpr (kLobe == kLobeMirror) s = sample_mirror(m, d, n, p);
-        if constexpr (kLobe == kLobeRefract) s = sample_refraction(m, d, n, T(1.0f), p);
+        if constexpr (kLobe == kLobeRefract) s = sample_refraction(m, d, n, n, T(1.0f), p);
         benchmark::DoNotOptimize(s);
     });
 }

@@ -136,20 +136,35 @@ Scatter<T> sample_mirror(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
 }
 
 // Perfect refraction by Snell's law, weight = kt / P. Entering (d·n < 0 for the outward
-// normal n) the index ratio is η = n_scene / n_object; leaving it is inverted. Total
-// internal reflection sends the path along the mirror direction with the same weight.
+// geometric normal n) the index ratio is η = n_scene / n_object; leaving it is inverted.
+// Total internal reflection sends the path along the mirror direction with the same weight.
+// The direction bends about the shading normal ns (= n but on smooth meshes; either
+// orientation) turned to the arriving side. With `shading` (a scene with smooth meshes), a
+// refracted direction that does not cross the geometric surface, or a reflected one that does,
+// gets weight 0 (kernels/shading.h). With ns = n the result is the same, bit for bit.
 template <class T>
 Scatter<T> sample_refraction(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& n,
-                             const T& scene_ior, const T& probability) {
+                             const Vec3<T>& ns, const T& scene_ior, const T& probability,
+                             bool shading = false) {
     const T dn = dot(d, n);
     const auto entering = dn < T(0.0f);
-    const Vec3<T> nf = select(entering, n, -n);
+    const Vec3<T> ns_out = select(dot(ns, n) < T(0.0f), -ns, ns);
+    const Vec3<T> nf = select(entering, ns_out, -ns_out);
     const T eta = select(entering, scene_ior / m.ior, m.ior / scene_ior);
-    const T cos_i = abs(dn);
+    const T cos_i = -dot(d, nf);
     const T k = T(1.0f) - eta * eta * (T(1.0f) - cos_i * cos_i);
     const Vec3<T> refracted = fma(nf, eta * cos_i - sqrt(max(k, T(0.0f))), d * eta);
-    const Vec3<T> dir = normalize(select(k < T(0.0f), reflect(d, nf), refracted));
-    return {dir, m.kt * (T(1.0f) / probability)};
+    const auto reflected = k < T(0.0f);
+    const Vec3<T> dir = normalize(select(reflected, reflect(d, nf), refracted));
+    Vec3<T> weight = m.kt * (T(1.0f) / probability);
+    if (shading) {
+        // The side it should leave to: the arriving side when reflected, the other one when
+        // refracted (d·n < 0 on the arriving side of n)
+        const T side = dot(dir, n) * dn;
+        const Mask<T> ok = (reflected & (side < T(0.0f))) | ((!reflected) & (side > T(0.0f)));
+        weight = select(ok, weight, Vec3<T>(T(0.0f)));
+    }
+    return {dir, weight};
 }
 
 // f(ωi, ωo)·cos θi of the Phong lobes for a light direction wi (unit, towards the light):

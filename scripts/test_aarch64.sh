@@ -39,7 +39,7 @@ fi
 packages=(crossbuild-essential-arm64 qemu-user pkg-config cmake ninja-build libxsimd-dev
           libcli11-dev nlohmann-json3-dev)
 for p in libc6 libstdc++6 libtbb-dev libimath-dev libgtest-dev libgmock-dev libbenchmark-dev \
-         libfmt-dev libstb-dev zlib1g-dev libopenexr-3-1-30; do
+         libfmt-dev libstb-dev libtinyobjloader-dev zlib1g-dev libopenexr-3-1-30; do
     packages+=("$p:arm64")
 done
 missing=()

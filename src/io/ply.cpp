@@ -2,6 +2,7 @@
 // ascii or binary (either byte order) vertices and faces into flat arrays, fanning polygons.
 #include "io/ply.h"
 
+
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -19,6 +20,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "io/mesh_file.h"
 
 namespace cierzo {
 namespace {
@@ -53,13 +55,19 @@ struct Header {
 struct VertexLayout {
     int x = -1, y = -1, z = -1;
     int red = -1, green = -1, blue = -1;
+    int nx = -1, ny = -1, nz = -1;
     bool has_colors() const { return red >= 0 && green >= 0 && blue >= 0; }
+    bool has_normals() const { return nx >= 0 && ny >= 0 && nz >= 0; }
 
-    // For each property of the vertex element: 0-2 for x/y/z, 3-5 for r/g/b, -1 to skip.
+    // For each property of the vertex element: 0-2 for x/y/z, 3-5 for r/g/b, 6-8 for
+    // nx/ny/nz, -1 to skip.
     std::vector<int> targets(size_t property_count) const {
         std::vector<int> result(property_count, -1);
-        const int slots[6] = {x, y, z, red, green, blue};
-        for (int k = 0; k < (has_colors() ? 6 : 3); ++k) result[size_t(slots[k])] = k;
+        const int slots[9] = {x, y, z, red, green, blue, nx, ny, nz};
+        for (int k = 0; k < 9; ++k) {
+            const bool used = k < 3 || (k < 6 ? has_colors() : has_normals());
+            if (used) result[size_t(slots[k])] = k;
+        }
         return result;
     }
 };
@@ -165,22 +173,6 @@ std::string_view next_token(std::string_view& rest) {
     std::string_view token = rest.substr(begin, end - begin);
     rest.remove_prefix(end);
     return token;
-}
-
-std::string read_whole_file(const std::filesystem::path& path, const Source& src) {
-    std::error_code ec;
-    auto status = std::filesystem::status(path, ec);
-    if (!std::filesystem::exists(status)) src.fail("file does not exist");
-    if (std::filesystem::is_directory(status)) src.fail("is a directory, not a PLY file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) src.fail("cannot open file for reading");
-    in.seekg(0, std::ios::end);
-    std::streamoff size = in.tellg();
-    if (size < 0) src.fail("cannot determine the file size");
-    in.seekg(0, std::ios::beg);
-    std::string bytes(size_t(size), '\0');
-    if (!in.read(bytes.data(), size)) src.fail("read error");
-    return bytes;
 }
 
 // ---- Header ----------------------------------------------------------------------
@@ -313,7 +305,8 @@ MeshLayout find_mesh_layout(const Header& header, const Source& src) {
     if (!have_vertex) src.fail("header has no 'vertex' element");
     if (!have_face) src.fail("header has no 'face' element (point clouds are not supported)");
 
-    // Vertex: x, y, z required; red, green, blue used only if all three are there.
+    // Vertex: x, y, z required; red, green, blue and nx, ny, nz used only if all three
+    // of each are there.
     const Element& vertex = header.elements[layout.vertex_element];
     for (size_t p = 0; p < vertex.properties.size(); ++p) {
         const Property& property = vertex.properties[p];
@@ -324,6 +317,9 @@ MeshLayout find_mesh_layout(const Header& header, const Source& src) {
         else if (property.name == "red") slot = &layout.vertex.red;
         else if (property.name == "green") slot = &layout.vertex.green;
         else if (property.name == "blue") slot = &layout.vertex.blue;
+        else if (property.name == "nx") slot = &layout.vertex.nx;
+        else if (property.name == "ny") slot = &layout.vertex.ny;
+        else if (property.name == "nz") slot = &layout.vertex.nz;
         if (!slot) continue;
         if (property.is_list) {
             src.fail(fmt::format("vertex property '{}' is a list, expected a number",
@@ -429,8 +425,9 @@ double load_number(const char* p, ScalarType type, bool swap) {
     }
 }
 
-// Checks and stores one vertex: values[0..2] are x, y, z and values[3..5] the raw colour.
-void store_vertex(PlyMesh& mesh, uint64_t i, const double* values, const Element& element,
+// Checks and stores one vertex: values[0..2] are x, y, z, values[3..5] the raw colour and
+// values[6..8] the normal.
+void store_vertex(MeshData& mesh, uint64_t i, const double* values, const Element& element,
                   const VertexLayout& layout, const Source& src) {
     constexpr double float_max = std::numeric_limits<float>::max();
     for (int k = 0; k < 3; ++k) {
@@ -441,6 +438,14 @@ void store_vertex(PlyMesh& mesh, uint64_t i, const double* values, const Element
             src.fail(fmt::format("vertex {} has coordinate {} beyond float range", i, values[k]));
         }
         mesh.positions[size_t(i) * 3 + size_t(k)] = float(values[k]);
+    }
+    if (layout.has_normals()) {
+        for (int k = 0; k < 3; ++k) {
+            const double c = values[6 + k];
+            if (!std::isfinite(c) || std::fabs(c) > float_max)
+                src.fail(fmt::format("vertex {} has an unusable normal component ({})", i, c));
+            mesh.normals[size_t(i) * 3 + size_t(k)] = float(c);
+        }
     }
     if (!layout.has_colors()) return;
     const int slots[3] = {layout.red, layout.green, layout.blue};
@@ -502,9 +507,9 @@ struct BinaryReader {
         }
     }
 
-    void read_vertices(const Element& element, const VertexLayout& layout, PlyMesh& mesh) {
+    void read_vertices(const Element& element, const VertexLayout& layout, MeshData& mesh) {
         const std::vector<int> targets = layout.targets(element.properties.size());
-        double values[6] = {};
+        double values[9] = {};
         for (uint64_t i = 0; i < element.count; ++i) {
             for (size_t p = 0; p < element.properties.size(); ++p) {
                 const Property& property = element.properties[p];
@@ -525,7 +530,7 @@ struct BinaryReader {
         }
     }
 
-    void read_faces(const Element& element, int index_property, PlyMesh& mesh) {
+    void read_faces(const Element& element, int index_property, MeshData& mesh) {
         const uint64_t vertex_count = mesh.positions.size() / 3;
         for (uint64_t i = 0; i < element.count; ++i) {
             for (size_t p = 0; p < element.properties.size(); ++p) {
@@ -672,9 +677,9 @@ struct AsciiReader {
         for (uint64_t i = 0; i < element.count; ++i) need_line(i, element);
     }
 
-    void read_vertices(const Element& element, const VertexLayout& layout, PlyMesh& mesh) {
+    void read_vertices(const Element& element, const VertexLayout& layout, MeshData& mesh) {
         const std::vector<int> targets = layout.targets(element.properties.size());
-        double values[6] = {};
+        double values[9] = {};
         for (uint64_t i = 0; i < element.count; ++i) {
             need_line(i, element);
             size_t k = 0;
@@ -693,7 +698,7 @@ struct AsciiReader {
         }
     }
 
-    void read_faces(const Element& element, int index_property, PlyMesh& mesh) {
+    void read_faces(const Element& element, int index_property, MeshData& mesh) {
         const uint64_t vertex_count = mesh.positions.size() / 3;
         for (uint64_t i = 0; i < element.count; ++i) {
             need_line(i, element);
@@ -737,7 +742,7 @@ struct AsciiReader {
 
 // Reads every element in file order with the given reader (ascii or binary).
 template <class Reader>
-void read_body(Reader& reader, const Header& header, const MeshLayout& layout, PlyMesh& mesh) {
+void read_body(Reader& reader, const Header& header, const MeshLayout& layout, MeshData& mesh) {
     for (size_t e = 0; e < header.elements.size(); ++e) {
         const Element& element = header.elements[e];
         if (e == layout.vertex_element) reader.read_vertices(element, layout.vertex, mesh);
@@ -748,12 +753,12 @@ void read_body(Reader& reader, const Header& header, const MeshLayout& layout, P
 
 }  // namespace
 
-PlyMesh read_ply(const std::filesystem::path& path) {
-    const std::string file = read_whole_file(path, Source{path.string()});
+MeshData read_ply(const std::filesystem::path& path) {
+    const std::string file = read_mesh_bytes(path, "PLY");
     return parse_ply(file, path);
 }
 
-PlyMesh parse_ply(std::string_view file, const std::filesystem::path& name) {
+MeshData parse_ply(std::string_view file, const std::filesystem::path& name) {
     Source src{name.string()};
     Header header = parse_header(file, src);
     MeshLayout layout = find_mesh_layout(header, src);
@@ -761,11 +766,12 @@ PlyMesh parse_ply(std::string_view file, const std::filesystem::path& name) {
     check_claimed_sizes(header, layout, body.size(), src);
 
     // Sizes are now known to fit in the file, so the arrays can be allocated.
-    PlyMesh mesh;
+    MeshData mesh;
     const Element& vertex = header.elements[layout.vertex_element];
     const Element& face = header.elements[layout.face_element];
     mesh.positions.resize(size_t(vertex.count) * 3);
     if (layout.vertex.has_colors()) mesh.colors.resize(size_t(vertex.count) * 3);
+    if (layout.vertex.has_normals()) mesh.normals.resize(size_t(vertex.count) * 3);
     mesh.indices.reserve(size_t(face.count) * 3);
 
     if (header.format == Format::Ascii) {

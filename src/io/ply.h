@@ -1,5 +1,5 @@
 // PLY mesh reader: ASCII, binary little-endian and binary big-endian; vertex positions,
-// optional vertex colours, faces of any size (fan-triangulated).
+// optional vertex colours and normals (nx, ny, nz), faces of any size (fan-triangulated).
 #pragma once
 
 #include <cstdint>
@@ -7,20 +7,16 @@
 #include <string_view>
 #include <vector>
 
-namespace cierzo {
+#include "io/mesh.h"
 
-struct PlyMesh {
-    std::vector<float> positions;   // 3 floats per vertex
-    std::vector<float> colors;      // 3 floats per vertex in [0, 1], or empty
-    std::vector<uint32_t> indices;  // 3 per triangle, each < vertex count
-};
+namespace cierzo {
 
 // Throws InputError naming the file and what is wrong (truncated, lying counts, bad
 // indices, unsupported property types, absurd sizes) before any large allocation.
-PlyMesh read_ply(const std::filesystem::path& path);
+MeshData read_ply(const std::filesystem::path& path);
 
 // The same from the bytes of a PLY file held in memory; `name` is only used in messages.
 // read_ply reads the whole file and calls this, so both make the same checks.
-PlyMesh parse_ply(std::string_view bytes, const std::filesystem::path& name);
+MeshData parse_ply(std::string_view bytes, const std::filesystem::path& name);
 
 }  // namespace cierzo

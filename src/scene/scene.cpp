@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "core/error.h"
+#include "kernels/shading.h"
 #include "kernels/traverse.h"
 
 namespace cierzo {
@@ -40,8 +42,52 @@ std::optional<Estimator> parse_estimator(std::string_view name) {
     return std::nullopt;
 }
 
+namespace {
+
+// Area-weighted vertex normals: each vertex gets the sum of (v1 - v0) × (v2 - v0) of the
+// triangles around it (twice their areas, along their normals), normalised; 0 for a vertex
+// of degenerate triangles only. In double, so huge meshes do not overflow.
+std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& p,
+                                         const std::vector<uint32_t>& indices) {
+    std::vector<double> sum(p.size() * 3, 0.0);
+    for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+        const Vec3f& a = p[indices[t]];
+        const Vec3f& b = p[indices[t + 1]];
+        const Vec3f& c = p[indices[t + 2]];
+        const double e1[3] = {double(b.x) - a.x, double(b.y) - a.y, double(b.z) - a.z};
+        const double e2[3] = {double(c.x) - a.x, double(c.y) - a.y, double(c.z) - a.z};
+        const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                             e1[0] * e2[1] - e1[1] * e2[0]};
+        for (int k = 0; k < 3; ++k)
+            for (int j = 0; j < 3; ++j) sum[3 * size_t(indices[t + size_t(k)]) + size_t(j)] += n[j];
+    }
+    std::vector<Vec3f> out(p.size(), Vec3f(0.0f));
+    for (size_t i = 0; i < p.size(); ++i) {
+        const double* s = &sum[3 * i];
+        const double len = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+        if (len > 0.0 && std::isfinite(len))
+            out[i] = {float(s[0] / len), float(s[1] / len), float(s[2] / len)};
+    }
+    return out;
+}
+
+}  // namespace
+
 void Scene::finalize() {
     const auto start = std::chrono::steady_clock::now();
+    // Shading normals: every smooth object's geometry has one per vertex (the file's, or
+    // area-weighted ones)
+    smooth_shading = false;
+    for (const Mesh& m : meshes) {
+        if (!m.smooth) continue;
+        smooth_shading = true;
+        Mesh& g = meshes[size_t(m.instanced() ? m.geometry : &m - meshes.data())];
+        if (g.normals.empty()) g.normals = area_weighted_normals(g.positions, g.indices);
+        if (g.normals.size() != g.positions.size())
+            throw InputError(m.source + ": " + std::to_string(g.normals.size()) +
+                             " vertex normals for " + std::to_string(g.positions.size()) +
+                             " vertices");
+    }
     BvhInput in;
     for (size_t i = 0; i < meshes.size(); ++i) {
         Mesh& m = meshes[i];
@@ -234,6 +280,7 @@ SceneFeatures Scene::features() const {
             f.vertex_colors |= c->is_vertex();
         }
     }
+    for (const Mesh& m : meshes) f.smooth |= m.smooth;
     return f;
 }
 
@@ -291,6 +338,7 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
             hit.n = {planes.nx[i], planes.ny[i], planes.nz[i]};
             hit.material = planes.material[i];
         }
+        hit.ns = hit.n;
         return true;
     }
     const BvhView& v = bvh.view();
@@ -308,11 +356,31 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
             hit.mesh = int32_t(hit_mesh(v, tree));
             hit.triangle = hit_triangle(v, tree);
             hit.n = hit_triangle_normal(v, tree);
-            hit.material = meshes[size_t(hit.mesh)].material;
-            break;
+            const Mesh& object = meshes[size_t(hit.mesh)];
+            hit.material = object.material;
+            hit.ns = object.smooth ? shading_normal(object, hit) : hit.n;
+            return true;
         }
     }
+    hit.ns = hit.n;
     return true;
+}
+
+Vec3f Scene::shading_normal(const Mesh& object, const Hit& hit) const {
+    const Mesh& g = geometry_of(object);
+    const uint32_t* idx = &g.indices[size_t(hit.triangle) * 3];
+    const Vec3f v[3] = {g.positions[idx[0]], g.positions[idx[1]], g.positions[idx[2]]};
+    const Vec3f vn[3] = {g.normals[idx[0]], g.normals[idx[1]], g.normals[idx[2]]};
+    // (an instance's vertices and normals are in the file's space: so is the point)
+    const float p[3] = {hit.p.x, hit.p.y, hit.p.z};
+    const Vec3f at = object.instanced() ? affine_point(object.to_object, p) : hit.p;
+    const Vec3f n = interpolate_normal(v, vn, at, Vec3f(0.0f));
+    if (n.x == 0.0f && n.y == 0.0f && n.z == 0.0f) return hit.n;
+    if (!object.instanced()) return n;
+    const float c[3] = {n.x, n.y, n.z};
+    const Vec3f w = linear_map(object.normal_to_world, 3, c);
+    const float len = length(w);
+    return len > 0.0f && std::isfinite(len) ? w * (1.0f / len) : hit.n;
 }
 
 bool Scene::occluded(const Ray<float>& ray, float tmax) const {

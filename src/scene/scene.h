@@ -56,6 +56,9 @@ struct Mesh {
     std::vector<Vec3f> positions;  // world space, or the file's space (geometry owner); or
                                    // empty (an instance of another entry's geometry)
     std::vector<Vec3f> colors;  // per vertex, or empty
+    std::vector<Vec3f> normals;  // per vertex, unit or zero (in the space of positions), for
+                                 // shading; filled for "smooth" objects (and the geometry of
+                                 // smooth instances), else empty
     std::vector<uint32_t> indices;
     int32_t material = 0;
     int32_t geometry = -1;  // -1: own world-space vertices; else the entry with the vertices
@@ -63,6 +66,7 @@ struct Mesh {
     float to_object[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
     float normal_to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // inverse transpose of to_world
     bool mirrored = false;  // to_world has a negative determinant
+    bool smooth = false;    // shaded with the interpolated vertex normals
     std::shared_ptr<const Bvh> bvh;  // geometry owners only: over the file-space triangles
     bool instanced() const { return geometry >= 0; }
     size_t triangle_count() const { return indices.size() / 3; }
@@ -92,12 +96,14 @@ struct SceneFeatures {
     bool point_lights = false, emitters = false;
     bool diffuse = false, specular = false, mirror = false, refraction = false;
     bool procedural_textures = false, vertex_colors = false;
+    bool smooth = false;  // a mesh is shaded with interpolated normals
 };
 
 // A closest hit as the scalar integrator records it.
 struct Hit {
     float t = kRayFar;
     Vec3f p, n;  // point and unit geometric normal (outward: sphere out, plane n, quadric ∇f)
+    Vec3f ns;    // unit shading normal: n, or on a smooth mesh the interpolated vertex normal
     int32_t material = -1;
     int32_t mesh = -1;  // for vertex colours
     uint32_t triangle = 0;
@@ -149,6 +155,7 @@ public:
     Bvh bvh;
     std::vector<int32_t> unbounded_quadrics;
     double bvh_seconds = 0.0;  // building every BVH, in finalize()
+    bool smooth_shading = false;  // some mesh is smooth (set by finalize())
     Emitters emitters;
 
     // Call once after filling the arrays: builds the BVHs (a copy of the scene shares its
@@ -182,6 +189,9 @@ public:
         const int32_t first = emitters.mesh_first[size_t(hit.mesh)];
         return first < 0 ? -1 : first + int32_t(hit.triangle);
     }
+
+    // The unit shading normal of a hit on smooth mesh `object` (Hit::ns).
+    Vec3f shading_normal(const Mesh& object, const Hit& hit) const;
 
 private:
     void build_emitters();

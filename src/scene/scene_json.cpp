@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
-#include "io/ply.h"
+#include "io/mesh.h"
 
 namespace cierzo {
 
@@ -119,6 +119,13 @@ private:
     const fs::path& file_;
     std::set<std::string> used_;
 };
+
+// A normal scaled to unit length (in double: any finite one), or 0 when it has none.
+Vec3f unit_or_zero(const Vec3f& n) {
+    const double len = std::sqrt(double(n.x) * n.x + double(n.y) * n.y + double(n.z) * n.z);
+    if (!(len > 0.0) || !std::isfinite(len)) return Vec3f(0.0f);
+    return {float(n.x / len), float(n.y / len), float(n.z / len)};
+}
 
 // A number for a message: "1e+60", not sixty digits.
 std::string short_number(double x) {
@@ -343,7 +350,7 @@ struct Loader {
 
     // Mesh files read so far, by path: the file's data and the objects using it
     struct MeshFile {
-        PlyMesh data;
+        MeshData data;
         std::vector<size_t> objects;  // indices into scene.meshes
         std::vector<std::string> where;  // their place in the file, for messages
         std::vector<int> instance;    // per object: its "instance" (1, 0), or -1 for automatic
@@ -362,13 +369,21 @@ struct Loader {
             if (!v.is_boolean()) t.fail("'instance' must be true or false");
             instance = v.get<bool>() ? 1 : 0;
         }
+        bool smooth = false;
+        if (t.has("smooth")) {
+            const json& v = t.get("smooth");
+            if (!v.is_boolean()) t.fail("'smooth' must be true or false");
+            smooth = v.get<bool>();
+        } else {
+            t.allow({"smooth"});
+        }
         const fs::path ply = file.parent_path() / t.string("file");
         const fs::path key = ply.lexically_normal();
         auto found = mesh_files.find(key);
         if (found == mesh_files.end()) {
-            PlyMesh data;
+            MeshData data;
             try {
-                data = read_ply(ply);
+                data = read_mesh(ply);
             } catch (const InputError& e) {
                 t.fail(std::string("mesh file: ") + e.what());
             }
@@ -376,9 +391,10 @@ struct Loader {
             found = mesh_files.emplace(key, MeshFile{std::move(data), {}, {}, {}, 0}).first;
         }
         MeshFile& f = found->second;
-        const PlyMesh& data = f.data;
+        const MeshData& data = f.data;
         Mesh m;
         m.source = ply.string();
+        m.smooth = smooth;
         m.material = material_ref(t);
         // Transform: scale, then rotate about x, y, z (degrees), then translate
         Vec3f scale(1.0f);
@@ -490,6 +506,17 @@ struct Loader {
                     for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
                         m.colors.push_back(
                             {f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
+                    // (the file's normals through the inverse transpose; Scene::finalize
+                    // makes area-weighted ones where the file has none)
+                    if (m.smooth)
+                        for (size_t i = 0; i + 2 < f.data.normals.size(); i += 3) {
+                            const float* n = &f.data.normals[i];
+                            const float* a = m.normal_to_world;
+                            m.normals.push_back(unit_or_zero(
+                                {a[0] * n[0] + a[1] * n[1] + a[2] * n[2],
+                                 a[3] * n[0] + a[4] * n[1] + a[5] * n[2],
+                                 a[6] * n[0] + a[7] * n[1] + a[8] * n[2]}));
+                        }
                     continue;
                 }
                 for (const float v : m.to_object)
@@ -510,6 +537,9 @@ struct Loader {
                     for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
                         m.colors.push_back(
                             {f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
+                    for (size_t i = 0; i + 2 < f.data.normals.size(); i += 3)
+                        m.normals.push_back(unit_or_zero(
+                            {f.data.normals[i], f.data.normals[i + 1], f.data.normals[i + 2]}));
                 }
                 m.geometry = int32_t(owner);
             }

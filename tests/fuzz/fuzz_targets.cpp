@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "io/obj.h"
 #include "io/ply.h"
 #include "scene/scene_json.h"
 
@@ -148,6 +149,11 @@ void check_scene(const Scene& s) {
         for (const Vec3f& p : m.positions) require(finite(p), "mesh vertex finite");
         require(m.colors.empty() || m.colors.size() == m.positions.size(),
                 "one colour per mesh vertex");
+        require(m.normals.empty() || m.normals.size() == m.positions.size(),
+                "one normal per mesh vertex");
+        for (const Vec3f& n : m.normals)
+            require(finite(n) && (dot(n, n) == 0.0f || std::fabs(dot(n, n) - 1.0f) < 1e-4f),
+                    "mesh normal unit or zero");
         for (const Vec3f& c : m.colors) require(finite(c), "mesh colour finite");
         require(material_ok(m.material), "mesh material in range");
     }
@@ -155,12 +161,15 @@ void check_scene(const Scene& s) {
         require(finite(l.position) && finite(l.intensity), "light finite");
 }
 
-// ---- PLY files -------------------------------------------------------------------------
+// ---- Mesh files (PLY, OBJ) ---------------------------------------------------------------
 
-void check_ply(const PlyMesh& m) {
+void check_mesh(const MeshData& m) {
     require(m.positions.size() % 3 == 0, "three coordinates per vertex");
     require(m.colors.empty() || m.colors.size() == m.positions.size(),
             "one colour per vertex");
+    require(m.normals.empty() || m.normals.size() == m.positions.size(),
+            "one normal per vertex");
+    for (float n : m.normals) require(std::isfinite(n), "normal finite");
     require(m.indices.size() % 3 == 0, "three indices per triangle");
     const size_t vertices = m.positions.size() / 3;
     for (uint32_t i : m.indices) require(i < vertices, "index in range");
@@ -183,8 +192,18 @@ bool fuzz_one_scene(const uint8_t* data, size_t size) {
 
 bool fuzz_one_ply(const uint8_t* data, size_t size) {
     try {
-        check_ply(parse_ply(std::string_view(reinterpret_cast<const char*>(data), size),
-                            "fuzz.ply"));
+        check_mesh(parse_ply(std::string_view(reinterpret_cast<const char*>(data), size),
+                             "fuzz.ply"));
+        return true;
+    } catch (const InputError&) {
+        return false;
+    }
+}
+
+bool fuzz_one_obj(const uint8_t* data, size_t size) {
+    try {
+        check_mesh(parse_obj(std::string_view(reinterpret_cast<const char*>(data), size),
+                             "fuzz.obj"));
         return true;
     } catch (const InputError&) {
         return false;

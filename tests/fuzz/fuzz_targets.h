@@ -16,7 +16,10 @@ namespace cierzo {
 bool fuzz_one_scene(const uint8_t* data, size_t size);
 
 // Parses the bytes as a PLY file (parse_ply). Returns true if accepted, false on InputError;
-// anything else, including a mesh that breaks the PlyMesh invariants, aborts.
+// anything else, including a mesh that breaks the MeshData invariants, aborts.
 bool fuzz_one_ply(const uint8_t* data, size_t size);
+
+// Parses the bytes as an OBJ file (parse_obj), with the same contract as fuzz_one_ply.
+bool fuzz_one_obj(const uint8_t* data, size_t size);
 
 }  // namespace cierzo

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Writes the seed files of the fuzz corpora (docs/fuzzing.md): small PLY files in every
-format and layout the reader supports, the PLY fixtures that seed scenes refer to, and small
+format and layout the reader supports, small OBJ files of every form the OBJ reader accepts
+and some it refuses, the mesh fixtures that seed scenes refer to, and small
 scene files covering every key of docs/scene-format.md. The scenes of scenes/ are copied as
 well. Run from anywhere; files are (over)written in tests/fuzz/. The fuzzers' own finds are
 added later with -merge=1."""
@@ -12,6 +13,7 @@ import struct
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 PLY_DIR = HERE / "corpus" / "ply"
+OBJ_DIR = HERE / "corpus" / "obj"
 SCENE_DIR = HERE / "corpus" / "scene"
 FIXTURES = HERE / "scene_root" / "meshes"
 
@@ -222,9 +224,51 @@ def scene_seeds():
     s["err_unknown_key.json"] = scene('{' + CAM + ', "objects": [], "materials": {"w": {"shininnes": 1}}}')
     s["err_bad_json.json"] = scene('{"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},,}')
     s["err_overflow.json"] = scene('{' + CAM + ', "objects": [{"type": "sphere", "center": [1e39, 0, 0], "radius": 1e400, "material": {}}]}')
+    s["smooth_meshes.json"] = scene('{' + CAM + ', "objects": ['
+        '{"type": "mesh", "file": "meshes/icosphere.obj", "smooth": true, "material": {"kd": 0.5}},'
+        '{"type": "mesh", "file": "meshes/icosphere.ply", "smooth": true, "translate": [2, 0, 0],'
+        ' "material": {"ks": 0.5, "shininess": 20}},'
+        '{"type": "mesh", "file": "meshes/icosphere.obj", "smooth": true, "instance": true,'
+        ' "scale": [1, -1, 2], "material": {"kt": 0.9, "ior": 1.5}}]}')
+    s["err_smooth.json"] = scene('{' + CAM + ', "objects": [{"type": "mesh", "file": '
+        '"meshes/icosphere.obj", "smooth": 1, "material": {"kd": 1}}]}')
     s["err_too_big.json"] = scene('{"render": {"width": 65536, "height": 4097}, ' + CAM + ', "objects": []}')
     s["err_camera.json"] = scene('{"camera": {"position": [0, 0, 0], "look_at": [0, 1, 0], "forward": [0, 0, 1]}, "objects": []}')
     return s
+
+
+def obj(vertices, faces_, normals=(), extra=""):
+    lines = ["# seed for cierzo's OBJ fuzzer"]
+    lines += ["v " + " ".join(repr(float(x)) for x in v) for v in vertices]
+    lines += ["vn " + " ".join(repr(float(x)) for x in n) for n in normals]
+    lines += ["f " + " ".join(str(i) for i in f) for f in faces_]
+    return ("\n".join(lines) + "\n" + extra).encode()
+
+
+def obj_seeds():
+    ico_v, ico_f, ico_c = icosahedron()
+    tri = [[a + 1, b + 1, c + 1] for a, b, c in TETRA_F]
+    seeds = {
+        "tetra.obj": obj(TETRA_V, tri),
+        "quad_polygon.obj": obj(QUAD_V, [[1, 2, 3, 4]]),
+        "ico_colors.obj": obj([v + c for v, c in zip(ico_v, ico_c)], [[a + 1, b + 1, c + 1] for a, b, c in ico_f]),
+        "ico_normals.obj": obj(ico_v, [[f"{a + 1}//{a + 1}", f"{b + 1}//{b + 1}", f"{c + 1}//{c + 1}"]
+                                       for a, b, c in ico_f], normals=ico_v),
+        "crease.obj": obj(QUAD_V, [["1//1", "2//1", "3//1"], ["1//2", "3//2", "4//2"]],
+                          normals=[(0, 0, 1), (0, 1, 0)]),
+        "texcoords.obj": b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\nf 1/1/1 2/2/1 3/1/1\nf 1/1 2/2 3/2\n",
+        "relative.obj": b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 1 1 1\nf -1 -2 -3\n",
+        "groups.obj": (b"mtllib a.mtl\r\no one\r\ng g1 g2\r\nusemtl m\r\ns off\r\nv\t0 0 0\r\n"
+                       b"v +1 .5 5.\r\nv 1e-3 1E+3 -0\r\nf 1 2 3\r\nl 1 2\r\np 3\r\nvp 0.5\r\n"),
+        "weights.obj": b"v 0 0 0 1\nv 1 0 0 1.0\nv 0 1 0 1\nf 1 2 3\n",
+        "err_number.obj": b"v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n",
+        "err_index.obj": b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+        "err_zero.obj": b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+        "err_short_face.obj": b"v 0 0 0\nv 1 0 0\nf 1 2\n",
+        "err_no_faces.obj": b"v 0 0 0\n",
+    }
+    seeds["truncated.obj"] = seeds["ico_normals.obj"][:-9]
+    return seeds
 
 
 def fixtures():
@@ -235,11 +279,13 @@ def fixtures():
         "icosphere.ply": ply("ascii", [("vertex", XYZ + RGB, [v + c for v, c in zip(ico_v, ico_c)]),
                                        ("face", TRI, faces(ico_f))]),
         "tetra_be.ply": ply("binary_big_endian", [("vertex", XYZ, TETRA_V), ("face", TRI, faces(TETRA_F))]),
+        "icosphere.obj": obj_seeds()["ico_normals.obj"],
     }
 
 
 def main():
-    for folder, files in [(PLY_DIR, ply_seeds()), (SCENE_DIR, scene_seeds()), (FIXTURES, fixtures())]:
+    for folder, files in [(PLY_DIR, ply_seeds()), (OBJ_DIR, obj_seeds()), (SCENE_DIR, scene_seeds()),
+                          (FIXTURES, fixtures())]:
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in files.items():
             (folder / name).write_bytes(data)

@@ -102,6 +102,12 @@ TEST(FuzzRegressions, PlyCrashers) {
         << "the kept crashers are missing";
 }
 
+TEST(FuzzRegressions, ObjCorpus) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "corpus" / "obj", fuzz_one_obj, &accepted), 10u);
+    EXPECT_GE(accepted, 5u) << "the seeds include valid meshes of every form";
+}
+
 // Two finds too large to keep as files, generated here instead.
 
 const uint8_t* bytes_of(const std::string& s) { return reinterpret_cast<const uint8_t*>(s.data()); }

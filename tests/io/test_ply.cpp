@@ -25,7 +25,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using cierzo::InputError;
-using cierzo::PlyMesh;
+using cierzo::MeshData;
 using cierzo::read_ply;
 
 enum class Fmt { Ascii, Le, Be };
@@ -300,7 +300,7 @@ void expect_input_error(const fs::path& path, std::string_view phrase) {
     }
 }
 
-void expect_positions(const PlyMesh& mesh, const std::vector<std::array<double, 3>>& expected) {
+void expect_positions(const MeshData& mesh, const std::vector<std::array<double, 3>>& expected) {
     ASSERT_EQ(mesh.positions.size(), expected.size() * 3);
     for (size_t v = 0; v < expected.size(); ++v) {
         for (size_t c = 0; c < 3; ++c) {
@@ -309,7 +309,7 @@ void expect_positions(const PlyMesh& mesh, const std::vector<std::array<double, 
     }
 }
 
-void expect_colors(const PlyMesh& mesh, std::string_view type) {
+void expect_colors(const MeshData& mesh, std::string_view type) {
     ASSERT_EQ(mesh.colors.size(), color_fractions.size() * 3);
     for (size_t v = 0; v < color_fractions.size(); ++v) {
         for (size_t c = 0; c < 3; ++c) {
@@ -325,12 +325,12 @@ void expect_colors(const PlyMesh& mesh, std::string_view type) {
 
 TEST_F(PlyTest, AsciiLittleAndBigEndianGiveTheSameMesh) {
     for (bool extras : {false, true}) {
-        std::vector<PlyMesh> meshes;
+        std::vector<MeshData> meshes;
         for (Fmt format : all_formats) {
             SCOPED_TRACE(std::string(format_label(format)) + (extras ? " with extras" : ""));
             Layout layout;
             layout.extras = extras;
-            PlyMesh mesh = read_ply(write("mesh.ply", reference_ply(format, layout)));
+            MeshData mesh = read_ply(write("mesh.ply", reference_ply(format, layout)));
             expect_positions(mesh, float_positions);
             expect_colors(mesh, "uchar");
             EXPECT_EQ(mesh.indices, reference_indices);
@@ -384,7 +384,7 @@ TEST_F(PlyTest, EveryScalarTypeInEveryFormat) {
             SCOPED_TRACE(std::string(format_label(format)) + " coord " + layout.coord_type +
                          " colour " + layout.color_type + " count " + layout.count_type +
                          " index " + layout.index_type);
-            PlyMesh mesh = read_ply(write("types.ply", reference_ply(format, layout)));
+            MeshData mesh = read_ply(write("types.ply", reference_ply(format, layout)));
             expect_positions(mesh, is_float_type(layout.coord_type) ? float_positions
                                                                     : integer_positions);
             expect_colors(mesh, layout.color_type);
@@ -420,14 +420,14 @@ TEST_F(PlyTest, ColorScaling) {
             body.end_element();
             for (double v : {3.0, 0.0, 0.0, 0.0}) body.value(v == 3.0 ? "uchar" : "int", v);
             body.end_element();
-            PlyMesh mesh = read_ply(write("colour.ply", ply_file(format, header, body)));
+            MeshData mesh = read_ply(write("colour.ply", ply_file(format, header, body)));
             ASSERT_EQ(mesh.colors.size(), 3u);
             for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(mesh.colors[size_t(k)], c.expected[k]);
         }
     }
     Layout no_colors;
     no_colors.color_type.clear();
-    PlyMesh mesh = read_ply(write("plain.ply", reference_ply(Fmt::Le, no_colors)));
+    MeshData mesh = read_ply(write("plain.ply", reference_ply(Fmt::Le, no_colors)));
     EXPECT_TRUE(mesh.colors.empty());
     EXPECT_EQ(mesh.positions.size(), 18u);
 }
@@ -447,7 +447,7 @@ TEST_F(PlyTest, HexagonFanAndVertexIndexName) {
         body.value("uchar", 3);
         for (int v : {0, 6, 3}) body.value("uint", v);
         body.end_element();
-        PlyMesh mesh = read_ply(write("hexagon.ply", ply_file(format, header, body)));
+        MeshData mesh = read_ply(write("hexagon.ply", ply_file(format, header, body)));
         const std::vector<uint32_t> fans = {6, 5, 4, 6, 4, 3, 6, 3, 2, 6, 2, 1, 0, 6, 3};
         EXPECT_EQ(mesh.indices, fans) << format_label(format);
         EXPECT_EQ(mesh.positions[3 * 5 + 1], 25.0f);
@@ -460,12 +460,12 @@ TEST_F(PlyTest, CrLfLineEndingsCommentsAndTrailingGarbage) {
                         "element face 1\r\nproperty list uchar int vertex_indices\r\n"
                         "end_header\r\n1 2 3\r\n\r\n4 5 6\r\n7 8 9\r\n3 2 1 0\r\n"
                         "this is trailing junk\r\n";
-    PlyMesh mesh = read_ply(write("crlf.ply", ascii));
+    MeshData mesh = read_ply(write("crlf.ply", ascii));
     EXPECT_EQ(mesh.positions, (std::vector<float>{1, 2, 3, 4, 5, 6, 7, 8, 9}));
     EXPECT_EQ(mesh.indices, (std::vector<uint32_t>{2, 1, 0}));
 
     std::string binary = reference_ply(Fmt::Be, Layout{}) + std::string("\x01\x02\x03junk", 7);
-    PlyMesh from_binary = read_ply(write("junk.ply", binary));
+    MeshData from_binary = read_ply(write("junk.ply", binary));
     EXPECT_EQ(from_binary.indices, reference_indices);
 }
 
@@ -473,7 +473,7 @@ TEST_F(PlyTest, EmptyMeshIsAllowed) {
     std::string header = "element vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
                          "element face 0\nproperty list uchar int vertex_indices\n";
     for (Fmt format : all_formats) {
-        PlyMesh mesh = read_ply(write("empty.ply", ply_file(format, header, Body(format))));
+        MeshData mesh = read_ply(write("empty.ply", ply_file(format, header, Body(format))));
         EXPECT_TRUE(mesh.positions.empty());
         EXPECT_TRUE(mesh.indices.empty());
     }
@@ -504,7 +504,7 @@ TEST_F(PlyTest, HundredThousandTrianglesLoadQuickly) {
         }
         fs::path path = write("grid.ply", ply_file(format, header, body));
         auto start = std::chrono::steady_clock::now();
-        PlyMesh mesh = read_ply(path);
+        MeshData mesh = read_ply(path);
         double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
                              .count();
         EXPECT_LT(seconds, 1.0) << format_label(format);
@@ -805,7 +805,7 @@ TEST_F(PlyTest, AbsurdSizesFailFastWithoutAllocating) {
 TEST_F(PlyTest, StanfordBunny) {
     const char* env = std::getenv("CIERZO_BUNNY_PLY");
     if (!env || !fs::exists(env)) GTEST_SKIP() << "set CIERZO_BUNNY_PLY to a fetched bunny.ply";
-    PlyMesh mesh = read_ply(env);
+    MeshData mesh = read_ply(env);
     EXPECT_EQ(mesh.positions.size(), 1839u * 3);
     EXPECT_EQ(mesh.indices.size(), 3674u * 3);
     EXPECT_TRUE(mesh.colors.empty());

@@ -131,7 +131,7 @@ void run_kernel_case(KernelCase c, const CaseInputs& in, size_t i, float* const*
             if (c == KernelCase::kLobeDiffuse) s = sample_diffuse(m, nf, u1, u2, T(0.3f), false);
             if (c == KernelCase::kLobeSpecular) s = sample_specular(m, r.d, nf, u1, u2, T(0.25f));
             if (c == KernelCase::kLobeMirror) s = sample_mirror(m, r.d, nf, T(0.2f));
-            if (c == KernelCase::kLobeRefraction) s = sample_refraction(m, r.d, nb, T(1.0f), T(0.15f));
+            if (c == KernelCase::kLobeRefraction) s = sample_refraction(m, r.d, nb, nb, T(1.0f), T(0.15f));
             store_lanes(to_float(chosen), out[0] + i);
             store_lanes(p, out[1] + i);
             store_lanes(s.dir.x, out[2] + i), store_lanes(s.dir.y, out[3] + i);

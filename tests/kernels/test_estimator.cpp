@@ -138,7 +138,7 @@ Vec3f mean_lobe_weight(const Bsdf<float>& m, int lobe, const Vec3f& d, bool cosi
             if (lobe == kLobeDiffuse) s = sample_diffuse(m, nf, u1, u2, p, cosine);
             if (lobe == kLobeSpecular) s = sample_specular(m, d, nf, u1, u2, p);
             if (lobe == kLobeMirror) s = sample_mirror(m, d, nf, p);
-            if (lobe == kLobeRefract) s = sample_refraction(m, d, n, 1.0f, p);
+            if (lobe == kLobeRefract) s = sample_refraction(m, d, n, n, 1.0f, p);
             w = s.weight;
             EXPECT_NEAR(length(s.dir), 1.0f, 1e-4f);
         }
@@ -213,22 +213,22 @@ TEST(Refraction, SnellAndTotalInternalReflection) {
     const Vec3f n{0, 0, 1};
     // Entering at 45°: sin θt = sin 45° / 1.5
     const Vec3f d_in = normalize(Vec3f{1, 0, -1});
-    const Scatter<float> in = sample_refraction(m, d_in, n, 1.0f, 1.0f);
+    const Scatter<float> in = sample_refraction(m, d_in, n, n, 1.0f, 1.0f);
     EXPECT_NEAR(in.dir.x, std::sin(kPi / 4) / 1.5f, 1e-5f);
     EXPECT_LT(in.dir.z, 0.0f);
     // Leaving at 30° (below the critical 41.8°): sin θt = 1.5 sin 30°
     const Vec3f d_out = normalize(Vec3f{std::sin(kPi / 6), 0, std::cos(kPi / 6)});
-    const Scatter<float> out = sample_refraction(m, d_out, n, 1.0f, 1.0f);
+    const Scatter<float> out = sample_refraction(m, d_out, n, n, 1.0f, 1.0f);
     EXPECT_NEAR(out.dir.x, 0.75f, 1e-5f);
     EXPECT_GT(out.dir.z, 0.0f);
     // Leaving at 60°: total internal reflection, stays inside (z < 0... reflected back)
     const Vec3f d_tir = normalize(Vec3f{std::sin(kPi / 3), 0, std::cos(kPi / 3)});
-    const Scatter<float> tir = sample_refraction(m, d_tir, n, 1.0f, 1.0f);
+    const Scatter<float> tir = sample_refraction(m, d_tir, n, n, 1.0f, 1.0f);
     EXPECT_NEAR(tir.dir.x, d_tir.x, 1e-5f);
     EXPECT_NEAR(tir.dir.z, -d_tir.z, 1e-5f);
     EXPECT_FLOAT_EQ(tir.weight.x, 1.0f);
     // The scene's index counts: ior equal to the scene's bends nothing
-    const Scatter<float> same = sample_refraction(m, d_in, n, 1.5f, 1.0f);
+    const Scatter<float> same = sample_refraction(m, d_in, n, n, 1.5f, 1.0f);
     EXPECT_NEAR(same.dir.x, d_in.x, 1e-6f);
     EXPECT_NEAR(same.dir.z, d_in.z, 1e-6f);
 }

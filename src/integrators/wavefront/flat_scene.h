@@ -37,6 +37,8 @@ struct FlatMesh {
     const float* positions = nullptr;    // x, y, z per vertex
     const float* colors = nullptr;       // r, g, b per vertex; null when the mesh has none
     const float* to_object = nullptr;    // row-major 3 × 4; null for world-space vertices
+    const float* normals = nullptr;      // x, y, z per vertex; null unless the object is smooth
+    const float* normal_to_world = nullptr;  // row-major 3 × 3, for an instance's normals
 };
 
 // Which stages and primitive loops a scene needs; the kernels skip everything else.
@@ -50,6 +52,7 @@ struct FlatFeatures {
     int lobe_kinds;  // how many of the four lobes occur (1: no lobe bucketing needed)
     uint32_t texture_channels;  // bit c: some material textures colour channel c
     bool nee;  // the estimator samples emitters (nee or mis, and the scene has some to sample)
+    bool smooth;  // some mesh shades with interpolated normals (kernels/shading.h)
 };
 
 struct FlatScene {

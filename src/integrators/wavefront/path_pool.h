@@ -27,6 +27,7 @@ struct PathPool {
     int32_t* mesh_id;
     uint32_t* mesh_tri;
     float *px, *py, *pz, *nx, *ny, *nz;
+    float *snx, *sny, *snz;  // scenes with smooth meshes: the shading normal (kernels/shading.h)
     int32_t* material;
     int32_t* emitter;  // nee/mis: the sampled emitter hit, or -1
     int32_t* alive;

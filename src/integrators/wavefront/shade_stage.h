@@ -27,26 +27,32 @@ struct LobeStep {
     F pdf = F(0.0f);  // nee/mis: the density the lobe sampled d with, P(lobe) included (0: a delta lobe)
     typename Wave<A>::M alive;
 
-    // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset
+    // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset; n the
+    // geometric normal, ns the shading normal (= n without smooth meshes)
     LobeStep(const FlatScene& s, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
-             const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& beta0, const F& probability,
-             const U& key, const U& bounce) {
+             const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
+             const F& probability, const U& key, const U& bounce) {
+        const bool shading = s.features.smooth;
         const Vec3<F> nf = facing_normal(n, d0);
+        const Vec3<F> nsf = shading ? facing_shading_normal(ns, nf) : nf;
         const F u1 = uniform<F>(key, bounce, Purpose::kDirection1);
         const F u2 = uniform<F>(key, bounce, Purpose::kDirection2);
         Scatter<F> sc;
         if constexpr (kLobe == kLobeDiffuse) {
-            sc = sample_diffuse(m, nf, u1, u2, probability, s.cosine_diffuse);
+            sc = sample_diffuse(m, nsf, u1, u2, probability, s.cosine_diffuse);
         } else if constexpr (kLobe == kLobeSpecular) {
-            sc = sample_specular(m, d0, nf, u1, u2, probability);
+            sc = sample_specular(m, d0, nsf, u1, u2, probability);
         } else if constexpr (kLobe == kLobeMirror) {
-            sc = sample_mirror(m, d0, nf, probability);
+            sc = sample_mirror(m, d0, nsf, probability);
         } else {
-            sc = sample_refraction(m, d0, n, F(s.scene_ior), probability);
+            sc = sample_refraction(m, d0, n, ns, F(s.scene_ior), probability, shading);
         }
+        // A reflection about the shading normal must leave on the geometric surface's side
+        if (kLobe != kLobeRefract && shading)
+            sc.weight = select(on_arriving_side(sc.dir, nf), sc.weight, Vec3<F>(F(0.0f)));
         beta = beta0 * sc.weight;
         if (s.features.nee)
-            pdf = sampled_lobe_pdf<kLobe>(m, d0, nf, sc.dir, probability, s.cosine_diffuse);
+            pdf = sampled_lobe_pdf<kLobe>(m, d0, nsf, sc.dir, probability, s.cosine_diffuse);
         alive = max_component(beta) > F(0.0f);
         o = offset_ray_origin(pos, select(dot(sc.dir, n) > F(0.0f), n, -n), magnitude);
         d = sc.dir;
@@ -96,6 +102,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const Vec3<F>& d = ray.d;
     const Vec3<F>& n = sf.n;
     const Vec3<F>& pos = sf.pos;
+    const bool shading = f.smooth;  // shading normals (kernels/shading.h)
 
     // An emitter ends the path (after a Phong bounce, a sampled one is weighted: nee, mis)
     if (f.emitters) {
@@ -134,14 +141,16 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         if (any(phong)) {
             const Vec3<F> nf = facing_normal(n, d);
+            const Vec3<F> nsf = shading ? facing_shading_normal(sf.ns, nf) : nf;
             const Vec3<F> origin = offset_ray_origin(pos, nf, sf.magnitude);
             if (f.nee) {
                 const EstimatorSettings est{s.survival_cap, s.cosine_diffuse, s.estimator,
                                             s.light_pdf_scale};
                 const EmitterShadow<F> es =
-                    emitter_shadow(s.emitters, est, m, d, nf, origin, key, bounce);
+                    emitter_shadow(s.emitters, est, m, d, nsf, origin, key, bounce);
                 const Vec3<F> c = beta * es.value;
-                const auto want = phong & es.ok & (max_component(c) > F(0.0f));
+                auto want = phong & es.ok & (max_component(c) > F(0.0f));
+                if (shading) want = want & on_arriving_side(es.wi, nf);
                 const uint32_t bits = mask_bits(want);
                 if constexpr (kInlineNee) {
                     if (bits) {
@@ -161,9 +170,11 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                 const F d2 = dot(to, to);
                 const F dist = sqrt(d2);
                 const Vec3<F> wi = to * (F(1.0f) / dist);
-                const Vec3<F> c = beta * phong_f_cos(m, d, nf, wi) *
+                const Vec3<F> c = beta * phong_f_cos(m, d, nsf, wi) *
                                   Vec3<F>(F(l[3]), F(l[4]), F(l[5])) * (F(1.0f) / d2);
-                const uint32_t bits = mask_bits(phong & (max_component(c) > F(0.0f)));
+                auto lit = phong & (max_component(c) > F(0.0f));
+                if (shading) lit = lit & on_arriving_side(wi, nf);
+                const uint32_t bits = mask_bits(lit);
                 if (bits) queue(bits, origin, wi, dist * F(1.0f - 1e-5f), c);
             }
         }
@@ -181,8 +192,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     } else {
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
-        const LobeStep<kFused, A> step(s, m, sf.magnitude, d, pos, n, beta, probability, key,
-                                       bounce);
+        const LobeStep<kFused, A> step(s, m, sf.magnitude, d, pos, n, sf.ns, beta, probability,
+                                       key, bounce);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
         if constexpr (kCompact) {
@@ -241,8 +252,10 @@ CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
     for (int32_t i = 0; i < end; i += Wave<A>::K) {
         const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
         const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
+        const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
         const Surfaces<A> sf{pos,
-                             load3<F>(p.nx, p.ny, p.nz, i),
+                             n,
+                             w.scene.features.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
                              I::load_aligned(p.material + i),
                              mask_f32(I::load_aligned(p.alive + i) != I(0)),
                              max(max_abs(pos), max_abs(ray.o)),
@@ -270,9 +283,11 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         });
         const Vec3<F> pos = gather3<A>(p.px, p.py, p.pz, j);
         const F magnitude = max(max_abs(pos), max_abs(gather3<A>(p.ox, p.oy, p.oz, j)));
+        const Vec3<F> n = gather3<A>(p.nx, p.ny, p.nz, j);
         const LobeStep<kLobe, A> step(
-            w.scene, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos,
-            gather3<A>(p.nx, p.ny, p.nz, j), gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
+            w.scene, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
+            w.scene.features.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
+            gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
             gather_lanes<A>(p.probability, j), gather_lanes<A>(p.key, j),
             gather_lanes<A>(p.bounce, j));
         scatter3(step.o, p.ox, p.oy, p.oz, j);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "integrators/wavefront/wave.h"
+#include "kernels/shading.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -16,11 +17,65 @@ inline namespace CIERZO_ISA_NAMESPACE {
 template <class A>
 struct Surfaces {
     Vec3<typename Wave<A>::F> pos, n;
+    Vec3<typename Wave<A>::F> ns;  // the shading normal: n, or a smooth mesh's (shading.h)
     typename Wave<A>::I material;
     typename Wave<A>::M hit;
     typename Wave<A>::F magnitude;
     typename Wave<A>::I emitter;  // nee/mis: the sampled emitter hit, or -1
 };
+
+// The shading normals of the lanes in `on_mesh` (hits on meshes, at pos, with geometric
+// normal n), a mesh at a time: smooth meshes gather their triangles' vertices and normals.
+template <class A>
+Vec3<typename Wave<A>::F> smooth_normals(const Wave<A>& w, int32_t i,
+                                         const typename Wave<A>::I& on_mesh_id,
+                                         typename Wave<A>::M on_mesh,
+                                         const Vec3<typename Wave<A>::F>& pos,
+                                         const Vec3<typename Wave<A>::F>& n) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    const PathPool& p = w.pool;
+    const I triangle =
+        xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
+    alignas(64) int32_t ids[Wave<A>::K];
+    on_mesh_id.store_aligned(ids);
+    Vec3<F> out = n;
+    for (uint32_t todo = mask_bits(on_mesh); todo;) {
+        const int32_t id = ids[std::countr_zero(todo)];
+        const auto lanes = on_mesh & mask_f32(on_mesh_id == I(id));
+        todo &= ~mask_bits(lanes);
+        const FlatMesh& m = w.scene.meshes[id];
+        if (!m.normals) continue;
+        const I corner = select(mask_i32(lanes), triangle, I(0)) * I(3);
+        // (an instance's vertices and normals are in the file's space: so is the point)
+        Vec3<F> at = pos;
+        if (const float* m4 = m.to_object) {
+            at = {fma(F(m4[0]), pos.x, fma(F(m4[1]), pos.y, fma(F(m4[2]), pos.z, F(m4[3])))),
+                  fma(F(m4[4]), pos.x, fma(F(m4[5]), pos.y, fma(F(m4[6]), pos.z, F(m4[7])))),
+                  fma(F(m4[8]), pos.x, fma(F(m4[9]), pos.y, fma(F(m4[10]), pos.z, F(m4[11]))))};
+        }
+        Vec3<F> v[3], vn[3];
+        for (int k = 0; k < 3; ++k) {
+            const I at3 = gather_lanes<A>(m.indices, corner + I(k)) * I(3);
+            v[k] = {gather_lanes<A>(m.positions, at3), gather_lanes<A>(m.positions, at3 + I(1)),
+                    gather_lanes<A>(m.positions, at3 + I(2))};
+            vn[k] = {gather_lanes<A>(m.normals, at3), gather_lanes<A>(m.normals, at3 + I(1)),
+                     gather_lanes<A>(m.normals, at3 + I(2))};
+        }
+        Vec3<F> ns = interpolate_normal(v, vn, at, Vec3<F>(F(0.0f)));
+        auto found = (ns.x != F(0.0f)) | (ns.y != F(0.0f)) | (ns.z != F(0.0f));
+        if (const float* a = m.normal_to_world) {
+            const Vec3<F> wn{fma(F(a[0]), ns.x, fma(F(a[1]), ns.y, F(a[2]) * ns.z)),
+                             fma(F(a[3]), ns.x, fma(F(a[4]), ns.y, F(a[5]) * ns.z)),
+                             fma(F(a[6]), ns.x, fma(F(a[7]), ns.y, F(a[8]) * ns.z))};
+            const F len = sqrt(dot(wn, wn));
+            found = found & (len > F(0.0f)) & (len < F(kRayFar));
+            ns = wn * (F(1.0f) / select(found, len, F(1.0f)));
+        }
+        out = select(lanes & found, ns, out);
+    }
+    return out;
+}
 
 template <class A>
 Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
@@ -34,6 +89,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
     const I index = prim & I(kPrimIndexMask);
     const Vec3<F> pos = fma(ray.d, t, ray.o);
     Vec3<F> n(F(0.0f), F(0.0f), F(1.0f));
+    Vec3<F> ns = n;
     I material(0);
     I emitter(-1);
 
@@ -75,6 +131,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         const I mesh = select(m, I::load_aligned(p.mesh_id + i), I(0));
         n = select(mask_f32(m), load3<F>(p.mesh_nx, p.mesh_ny, p.mesh_nz, i), n);
         material = select(m, lookup<A>(s.mesh_material, s.mesh_count, mesh), material);
+        if (f.smooth) ns = smooth_normals(w, i, mesh, mask_f32(m) & w.live_mask(i), pos, n);
         if (f.nee) {
             const I first = lookup<A>(s.mesh_emitter, s.mesh_count, mesh);
             const I tri = xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
@@ -82,7 +139,9 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         }
     }
     const auto hit = w.live_mask(i) & (to_float(prim) >= F(0.0f));
-    return {pos, n, select(mask_i32(hit), material, I(0)), hit,
+    if (!(f.smooth && f.meshes)) ns = n;
+    else ns = select(mask_f32(kind == I(kPrimMesh)), ns, n);
+    return {pos, n, ns, select(mask_i32(hit), material, I(0)), hit,
             max(max_abs(pos), max_abs(ray.o)), emitter};
 }
 
@@ -93,6 +152,7 @@ void store_surfaces(Wave<A>& w, int32_t i, const Surfaces<A>& sf) {
     PathPool& p = w.pool;
     store3(sf.pos, p.px, p.py, p.pz, i);
     store3(sf.n, p.nx, p.ny, p.nz, i);
+    if (w.scene.features.smooth) store3(sf.ns, p.snx, p.sny, p.snz, i);
     sf.material.store_aligned(p.material + i);
     if (w.scene.features.nee) sf.emitter.store_aligned(p.emitter + i);
     select(mask_i32(sf.hit), I(1), I(0)).store_aligned(p.alive + i);

@@ -209,6 +209,8 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
         flat.positions = &g.positions.data()->x;
         flat.colors = g.colors.empty() ? nullptr : &g.colors.data()->x;
         flat.to_object = m.instanced() ? m.to_object : nullptr;
+        flat.normals = m.smooth ? &g.normals.data()->x : nullptr;
+        flat.normal_to_world = m.instanced() ? m.normal_to_world : nullptr;
         d.meshes.push_back(flat);
     }
     f.meshes = d.meshes.data();
@@ -278,14 +280,15 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
                   sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
-                  texture_channels, false};
+                  texture_channels, false, false};
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
         const bool meshes = f.features.meshes;
         f.features = {true, true, true, meshes, tree, packet, true, true, true,
-                      true, true, true, true, 4,    texture_channels, false};
+                      true, true, true, true, 4,    texture_channels, false, false};
     }
     f.features.nee = samples_emitters(scene);
+    f.features.smooth = sf.smooth;
 }
 
 WavefrontRenderer::~WavefrontRenderer() = default;

@@ -1,0 +1,23 @@
+// A triangle mesh as the mesh readers return it (PLY: ply.h, OBJ: obj.h), before any
+// transform: shared vertices with optional colours and normals, and triangles.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace cierzo {
+
+struct MeshData {
+    std::vector<float> positions;   // 3 floats per vertex
+    std::vector<float> colors;      // 3 floats per vertex in [0, 1], or empty
+    std::vector<float> normals;     // 3 floats per vertex (as the file gives them, not
+                                    // necessarily unit; a zero one is allowed), or empty
+    std::vector<uint32_t> indices;  // 3 per triangle, each < vertex count
+};
+
+// Reads a mesh file by its extension (case-insensitive): .ply (read_ply) or .obj (read_obj).
+// Throws InputError naming the file and what is wrong, including an unknown extension.
+MeshData read_mesh(const std::filesystem::path& path);
+
+}  // namespace cierzo

@@ -1,0 +1,274 @@
+// Wavefront OBJ reader (see obj.h). tinyobjloader parses the file; before it, one pass over
+// the lines checks what tinyobjloader would accept silently (a number that does not parse
+// reads as 0 there, an out-of-range index is only a warning, and a face of 256 corners or
+// more has its size cut to a byte), so that every refusal names the line. After it, the
+// counts of both passes must agree and every index is checked again before it is used.
+#include "io/obj.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <fmt/format.h>
+// (the parser is compiled into this file: Debian's header holds it, and so the aarch64 build
+// and the fuzzers need no library of it)
+#define TINYOBJLOADER_IMPLEMENTATION
+#include <tiny_obj_loader.h>
+
+#include "core/error.h"
+#include "io/mesh_file.h"
+
+namespace cierzo {
+
+namespace {
+
+// A face may have at most this many corners (tinyobjloader stores a face's size in a byte).
+constexpr size_t kMaxCorners = 255;
+
+struct Source {
+    std::string path;
+    [[noreturn]] void fail(std::string_view what) const {
+        throw InputError(fmt::format("{}: {}", path, what));
+    }
+    [[noreturn]] void fail_at(size_t line, std::string_view what) const {
+        throw InputError(fmt::format("{}: line {}: {}", path, line, what));
+    }
+};
+
+std::string_view next_token(std::string_view& rest) {
+    size_t a = 0;
+    while (a < rest.size() && (rest[a] == ' ' || rest[a] == '\t')) ++a;
+    size_t b = a;
+    while (b < rest.size() && rest[b] != ' ' && rest[b] != '\t') ++b;
+    const std::string_view token = rest.substr(a, b - a);
+    rest.remove_prefix(b);
+    return token;
+}
+
+// A decimal number, all of the token (a leading '+' allowed), finite and within float range.
+bool parse_number(std::string_view token, double& out) {
+    if (!token.empty() && token[0] == '+') token.remove_prefix(1);
+    const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), out,
+                                           std::chars_format::general);
+    return ec == std::errc() && end == token.data() + token.size() && std::isfinite(out) &&
+           std::fabs(out) <= double(std::numeric_limits<float>::max());
+}
+
+// An OBJ index: a non-zero integer (negative: relative to the elements read so far).
+bool parse_index(std::string_view token, int64_t& out) {
+    if (!token.empty() && token[0] == '+') token.remove_prefix(1);
+    const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), out);
+    return !token.empty() && ec == std::errc() && end == token.data() + token.size() &&
+           out != 0 && out > -(int64_t(1) << 31) && out < (int64_t(1) << 31);
+}
+
+// What the line pass counted: the elements tinyobjloader must then report.
+struct Counts {
+    uint64_t vertices = 0, normals = 0, texcoords = 0, faces = 0, corners = 0;
+    bool colors = true;          // every vertex has a colour
+    bool corner_normals = true;  // every corner names a normal
+    size_t max_line = 0;  // the line of the largest absolute vertex index, for its message
+    int64_t max_vertex = 0, max_normal = 0;
+    size_t max_normal_line = 0;
+};
+
+Counts check_lines(std::string_view bytes, const Source& src) {
+    Counts c;
+    size_t line_no = 0;
+    for (size_t pos = 0; pos < bytes.size();) {
+        size_t end = bytes.find('\n', pos);
+        if (end == std::string_view::npos) end = bytes.size();
+        std::string_view line = bytes.substr(pos, end - pos);
+        pos = end + 1;
+        ++line_no;
+        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+        if (line.find('\0') != std::string_view::npos)
+            src.fail_at(line_no, "has a NUL byte (not a text OBJ file)");
+        std::string_view rest = line;
+        const std::string_view key = next_token(rest);
+        if (key == "v" || key == "vn") {
+            double value[8];
+            size_t n = 0;
+            for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest)) {
+                if (n == 7 || !parse_number(t, value[n]))
+                    src.fail_at(line_no, fmt::format("'{}' is not a number in float range "
+                                                     "(or there are too many values)", t));
+                ++n;
+            }
+            if (key == "vn") {
+                if (n != 3) src.fail_at(line_no, fmt::format("a normal 'vn' needs 3 numbers, "
+                                                             "not {}", n));
+                ++c.normals;
+                continue;
+            }
+            if (n == 4 && value[3] != 1.0)
+                src.fail_at(line_no, "a vertex with a weight w other than 1 (rational "
+                                     "geometry) is not supported");
+            if (n != 3 && n != 4 && n != 6)
+                src.fail_at(line_no, fmt::format("a vertex 'v' needs 3 numbers (x y z), 4 "
+                                                 "(x y z 1) or 6 (x y z r g b), not {}", n));
+            c.colors &= n == 6;
+            ++c.vertices;
+        } else if (key == "vt") {
+            ++c.texcoords;
+        } else if (key == "f") {
+            size_t corners = 0;
+            for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest)) {
+                // v, v/vt, v//vn or v/vt/vn
+                std::string_view part[3];
+                size_t parts = 0;
+                for (size_t a = 0;;) {
+                    const size_t slash = t.find('/', a);
+                    if (parts == 3)
+                        src.fail_at(line_no, fmt::format("bad face corner '{}'", t));
+                    part[parts++] = t.substr(a, slash == std::string_view::npos ? slash : slash - a);
+                    if (slash == std::string_view::npos) break;
+                    a = slash + 1;
+                }
+                int64_t index[3] = {0, 0, 0};
+                for (size_t k = 0; k < parts; ++k) {
+                    if (k == 1 && part[k].empty() && parts == 3) continue;  // v//vn
+                    if (!parse_index(part[k], index[k]))
+                        src.fail_at(line_no,
+                                    fmt::format("bad face corner '{}' (indices are non-zero "
+                                                "integers; 1 is the first element)", t));
+                }
+                // Relative (negative) indices count back from the last element read
+                const uint64_t count[3] = {c.vertices, c.texcoords, c.normals};
+                const char* what[3] = {"vertex", "texture coordinate", "normal"};
+                for (size_t k = 0; k < 3; ++k) {
+                    if (index[k] < 0 && uint64_t(-index[k]) > count[k])
+                        src.fail_at(line_no, fmt::format("face corner '{}' refers to {} {} "
+                                                         "before the first",
+                                                         t, what[k], index[k]));
+                }
+                const int64_t v = index[0] < 0 ? int64_t(c.vertices) + index[0] + 1 : index[0];
+                if (v > c.max_vertex) c.max_vertex = v, c.max_line = line_no;
+                if (parts == 3) {
+                    const int64_t vn =
+                        index[2] < 0 ? int64_t(c.normals) + index[2] + 1 : index[2];
+                    if (vn > c.max_normal) c.max_normal = vn, c.max_normal_line = line_no;
+                } else {
+                    c.corner_normals = false;
+                }
+                ++corners;
+            }
+            if (corners < 3)
+                src.fail_at(line_no, fmt::format("a face needs at least 3 corners, not {}", corners));
+            if (corners > kMaxCorners)
+                src.fail_at(line_no, fmt::format("a face of {} corners (at most {} are "
+                                                 "supported)", corners, kMaxCorners));
+            ++c.faces;
+            c.corners += corners;
+        }
+    }
+    if (uint64_t(c.max_vertex) > c.vertices)
+        src.fail_at(c.max_line, fmt::format("face refers to vertex {}, but the file has {} "
+                                            "vertices", c.max_vertex, c.vertices));
+    if (uint64_t(c.max_normal) > c.normals)
+        src.fail_at(c.max_normal_line, fmt::format("face refers to normal {}, but the file has "
+                                                   "{} normals", c.max_normal, c.normals));
+    if (c.faces == 0) src.fail("has no faces ('f' lines)");
+    if (c.vertices >= (uint64_t(1) << 31)) src.fail("has more than 2^31 vertices");
+    return c;
+}
+
+}  // namespace
+
+MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
+    const Source src{name.string()};
+    const Counts counts = check_lines(bytes, src);
+
+    tinyobj::ObjReaderConfig config;
+    config.triangulate = false;   // fan-triangulated below, as PLY faces are
+    config.vertex_color = false;  // colours only when every vertex has them
+    tinyobj::ObjReader reader;
+    // (materials are the scene's: the file's mtllib is not read)
+    if (!reader.ParseFromString(std::string(bytes), std::string(), config))
+        src.fail("cannot be parsed: " + reader.Error());
+    const tinyobj::attrib_t& attrib = reader.GetAttrib();
+    const auto& shapes = reader.GetShapes();
+
+    // Both passes must have seen the same file
+    uint64_t faces = 0, corners = 0;
+    for (const tinyobj::shape_t& shape : shapes) {
+        faces += shape.mesh.num_face_vertices.size();
+        for (const unsigned char n : shape.mesh.num_face_vertices) corners += n;
+        if (shape.mesh.indices.size() != [&] {
+                size_t sum = 0;
+                for (const unsigned char n : shape.mesh.num_face_vertices) sum += n;
+                return sum;
+            }())
+            src.fail("inconsistent face sizes from the OBJ parser");
+    }
+    if (attrib.vertices.size() != counts.vertices * 3 ||
+        attrib.normals.size() != counts.normals * 3 || faces != counts.faces ||
+        corners != counts.corners)
+        src.fail(fmt::format("the OBJ parser read {} vertices, {} normals and {} faces where "
+                             "the file has {}, {} and {}: a line it reads otherwise",
+                             attrib.vertices.size() / 3, attrib.normals.size() / 3, faces,
+                             counts.vertices, counts.normals, counts.faces));
+
+    MeshData mesh;
+    const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3;
+    const bool colors = counts.colors && attrib.colors.size() == attrib.vertices.size();
+    const bool normals = counts.corner_normals && nn > 0;
+    const auto finite = [](const std::vector<float>& v) {
+        for (const float x : v)
+            if (!std::isfinite(x)) return false;
+        return true;
+    };
+    if (!finite(attrib.vertices) || (normals && !finite(attrib.normals)) ||
+        (colors && !finite(attrib.colors)))
+        src.fail("has a value outside the float range");
+
+    // Corners become vertices: a file vertex as it is without normals; with normals, one
+    // vertex per distinct (position, normal) pair
+    std::unordered_map<uint64_t, uint32_t> split;
+    const auto vertex_of = [&](const tinyobj::index_t& idx) -> uint32_t {
+        if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv)
+            src.fail(fmt::format("face refers to vertex {} of {}", idx.vertex_index + 1, nv));
+        if (!normals) return uint32_t(idx.vertex_index);
+        if (idx.normal_index < 0 || size_t(idx.normal_index) >= nn)
+            src.fail(fmt::format("face refers to normal {} of {}", idx.normal_index + 1, nn));
+        const uint64_t key = (uint64_t(uint32_t(idx.vertex_index)) << 32) | uint32_t(idx.normal_index);
+        const auto [it, added] = split.try_emplace(key, uint32_t(mesh.positions.size() / 3));
+        if (added) {
+            for (int k = 0; k < 3; ++k) {
+                mesh.positions.push_back(attrib.vertices[3 * size_t(idx.vertex_index) + k]);
+                mesh.normals.push_back(attrib.normals[3 * size_t(idx.normal_index) + k]);
+                if (colors) mesh.colors.push_back(attrib.colors[3 * size_t(idx.vertex_index) + k]);
+            }
+        }
+        return it->second;
+    };
+    if (!normals) {
+        mesh.positions = attrib.vertices;
+        if (colors) mesh.colors = attrib.colors;
+    }
+    mesh.indices.reserve(size_t(counts.corners - 2 * counts.faces) * 3);
+    for (const tinyobj::shape_t& shape : shapes) {
+        size_t at = 0;
+        for (const unsigned char n : shape.mesh.num_face_vertices) {
+            const uint32_t first = vertex_of(shape.mesh.indices[at]);
+            uint32_t previous = vertex_of(shape.mesh.indices[at + 1]);
+            for (size_t k = 2; k < n; ++k) {
+                const uint32_t next = vertex_of(shape.mesh.indices[at + k]);
+                mesh.indices.insert(mesh.indices.end(), {first, previous, next});
+                previous = next;
+            }
+            at += n;
+        }
+    }
+    return mesh;
+}
+
+MeshData read_obj(const std::filesystem::path& path) {
+    return parse_obj(read_mesh_bytes(path, "OBJ"), path);
+}
+
+}  // namespace cierzo
