@@ -58,7 +58,8 @@ py::array_t<float> to_array(const Image& image) {
 
 Image to_image(const FloatArray& a, const char* what) {
     if (a.ndim() != 3 || a.shape(2) != 3)
-        throw py::value_error(std::string(what) + ": expected an array of shape (height, width, 3)");
+        throw py::value_error(std::string(what) +
+                              ": expected an array of shape (height, width, 3)");
     if (a.shape(0) < 1 || a.shape(1) < 1 || a.shape(0) * a.shape(1) > kMaxImagePixels)
         throw py::value_error(std::string(what) + ": the image must have 1 to 2^28 pixels");
     Image image(int(a.shape(1)), int(a.shape(0)));
@@ -77,12 +78,15 @@ PyScene load(const py::object& source, const std::optional<fs::path>& base) {
     if (py::isinstance<py::dict>(source)) {
         // The same JSON as a file; relative paths resolve against `base` (default: the
         // current folder), and messages name "<dict>"
-        const std::string text = py::module_::import("json").attr("dumps")(source).cast<std::string>();
+        const std::string text =
+            py::module_::import("json").attr("dumps")(source).cast<std::string>();
         const fs::path path = base ? *base / "<dict>" : fs::path("<dict>");
         py::gil_scoped_release release;
         return {std::make_shared<const Scene>(parse_scene(text, path))};
     }
-    if (base) throw py::type_error("load_scene: base is for a dict; a file's paths resolve against its folder");
+    if (base)
+        throw py::type_error(
+            "load_scene: base is for a dict; a file's paths resolve against its folder");
     const fs::path path = source.cast<fs::path>();
     py::gil_scoped_release release;
     return {std::make_shared<const Scene>(load_scene(path))};
@@ -261,7 +265,8 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
     if (spp.empty() || integrator.empty() || isa.empty() || pool.empty())
         throw py::value_error("converge: spp, integrator, isa and pool need one value at least");
     if (reference && save_reference)
-        throw py::value_error("converge: save_reference is for a rendered reference, not with reference");
+        throw py::value_error(
+            "converge: save_reference is for a rendered reference, not with reference");
 
     ConvergeArgs a;
     if (reference) a.reference = *reference;
