@@ -447,20 +447,28 @@ measured so far.)");
 
     m.def(
         "read_exr",
-        [](const fs::path& path, bool metadata) -> py::object {
+        [](const fs::path& path, bool metadata, bool variance) -> py::object {
             ImageMetadata meta;
-            Image image;
+            ImageLayers layers;
+            Image image, v;
             {
                 py::gil_scoped_release release;
-                image = read_exr(path, &meta);
+                image = read_exr(path, &meta, &layers);
+                if (variance) v = variance_from_layers(layers, image.width, image.height, path);
             }
-            if (!metadata) return to_array(image);
-            return py::make_tuple(to_array(image), py::cast(meta));
+            py::list out;
+            out.append(to_array(image));
+            if (variance) out.append(to_array(v));
+            if (metadata) out.append(py::cast(meta));
+            if (out.size() == 1) return out[0];
+            return py::tuple(out);
         },
-        py::arg("path"), py::arg("metadata") = false,
-        R"(Reads an OpenEXR image's R, G, B channels as a float32 array (height, width, 3);
-with metadata=True returns (image, dict of the header's string attributes, e.g.
-'cierzo:spp'). Raises cierzo.Error naming the file.)");
+        py::arg("path"), py::arg("metadata") = false, py::arg("variance") = false,
+        R"(Reads an OpenEXR image's R, G, B channels as a float32 array (height, width, 3).
+With variance=True also its variance.R/G/B layers (as `render --variance` and write_exr
+write them) as an array of the same shape, and with metadata=True the dict of the header's
+string attributes (e.g. 'cierzo:spp'): returns (image[, variance][, metadata]). Raises
+cierzo.Error naming the file (a missing layer too).)");
     m.def(
         "write_exr",
         [](const fs::path& path, const FloatArray& array, const ImageMetadata& metadata,

@@ -20,6 +20,12 @@ def test_exr_round_trip_is_exact(cierzo, tmp_path):
     # Any array that converts to float32 (height, width, 3) is accepted
     cierzo.write_exr(tmp_path / "b.exr", image.astype(np.float64))
     assert np.array_equal(cierzo.read_exr(tmp_path / "b.exr"), image)
+    variance = np.abs(image) + 1
+    cierzo.write_exr(tmp_path / "v.exr", image, variance=variance)
+    back, back_variance, meta = cierzo.read_exr(tmp_path / "v.exr", variance=True, metadata=True)
+    assert np.array_equal(back, image) and np.array_equal(back_variance, variance)
+    with pytest.raises(cierzo.Error, match="variance.R"):
+        cierzo.read_exr(tmp_path / "a.exr", variance=True)
     with pytest.raises(ValueError, match="shape"):
         cierzo.write_exr(tmp_path / "c.exr", np.zeros((4, 4), np.float32))
     with pytest.raises(cierzo.Error, match="cannot read"):

@@ -60,12 +60,23 @@ def test_variance_and_overrides(cierzo, tmp_path):
     image, variance, stats = cierzo.render(scene_path("cornell"), estimator="mis",
                                            diffuse_sampling="cosine", survival_cap=0.5,
                                            variance=True, **SMALL)
-    assert same_bits(image, cierzo.read_exr(exr))
-    assert variance.shape == image.shape and variance.dtype == np.float32
+    cli_image, cli_variance = cierzo.read_exr(exr, variance=True)
+    assert same_bits(image, cli_image) and same_bits(variance, cli_variance)
     assert (variance >= 0).all() and variance.max() > 0
     assert stats["estimator"] == "mis"
     _, meta = cierzo.read_exr(exr, metadata=True)
     assert meta["cierzo:estimator"] == "mis" and meta["cierzo:spp"] == "4"
+
+
+def test_isa_this_cpu_lacks_has_the_programs_message(cierzo):
+    lacking = [i["name"] for i in cierzo.isas() if not i["supported"]]
+    if not lacking:
+        pytest.skip("this CPU runs every instruction set of the build")
+    code, err = run_cli("render", scene_path("cornell"), "--isa", lacking[0], "--quiet")
+    assert code == 1
+    with pytest.raises(cierzo.Error) as e:
+        cierzo.render(scene_path("cornell"), isa=lacking[0])
+    assert "cierzo: " + str(e.value) + "\n" == err
 
 
 def test_dict_equals_the_file(cierzo):
