@@ -166,7 +166,9 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
                  std::optional<int64_t> seed, std::optional<std::string> estimator,
                  std::optional<float> survival_cap, std::optional<std::string> diffuse_sampling,
                  int pool, bool variance, double time_budget, double target_error,
-                 bool progress, const py::object& cancel) {
+                 bool progress, const py::object& cancel,
+                 const std::optional<fs::path>& checkpoint,
+                 std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
     // The command line's checks of its options
     check_range<int64_t>("spp", spp, 1, UINT32_MAX);
     check_range<int>("width", width, 1, 1 << 16);
@@ -181,6 +183,9 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     check_member("isa", isa, kIsas);
     check_member("estimator", estimator, kEstimators);
     check_member("diffuse_sampling", diffuse_sampling, kDiffuse);
+    check_range<double>("checkpoint_every", checkpoint_every, 0.01, 1e9);
+    if (resume && !fs::is_regular_file(*resume))
+        throw InputError(resume->string() + ": no such checkpoint file");
 
     RenderJob job;
     job.spp = spp;
@@ -197,6 +202,10 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     job.target_error = target_error;
     job.progress = progress;
     job.write_outputs = false;
+    if (checkpoint) job.checkpoint = *checkpoint;
+    if (resume) job.resume = *resume;
+    job.checkpoint_every_given = checkpoint_every.has_value();
+    job.checkpoint_every = checkpoint_every.value_or(300.0);
     check_render_isa(job);
     const PyScene scene = load(source, std::nullopt);
 
@@ -400,7 +409,8 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
           py::arg("survival_cap") = py::none(), py::arg("diffuse_sampling") = py::none(),
           py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
           py::arg("target_error") = 0.0, py::arg("progress") = false,
-          py::arg("cancel") = py::none(),
+          py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
+          py::arg("checkpoint_every") = py::none(), py::arg("resume") = py::none(),
           R"(Renders a scene (a Scene, a path or a dict) as `cierzo render` does.
 
 Returns (image, stats), or (image, variance, stats) with variance=True: float32 arrays of
@@ -418,7 +428,13 @@ The GIL is released while rendering. Ctrl-C stops the render at the end of its f
 at the earliest and raises KeyboardInterrupt. cancel (a cierzo.Cancel, a threading.Event or
 anything with is_set()) stops it the same way from another thread, and render returns the
 passes finished: stats['stopped_by'] is then 'interrupted' and stats['spp_reached'] says how
-many paths every pixel has.)");
+many paths every pixel has.
+
+checkpoint (a path ending in .exr) writes the render's exact state every checkpoint_every
+seconds (default 300), when stopped and at the end; resume continues such a file to spp
+paths per pixel, and the image is then the same, bit for bit, as an uninterrupted render's,
+as with `cierzo render --checkpoint/--resume` (a checkpoint of another scene, resolution,
+seed, estimator or integrator is refused).)");
 
     m.def("converge", &py_converge, py::arg("scene"), py::kw_only(),
           py::arg("reference") = py::none(), py::arg("reference_spp") = 4096,

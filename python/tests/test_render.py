@@ -157,6 +157,23 @@ except KeyboardInterrupt:
     assert word == "interrupted" and float(seconds) < 10
 
 
+def test_checkpoint_and_resume_give_the_uninterrupted_image(cierzo, tmp_path):
+    kw = dict(width=48, height=32, spp=2048, seed=3, threads=2)
+    whole, _ = cierzo.render(scene_path("cornell"), **kw)
+    cancel = threading.Event()
+    threading.Timer(0.1, cancel.set).start()
+    part, stats = cierzo.render(scene_path("cornell"), checkpoint=tmp_path / "c.exr",
+                                cancel=cancel, **kw)
+    assert stats["stopped_by"] == "interrupted" and stats["spp_reached"] < 2048
+    assert stats["checkpoint"]["writes"] >= 1 and os.path.exists(tmp_path / "c.exr")
+    resumed, stats = cierzo.render(scene_path("cornell"), resume=tmp_path / "c.exr", **kw)
+    assert same_bits(resumed, whole) and stats["stopped_by"] == ""
+    with pytest.raises(cierzo.Error, match="seed"):
+        cierzo.render(scene_path("cornell"), resume=tmp_path / "c.exr", **dict(kw, seed=4))
+    with pytest.raises(cierzo.Error, match="--checkpoint-every needs --checkpoint"):
+        cierzo.render(scene_path("cornell"), checkpoint_every=1, **kw)
+
+
 def test_stopping_rules(cierzo):
     _, stats = cierzo.render(scene_path("cornell"), width=32, height=32, spp=1 << 20,
                              time_budget=0.2, threads=2)
