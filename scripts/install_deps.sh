@@ -1,11 +1,15 @@
 #!/usr/bin/env bash
 # Installs what cierzo needs on Debian 12 (root, or sudo): compiler, CMake, Ninja and the
 # libraries (tinyobjloader for OBJ meshes); Open MPI (distributed renders); npm for the test
-# meshes; matplotlib for the plots. Skips what is installed.
+# meshes; matplotlib for the plots; Python's headers, pybind11, NumPy and pytest for the
+# Python module and its tests, and venv, pip, setuptools and wheel for `pip install .`.
+# Skips what is installed.
 set -euo pipefail
 packages=(g++ cmake ninja-build pkg-config libxsimd-dev libopenexr-dev libimath-dev
           libgtest-dev libgmock-dev libbenchmark-dev libtbb-dev libcli11-dev nlohmann-json3-dev
-          libfmt-dev libstb-dev libtinyobjloader-dev python3-matplotlib openmpi-bin libopenmpi-dev)
+          libfmt-dev libstb-dev libtinyobjloader-dev python3-matplotlib openmpi-bin
+          libopenmpi-dev python3-dev pybind11-dev python3-numpy python3-pytest python3-venv
+          python3-pip python3-setuptools python3-wheel)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

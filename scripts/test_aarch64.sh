@@ -73,6 +73,7 @@ fi
 # ---- Cross build: Release and the tests (the benchmarks are not run under qemu, and an
 # aarch64 host builds them natively) -------------------------------------------------------
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCIERZO_BUILD_BENCH=OFF -DCIERZO_MPI=OFF \
+    -DCIERZO_PYTHON=OFF \
     -DCMAKE_TOOLCHAIN_FILE="$PWD/cmake/aarch64-linux-gnu.cmake" \
     -DOpenEXR_DIR="$PWD/$exr_config" >/dev/null
 cmake --build "$build" --parallel "$(nproc)"

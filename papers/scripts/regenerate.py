@@ -10,6 +10,9 @@ report's resolution and paths-per-pixel table), threads (the thread table, overs
 report (the tables and figures of REPORT.md, between its BEGIN/END markers). --quick divides every
 path count by about 16, for checking the script; the committed results are never --quick.
 
+Renders and tone mapping go through the Python module `cierzo` of build/ (or an installed
+one), the convergence sweeps through build/cierzo converge.
+
 Measurements land in papers/data/ (CSV, JSON), images in papers/images/, plots in
 papers/plots/; HDR renders go to papers/out/ (not kept in git).
 """
@@ -27,7 +30,9 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 PAPERS = os.path.join(ROOT, "papers")
 DATA, IMAGES, PLOTS, OUT = (os.path.join(PAPERS, d) for d in ("data", "images", "plots", "out"))
 CIERZO = os.path.join(ROOT, "build", "cierzo")
-TONEMAP = os.path.join(ROOT, "build", "cierzo-tonemap")
+# The Python module `cierzo` of the same build (or one installed with pip): renders and tone
+# mapping run in this process, the sweeps through the program (their tables and CSV)
+sys.path.insert(0, os.path.join(ROOT, "build", "python", "module"))
 INTEGRATORS = ("scalar", "wavefront")
 
 # The report's figures: scene, what it shows, tone-mapping operator
@@ -58,19 +63,27 @@ def run(cmd, **kw):
     return subprocess.run(cmd, check=True, **kw)
 
 
-def render(scene, integrator, out, stats, extra=()):
-    run([CIERZO, "render", os.path.join(ROOT, "scenes", scene + ".json"), "--integrator",
-         integrator, "--out", out, "--stats", stats, "--quiet", *map(str, extra)])
-    with open(stats) as f:
-        return json.load(f)
+def render(scene, integrator, out, stats, **overrides):
+    """Renders scenes/SCENE.json (keywords override it as cierzo.render's do), writes the
+    image to `out` (with its variance layers if variance=True) and the statistics, the
+    dict of `cierzo render --stats`, to `stats`; returns them."""
+    import cierzo
+    path = os.path.join(ROOT, "scenes", scene + ".json")
+    print("+ render", path, integrator, overrides, file=sys.stderr, flush=True)
+    image, *variance, st = cierzo.render(path, integrator=integrator, **overrides)
+    cierzo.write_exr(out, image, variance=variance[0] if variance else None)
+    with open(stats, "w") as f:
+        json.dump(st, f, indent=2)
+    return st
 
 
 def publish(exr, name, op="clamp-gamma"):
     """Tone-maps an HDR render to papers/out/NAME.png and keeps it as papers/images/NAME.jpg
     (JPEG quality 92: noisy renders compress badly as PNG, and the EXR stays in out/)."""
+    import cierzo
     from PIL import Image  # Debian's python3-pil, a dependency of python3-matplotlib
     png = os.path.join(OUT, name + ".png")
-    run([TONEMAP, exr, png, "--op", op])
+    cierzo.write_ldr(png, cierzo.tonemap(cierzo.read_exr(exr), op=op))
     Image.open(png).convert("RGB").save(os.path.join(IMAGES, name + ".jpg"), quality=92)
 
 
@@ -84,11 +97,11 @@ def figures(args):
             run([os.path.join(ROOT, "scripts/fetch_bunny.sh"), os.path.join(ROOT, "scenes/data")])
         exr = os.path.join(OUT, scene + ".exr")
         w = render(scene, "wavefront", exr, os.path.join(OUT, scene + ".wavefront.json"),
-                   ["--spp", spp, "--variance"])
+                   spp=spp, variance=True)
         publish(exr, scene, op)
         s = render(scene, "scalar", os.path.join(OUT, scene + ".scalar.exr"),
                    os.path.join(OUT, scene + ".scalar.json"),
-                   ["--spp", max(4, 64 // args.divisor), "--seed", 2])
+                   spp=max(4, 64 // args.divisor), seed=2)
         rows.append({"scene": scene, "caption": caption, "wavefront": w, "scalar": s})
     with open(os.path.join(DATA, "figures.json"), "w") as f:
         json.dump(rows, f, indent=1)
@@ -105,7 +118,7 @@ def series(args):
             name = f"cornell_{size}_{spp}_{integrator}"
             st = render("cornell", integrator, os.path.join(OUT, name + ".exr"),
                         os.path.join(OUT, name + ".json"),
-                        ["--width", size, "--height", size, "--spp", spp_run])
+                        width=size, height=size, spp=spp_run)
             rows.append({"size": size, "spp": spp_run, "integrator": integrator,
                          "seconds": st["seconds"], "rays": st["rays"]["total"],
                          "threads": st["threads"], "isa": st["isa"],
@@ -129,7 +142,7 @@ def threads(args):
             name = f"cornell_threads{t}_{integrator}"
             st = render("cornell", integrator, os.path.join(OUT, name + ".exr"),
                         os.path.join(OUT, name + ".json"),
-                        ["--spp", spp, "--threads", t])
+                        spp=spp, threads=t)
             rows.append({"integrator": integrator, "threads": t, "hardware_threads": hw,
                          "spp": spp, "seconds": st["seconds"], "rays": st["rays"]["total"],
                          "isa": st["isa"]})
@@ -233,8 +246,8 @@ def beyond(args):
                 for integrator in INTEGRATORS:
                     st = render(scene, integrator, os.path.join(OUT, "beyond_ratio.exr"),
                                 os.path.join(OUT, "beyond_ratio.json"),
-                                ["--width", BEYOND_SIZE, "--height", BEYOND_SIZE, "--spp",
-                                 max(1, BEYOND_RATIO_SPP // args.divisor), "--estimator", est])
+                                width=BEYOND_SIZE, height=BEYOND_SIZE,
+                                spp=max(1, BEYOND_RATIO_SPP // args.divisor), estimator=est)
                     rows.append({"round": rnd, "estimator": est, "integrator": integrator,
                                  "seconds": st["seconds"], "rays": st["rays"]["total"],
                                  "threads": st["threads"], "isa": st["isa"]})
@@ -465,9 +478,13 @@ def main():
     args.divisor = 16 if args.quick else 1
     for d in (DATA, IMAGES, PLOTS, OUT):
         os.makedirs(d, exist_ok=True)
-    for c in (CIERZO, TONEMAP):
-        if not os.access(c, os.X_OK):
-            sys.exit(f"{c}: not built; run scripts/build.sh build first")
+    if not os.access(CIERZO, os.X_OK):
+        sys.exit(f"{CIERZO}: not built; run scripts/build.sh build first")
+    try:
+        import cierzo  # noqa: F401
+    except ImportError as e:
+        sys.exit(f"the Python module cierzo is not built ({e}): build/ needs python3-dev and "
+                 "pybind11-dev (scripts/install_deps.sh), then scripts/build.sh build")
     start = time.time()
     for name in args.only or list(PARTS):
         t = time.time()

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <optional>
 
+#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include "apps/app_common.h"
@@ -25,26 +26,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct ConvergeArgs {
-    fs::path scene;
-    fs::path reference;
-    fs::path save_reference;
-    int64_t reference_spp = 4096;
-    std::string reference_integrator = "wavefront";
-    std::vector<int64_t> spp = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
-    std::vector<std::string> integrators = {"scalar", "wavefront"};
-    std::vector<std::string> isas = {"auto"};
-    std::vector<int> pools = {0};
-    std::vector<float> survival_caps;
-    std::vector<std::string> diffuse_sampling;
-    std::vector<std::string> estimators;
-    std::optional<std::string> reference_estimator;
-    std::optional<int> width, height;
-    int threads = 0;
-    int repeats = 1;
-    fs::path out;
-    bool quiet = false;
-} g_args;
+ConvergeArgs g_args;
 
 // Every combination of the knobs; those that do not apply to the scalar reference (ISA,
 // pool) are not repeated for it.
@@ -72,13 +54,17 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     return out;
 }
 
-std::string csv_header() {
+}  // namespace
+
+std::string converge_csv_header() {
     return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,estimator,threads,width,"
            "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
            "estimated_relative_error,efficiency";
 }
+
+namespace {
 
 const char* diffuse_name(const EstimatorSettings& e) {
     return e.cosine_diffuse ? "cosine" : "uniform";
@@ -196,14 +182,17 @@ CLI::App* add_converge_command(CLI::App& app) {
 }
 
 int run_converge_command() {
-    const ConvergeArgs& a = g_args;
-    Scene scene = load_scene(a.scene);
+    run_converge_job(load_scene(g_args.scene), g_args);
+    return 0;
+}
+
+std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
     if (a.width || a.height)
         scene.set_resolution(a.width.value_or(scene.settings.width),
                              a.height.value_or(scene.settings.height));
     for (int64_t spp : a.spp) {
         scene.settings.spp = spp;
-        check_render_size(scene, a.scene);
+        check_render_size(scene, scene.source);
     }
     for (int pool : a.pools)
         if (pool % 16 != 0)
@@ -239,16 +228,19 @@ int run_converge_command() {
         Scene s = scene;
         s.settings.spp = a.reference_spp;
         if (a.reference_estimator) s.settings.estimator.kind = *parse_estimator(*a.reference_estimator);
-        check_render_size(s, a.scene);
+        check_render_size(s, scene.source);
         RenderOptions options;
         options.threads = a.threads;
         options.integrator = a.reference_integrator;
         options.progress = !a.quiet;
+        options.cancel = a.cancel;
         const RenderResult r = render(s, options);
+        if (r.stats.stopped_by == "interrupted") return {};
         reference = r.film.mean();
         variance = r.film.variance_of_mean();
         have_variance = true;
-        std::fprintf(stderr, "reference: %lld paths per pixel, %s, %.2f s\n",
+        if (a.summary)
+            std::fprintf(stderr, "reference: %lld paths per pixel, %s, %.2f s\n",
                      static_cast<long long>(a.reference_spp), r.stats.isa.c_str(),
                      r.stats.seconds);
         if (!a.save_reference.empty())
@@ -265,12 +257,13 @@ int run_converge_command() {
     sweep.spp = a.spp;
     sweep.repeats = a.repeats;
     sweep.threads = a.threads;
+    sweep.cancel = a.cancel;
     // The CSV is rewritten after every point, so a sweep that stops early keeps its points
     std::vector<std::string> rows;
     const auto write_csv = [&] {
         if (a.out.empty()) return;
         write_stream_atomically(a.out, [&](std::ostream& out) {
-            out << csv_header() << "\n";
+            out << converge_csv_header() << "\n";
             for (const std::string& r : rows) out << r << "\n";
         });
     };
@@ -296,7 +289,7 @@ int run_converge_command() {
     // Per config: the slope of the error against paths per pixel (-1 for MSE when unbiased)
     // and the time per path per pixel, from the largest point
     const size_t n = a.spp.size();
-    for (size_t first = 0; first + n <= points.size(); first += n) {
+    for (size_t first = 0; a.summary && first + n <= points.size(); first += n) {
         std::vector<double> x, y;
         for (size_t i = first; i < first + n; ++i) {
             x.push_back(double(points[i].spp));
@@ -310,7 +303,7 @@ int run_converge_command() {
                      diffuse_name(last->estimator), estimator_name(last->estimator.kind),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }
-    return 0;
+    return rows;
 }
 
 }  // namespace cierzo

@@ -66,6 +66,7 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
         options.isa = config.isa;
         options.pool_size = config.pool_size;
         options.progress = false;
+        options.cancel = sweep.cancel;
         for (int64_t spp : sweep.spp) {
             ConvergePoint point;
             point.config = config;
@@ -78,6 +79,8 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
                 s.settings.spp = spp;
                 s.settings.seed = scene.settings.seed + 1 + uint32_t(k);
                 const RenderResult r = render(s, options);
+                // (an interrupted render is not a point of the sweep)
+                if (r.stats.stopped_by == "interrupted") return points;
                 const ImageError e = image_error(r.film.mean(), reference, reference_variance);
                 point.error.mse += e.mse / point.repeats;
                 point.error.rel_mse += e.rel_mse / point.repeats;

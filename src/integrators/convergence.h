@@ -4,6 +4,7 @@
 // wall time and the error of each render. `cierzo converge` is the command-line front end.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -65,6 +66,8 @@ struct ConvergeSweep {
     std::vector<int64_t> spp;    // paths per pixel, in the order rendered
     int repeats = 1;             // renders per point, seeds scene seed + 1 + k
     int threads = 0;
+    // Set (e.g. by SIGINT) to stop: the sweep returns the points measured so far
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 // Renders every config at every spp of the sweep and compares each image with the

@@ -1,0 +1,237 @@
+// One render as `cierzo render` runs it (see render_job.h): overrides, checks, checkpoints,
+// outputs and statistics, shared by the command line and the Python module.
+#include "apps/render_job.h"
+
+#include <cstdio>
+
+#include <fmt/format.h>
+
+#include "apps/app_common.h"
+#include "core/error.h"
+#include "integrators/checkpoint.h"
+#include "integrators/distributed.h"
+#include "integrators/wavefront/isa.h"
+#include "integrators/wavefront/wavefront.h"
+#include "io/atomic_file.h"
+
+namespace cierzo {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Whether `spp` ends a pass of an uninterrupted render (pass_bounds from zero).
+bool on_pass_schedule(int64_t spp) {
+    for (int64_t b : pass_bounds(0, spp)) if (b == spp) return true;
+    return false;
+}
+
+}  // namespace
+
+int total_threads(const RenderStats& st) {
+    if (st.ranks.empty()) return st.threads;
+    int n = 0;
+    for (const RankStats& r : st.ranks) n += r.threads;
+    return n;
+}
+
+void check_render_isa(const RenderJob& job) {
+    if (job.integrator == "wavefront") require_isa(parse_isa(job.isa), "--isa");
+}
+
+void apply_render_overrides(Scene& scene, const RenderJob& a) {
+    RenderSettings& s = scene.settings;
+    if (a.spp) s.spp = *a.spp;
+    if (a.seed) s.seed = *a.seed;
+    if (a.width || a.height)
+        scene.set_resolution(a.width.value_or(s.width), a.height.value_or(s.height));
+    if (a.survival_cap) s.estimator.survival_cap = *a.survival_cap;
+    if (a.diffuse_sampling) s.estimator.cosine_diffuse = *a.diffuse_sampling == "cosine";
+    if (a.estimator) s.estimator.kind = *parse_estimator(*a.estimator);
+    if (!a.out.empty()) s.output = a.out;
+    check_render_size(scene, scene.source);
+}
+
+RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
+    const mpi::World& world = mpi::world();
+    const bool root = world.rank == 0;
+    check_render_isa(a);
+    RenderJobResult done{std::move(scene_in), RenderResult{Film(0, 0), {}}, {}, {}};
+    Scene& scene = done.scene;
+    apply_render_overrides(scene, a);
+    RenderSettings& s = scene.settings;
+    if (a.write_outputs) {
+        const std::string ext = s.output.extension().string();
+        if (ext != ".exr" && ext != ".pfm")
+            throw InputError(s.output.string() + ": output must end in .exr or .pfm");
+        if (root) {
+            check_writable_folder(s.output, "the image");
+            if (!a.stats.empty()) check_writable_folder(a.stats, "the statistics");
+        }
+    }
+
+    RenderOptions options;
+    options.threads = a.threads;
+    options.integrator = a.integrator;
+    options.isa = a.isa;
+    options.pool_size = a.pool;
+    options.time_budget = a.time_budget;
+    options.target_error = a.target_error;
+    options.cancel = a.cancel;
+    options.progress = a.progress && root;
+
+    // Checkpoints: what the pixels depend on, the state to continue from, where to write
+    const int pool = a.integrator == "wavefront"
+                         ? (a.pool > 0 ? a.pool : WavefrontRenderer::kDefaultPoolSize)
+                         : 0;
+    const Isa chosen = parse_isa(a.isa) == Isa::kAuto ? best_isa() : parse_isa(a.isa);
+    const std::string isa = a.integrator == "wavefront" ? isa_name(chosen) : "scalar";
+    const fs::path checkpoint = !a.checkpoint.empty() ? a.checkpoint : a.resume;
+    done.checkpoint = checkpoint;
+    // (the fingerprint reads every mesh: only rank 0, and only with checkpoints)
+    const CheckpointIdentity identity = root && !checkpoint.empty()
+                                            ? checkpoint_identity(scene, a.integrator, isa, pool)
+                                            : CheckpointIdentity{};
+    std::optional<Checkpoint> resumed;
+    std::vector<std::string>& resume_warnings = done.resume_warnings;
+    if (root && !a.resume.empty()) {
+        resumed = read_checkpoint(a.resume);
+        resume_warnings = check_resume(a.resume, *resumed, identity);
+        const int64_t spp_done = resumed->state.spp_done;
+        if (spp_done > s.spp)
+            throw InputError(fmt::format("{}: the checkpoint already has {} paths per pixel, "
+                                         "more than the {} asked for",
+                                         a.resume.string(), spp_done, s.spp));
+        if (!on_pass_schedule(spp_done) && spp_done < s.spp)
+            resume_warnings.push_back(fmt::format(
+                "{}: the checkpoint is a finished render of {} paths per pixel; continued to {}, "
+                "the image is right but not bit-identical to an uninterrupted render of {}",
+                a.resume.string(), spp_done, s.spp, s.spp));
+        for (const std::string& w : resume_warnings)
+            std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
+        options.resume = &resumed->state;
+    }
+    if (a.checkpoint_every_given && checkpoint.empty())
+        throw InputError("--checkpoint-every needs --checkpoint FILE.exr (or --resume FILE.exr)");
+    if (root && !checkpoint.empty()) {
+        if (checkpoint.extension() != ".exr")
+            throw InputError(checkpoint.string() + ": a checkpoint must end in .exr");
+        if (fs::weakly_canonical(checkpoint) == fs::weakly_canonical(s.output))
+            throw InputError(checkpoint.string() + ": the checkpoint and the image (--out) must "
+                             "be different files");
+        check_writable_folder(checkpoint, "the checkpoint");
+        options.checkpoint_every = a.checkpoint_every;
+        options.checkpoint = [&](const RenderState& state) {
+            write_checkpoint(checkpoint, identity, state);
+        };
+    }
+    if (a.on_start) a.on_start();
+    done.result = render(scene, options);
+    RenderStats& st = done.result.stats;
+    st.warnings.insert(st.warnings.begin(), resume_warnings.begin(), resume_warnings.end());
+    return done;
+}
+
+ImageMetadata render_metadata(const Scene& scene, const RenderStats& st) {
+    const RenderSettings& s = scene.settings;
+    return {{"cierzo:scene", scene.source.string()},
+            {"cierzo:integrator", st.integrator},
+            {"cierzo:isa", st.isa},
+            {"cierzo:spp", std::to_string(s.spp)},
+            {"cierzo:spp_reached", std::to_string(st.spp_reached)},
+            {"cierzo:stopped_by", st.stopped_by.empty() ? "done" : st.stopped_by},
+            {"cierzo:seed", std::to_string(s.seed)},
+            {"cierzo:estimator", estimator_name(s.estimator.kind)}};
+}
+
+nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
+                                 const fs::path& checkpoint) {
+    nlohmann::json j = {
+        {"scene", scene.source.string()},
+        {"integrator", st.integrator},
+        {"isa", st.isa},
+        {"threads", st.threads},
+        {"width", scene.settings.width},
+        {"height", scene.settings.height},
+        {"spp", scene.settings.spp},
+        {"spp_reached", st.spp_reached},
+        {"seed", scene.settings.seed},
+        {"estimator", estimator_name(scene.settings.estimator.kind)},
+        {"emitters", {{"sampled", scene.emitters.count()},
+                      {"sampled_objects", scene.emitters.sampled_objects},
+                      {"unsampled_objects", scene.emitters.unsampled_objects}}},
+        {"seconds", st.seconds},
+        {"paths", st.paths},
+        {"rays", {{"camera", st.rays.camera}, {"extension", st.rays.extension},
+                  {"shadow", st.rays.shadow}, {"total", st.rays.total()}}},
+        {"rays_per_second", st.rays_per_second()},
+        {"rays_per_second_per_thread", st.rays_per_second() / total_threads(st)},
+        {"nonfinite_samples", st.nonfinite_samples},
+        {"lane_utilisation", {{"shading", st.shade_lane_utilisation},
+                              {"intersection", st.isect_lane_utilisation},
+                              {"shadow", st.shadow_lane_utilisation}}},
+        {"pool", {{"paths", st.pool_size}, {"bytes", st.pool_bytes}}},
+        {"mean_relative_error", st.mean_relative_error ? nlohmann::json(*st.mean_relative_error)
+                                                       : nlohmann::json(nullptr)},
+        {"stopped_by", st.stopped_by},
+        {"spp_resumed", st.spp_resumed},
+        {"warnings", st.warnings},
+    };
+    if (!checkpoint.empty()) {
+        std::error_code ec;
+        const auto bytes = fs::file_size(checkpoint, ec);
+        j["checkpoint"] = {{"file", checkpoint.string()},
+                           {"writes", st.checkpoint_writes},
+                           {"last_write_seconds", st.checkpoint_last_seconds},
+                           {"write_seconds", st.checkpoint_seconds},
+                           {"bytes", ec ? nlohmann::json(nullptr) : nlohmann::json(bytes)}};
+    }
+    // Under MPI: each rank's rays, time and rays/s, and the sum over ranks
+    if (!st.ranks.empty()) {
+        nlohmann::json ranks = nlohmann::json::array();
+        uint64_t rays = 0;
+        int threads = 0;
+        for (const RankStats& r : st.ranks) {
+            ranks.push_back({{"rank", r.rank}, {"host", r.host}, {"threads", r.threads},
+                             {"units", r.units}, {"rays", r.rays}, {"seconds", r.seconds},
+                             {"rays_per_second", r.rays_per_second()}});
+            rays += r.rays, threads += r.threads;
+        }
+        j["mpi"] = {{"ranks", st.ranks.size()},
+                    {"service_seconds", st.service_seconds},
+                    {"units_received", st.units_received},
+                    {"bytes_received", st.bytes_received},
+                    {"threads", threads},
+                    {"rays_traced", rays},
+                    {"rays_traced_per_second", st.seconds > 0 ? double(rays) / st.seconds : 0.0},
+                    {"per_rank", ranks}};
+    }
+    // The acceleration structure: what it holds, its size and how long it took to build
+    const BvhStats& b = scene.bvh.stats();
+    size_t instances = 0, mesh_bytes = 0;
+    for (const Mesh& m : scene.meshes) {
+        instances += m.instanced();
+        if (m.bvh) mesh_bytes += m.bvh->stats().bytes;
+    }
+    j["bvh"] = {{"primitives", b.primitives}, {"nodes", b.nodes}, {"bytes", b.bytes},
+                {"instances", instances}, {"instanced_mesh_bytes", mesh_bytes},
+                {"unbounded", scene.planes.size() + scene.unbounded_quadrics.size()},
+                {"build_seconds", scene.bvh_seconds}};
+    return j;
+}
+
+void write_render_outputs(const RenderJob& a, const RenderJobResult& done) {
+    const Scene& scene = done.scene;
+    const RenderStats& st = done.result.stats;
+    const fs::path& output = scene.settings.output;
+    ImageLayers layers;
+    if (a.variance && output.extension() == ".exr")
+        layers = variance_layers(done.result.film.variance_of_mean());
+    write_hdr(output, done.result.film.mean(), render_metadata(scene, st), layers);
+    if (!a.stats.empty()) {
+        const nlohmann::json j = render_stats_json(scene, st, done.checkpoint);
+        write_stream_atomically(a.stats, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+    }
+}
+
+}  // namespace cierzo

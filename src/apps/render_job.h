@@ -1,0 +1,89 @@
+// One render as `cierzo render` and the Python module run it: the command line's overrides
+// of the scene's settings, the checks made before a long render, checkpoints and resuming,
+// the outputs (image, its metadata and variance layers) and the --stats JSON.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "integrators/render.h"
+#include "io/image.h"
+#include "scene/scene.h"
+
+namespace cierzo {
+
+struct RenderJob {
+    // Overrides of the scene's render settings (unset: the scene's)
+    std::optional<int64_t> spp;
+    std::optional<uint32_t> seed;
+    std::optional<int> width, height;
+    std::optional<float> survival_cap;
+    std::optional<std::string> diffuse_sampling;  // uniform or cosine
+    std::optional<std::string> estimator;         // report, nee or mis
+    // How to render
+    int threads = 0;
+    std::string integrator = "wavefront";
+    std::string isa = "auto";
+    int pool = 0;
+    double time_budget = 0.0;
+    double target_error = 0.0;
+    bool progress = true;
+    const std::atomic<bool>* cancel = nullptr;  // set to stop after the passes finished
+    // Outputs: with `write_outputs`, the image (empty: the scene's render.output) and the
+    // statistics (empty: none) are checked before the render and written after it;
+    // without, the caller keeps the film (the Python module)
+    bool write_outputs = true;
+    bool variance = false;  // the EXR gets the variance layers
+    std::filesystem::path out;
+    std::filesystem::path stats;
+    // Checkpoints and resuming (see integrators/checkpoint.h)
+    std::filesystem::path checkpoint;
+    double checkpoint_every = 300.0;
+    bool checkpoint_every_given = false;
+    std::filesystem::path resume;
+    // Called once every check has passed, just before rendering (the CLI installs its
+    // signal handlers there)
+    std::function<void()> on_start;
+};
+
+struct RenderJobResult {
+    Scene scene;  // with the overrides applied
+    RenderResult result;
+    std::vector<std::string> resume_warnings;  // already printed on stderr
+    std::filesystem::path checkpoint;          // the file checkpoints went to, if any
+};
+
+// Refuses an instruction set this CPU lacks (before the scene is read, as the CLI does).
+void check_render_isa(const RenderJob& job);
+
+// Applies the job's overrides to the scene and checks the render size; throws InputError
+// naming the scene file or option.
+void apply_render_overrides(Scene& scene, const RenderJob& job);
+
+// Applies the overrides, checks everything that could fail late (outputs, checkpoints),
+// resumes if asked, and renders. Throws InputError with the messages of `cierzo render`.
+// Under MPI every rank calls it; only rank 0's result holds the image.
+RenderJobResult run_render_job(Scene scene, const RenderJob& job);
+
+// Threads of the whole run: this process's, or under MPI every rank's.
+int total_threads(const RenderStats& stats);
+
+// The EXR metadata of a finished render (scene, integrator, ISA, spp, seed, estimator).
+ImageMetadata render_metadata(const Scene& scene, const RenderStats& stats);
+
+// The --stats JSON: time, paths, rays by kind, rays/s, error, lanes, pool, BVH, and the
+// checkpoint and MPI figures when there are any.
+nlohmann::json render_stats_json(const Scene& scene, const RenderStats& stats,
+                                 const std::filesystem::path& checkpoint);
+
+// Writes the image (and its variance layers if asked) and the statistics the job names.
+void write_render_outputs(const RenderJob& job, const RenderJobResult& done);
+
+}  // namespace cierzo
