@@ -1,7 +1,10 @@
 // Wavefront OBJ reader (see obj.h). tinyobjloader parses the file; before it, one pass over
 // the lines checks what tinyobjloader would accept silently (a number that does not parse
 // reads as 0 there, an out-of-range index is only a warning, and a face of 256 corners or
-// more has its size cut to a byte), so that every refusal names the line. After it, the
+// more has its size cut to a byte), so that every refusal names the line, and hands it only
+// the lines it has checked (v, vn, vt, f; the others become empty lines: tinyobjloader's
+// readers of lines cierzo does not use are not exposed to the file, e.g. its 'vw' reader
+// converts a huge joint id to int, undefined behaviour found by fuzzing). After it, the
 // counts of both passes must agree and every index is checked again before it is used.
 #include "io/obj.h"
 
@@ -74,10 +77,12 @@ struct Counts {
     size_t max_line = 0;  // the line of the largest absolute vertex index, for its message
     int64_t max_vertex = 0, max_normal = 0;
     size_t max_normal_line = 0;
+    std::string checked;  // the file's checked lines, every other line emptied
 };
 
 Counts check_lines(std::string_view bytes, const Source& src) {
     Counts c;
+    c.checked.reserve(bytes.size() + 1);
     size_t line_no = 0;
     for (size_t pos = 0; pos < bytes.size();) {
         size_t end = bytes.find('\n', pos);
@@ -90,6 +95,9 @@ Counts check_lines(std::string_view bytes, const Source& src) {
             src.fail_at(line_no, "has a NUL byte (not a text OBJ file)");
         std::string_view rest = line;
         const std::string_view key = next_token(rest);
+        const bool used = key == "v" || key == "vn" || key == "vt" || key == "f";
+        if (used) c.checked.append(line);
+        c.checked.push_back('\n');
         if (key == "v" || key == "vn") {
             double value[8];
             size_t n = 0;
@@ -114,6 +122,14 @@ Counts check_lines(std::string_view bytes, const Source& src) {
             c.colors &= n == 6;
             ++c.vertices;
         } else if (key == "vt") {
+            // (not used, but tinyobjloader reads them: u [v [w]], numbers)
+            double value;
+            size_t n = 0;
+            for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest), ++n)
+                if (n == 3 || !parse_number(t, value))
+                    src.fail_at(line_no, fmt::format("'{}' is not a number in float range "
+                                                     "(or there are too many values)", t));
+            if (n == 0) src.fail_at(line_no, "a texture coordinate 'vt' needs 1 to 3 numbers");
             ++c.texcoords;
         } else if (key == "f") {
             size_t corners = 0;
@@ -188,7 +204,7 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
     config.vertex_color = false;  // colours only when every vertex has them
     tinyobj::ObjReader reader;
     // (materials are the scene's: the file's mtllib is not read)
-    if (!reader.ParseFromString(std::string(bytes), std::string(), config))
+    if (!reader.ParseFromString(counts.checked, std::string(), config))
         src.fail("cannot be parsed: " + reader.Error());
     const tinyobj::attrib_t& attrib = reader.GetAttrib();
     const auto& shapes = reader.GetShapes();

@@ -108,6 +108,13 @@ TEST(FuzzRegressions, ObjCorpus) {
     EXPECT_GE(accepted, 5u) << "the seeds include valid meshes of every form";
 }
 
+TEST(FuzzRegressions, ObjCrashers) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "regressions" / "obj", fuzz_one_obj, &accepted), 2u)
+        << "the kept crashers are missing";
+    EXPECT_GE(accepted, 1u) << "a valid mesh with a 'vw' line is read, the line ignored";
+}
+
 // Two finds too large to keep as files, generated here instead.
 
 const uint8_t* bytes_of(const std::string& s) { return reinterpret_cast<const uint8_t*>(s.data()); }
