@@ -54,6 +54,7 @@ FIGURES = [
     ("soft_shadow", "Soft shadow under the emitting ceiling", "clamp-gamma"),
     ("bleeding", "Colour bleeding, a sphere light set into the ceiling", "clamp-gamma"),
     ("caustic", "A refracting sphere's caustic", "clamp-gamma"),
+    ("smooth_normals", "A coarse OBJ torus (576 triangles), flat on the left, smooth shading normals on the right", "clamp-gamma"),
 ]
 FIGURE_SPP = 256  # the wavefront images; the scalar reference renders the scene's own 64
 
