@@ -32,15 +32,7 @@ namespace {
 // A face may have at most this many corners (tinyobjloader stores a face's size in a byte).
 constexpr size_t kMaxCorners = 255;
 
-struct Source {
-    std::string path;
-    [[noreturn]] void fail(std::string_view what) const {
-        throw InputError(fmt::format("{}: {}", path, what));
-    }
-    [[noreturn]] void fail_at(size_t line, std::string_view what) const {
-        throw InputError(fmt::format("{}: line {}: {}", path, line, what));
-    }
-};
+using Source = MeshSource;
 
 std::string_view next_token(std::string_view& rest) {
     size_t a = 0;

@@ -72,16 +72,7 @@ struct VertexLayout {
     }
 };
 
-// The file being read, for error messages.
-struct Source {
-    std::string path;
-    [[noreturn]] void fail(std::string_view what) const {
-        throw InputError(fmt::format("{}: {}", path, what));
-    }
-    [[noreturn]] void fail_at(size_t line, std::string_view what) const {
-        throw InputError(fmt::format("{}: line {}: {}", path, line, what));
-    }
-};
+using Source = MeshSource;  // the file being read, for error messages
 
 std::optional<ScalarType> parse_type(std::string_view name) {
     if (name == "char" || name == "int8") return ScalarType::Int8;

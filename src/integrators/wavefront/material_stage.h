@@ -115,20 +115,11 @@ Vec3<typename Wave<A>::F> vertex_colors(const Wave<A>& w, const ColorSource& cs,
         const FlatMesh& m = w.scene.meshes[id];
         if (!m.colors) continue;
         const I corner = select(lanes, triangle, I(0)) * I(3);
-        // (an instance's vertices are in the file's space: so is the point)
-        Vec3<F> at = pos;
-        if (const float* m4 = m.to_object) {
-            at = {fma(F(m4[0]), pos.x, fma(F(m4[1]), pos.y, fma(F(m4[2]), pos.z, F(m4[3])))),
-                  fma(F(m4[4]), pos.x, fma(F(m4[5]), pos.y, fma(F(m4[6]), pos.z, F(m4[7])))),
-                  fma(F(m4[8]), pos.x, fma(F(m4[9]), pos.y, fma(F(m4[10]), pos.z, F(m4[11]))))};
-        }
+        const Vec3<F> at = mesh_space_point(m, pos);
         Vec3<F> v[3], col[3];
         for (int k = 0; k < 3; ++k) {
-            const I at = gather_lanes<A>(m.indices, corner + I(k)) * I(3);
-            v[k] = {gather_lanes<A>(m.positions, at), gather_lanes<A>(m.positions, at + I(1)),
-                    gather_lanes<A>(m.positions, at + I(2))};
-            col[k] = {gather_lanes<A>(m.colors, at), gather_lanes<A>(m.colors, at + I(1)),
-                      gather_lanes<A>(m.colors, at + I(2))};
+            v[k] = gather_corner<A>(m, m.positions, corner, k);
+            col[k] = gather_corner<A>(m, m.colors, corner, k);
         }
         out = select(mask_f32(lanes), eval_vertex_color(cs, at, v, col), out);
     }

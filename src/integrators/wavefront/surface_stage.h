@@ -48,19 +48,11 @@ Vec3<typename Wave<A>::F> smooth_normals(const Wave<A>& w, int32_t i,
         if (!m.normals) continue;
         const I corner = select(mask_i32(lanes), triangle, I(0)) * I(3);
         // (an instance's vertices and normals are in the file's space: so is the point)
-        Vec3<F> at = pos;
-        if (const float* m4 = m.to_object) {
-            at = {fma(F(m4[0]), pos.x, fma(F(m4[1]), pos.y, fma(F(m4[2]), pos.z, F(m4[3])))),
-                  fma(F(m4[4]), pos.x, fma(F(m4[5]), pos.y, fma(F(m4[6]), pos.z, F(m4[7])))),
-                  fma(F(m4[8]), pos.x, fma(F(m4[9]), pos.y, fma(F(m4[10]), pos.z, F(m4[11]))))};
-        }
+        const Vec3<F> at = mesh_space_point(m, pos);
         Vec3<F> v[3], vn[3];
         for (int k = 0; k < 3; ++k) {
-            const I at3 = gather_lanes<A>(m.indices, corner + I(k)) * I(3);
-            v[k] = {gather_lanes<A>(m.positions, at3), gather_lanes<A>(m.positions, at3 + I(1)),
-                    gather_lanes<A>(m.positions, at3 + I(2))};
-            vn[k] = {gather_lanes<A>(m.normals, at3), gather_lanes<A>(m.normals, at3 + I(1)),
-                     gather_lanes<A>(m.normals, at3 + I(2))};
+            v[k] = gather_corner<A>(m, m.positions, corner, k);
+            vn[k] = gather_corner<A>(m, m.normals, corner, k);
         }
         Vec3<F> ns = interpolate_normal(v, vn, at, Vec3<F>(F(0.0f)));
         auto found = (ns.x != F(0.0f)) | (ns.y != F(0.0f)) | (ns.z != F(0.0f));

@@ -109,6 +109,29 @@ xsimd::batch<T, A> gather_lanes(const T* array, const xsimd::batch<int32_t, A>& 
     return gather_table(array, idx);
 }
 
+// ---- Mesh vertices ------------------------------------------------------------------------
+// Points `pos` of lanes on mesh m in the space of its vertices: as they are, or for an
+// instance (whose vertices stay in the file's space) through its to_object map.
+template <class F>
+Vec3<F> mesh_space_point(const FlatMesh& m, const Vec3<F>& pos) {
+    const float* m4 = m.to_object;
+    if (!m4) return pos;
+    return {fma(F(m4[0]), pos.x, fma(F(m4[1]), pos.y, fma(F(m4[2]), pos.z, F(m4[3])))),
+            fma(F(m4[4]), pos.x, fma(F(m4[5]), pos.y, fma(F(m4[6]), pos.z, F(m4[7])))),
+            fma(F(m4[8]), pos.x, fma(F(m4[9]), pos.y, fma(F(m4[10]), pos.z, F(m4[11]))))};
+}
+
+// A per-vertex attribute (x, y, z per vertex: positions, colours, normals) of corner k of
+// each lane's triangle, whose first corner is at `corner` (3 × the triangle index).
+template <class A>
+Vec3<xsimd::batch<float, A>> gather_corner(const FlatMesh& m, const float* attribute,
+                                           const xsimd::batch<int32_t, A>& corner, int k) {
+    using I = xsimd::batch<int32_t, A>;
+    const I at = gather_lanes<A>(m.indices, corner + I(k)) * I(3);
+    return {gather_lanes<A>(attribute, at), gather_lanes<A>(attribute, at + I(1)),
+            gather_lanes<A>(attribute, at + I(2))};
+}
+
 // ---- Compression ------------------------------------------------------------------------
 // For the 8-lane mask m, the indices of its set lanes in order, packed 4 bits each (lane 0
 // of the result in the low nibble): the permute that compresses an AVX register.
