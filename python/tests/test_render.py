@@ -41,7 +41,9 @@ def keys(d, prefix=""):
 
 
 @pytest.mark.parametrize("scene,integrator", [("cornell", "wavefront"), ("cornell", "scalar"),
-                                              ("four_lobes", "wavefront")])
+                                              ("four_lobes", "wavefront"),
+                                              ("smooth_normals", "wavefront"),
+                                              ("smooth_normals", "scalar")])
 def test_image_equals_the_programs_exr(cierzo, tmp_path, scene, integrator):
     exr, cli_stats = cli_render(tmp_path, scene_path(scene), extra=("--integrator", integrator))
     image, stats = cierzo.render(scene_path(scene), integrator=integrator, **SMALL)
