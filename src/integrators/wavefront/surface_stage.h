@@ -81,7 +81,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
     const I index = prim & I(kPrimIndexMask);
     const Vec3<F> pos = fma(ray.d, t, ray.o);
     Vec3<F> n(F(0.0f), F(0.0f), F(1.0f));
-    Vec3<F> ns = n;
+    Vec3<F> ns;  // set after the kinds: n, or on smooth meshes theirs
     I material(0);
     I emitter(-1);
 
@@ -123,6 +123,8 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         const I mesh = select(m, I::load_aligned(p.mesh_id + i), I(0));
         n = select(mask_f32(m), load3<F>(p.mesh_nx, p.mesh_ny, p.mesh_nz, i), n);
         material = select(m, lookup<A>(s.mesh_material, s.mesh_count, mesh), material);
+        // (mesh is the last kind: n is final here, and smooth_normals keeps it for the
+        // lanes that are not on a smooth mesh)
         if (f.smooth) ns = smooth_normals(w, i, mesh, mask_f32(m) & w.live_mask(i), pos, n);
         if (f.nee) {
             const I first = lookup<A>(s.mesh_emitter, s.mesh_count, mesh);
@@ -132,7 +134,6 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
     }
     const auto hit = w.live_mask(i) & (to_float(prim) >= F(0.0f));
     if (!(f.smooth && f.meshes)) ns = n;
-    else ns = select(mask_f32(kind == I(kPrimMesh)), ns, n);
     return {pos, n, ns, select(mask_i32(hit), material, I(0)), hit,
             max(max_abs(pos), max_abs(ray.o)), emitter};
 }
