@@ -24,6 +24,7 @@
 #include "integrators/checkpoint.h"
 #include "io/image.h"
 #include "support/emulator.h"
+#include "support/removed_at_exit.h"
 
 namespace {
 
@@ -31,6 +32,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 const fs::path kDir = fs::temp_directory_path() / ("cierzo_dist_" + std::to_string(getpid()));
+const cierzo::test::RemovedAtExit kDirRemoved{kDir};
 const std::string kScenes = CIERZO_SOURCE_DIR "/scenes/";
 const std::string kCierzo = CIERZO_BINARY_DIR "/cierzo";
 

@@ -13,12 +13,14 @@
 #include <unistd.h>
 
 #include "support/emulator.h"
+#include "support/removed_at_exit.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
 const fs::path kDir = fs::temp_directory_path() / ("cierzo_stop_" + std::to_string(getpid()));
+const cierzo::test::RemovedAtExit kDirRemoved{kDir};
 const std::string kScene = CIERZO_SOURCE_DIR "/scenes/cornell.json";
 
 // Runs cierzo with arguments; with `interrupt_after` > 0 sends SIGINT after that many

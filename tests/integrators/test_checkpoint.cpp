@@ -20,6 +20,7 @@
 #include "io/image.h"
 #include "scene/scene_json.h"
 #include "support/render_variants.h"
+#include "support/removed_at_exit.h"
 
 namespace cierzo {
 namespace {
@@ -27,6 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const fs::path kDir = fs::temp_directory_path() / ("cierzo_ckpt_" + std::to_string(getpid()));
+const test::RemovedAtExit kDirRemoved{kDir};
 
 Scene scene_at(const char* file, int w, int h, int64_t spp) {
     Scene s = load_scene(fs::path(CIERZO_SOURCE_DIR "/scenes") / file);
