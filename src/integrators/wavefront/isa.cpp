@@ -2,6 +2,7 @@
 #include "integrators/wavefront/isa.h"
 
 #include <array>
+#include <span>
 #include <vector>
 
 #include "core/error.h"
@@ -10,21 +11,43 @@ namespace cierzo {
 
 namespace {
 
+// (CIERZO_BUILT_<ISA> and CIERZO_BUILT_ISAS come from CMake's CIERZO_ISAS)
+#if !defined(CIERZO_BUILT_AVX512) || !defined(CIERZO_BUILT_AVX2) || !defined(CIERZO_BUILT_SSE42) || \
+    !defined(CIERZO_BUILT_NEON) || !defined(CIERZO_BUILT_ISAS)
+#error "CIERZO_BUILT_<ISA> and CIERZO_BUILT_ISAS must be defined (CMakeLists.txt sets them)"
+#endif
 #if defined(__x86_64__) || defined(__i386__)
-constexpr Isa kCompiled[] = {Isa::kAvx512, Isa::kAvx2, Isa::kSse42};
+constexpr Isa kTarget[] = {Isa::kAvx512, Isa::kAvx2, Isa::kSse42};
+constexpr Isa kCompiled[] = {
+#if CIERZO_BUILT_AVX512
+    Isa::kAvx512,
+#endif
+#if CIERZO_BUILT_AVX2
+    Isa::kAvx2,
+#endif
+#if CIERZO_BUILT_SSE42
+    Isa::kSse42,
+#endif
+};
 constexpr const char* kBuild = "an x86-64 build";
 #elif defined(__aarch64__)
-constexpr Isa kCompiled[] = {Isa::kNeon};
+constexpr Isa kTarget[] = {Isa::kNeon};
+constexpr Isa kCompiled[] = {
+#if CIERZO_BUILT_NEON
+    Isa::kNeon,
+#endif
+};
 constexpr const char* kBuild = "an aarch64 build";
 #else
 #error "cierzo's wavefront kernels are built for x86-64 and aarch64 only"
 #endif
 
-bool compiled(Isa isa) {
-    for (Isa c : kCompiled)
+bool in(std::span<const Isa> set, Isa isa) {
+    for (Isa c : set)
         if (c == isa) return true;
     return false;
 }
+bool compiled(Isa isa) { return in(kCompiled, isa); }
 
 // The CPU features an ISA's kernels are compiled for (the -m flags of its object)
 std::vector<const char*> missing_features(Isa isa) {
@@ -70,11 +93,14 @@ bool isa_supported(Isa isa) {
 
 std::string isa_unsupported_reason(Isa isa) {
     if (isa == Isa::kAuto) return "";
-    if (!compiled(isa)) {
+    if (!in(kTarget, isa)) {
         const bool x86 = isa == Isa::kAvx512 || isa == Isa::kAvx2 || isa == Isa::kSse42;
         return isa_name(isa) + " is " + (x86 ? "an x86-64" : "an aarch64") +
                " instruction set and this is " + kBuild;
     }
+    if (!compiled(isa))
+        return isa_name(isa) + " kernels are not in this build (it was configured with "
+               "CIERZO_ISAS for " CIERZO_BUILT_ISAS " only)";
     const std::vector<const char*> missing = missing_features(isa);
     if (missing.empty()) return "";
     std::string why = "this CPU lacks";

@@ -54,11 +54,19 @@ namespace {
 TraceRaysEntry trace_entry_of(Isa isa) {
     switch (isa) {
 #if defined(__x86_64__) || defined(__i386__)
+#if CIERZO_BUILT_AVX512
         case Isa::kAvx512: return trace_rays_avx512;
+#endif
+#if CIERZO_BUILT_AVX2
         case Isa::kAvx2: return trace_rays_avx2;
+#endif
+#if CIERZO_BUILT_SSE42
         case Isa::kSse42: return trace_rays_sse42;
+#endif
 #elif defined(__aarch64__)
+#if CIERZO_BUILT_NEON
         case Isa::kNeon: return trace_rays_neon;
+#endif
 #endif
         default: throw std::logic_error("no wavefront kernels for " + isa_name(isa));
     }
@@ -67,11 +75,19 @@ TraceRaysEntry trace_entry_of(Isa isa) {
 RenderTileEntry entry_of(Isa isa) {
     switch (isa) {
 #if defined(__x86_64__) || defined(__i386__)
+#if CIERZO_BUILT_AVX512
         case Isa::kAvx512: return render_tile_avx512;
+#endif
+#if CIERZO_BUILT_AVX2
         case Isa::kAvx2: return render_tile_avx2;
+#endif
+#if CIERZO_BUILT_SSE42
         case Isa::kSse42: return render_tile_sse42;
+#endif
 #elif defined(__aarch64__)
+#if CIERZO_BUILT_NEON
         case Isa::kNeon: return render_tile_neon;
+#endif
 #endif
         default: throw std::logic_error("no wavefront kernels for " + isa_name(isa));
     }
