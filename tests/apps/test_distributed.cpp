@@ -127,10 +127,7 @@ nlohmann::json stats(const fs::path& p) { return nlohmann::json::parse(text(p));
 }
 
 // Under an emulator (the aarch64 suite under qemu, about 100 times slower): smaller renders.
-bool emulated() {
-    const char* e = std::getenv("CIERZO_TEST_EMULATED");
-    return e != nullptr && *e != '\0' && *e != '0';
-}
+bool emulated() { return cierzo::test::lighter_settings(); }
 
 bool have_mpi() { return std::strlen(CIERZO_TEST_MPIEXEC) > 0; }
 

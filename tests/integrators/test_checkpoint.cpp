@@ -19,6 +19,7 @@
 #include "integrators/render.h"
 #include "io/image.h"
 #include "scene/scene_json.h"
+#include "support/emulator.h"
 #include "support/render_variants.h"
 #include "support/removed_at_exit.h"
 
@@ -54,10 +55,7 @@ Scene scene_at(const char* file, int w, int h, int64_t spp) {
 
 // Under an emulator (the aarch64 suite runs under qemu, about 100 times slower): the
 // scalar reference and one wavefront ISA, on smaller images.
-bool emulated() {
-    const char* e = std::getenv("CIERZO_TEST_EMULATED");
-    return e != nullptr && *e != '\0' && *e != '0';
-}
+bool emulated() { return test::lighter_settings(); }
 
 std::vector<test::Variant> checked_variants() {
     std::vector<test::Variant> v = test::variants();

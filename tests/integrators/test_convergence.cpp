@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "integrators/convergence.h"
 #include "scene/scene_json.h"
+#include "support/emulator.h"
 
 namespace cierzo {
 namespace {
@@ -85,10 +86,7 @@ struct Reference {
 // not 16384: ctest runs each test in a process of its own, so every test renders it, and it
 // is most of their time. The tests still fail as they would: the errors are corrected for
 // the reference's noise, whose estimate is only less certain.
-bool emulated() {
-    const char* e = std::getenv("CIERZO_TEST_EMULATED");
-    return e != nullptr && *e != '\0' && std::string(e) != "0";
-}
+bool emulated() { return test::lighter_settings(); }
 
 // The box at 16384 paths per pixel (4096 under an emulator), rendered once for all tests.
 const Reference& box_reference() {

@@ -23,6 +23,7 @@
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
+#include "support/emulator.h"
 #include "support/render_variants.h"
 
 namespace cierzo {
@@ -180,10 +181,7 @@ TEST(Estimators, AFivePercentErrorInTheEmitterPdfIsCaught) {
 // qemu, about 100 times slower) the scene-by-scene agreement covers the scenes with sampled
 // emitters only (elsewhere the three estimators run the same code), at 8 paths per pixel
 // per batch instead of 32.
-bool emulated() {
-    const char* e = std::getenv("CIERZO_TEST_EMULATED");
-    return e != nullptr && *e != '\0' && *e != '0';
-}
+bool emulated() { return test::lighter_settings(); }
 
 TEST(Estimators, AgreeWithinThreeSigmaOnEveryScene) {
     // Each scene with each estimator in 8 independent batches (seeds differ); σ of an image

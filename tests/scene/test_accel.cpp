@@ -17,6 +17,7 @@
 #include "integrators/wavefront/intersect_stage.h"
 #include "kernels/traverse.h"
 #include "scene/scene_json.h"
+#include "support/emulator.h"
 #include "support/uv_sphere.h"
 
 namespace cierzo {
@@ -251,8 +252,10 @@ TEST(Accel, InstancesThatRotateScaleAndMirrorMatchBruteForce) {
     for (const Mesh& m : s.meshes) with_vertices += m.instanced() && !m.positions.empty();
     EXPECT_EQ(with_vertices, 1u);
     // (an instance maps the ray, brute force maps the vertices: t agrees to rounding, and a
-    // ray through an edge may be rounded onto different sides)
-    EXPECT_GT(expect_matches_brute_force(s, 14.0f, 2e-4f, 6, 5, 6000), 3000);
+    // ray through an edge may be rounded onto different sides; a third of the rays with the
+    // suite's lighter settings, where brute force was the qemu suite's longest test)
+    const int rays = test::lighter_settings() ? 2000 : 6000;
+    EXPECT_GT(expect_matches_brute_force(s, 14.0f, 2e-4f, rays / 1000, 5, rays), rays / 2);
 }
 
 // Rays from points inside a closed mesh towards its vertices and edges: none may escape.

@@ -3,6 +3,7 @@
 // tests/CMakeLists.txt; the host cannot execute the target's programs itself).
 #pragma once
 
+#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -21,6 +22,14 @@ inline std::vector<std::string> emulator_words() {
 inline std::string emulated(const std::string& program) {
     const std::string emulator = CIERZO_TEST_EMULATOR;
     return emulator.empty() ? program : emulator + " " + program;
+}
+
+// Whether the suite runs with its lighter settings (CIERZO_TEST_EMULATED=1, set by the qemu
+// and sanitizer jobs, whose code runs tens of times slower than natively): tests that say
+// so use fewer paths, rays or pixels, and still fail as they would on what they check.
+inline bool lighter_settings() {
+    const char* e = std::getenv("CIERZO_TEST_EMULATED");
+    return e != nullptr && *e != '\0' && *e != '0';
 }
 
 }  // namespace cierzo::test
