@@ -7,15 +7,25 @@
 # an aarch64 host has tested NEON natively by then.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each job's wall time, printed at the end (where CI's time goes)
+times=()
+phase() { times+=("$(printf '%-28s %4d s' "$1" $((SECONDS - phase_start)))"); phase_start=$SECONDS; }
+phase_start=$SECONDS
 scripts/install_deps.sh
+phase "install"
 scripts/build.sh build
+phase "native build"
 scripts/fetch_bunny.sh scenes/data || echo "warning: could not fetch the bunny; its tests skip" >&2
 export CIERZO_BUNNY_PLY="$PWD/scenes/data/bunny.ply"
 (cd build && ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
+phase "native tests"
 scripts/test_sanitized.sh
+phase "sanitizer build and tests"
 native=$(scripts/isa_summary.sh build)
 echo "$native"
 if [ "$(uname -m)" = x86_64 ]; then
     scripts/test_aarch64.sh
-    echo "$native"  # both architectures' lines last
+    phase "aarch64 build and qemu tests"
 fi
+printf '%s\n' "${times[@]}"
+echo "$native"  # (after the aarch64 job's line, both architectures' lines are last)
