@@ -51,9 +51,10 @@ struct PoolMemory {
 
 namespace {
 
+// (CIERZO_BUILT_<ISA> is 1 for the ISAs with kernels, 0 for the rest and for every ISA of
+// the other architecture)
 TraceRaysEntry trace_entry_of(Isa isa) {
     switch (isa) {
-#if defined(__x86_64__) || defined(__i386__)
 #if CIERZO_BUILT_AVX512
         case Isa::kAvx512: return trace_rays_avx512;
 #endif
@@ -63,10 +64,8 @@ TraceRaysEntry trace_entry_of(Isa isa) {
 #if CIERZO_BUILT_SSE42
         case Isa::kSse42: return trace_rays_sse42;
 #endif
-#elif defined(__aarch64__)
 #if CIERZO_BUILT_NEON
         case Isa::kNeon: return trace_rays_neon;
-#endif
 #endif
         default: throw std::logic_error("no wavefront kernels for " + isa_name(isa));
     }
@@ -74,7 +73,6 @@ TraceRaysEntry trace_entry_of(Isa isa) {
 
 RenderTileEntry entry_of(Isa isa) {
     switch (isa) {
-#if defined(__x86_64__) || defined(__i386__)
 #if CIERZO_BUILT_AVX512
         case Isa::kAvx512: return render_tile_avx512;
 #endif
@@ -84,10 +82,8 @@ RenderTileEntry entry_of(Isa isa) {
 #if CIERZO_BUILT_SSE42
         case Isa::kSse42: return render_tile_sse42;
 #endif
-#elif defined(__aarch64__)
 #if CIERZO_BUILT_NEON
         case Isa::kNeon: return render_tile_neon;
-#endif
 #endif
         default: throw std::logic_error("no wavefront kernels for " + isa_name(isa));
     }
