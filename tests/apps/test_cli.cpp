@@ -23,10 +23,14 @@
 
 #include "integrators/wavefront/isa.h"
 #include "support/emulator.h"
+#include "support/program_test.h"
 
 namespace {
 
 namespace fs = std::filesystem;
+using cierzo::test::Outcome;
+using cierzo::test::quote;
+using cierzo::test::read_file;
 using nlohmann::json;
 
 // 8 x 8 pixels, 2 paths each: a diffuse floor and sphere under a point light and an emitter,
@@ -42,19 +46,6 @@ const char* const kTinyScene = R"({
     ],
     "lights": [{"position": [1, 1, -1], "intensity": 1}]
 })";
-
-std::string read_file(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-// Built by appending: GCC 12 warns falsely (-Wrestrict) about "'" + std::string.
-std::string quote(const fs::path& p) {
-    std::string q = "'";
-    q += p.string();
-    q += '\'';
-    return q;
-}
 
 // The attributes of an OpenEXR header, name -> raw value bytes; empty if not an EXR.
 std::map<std::string, std::string> exr_header(const fs::path& path) {
@@ -91,65 +82,8 @@ std::pair<int, int> exr_size(const fs::path& path) {
     return {box[2] - box[0] + 1, box[3] - box[1] + 1};
 }
 
-struct Outcome {
-    int exit_code = -1;  // -1: did not exit normally (crash, signal)
-    std::string err;
-    std::string out;  // standard output
-    double seconds = 0.0;
-};
-
-class cli : public ::testing::Test {
-protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("cierzo_test_cli_" + std::to_string(getpid()) + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override {
-        std::error_code ec;
-        fs::remove_all(dir_, ec);
-    }
-
-    fs::path write(const std::string& name, const std::string& text) {
-        const fs::path p = dir_ / name;
-        std::ofstream(p, std::ios::binary) << text;
-        return p;
-    }
-
-    // `cierzo render ARGS` (or another subcommand) with a time limit, so a refused render
-    // can never hang the suite.
-    Outcome run(const std::string& args, const char* subcommand = "render") {
-        const fs::path err = dir_ / "stderr.txt", out = dir_ / "stdout.txt";
-        const std::string program = cierzo::test::emulated(quote(CIERZO_BINARY_DIR "/cierzo"));
-        const std::string cmd = "timeout 120 " + program + " " + subcommand + " " + args + " >" +
-                                quote(out) + " 2>" + quote(err);
-        const auto start = std::chrono::steady_clock::now();
-        const int status = std::system(cmd.c_str());
-        Outcome r;
-        r.seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-        r.err = read_file(err);
-        r.out = read_file(out);
-        fs::remove(err), fs::remove(out);
-        return r;
-    }
-
-    // Files in the test folder other than the given ones (e.g. a leftover temporary file).
-    std::vector<std::string> other_files(std::initializer_list<std::string> expected) {
-        std::vector<std::string> others;
-        for (const auto& e : fs::directory_iterator(dir_)) {
-            const std::string n = e.path().filename().string();
-            if (std::find(expected.begin(), expected.end(), n) == expected.end())
-                others.push_back(n);
-        }
-        return others;
-    }
-
-    fs::path dir_;
-};
+// (a class of this name: the tests' names stay "cli.*")
+class cli : public cierzo::test::ProgramTest {};
 
 const char* const kQuiet = " --threads 1 --quiet";
 
