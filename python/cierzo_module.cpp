@@ -498,8 +498,8 @@ cierzo.Error naming the file (a missing layer too).)");
                 layers = variance_layers(v);
             }
             py::gil_scoped_release release;
-            // The program's refusal of a folder that does not exist, or of a folder
-            check_writable_folder(path, "the image");
+            // The program's refusals (a folder that does not exist, a folder, a block device)
+            check_outputs({{path, "path", "the image"}}, {});
             write_exr(path, image, metadata, layers);
         },
         py::arg("path"), py::arg("image"), py::arg("metadata") = ImageMetadata{},
@@ -507,18 +507,20 @@ cierzo.Error naming the file (a missing layer too).)");
         R"(Writes a (height, width, 3) array as a float32 OpenEXR file (lossless), with the
 given string attributes in its header and, if given, a variance array as the layers
 variance.R/G/B that `cierzo render --variance` writes (and `converge` reads from a
-reference). Written to a temporary file and renamed into place: an existing file is never
-damaged. Raises cierzo.Error with the program's message when it cannot be written.)");
+reference). As every output of cierzo: an existing file is replaced only once the new one is
+complete, a symbolic link is written through to its target, and a device or FIFO is written
+directly. Raises cierzo.Error with the program's message when it cannot be written.)");
     m.def(
         "write_ldr",
         [](const fs::path& path, const FloatArray& array) {
             const Image image = to_image(array, "write_ldr");
             py::gil_scoped_release release;
+            check_outputs({{path, "path", "the image"}}, {});
             write_ldr(path, image);
         },
         py::arg("path"), py::arg("image"),
         R"(Writes an already tone-mapped array (values in [0, 1], clamped, rounded to 8 bits)
-as .png, .ppm or .bmp, chosen by the extension.)");
+as .png, .ppm or .bmp, chosen by the extension; written as write_exr writes.)");
     m.def("tonemap", &tonemap_array, py::arg("image"), py::kw_only(), py::arg("op") = "gamma",
           py::arg("exposure") = 0.0f, py::arg("gamma") = 2.2f, py::arg("clamp") = py::none(),
           R"(Tone-maps a linear (height, width, 3) array into display values in [0, 1], as

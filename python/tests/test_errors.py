@@ -93,3 +93,59 @@ def test_bad_tonemap_value_has_the_programs_message(cierzo, tmp_path):
     with pytest.raises(cierzo.Error) as e:
         cierzo.tonemap(np.ones((2, 3, 3), np.float32), op="gamma", gamma=-1)
     assert "cierzo-tonemap: " + str(e.value) + "\n" == err
+
+
+def copy_of_cornell(tmp_path):
+    scene = tmp_path / "scene.json"
+    with open(scene_path("cornell")) as f:
+        scene.write_text(f.read())
+    return scene
+
+
+def test_an_output_over_an_input_has_the_programs_message(cierzo, tmp_path):
+    scene = copy_of_cornell(tmp_path)
+    before = scene.read_bytes()
+    (tmp_path / "ck.exr").symlink_to("scene.json")
+    code, err = run_cli("render", scene, "--quiet", "--spp", 1, "--out", tmp_path / "a.exr",
+                        "--checkpoint", tmp_path / "ck.exr")
+    assert code == 1 and "--checkpoint is the same file as the scene file" in err
+    with pytest.raises(cierzo.Error) as e:
+        cierzo.render(str(scene), spp=1, checkpoint=tmp_path / "ck.exr")
+    assert "cierzo: " + str(e.value) + "\n" == err
+    code, err = run_cli("converge", scene, "--spp", 1, "--reference-spp", 2, "--quiet",
+                        "--out", scene)
+    assert code == 1 and "--out is the same file as the scene file" in err
+    with pytest.raises(cierzo.Error) as e:
+        cierzo.converge(str(scene), spp=[1], reference_spp=2, out=scene)
+    assert "cierzo: " + str(e.value) + "\n" == err
+    assert scene.read_bytes() == before
+    assert (tmp_path / "ck.exr").is_symlink()
+
+
+def test_writers_write_through_links(cierzo, tmp_path):
+    image = np.full((2, 3, 3), 0.5, np.float32)
+    (tmp_path / "renders").mkdir()
+    (tmp_path / "renders" / "r1.exr").write_bytes(b"old")
+    (tmp_path / "latest.exr").symlink_to("renders/r1.exr")
+    (tmp_path / "latest.png").symlink_to("renders/r1.png")  # dangling: created there
+    cierzo.write_exr(tmp_path / "latest.exr", image)
+    cierzo.write_ldr(tmp_path / "latest.png", image)
+    assert (tmp_path / "latest.exr").is_symlink() and (tmp_path / "latest.png").is_symlink()
+    assert np.array_equal(cierzo.read_exr(tmp_path / "renders" / "r1.exr"), image)
+    assert (tmp_path / "renders" / "r1.png").read_bytes()[:4] == b"\x89PNG"
+    assert sorted(p.name for p in (tmp_path / "renders").iterdir()) == ["r1.exr", "r1.png"]
+
+
+def test_writers_fail_on_a_full_device_naming_it(cierzo, tmp_path):
+    full = tmp_path / "full"
+    try:
+        os.mknod(full, 0o666 | 0o020000, os.makedev(1, 7))  # a character device, as /dev/full
+    except PermissionError:
+        pytest.skip("mknod needs root")
+    (tmp_path / "full.exr").symlink_to("full")
+    (tmp_path / "full.png").symlink_to("full")
+    image = np.zeros((2, 2, 3), np.float32)
+    for write, name in ((cierzo.write_exr, "full.exr"), (cierzo.write_ldr, "full.png")):
+        with pytest.raises(cierzo.Error, match=name + ": cannot write: No space left on device"):
+            write(tmp_path / name, image)
+    assert (tmp_path / "full").is_char_device()

@@ -16,14 +16,11 @@ constexpr double kMaxPaths = 1e12;
 constexpr const char* kVarianceLayers[3] = {"variance.R", "variance.G", "variance.B"};
 }  // namespace
 
-void check_writable_folder(const fs::path& path, const char* what) {
-    const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec))
-        throw InputError(path.string() + ": cannot write " + what + ": folder '" + dir.string() +
-                         "' does not exist");
-    if (fs::is_directory(path, ec))
-        throw InputError(path.string() + ": cannot write " + what + ": it is a folder");
+std::vector<InputPath> scene_inputs(const Scene& scene) {
+    std::vector<InputPath> inputs;
+    for (const fs::path& file : scene.files)
+        inputs.push_back({file, file == scene.source ? "the scene file" : "the mesh file"});
+    return inputs;
 }
 
 void check_render_size(const Scene& scene, const fs::path& scene_file) {

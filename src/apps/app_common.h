@@ -1,16 +1,19 @@
-// What the `cierzo` subcommands share: early checks of outputs and render sizes, and the
-// variance layers of an EXR.
+// What the `cierzo` subcommands share: the inputs their outputs are checked against, early
+// checks of render sizes, and the variance layers of an EXR.
 #pragma once
 
 #include <filesystem>
+#include <vector>
 
 #include "io/image.h"
+#include "io/output_file.h"
 #include "scene/scene.h"
 
 namespace cierzo {
 
-// Fails early, before a long render, if an output could never be written.
-void check_writable_folder(const std::filesystem::path& path, const char* what);
+// The files a scene was made from (the scene file, its meshes), as inputs that no output may
+// replace (check_outputs in io/output_file.h).
+std::vector<InputPath> scene_inputs(const Scene& scene);
 
 // Refuses an image of more than 2^28 pixels or a render of more than 1e12 paths, naming the
 // scene file, before anything is allocated.

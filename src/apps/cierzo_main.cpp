@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "integrators/distributed.h"
 #include "integrators/wavefront/isa.h"
+#include "io/output_file.h"
 #include "scene/scene_json.h"
 
 namespace {
@@ -79,6 +80,12 @@ int run_render(RenderArgs& args) {
         summary += fmt::format("; stopped ({}) at {} of {} paths per pixel", st.stopped_by,
                                st.spp_reached, s.spp);
     std::fprintf(stderr, "%s\n", summary.c_str());
+    if (st.checkpoint_final_failed) {
+        std::fprintf(stderr, "cierzo: %s: the render's last state could not be written (see "
+                     "above); the image is written, the checkpoint is an earlier one or none\n",
+                     done.checkpoint.string().c_str());
+        return 1;
+    }
     return st.stopped_by == "interrupted" ? 130 : 0;
 }
 
@@ -144,7 +151,8 @@ int run_main(int argc, char** argv) {
         ->capture_default_str();
     r->add_option("--out", a.job.out, "Output image, .exr (float32) or .pfm (overrides render.output)");
     r->add_option("--stats", a.job.stats,
-                  "Write run statistics as JSON: time, paths, rays by kind, rays/s, error");
+                  "Write run statistics as JSON: time, paths, rays by kind, rays/s, error "
+                  "(- for standard output)");
     r->add_flag("--variance", a.job.variance,
                 "Add the per-pixel variance of the mean as layers variance.R/G/B to the EXR");
     r->add_option("--time-budget", a.job.time_budget,
@@ -178,7 +186,8 @@ int run_main(int argc, char** argv) {
         "exits with status 130; a second one ends it at once.\n\n"
         "Under MPI (mpirun -np N cierzo render ..., or srun) every rank renders with its "
         "threads, rank 0 hands out the\nwork and writes the outputs; the image is "
-        "bit-identical to a one-process render. See docs/distributed.md.");
+        "bit-identical to a one-process render. See docs/distributed.md.\n\n" +
+        std::string(kOutputPolicy));
     CLI::App* converge = add_converge_command(app);
     CLI::App* trace = add_trace_command(app);
     CLI::App* isas = app.add_subcommand(
@@ -211,8 +220,10 @@ int run_main(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    // A write past `ulimit -f` fails with EFBIG (and is reported) instead of killing cierzo
+    // A write past `ulimit -f` fails with EFBIG, and a write into a closed pipe with EPIPE,
+    // and each is reported naming the file, instead of killing cierzo
     std::signal(SIGXFSZ, SIG_IGN);
+    std::signal(SIGPIPE, SIG_IGN);
     mpi::init(&argc, &argv);
     const int code = run_main(argc, argv);
     // A failure on any rank ends them all (the others would wait for it forever)

@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <optional>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
@@ -16,7 +18,7 @@
 #include "core/error.h"
 #include "integrators/convergence.h"
 #include "integrators/wavefront/isa.h"
-#include "io/atomic_file.h"
+#include "io/output_file.h"
 #include "io/image.h"
 #include "scene/scene_json.h"
 
@@ -172,12 +174,15 @@ CLI::App* add_converge_command(CLI::App& app) {
         ->capture_default_str();
     c->add_option("--out", a.out,
                   "Write the measurements as CSV (one row per render point; rewritten after "
-                  "each point, so a sweep that stops early keeps what it measured)");
+                  "each point, so a sweep that stops early keeps what it measured; - for "
+                  "standard output, where the rows then go as they are measured and the table "
+                  "goes to standard error)");
     c->add_flag("--quiet", a.quiet, "Print only the summary");
     c->footer(
         "Errors are averaged over pixels and channels: RMSE, and relative MSE (x-r)^2/(r^2+0.01).\n"
         "A rendered reference's own variance is subtracted (the *_corrected columns), so the\n"
-        "error is that against the true image; efficiency = 1 / (rel_mse_corrected x seconds).");
+        "error is that against the true image; efficiency = 1 / (rel_mse_corrected x seconds).\n\n" +
+        std::string(kOutputPolicy));
     return c;
 }
 
@@ -198,12 +203,24 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         if (pool % 16 != 0)
             throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
     for (const std::string& isa : a.isas) require_isa(parse_isa(isa), "--isa");
-    if (!a.out.empty()) check_writable_folder(a.out, "the measurements");
-    if (!a.save_reference.empty()) {
-        if (a.save_reference.extension() != ".exr")
-            throw InputError(a.save_reference.string() + ": --save-reference must end in .exr");
-        check_writable_folder(a.save_reference, "the reference");
+    if (!a.save_reference.empty() && a.save_reference.extension() != ".exr")
+        throw InputError(a.save_reference.string() + ": --save-reference must end in .exr");
+    std::vector<InputPath> inputs = scene_inputs(scene);
+    inputs.push_back({a.reference, "--reference"});
+    check_outputs({{a.out, "--out", "the measurements"},
+                   {a.save_reference, "--save-reference", "the reference"}},
+                  inputs);
+    // The CSV to a stream (standard output, a FIFO, a device) goes row by row, as measured;
+    // when it goes to standard output, the table goes to standard error
+    std::optional<StreamOutput> csv_stream;
+    bool csv_on_stdout = false;
+    if (!a.out.empty()) {
+        const OutputTarget target = resolve_output(a.out, "the measurements");
+        if (target.kind == OutputTarget::Kind::kStream) csv_stream.emplace(a.out, target);
+        csv_on_stdout = target.descriptor == STDOUT_FILENO;
     }
+    FILE* const table = csv_on_stdout ? stderr : stdout;
+    if (csv_stream) csv_stream->write(converge_csv_header() + "\n");
 
     // The reference: read, or rendered with the scene's own seed
     Image reference, variance;
@@ -262,13 +279,17 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
     std::vector<std::string> rows;
     const auto write_csv = [&] {
         if (a.out.empty()) return;
-        write_stream_atomically(a.out, [&](std::ostream& out) {
+        if (csv_stream) {
+            csv_stream->write(rows.back() + "\n");
+            return;
+        }
+        write_output_stream(a.out, [&](std::ostream& out) {
             out << converge_csv_header() << "\n";
             for (const std::string& r : rows) out << r << "\n";
         });
     };
     if (!a.quiet)
-        std::printf("%-9s %-7s %5s %5s %-7s %-6s %7s %10s %12s %12s %12s\n", "integr.", "isa",
+        std::fprintf(table, "%-9s %-7s %5s %5s %-7s %-6s %7s %10s %12s %12s %12s\n", "integr.", "isa",
                     "pool", "cap", "diffuse", "est.", "spp", "seconds", "Mrays/s", "RMSE",
                     "relMSE");
     const std::vector<ConvergePoint> points = run_converge(
@@ -276,14 +297,14 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
             rows.push_back(csv_row(scene, p));
             write_csv();
             if (a.quiet) return;
-            std::printf("%-9s %-7s %5d %5.2f %-7s %-6s %7lld %10.4f %12.2f %12.4g %12.4g\n",
+            std::fprintf(table, "%-9s %-7s %5d %5.2f %-7s %-6s %7lld %10.4f %12.2f %12.4g %12.4g\n",
                         p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
                         p.estimator.survival_cap, diffuse_name(p.estimator),
                         estimator_name(p.estimator.kind),
                         static_cast<long long>(p.spp), p.seconds,
                         p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
                         std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
-            std::fflush(stdout);
+            std::fflush(table);
         });
 
     // Per config: the slope of the error against paths per pixel (-1 for MSE when unbiased)
@@ -303,6 +324,7 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
                      diffuse_name(last->estimator), estimator_name(last->estimator.kind),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }
+    if (csv_stream) csv_stream->close();
     return rows;
 }
 

@@ -12,7 +12,7 @@
 #include "integrators/distributed.h"
 #include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/wavefront.h"
-#include "io/atomic_file.h"
+#include "io/output_file.h"
 
 namespace cierzo {
 
@@ -24,6 +24,35 @@ namespace {
 bool on_pass_schedule(int64_t spp) {
     for (int64_t b : pass_bounds(0, spp)) if (b == spp) return true;
     return false;
+}
+
+// Refuses, before any work, an output that cannot be written or that is the same file as an
+// input (the scene, its meshes, the checkpoint resumed) or as another output.
+void check_render_outputs(const Scene& scene, const RenderJob& a, const fs::path& checkpoint) {
+    std::vector<OutputPath> outputs;
+    if (a.write_outputs) {
+        const fs::path& image = scene.settings.output;
+        const std::string ext = image.extension().string();
+        if (ext != ".exr" && ext != ".pfm")
+            throw InputError(image.string() + ": output must end in .exr or .pfm");
+        outputs.push_back({image, a.out.empty() ? "the scene's render.output" : "--out",
+                           "the image"});
+        outputs.push_back({a.stats, "--stats", "the statistics"});
+    }
+    if (!checkpoint.empty()) {
+        const char* option = a.checkpoint.empty() ? "--resume" : "--checkpoint";
+        if (checkpoint.extension() != ".exr")
+            throw InputError(checkpoint.string() + ": a checkpoint must end in .exr");
+        if (resolve_output(checkpoint, "the checkpoint").kind != OutputTarget::Kind::kFile)
+            throw InputError(checkpoint.string() + ": " + option + " must be a regular file "
+                             "(a checkpoint is read back by --resume)");
+        outputs.push_back({checkpoint, option, "the checkpoint"});
+    }
+    std::vector<InputPath> inputs = scene_inputs(scene);
+    // (checkpoints go on into the file resumed unless --checkpoint names another)
+    if (!a.resume.empty() && !writes_over(checkpoint, a.resume))
+        inputs.push_back({a.resume, "--resume"});
+    check_outputs(outputs, inputs);
 }
 
 }  // namespace
@@ -60,16 +89,6 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     Scene& scene = done.scene;
     apply_render_overrides(scene, a);
     RenderSettings& s = scene.settings;
-    if (a.write_outputs) {
-        const std::string ext = s.output.extension().string();
-        if (ext != ".exr" && ext != ".pfm")
-            throw InputError(s.output.string() + ": output must end in .exr or .pfm");
-        if (root) {
-            check_writable_folder(s.output, "the image");
-            if (!a.stats.empty()) check_writable_folder(a.stats, "the statistics");
-        }
-    }
-
     RenderOptions options;
     options.threads = a.threads;
     options.integrator = a.integrator;
@@ -88,6 +107,9 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     const std::string isa = a.integrator == "wavefront" ? isa_name(chosen) : "scalar";
     const fs::path checkpoint = !a.checkpoint.empty() ? a.checkpoint : a.resume;
     done.checkpoint = checkpoint;
+    if (a.checkpoint_every_given && checkpoint.empty())
+        throw InputError("--checkpoint-every needs --checkpoint FILE.exr (or --resume FILE.exr)");
+    if (root) check_render_outputs(scene, a, checkpoint);
     // (the fingerprint reads every mesh: only rank 0, and only with checkpoints)
     const CheckpointIdentity identity = root && !checkpoint.empty()
                                             ? checkpoint_identity(scene, a.integrator, isa, pool)
@@ -111,15 +133,7 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
             std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
         options.resume = &resumed->state;
     }
-    if (a.checkpoint_every_given && checkpoint.empty())
-        throw InputError("--checkpoint-every needs --checkpoint FILE.exr (or --resume FILE.exr)");
     if (root && !checkpoint.empty()) {
-        if (checkpoint.extension() != ".exr")
-            throw InputError(checkpoint.string() + ": a checkpoint must end in .exr");
-        if (fs::weakly_canonical(checkpoint) == fs::weakly_canonical(s.output))
-            throw InputError(checkpoint.string() + ": the checkpoint and the image (--out) must "
-                             "be different files");
-        check_writable_folder(checkpoint, "the checkpoint");
         options.checkpoint_every = a.checkpoint_every;
         options.checkpoint = [&](const RenderState& state) {
             write_checkpoint(checkpoint, identity, state);
@@ -182,6 +196,7 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         const auto bytes = fs::file_size(checkpoint, ec);
         j["checkpoint"] = {{"file", checkpoint.string()},
                            {"writes", st.checkpoint_writes},
+                           {"failed_writes", st.checkpoint_failures},
                            {"last_write_seconds", st.checkpoint_last_seconds},
                            {"write_seconds", st.checkpoint_seconds},
                            {"bytes", ec ? nlohmann::json(nullptr) : nlohmann::json(bytes)}};
@@ -230,7 +245,7 @@ void write_render_outputs(const RenderJob& a, const RenderJobResult& done) {
     write_hdr(output, done.result.film.mean(), render_metadata(scene, st), layers);
     if (!a.stats.empty()) {
         const nlohmann::json j = render_stats_json(scene, st, done.checkpoint);
-        write_stream_atomically(a.stats, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+        write_output_stream(a.stats, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
     }
 }
 

@@ -2,11 +2,13 @@
 // writes an 8-bit image (.png, .ppm or .bmp). The work is done by cierzo_tonemap/cierzo_io.
 #include "core/error.h"
 #include "io/image.h"
+#include "io/output_file.h"
 #include "tonemap/tonemap.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -29,6 +31,8 @@ std::string operator_footer() {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // A write into a closed pipe fails with EPIPE and is reported naming the file
+    std::signal(SIGPIPE, SIG_IGN);
     CLI::App app{"Tone-map an HDR image (.exr, .pfm) into an 8-bit image (.png, .ppm, .bmp)."};
     std::string input;
     std::string output;
@@ -47,10 +51,12 @@ int main(int argc, char** argv) {
     CLI::Option* clamp_option = app.add_option(
         "--clamp", clamp,
         "Saturation value V of clamp, equalize-clamp and clamp-gamma [default: 1]");
-    app.footer(operator_footer());
+    app.footer(operator_footer() + "\n" + cierzo::kOutputPolicy + "\n");
     CLI11_PARSE(app, argc, argv);
 
     try {
+        cierzo::check_outputs({{output, "the output image", "the image"}},
+                              {{input, "the input image"}});
         if (*clamp_option) {
             options.clamp = clamp;
         }

@@ -18,7 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
-#include "io/atomic_file.h"
+#include "io/output_file.h"
 
 namespace cierzo {
 
@@ -198,7 +198,7 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
     const std::vector<uint32_t> words = film_words(film);
     const std::vector<uint32_t> pending_words = pending ? film_words(state.pending) : std::vector<uint32_t>{};
     const size_t n = size_t(w) * size_t(h);
-    write_stream_atomically(path, [&](std::ofstream& out) {
+    write_output_stream(path, [&](std::ofstream& out) {
         Imf::StdOFStream stream(out, path.c_str());
         Imf::OutputFile file(stream, header);
         Imf::FrameBuffer frame;

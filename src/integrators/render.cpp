@@ -765,7 +765,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         std::thread writer;
         std::atomic<bool> writing{false};
         std::mutex warnings_mutex;
-        auto write_state = [&](const RenderState& state) {
+        auto write_state = [&](const RenderState& state) -> bool {
+            bool written = false;
             try {
                 const auto t = Clock::now();
                 options.checkpoint(state);
@@ -773,13 +774,16 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                 ++st.checkpoint_writes;
                 st.checkpoint_last_seconds = seconds_since(t);
                 st.checkpoint_seconds += st.checkpoint_last_seconds;
+                written = true;
             } catch (const std::exception& e) {  // (InputError: the file's name and why)
                 const std::string w = std::string(e.what()) + "; the previous checkpoint is kept";
                 std::fprintf(stderr, "\ncierzo: %s\n", w.c_str());
                 std::lock_guard lock(warnings_mutex);
                 st.warnings.push_back(w);
+                ++st.checkpoint_failures;
             }
             writing = false;
+            return written;
         };
         auto start_checkpoint = [&] {
             if (writing) return;  // (the previous one is still being written)
@@ -843,7 +847,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         if (writer.joinable()) writer.join();
         coord.rethrow_failure();  // (a render thread's error, e.g. out of memory)
         // The final state (with the tiles done of the pass in progress, after a stop)
-        if (options.checkpoint) write_state(coord.snapshot(resume));
+        if (options.checkpoint) st.checkpoint_final_failed = !write_state(coord.snapshot(resume));
         mine.rays = rays, mine.units = units;
         mine.seconds = double(last_ns.load()) * 1e-9;
         if (service) {

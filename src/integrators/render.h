@@ -95,6 +95,8 @@ struct RenderStats {
     // Checkpoints written, and the time of the last write (and of all)
     int checkpoint_writes = 0;
     double checkpoint_last_seconds = 0.0, checkpoint_seconds = 0.0;
+    int checkpoint_failures = 0;         // writes that failed (each a warning)
+    bool checkpoint_final_failed = false;  // the last state could not be written
     std::vector<std::string> warnings;  // e.g. a checkpoint that could not be written
     std::optional<double> mean_relative_error;  // none at 1 path per pixel
     int64_t spp_reached = 0;

@@ -1,7 +1,7 @@
 // Image files: float32 OpenEXR (ZIP, string metadata, extra layers) and PFM for HDR data;
 // 8-bit PNG and BMP (through stb_image_write) and binary PPM for tone-mapped output.
 #include "core/error.h"
-#include "io/atomic_file.h"
+#include "io/output_file.h"
 #include "io/image.h"
 
 #include <OpenEXR/ImfChannelList.h>
@@ -275,7 +275,7 @@ void write_exr(const fs::path& path, const Image& image, const ImageMetadata& me
         header.insert(key, Imf::StringAttribute(value));
     }
 
-    write_stream_atomically(path, [&](std::ofstream& out) {
+    write_output_stream(path, [&](std::ofstream& out) {
         Imf::StdOFStream stream(out, path.c_str());
         Imf::OutputFile file(stream, header);
         Imf::FrameBuffer frame;
@@ -310,7 +310,7 @@ Image read_exr(const fs::path& path, ImageMetadata* metadata, ImageLayers* layer
 
 void write_pfm(const fs::path& path, const Image& image) {
     check_writable_image(path, image);
-    write_stream_atomically(path, [&](std::ofstream& out) {
+    write_output_stream(path, [&](std::ofstream& out) {
         // A negative scale marks little-endian data; rows go from the bottom to the top.
         out << "PF\n" << image.width << ' ' << image.height << "\n-1.0\n";
         std::vector<char> row(size_t(image.width) * 3 * sizeof(float));
@@ -440,7 +440,7 @@ void write_ldr(const fs::path& path, const Image& image) {
     check_writable_image(path, image);
     const std::vector<uint8_t> bytes = quantise(image);
     if (ext == ".ppm") {
-        write_stream_atomically(path, [&](std::ofstream& out) {
+        write_output_stream(path, [&](std::ofstream& out) {
             out << "P6\n" << image.width << ' ' << image.height << "\n255\n";
             out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
         });
@@ -455,7 +455,7 @@ void write_ldr(const fs::path& path, const Image& image) {
     if (ok == 0) {
         write_error(path, "image encoder failed");
     }
-    write_stream_atomically(path, [&](std::ofstream& out) {
+    write_output_stream(path, [&](std::ofstream& out) {
         out.write(encoded.data(), std::streamsize(encoded.size()));
     });
 }

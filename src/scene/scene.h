@@ -149,6 +149,9 @@ public:
     std::vector<Mesh> meshes;
     std::vector<PointLight> lights;
     std::filesystem::path source;  // the scene file, for messages
+    // Every file read to make the scene (the scene file, mesh files), which no output may
+    // replace (io/output_file.h)
+    std::vector<std::filesystem::path> files;
 
     // The acceleration structure over every bounded primitive (spheres, quadrics with a
     // finite box, world-space triangles, instances), and the quadrics tested beside it.

@@ -388,6 +388,7 @@ struct Loader {
                 t.fail(std::string("mesh file: ") + e.what());
             }
             if (data.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
+            scene.files.push_back(ply);
             found = mesh_files.emplace(key, MeshFile{std::move(data), {}, {}, {}, 0}).first;
         }
         MeshFile& f = found->second;
@@ -743,7 +744,9 @@ Scene load_scene(const fs::path& path) {
     if (!in) throw InputError(path.string() + ": cannot open scene file");
     std::ostringstream ss;
     ss << in.rdbuf();
-    return parse_scene(ss.str(), path);
+    Scene scene = parse_scene(ss.str(), path);
+    scene.files.insert(scene.files.begin(), path);
+    return scene;
 }
 
 }  // namespace cierzo

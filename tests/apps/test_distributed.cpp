@@ -362,7 +362,7 @@ TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
     EXPECT_NE(text(kDir / "refused.stderr").find("scene content fingerprint"), std::string::npos);
     // The checkpoint and the image in one file
     EXPECT_EQ(run({render_args("cornell.json", ck, {"--checkpoint", ck.string()})}, "refused"), 1);
-    EXPECT_NE(text(kDir / "refused.stderr").find("must be different files"), std::string::npos);
+    EXPECT_NE(text(kDir / "refused.stderr").find("--checkpoint is the same file as --out"), std::string::npos);
     // An interval without a checkpoint file
     EXPECT_EQ(run({render_args("cornell.json", out, {"--checkpoint-every", "5"})}, "refused"), 1);
     EXPECT_NE(text(kDir / "refused.stderr").find("--checkpoint-every needs --checkpoint"), std::string::npos);
@@ -379,15 +379,19 @@ TEST(Checkpoints, AWriteOverAFileSizeLimitKeepsThePreviousCheckpoint) {
     const std::string before = text(ck);
     ASSERT_GT(before.size(), 400000u);
     // A longer render into the same checkpoint, with files limited to 300 kB: every
-    // checkpoint write fails (EFBIG), the image (a 110 kB PFM) is written
+    // checkpoint write fails (EFBIG), the image (a 110 kB PFM) and the statistics are
+    // written, and the exit status says that the last state was not
     Launch l{render_args("cornell.json", kDir / "l.pfm",
                          {"--spp", "64", "--width", "96", "--height", "96", "--checkpoint", ck.string(),
                           "--checkpoint-every", "0.05", "--stats", (kDir / "l.json").string()}),
              0, rlim_t(300000)};
-    EXPECT_EQ(run(l, "limited"), 0) << text(kDir / "limited.stderr");
+    EXPECT_EQ(run(l, "limited"), 1) << text(kDir / "limited.stderr");
     const std::string err = text(kDir / "limited.stderr");
     EXPECT_NE(err.find("limited.exr: cannot write"), std::string::npos) << err;
     EXPECT_NE(err.find("the previous checkpoint is kept"), std::string::npos) << err;
+    EXPECT_NE(err.find("limited.exr: the render's last state could not be written"),
+              std::string::npos) << err;
+    EXPECT_GE(stats(kDir / "l.json")["checkpoint"]["failed_writes"].get<int>(), 1);
     EXPECT_TRUE(text(ck) == before) << "the checkpoint was changed";
     EXPECT_EQ(cierzo::read_checkpoint(ck).state.spp_done, 2);
     EXPECT_TRUE(fs::exists(kDir / "l.pfm"));

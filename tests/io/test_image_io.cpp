@@ -1,7 +1,7 @@
 // Tests for the image files: bit-exact float32 EXR (metadata, layers), PFM row order and
 // byte order, 8-bit PNG/PPM/BMP contents, atomic writes and the rejection of bad files.
 #include "core/error.h"
-#include "io/atomic_file.h"
+#include "io/output_file.h"
 #include "io/image.h"
 
 #include <OpenEXR/ImfChannelList.h>
@@ -519,7 +519,8 @@ TEST_F(ImageIoTest, WritingIntoAMissingDirectoryNamesThePath) {
                     write_ldr(target, image);
                 }
             },
-            {target.string() + ": cannot write: No such file or directory"});
+            {target.string() + ": cannot write: folder '" + path("missing").string() +
+             "' does not exist"});
     }
     EXPECT_FALSE(fs::exists(path("missing")));
 }
@@ -527,7 +528,7 @@ TEST_F(ImageIoTest, WritingIntoAMissingDirectoryNamesThePath) {
 TEST_F(ImageIoTest, WritingOverADirectoryIsRefused) {
     fs::create_directory(path("out.exr"));
     expect_input_error([&] { write_exr(path("out.exr"), numbered_image(2, 2)); },
-                       {path("out.exr").string(), "Is a directory"});
+                       {path("out.exr").string() + ": cannot write: it is a folder"});
     EXPECT_TRUE(fs::is_directory(path("out.exr")));
     EXPECT_EQ(directory_entries(), std::vector<std::string>{"out.exr"});
 }
@@ -545,7 +546,7 @@ TEST_F(ImageIoTest, WritingIntoAReadOnlyDirectoryIsRefused) {
 TEST_F(ImageIoTest, AtomicWriteReplacesTheFileThroughATemporaryInTheSameFolder) {
     write_bytes(path("t.bin"), "old contents");
     fs::path seen;
-    write_atomically(path("t.bin"), [&](const fs::path& tmp) {
+    write_output(path("t.bin"), [&](const fs::path& tmp) {
         seen = tmp;
         EXPECT_EQ(tmp.parent_path(), path("t.bin").parent_path());
         EXPECT_NE(tmp, path("t.bin"));
@@ -564,7 +565,7 @@ TEST_F(ImageIoTest, FailingWriterLeavesTheExistingFileByteIdentical) {
 
     expect_input_error(
         [&] {
-            write_atomically(path("keep.exr"), [&](const fs::path& tmp) {
+            write_output(path("keep.exr"), [&](const fs::path& tmp) {
                 write_bytes(tmp, "half a file");
                 throw std::runtime_error("simulated disk failure");
             });
@@ -574,7 +575,7 @@ TEST_F(ImageIoTest, FailingWriterLeavesTheExistingFileByteIdentical) {
 
     expect_input_error(
         [&] {
-            write_stream_atomically(path("keep.exr"), [](std::ofstream& out) {
+            write_output_stream(path("keep.exr"), [](std::ofstream& out) {
                 out << "partial";
                 out.setstate(std::ios::badbit);
             });
@@ -585,7 +586,7 @@ TEST_F(ImageIoTest, FailingWriterLeavesTheExistingFileByteIdentical) {
     // An InputError from the writer passes through unchanged.
     expect_input_error(
         [&] {
-            write_atomically(path("keep.exr"),
+            write_output(path("keep.exr"),
                              [](const fs::path&) { throw InputError("writer's own message"); });
         },
         {"writer's own message"});
