@@ -95,6 +95,11 @@ struct RenderStats {
     // Checkpoints written, and the time of the last write (and of all)
     int checkpoint_writes = 0;
     double checkpoint_last_seconds = 0.0, checkpoint_seconds = 0.0;
+    // This process's units and what handing them out cost: the render threads' time in the
+    // coordinator (taking a unit, handing it in, adding whole passes to the film) and
+    // waiting for a unit (at pass ends, when every unit of two passes is out)
+    uint64_t units = 0;
+    double scheduler_seconds = 0.0, idle_seconds = 0.0;
     int checkpoint_failures = 0;         // writes that failed (each a warning)
     bool checkpoint_final_failed = false;  // the last state could not be written
     std::vector<std::string> warnings;  // e.g. a checkpoint that could not be written

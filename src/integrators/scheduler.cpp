@@ -1,0 +1,227 @@
+// Units, their memory and their one owner (see scheduler.h).
+#include "integrators/scheduler.h"
+
+#include <limits>
+#include <stdexcept>
+
+#include "integrators/scalar.h"
+
+namespace cierzo {
+
+void add(LaneStats& a, const LaneStats& b) {
+    a.shade_active += b.shade_active, a.shade_total += b.shade_total;
+    a.isect_active += b.isect_active, a.isect_total += b.isect_total;
+    a.shadow_active += b.shadow_active, a.shadow_total += b.shadow_total;
+}
+
+// ---- Tiles' memory and rendering -----------------------------------------------------------
+
+FilmTile TilePool::make(const Tile& g, int image_width) {
+    std::vector<PixelSums> memory;
+    {
+        std::lock_guard lock(mutex_);
+        if (!free_.empty()) {
+            memory = std::move(free_.back());
+            free_.pop_back();
+        }
+    }
+    return FilmTile(g.x0, g.y0, g.x1, g.y1, image_width, std::move(memory));
+}
+
+void TilePool::give(FilmTile&& tile) {
+    std::vector<PixelSums> memory = tile.release();
+    std::lock_guard lock(mutex_);
+    if (free_.size() < keep_) free_.push_back(std::move(memory));
+}
+
+UnitResult UnitRenderer::render(const Unit& u) const {
+    Tile t = tiles_[size_t(u.tile)];
+    t.s0 = u.s0, t.s1 = u.s1;
+    UnitResult r{u, pool_.make(t, scene_.settings.width), {}, {}};
+    if (wavefront_) {
+        wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
+    } else {
+        render_tile_scalar(scene_, t, r.sums, r.rays);
+    }
+    return r;
+}
+
+// ---- The coordinator -----------------------------------------------------------------------
+
+void Coordinator::PassWork::reset(size_t tiles) {
+    sums.assign(tiles, std::nullopt);
+    done.assign(tiles, 0);
+    done_count = 0, cursor = 0, rays = {};
+}
+
+Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
+                         const std::vector<Tile>& tiles, std::vector<int64_t> bounds, Film& film,
+                         Clock::time_point start, Progress& progress, TilePool& pool)
+    : options_(options), tiles_(tiles), bounds_(std::move(bounds)), film_(film), start_(start),
+      progress_(progress), pool_(pool), width_(scene.settings.width) {
+    passes_ = int32_t(bounds_.size()) - 1;
+    for (PassWork& w : work_) w.reset(tiles_.size());
+    if (passes_ <= 0) stopping_ = true;
+}
+
+void Coordinator::restore_pending(const RenderState& state) {
+    std::lock_guard lock(mutex_);
+    if (passes_ <= 0 || state.pending_end != bounds_[1] || state.pending_tiles.empty()) return;
+    PassWork& w = work_[0];
+    for (size_t t = 0; t < tiles_.size() && t < state.pending_tiles.size(); ++t) {
+        if (!state.pending_tiles[t]) continue;
+        const Tile& g = tiles_[t];
+        FilmTile sums(g.x0, g.y0, g.x1, g.y1, width_);
+        for (int y = g.y0; y < g.y1; ++y)
+            for (int x = g.x0; x < g.x1; ++x) sums.at(x, y) = state.pending.at(x, y);
+        w.sums[t] = std::move(sums);
+        w.done[t] = 1;
+        ++w.done_count;
+    }
+    progress_.units_done(w.done_count, 0);
+    if (w.done_count == tiles_.size()) commit_passes();
+}
+
+std::vector<Unit> Coordinator::grant(size_t n) {
+    std::lock_guard lock(mutex_);
+    std::vector<Unit> out;
+    while (out.size() < n && !stopping_) {
+        // The pass in progress first, then the next one
+        std::optional<Unit> u = take(0);
+        if (!u && frontier_ + 1 < passes_) u = take(1);
+        if (!u) break;
+        out.push_back(*u);
+    }
+    return out;
+}
+
+void Coordinator::complete(UnitResult&& r) {
+    std::lock_guard lock(mutex_);
+    add(lane_stats_, r.lanes);
+    if (stopping_) return;  // a pass after the last one kept
+    const int32_t ahead = r.unit.pass - frontier_;
+    if (ahead < 0 || ahead > 1) throw std::logic_error("unit outside the passes in flight");
+    PassWork& w = work_[(first_ + ahead) & 1];
+    const size_t t = size_t(r.unit.tile);
+    if (w.done[t]) throw std::logic_error("a unit was rendered twice");
+    w.rays += r.rays;
+    w.sums[t] = std::move(r.sums);
+    w.done[t] = 1;
+    ++w.done_count;
+    progress_.units_done(1, r.rays.total());
+    if (ahead == 0 && w.done_count == tiles_.size()) commit_passes();
+}
+
+void Coordinator::fail(std::exception_ptr e) {
+    std::lock_guard lock(mutex_);
+    if (!failure_) failure_ = e;
+    stop_locked();
+}
+
+void Coordinator::rethrow_failure() const {
+    std::lock_guard lock(mutex_);
+    if (failure_) std::rethrow_exception(failure_);
+}
+
+void Coordinator::poll_interrupt() {
+    std::lock_guard lock(mutex_);
+    if (!stopping_ && frontier_ > 0 && options_.cancel && options_.cancel->load()) {
+        stopped_by_ = "interrupted";
+        stop_locked();
+    }
+}
+
+bool Coordinator::stopping() const {
+    std::lock_guard lock(mutex_);
+    return stopping_;
+}
+
+void Coordinator::wait(std::chrono::microseconds timeout) {
+    std::unique_lock lock(mutex_);
+    cv_.wait_for(lock, timeout);
+}
+
+RenderState Coordinator::snapshot(const RenderState* resumed) const {
+    std::lock_guard lock(mutex_);
+    RenderState s;
+    s.film = film_;
+    s.spp_done = bounds_[size_t(frontier_)];
+    s.rays = rays_;
+    if (resumed) s.rays += resumed->rays;
+    s.seconds = seconds_since(start_) + (resumed ? resumed->seconds : 0.0);
+    const PassWork& w = work_[first_];
+    if (frontier_ < passes_ && w.done_count > 0) {
+        s.pending_end = bounds_[size_t(frontier_) + 1];
+        s.pending_tiles = w.done;
+        s.pending = Film(film_.width(), film_.height());
+        for (size_t t = 0; t < tiles_.size(); ++t) {
+            if (!w.done[t]) continue;
+            const FilmTile& f = *w.sums[t];
+            for (int y = f.y0(); y < f.y1(); ++y)
+                for (int x = f.x0(); x < f.x1(); ++x) s.pending.at(x, y) = f.at(x, y);
+        }
+    }
+    return s;
+}
+
+std::string Coordinator::stopped_by() const {
+    std::lock_guard lock(mutex_);
+    return stopped_by_;
+}
+
+RayCounts Coordinator::rays() const {
+    std::lock_guard lock(mutex_);
+    return rays_;
+}
+
+LaneStats Coordinator::lanes() const {
+    std::lock_guard lock(mutex_);
+    return lane_stats_;
+}
+
+std::optional<Unit> Coordinator::take(int32_t ahead) {
+    PassWork& w = work_[(first_ + ahead) & 1];
+    while (w.cursor < tiles_.size() && w.done[w.cursor]) ++w.cursor;  // (restored tiles)
+    if (w.cursor >= tiles_.size()) return std::nullopt;
+    const int32_t pass = frontier_ + ahead;
+    return Unit{int32_t(w.cursor++), pass, bounds_[size_t(pass)], bounds_[size_t(pass) + 1]};
+}
+
+void Coordinator::commit_passes() {
+    while (!stopping_ && work_[first_].done_count == tiles_.size()) {
+        PassWork& w = work_[first_];
+        for (std::optional<FilmTile>& f : w.sums) {
+            film_.merge(*f);
+            pool_.give(std::move(*f));
+        }
+        rays_ += w.rays;
+        w.reset(tiles_.size());
+        first_ ^= 1;
+        ++frontier_;
+        if (frontier_ == passes_) {
+            stopping_ = true;
+            break;
+        }
+        const double elapsed = seconds_since(start_);
+        if (options_.cancel && options_.cancel->load()) {
+            stopped_by_ = "interrupted";
+        } else if (options_.time_budget > 0.0 && elapsed >= options_.time_budget) {
+            stopped_by_ = "time budget";
+        } else if (options_.target_error > 0.0 && bounds_[size_t(frontier_)] >= 16 &&
+                   film_.mean_relative_error().value_or(
+                       std::numeric_limits<double>::infinity()) <= options_.target_error) {
+            // (from 16 paths per pixel on: fewer give no trustworthy variance)
+            stopped_by_ = "target error";
+        }
+        if (!stopped_by_.empty()) stopping_ = true;
+    }
+    // (a new pass can be handed out, or the render stops)
+    cv_.notify_all();
+}
+
+void Coordinator::stop_locked() {
+    stopping_ = true;
+    cv_.notify_all();
+}
+
+}  // namespace cierzo

@@ -1,0 +1,148 @@
+// The work of a render and its one owner. The image is split into tiles and the paths per
+// pixel into passes; a unit is one tile's samples [s0, s1) of one pass, rendered from zero
+// into its own sums by any thread of any process. The coordinator (the only one, on rank 0)
+// keeps the units of the pass in progress aside and adds them to the film only once every
+// tile of that pass is in, so each pixel's sums are always film + pass 0 + pass 1 + ..., in
+// that order, whoever rendered each pass: the image is bit-identical for any number of
+// threads and processes. The film thus always holds whole passes, and a stop or a checkpoint
+// at any moment has the same paths in every pixel.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "integrators/film.h"
+#include "integrators/progress.h"
+#include "integrators/render.h"
+#include "integrators/wavefront/wavefront.h"
+
+namespace cierzo {
+
+using Clock = std::chrono::steady_clock;
+
+inline double seconds_since(Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// One tile's samples [s0, s1): pass `pass` of tile `tile`.
+struct Unit {
+    int32_t tile = 0;
+    int32_t pass = 0;
+    int64_t s0 = 0, s1 = 0;
+};
+
+struct UnitResult {
+    Unit unit;
+    FilmTile sums;
+    RayCounts rays;
+    LaneStats lanes;
+};
+
+void add(LaneStats& a, const LaneStats& b);
+
+// Tiles' memory, handed back after use: a pass's tiles are freed together when the pass is
+// added to the film, and fresh ones would be new pages, faulted in one by one (that showed
+// in rank 0's profile).
+class TilePool {
+public:
+    explicit TilePool(size_t keep) : keep_(keep) {}
+    FilmTile make(const Tile& g, int image_width);
+    void give(FilmTile&& tile);
+
+private:
+    size_t keep_;
+    std::mutex mutex_;
+    std::vector<std::vector<PixelSums>> free_;
+};
+
+// Renders units with this process's integrator.
+class UnitRenderer {
+public:
+    UnitRenderer(const Scene& scene, const WavefrontRenderer* wavefront,
+                 const std::vector<Tile>& tiles, TilePool& pool)
+        : scene_(scene), wavefront_(wavefront), tiles_(tiles), pool_(pool) {}
+    UnitResult render(const Unit& u) const;
+
+private:
+    const Scene& scene_;
+    const WavefrontRenderer* wavefront_;
+    const std::vector<Tile>& tiles_;
+    TilePool& pool_;
+};
+
+// The one owner of the film (rank 0): hands out units in pass order, keeps the units of the
+// pass in progress (and of the next one, which idle workers may start early) aside, adds a
+// pass to the film once it is whole, and applies the stopping rules at pass ends.
+// Thread-safe: every method takes the lock. Waiters (wait()) are woken only when something
+// they wait for happens: a pass is added (units of a new pass can be handed out) or the
+// render stops; a finished unit alone wakes nobody.
+class Coordinator {
+public:
+    Coordinator(const Scene& scene, const RenderOptions& options, const std::vector<Tile>& tiles,
+                std::vector<int64_t> bounds, Film& film, Clock::time_point start,
+                Progress& progress, TilePool& pool);
+
+    // Puts back the tiles of the first pass that a checkpoint had already done.
+    void restore_pending(const RenderState& state);
+    // Up to `n` units (fewer, or none, when none can be handed out now).
+    std::vector<Unit> grant(size_t n);
+    void complete(UnitResult&& r);
+    // Stops now because a render thread failed; the error is rethrown by rethrow_failure.
+    void fail(std::exception_ptr e);
+    void rethrow_failure() const;
+    // Stops now if interrupted (once a first pass is in the film).
+    void poll_interrupt();
+    bool stopping() const;
+    // Blocks until units can be handed out, the render stops, or `timeout` passes.
+    void wait(std::chrono::microseconds timeout);
+    // The state for a checkpoint: the film and the done tiles of the pass in progress.
+    RenderState snapshot(const RenderState* resumed) const;
+
+    std::string stopped_by() const;
+    RayCounts rays() const;
+    LaneStats lanes() const;
+
+private:
+    struct PassWork {
+        std::vector<std::optional<FilmTile>> sums;
+        std::vector<uint8_t> done;
+        size_t done_count = 0;
+        size_t cursor = 0;  // next tile to hand out
+        RayCounts rays;
+        void reset(size_t tiles);
+    };
+
+    // The next unit of the pass in progress (ahead = 0) or of the next one (ahead = 1).
+    std::optional<Unit> take(int32_t ahead);
+    // Adds every whole pass at the front to the film, then applies the stopping rules.
+    void commit_passes();
+    void stop_locked();
+
+    const RenderOptions& options_;
+    const std::vector<Tile>& tiles_;
+    const std::vector<int64_t> bounds_;
+    Film& film_;
+    Clock::time_point start_;
+    Progress& progress_;
+    TilePool& pool_;
+    int width_;
+    int32_t passes_ = 0;
+    int32_t frontier_ = 0;  // the pass in progress; passes before it are in the film
+    int first_ = 0;         // work_[first_] is the pass in progress, the other the next
+    PassWork work_[2];
+    bool stopping_ = false;
+    std::exception_ptr failure_;
+    std::string stopped_by_;
+    RayCounts rays_;
+    LaneStats lane_stats_;
+    mutable std::mutex mutex_;
+    std::condition_variable cv_;
+};
+
+}  // namespace cierzo
