@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 
+#include "integrators/registry.h"
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
@@ -37,7 +38,7 @@ void run(benchmark::State& state, const Scene& scene, RenderOptions o) {
     state.counters["rays_per_s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
     state.counters["rays_per_s_per_thread"] =
         benchmark::Counter(rays / std::max(o.threads, 1), benchmark::Counter::kIsRate);
-    if (o.integrator == "wavefront") {
+    if (o.integrator == Integrator::kWavefront) {
         state.counters["shade_lane_util"] = util / runs;
         state.counters["isect_lane_util"] = isect / runs;
     }
@@ -74,7 +75,7 @@ void register_scenes() {
             benchmark::RegisterBenchmark(label.c_str(), [=](benchmark::State& st) {
                 RenderOptions o;
                 o.threads = 1;
-                o.integrator = integrator;
+                o.integrator = integrator_of(integrator);
                 o.isa = integrator == "scalar" ? "auto" : isa;
                 run(st, scene_cache().at(name), o);
             })->Unit(benchmark::kMillisecond);

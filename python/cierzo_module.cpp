@@ -25,6 +25,7 @@
 #include "core/error.h"
 #include "integrators/wavefront/isa.h"
 #include "io/image.h"
+#include "integrators/registry.h"
 #include "scene/scene_json.h"
 #include "tonemap/tonemap.h"
 
@@ -153,9 +154,9 @@ void check_member(const char* name, const std::optional<std::string>& v,
             fmt::format("{}: '{}' not in {{{}}}", name, *v, fmt::join(valid, ", ")));
 }
 
-const std::vector<std::string> kIntegrators = {"wavefront", "scalar"};
+const std::vector<std::string> kIntegratorNames = integrator_names();
 const std::vector<std::string> kIsas = {"auto", "avx512", "avx2", "sse4.2", "neon"};
-const std::vector<std::string> kEstimators = {"report", "nee", "mis"};
+const std::vector<std::string> kEstimatorNames = estimator_names();
 const std::vector<std::string> kDiffuse = {"uniform", "cosine"};
 
 // ---- Render ----------------------------------------------------------------------------
@@ -179,9 +180,9 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     check_range<int>("pool", pool, 0, 1 << 22);
     check_range<double>("time_budget", time_budget, 0.0, 1e300);
     check_range<double>("target_error", target_error, 0.0, 1e300);
-    check_member("integrator", integrator, kIntegrators);
+    check_member("integrator", integrator, kIntegratorNames);
     check_member("isa", isa, kIsas);
-    check_member("estimator", estimator, kEstimators);
+    check_member("estimator", estimator, kEstimatorNames);
     check_member("diffuse_sampling", diffuse_sampling, kDiffuse);
     check_range<double>("checkpoint_every", checkpoint_every, 0.01, 1e9);
     if (resume && !fs::is_regular_file(*resume))
@@ -258,15 +259,15 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
                   std::optional<int> height, int threads, int repeats,
                   const std::optional<fs::path>& out, bool verbose, const py::object& cancel) {
     check_range<int64_t>("reference_spp", reference_spp, 1, UINT32_MAX);
-    check_member("reference_integrator", reference_integrator, kIntegrators);
+    check_member("reference_integrator", reference_integrator, kIntegratorNames);
     for (int64_t v : spp) check_range<int64_t>("spp", v, 1, UINT32_MAX);
-    for (const std::string& v : integrator) check_member("integrator", v, kIntegrators);
+    for (const std::string& v : integrator) check_member("integrator", v, kIntegratorNames);
     for (const std::string& v : isa) check_member("isa", v, kIsas);
     for (int v : pool) check_range<int>("pool", v, 0, 1 << 22);
     for (float v : survival_cap) check_range<float>("survival_cap", v, 1e-6f, 0.999999f);
     for (const std::string& v : diffuse_sampling) check_member("diffuse_sampling", v, kDiffuse);
-    for (const std::string& v : estimator) check_member("estimator", v, kEstimators);
-    check_member("reference_estimator", reference_estimator, kEstimators);
+    for (const std::string& v : estimator) check_member("estimator", v, kEstimatorNames);
+    check_member("reference_estimator", reference_estimator, kEstimatorNames);
     check_range<int>("width", width, 1, 1 << 16);
     check_range<int>("height", height, 1, 1 << 16);
     check_range<int>("threads", threads, 0, 4096);
@@ -404,7 +405,7 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
 
     m.def("render", &py_render, py::arg("scene"), py::kw_only(), py::arg("spp") = py::none(),
           py::arg("width") = py::none(), py::arg("height") = py::none(),
-          py::arg("integrator") = "wavefront", py::arg("isa") = "auto", py::arg("threads") = 0,
+          py::arg("integrator") = std::string(integrator_name(Integrator::kWavefront)), py::arg("isa") = "auto", py::arg("threads") = 0,
           py::arg("seed") = py::none(), py::arg("estimator") = py::none(),
           py::arg("survival_cap") = py::none(), py::arg("diffuse_sampling") = py::none(),
           py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
@@ -438,9 +439,9 @@ seed, estimator or integrator is refused).)");
 
     m.def("converge", &py_converge, py::arg("scene"), py::kw_only(),
           py::arg("reference") = py::none(), py::arg("reference_spp") = 4096,
-          py::arg("reference_integrator") = "wavefront", py::arg("save_reference") = py::none(),
+          py::arg("reference_integrator") = ConvergeArgs{}.reference_integrator, py::arg("save_reference") = py::none(),
           py::arg("spp") = std::vector<int64_t>{1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024},
-          py::arg("integrator") = std::vector<std::string>{"scalar", "wavefront"},
+          py::arg("integrator") = ConvergeArgs{}.integrators,
           py::arg("isa") = std::vector<std::string>{"auto"}, py::arg("pool") = std::vector<int>{0},
           py::arg("survival_cap") = std::vector<float>{},
           py::arg("diffuse_sampling") = std::vector<std::string>{},

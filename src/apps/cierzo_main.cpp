@@ -14,6 +14,7 @@
 #include "apps/trace_command.h"
 #include "core/error.h"
 #include "integrators/distributed.h"
+#include "integrators/registry.h"
 #include "integrators/wavefront/isa.h"
 #include "io/output_file.h"
 #include "scene/scene_json.h"
@@ -130,15 +131,11 @@ int run_main(int argc, char** argv) {
                   "render.diffuse_sampling)")
         ->check(CLI::IsMember({"uniform", "cosine"}));
     r->add_option("--estimator", a.job.estimator,
-                  "report (the report's: emitters found by chance), nee (plus one emitter "
-                  "sample per Phong vertex) or mis (both, power-heuristic weights); overrides "
-                  "render.estimator, default report. Sampled emitters: spheres and triangles "
-                  "of solid emission")
-        ->check(CLI::IsMember({"report", "nee", "mis"}));
-    r->add_option("--integrator", a.job.integrator,
-                  "wavefront (SoA batches, SIMD kernels) or scalar (the reference: one path at "
-                  "a time)")
-        ->check(CLI::IsMember({"wavefront", "scalar"}))
+                  describe_estimators() + "; overrides render.estimator. Sampled emitters: "
+                  "spheres and triangles of solid emission")
+        ->check(CLI::IsMember(estimator_names()));
+    r->add_option("--integrator", a.job.integrator, describe_integrators())
+        ->check(CLI::IsMember(integrator_names()))
         ->capture_default_str();
     r->add_option("--isa", a.job.isa,
                   "Wavefront instruction set: auto (the best this CPU has), avx512, avx2, sse4.2 "

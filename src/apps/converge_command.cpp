@@ -20,6 +20,7 @@
 #include "integrators/wavefront/isa.h"
 #include "io/output_file.h"
 #include "io/image.h"
+#include "integrators/registry.h"
 #include "scene/scene_json.h"
 
 namespace cierzo {
@@ -43,7 +44,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     if (estimators.empty()) estimators.push_back(-1);
     std::vector<ConvergeConfig> out;
     for (const std::string& integrator : a.integrators) {
-        const bool scalar = integrator == "scalar";
+        const bool scalar = integrator_of(integrator) == Integrator::kScalar;
         const std::vector<std::string> isas = scalar ? std::vector<std::string>{"-"} : a.isas;
         const std::vector<int> pools = scalar ? std::vector<int>{0} : a.pools;
         for (const std::string& isa : isas)
@@ -116,8 +117,8 @@ CLI::App* add_converge_command(CLI::App& app) {
             ->capture_default_str();
     CLI::Option* reference_integrator =
         c->add_option("--reference-integrator", a.reference_integrator,
-                      "Integrator of the rendered reference")
-            ->check(CLI::IsMember({"wavefront", "scalar"}))
+                      "Integrator of the rendered reference: " + describe_integrators())
+            ->check(CLI::IsMember(integrator_names()))
             ->capture_default_str();
     CLI::Option* save_reference =
         c->add_option("--save-reference", a.save_reference,
@@ -129,9 +130,10 @@ CLI::App* add_converge_command(CLI::App& app) {
         ->delimiter(',')
         ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)))
         ->capture_default_str();
-    c->add_option("--integrator", a.integrators, "Integrators to sweep, comma-separated")
+    c->add_option("--integrator", a.integrators,
+                  "Integrators to sweep, comma-separated: " + describe_integrators())
         ->delimiter(',')
-        ->check(CLI::IsMember({"wavefront", "scalar"}))
+        ->check(CLI::IsMember(integrator_names()))
         ->capture_default_str();
     c->add_option("--isa", a.isas,
                   "Wavefront instruction sets to sweep: auto, avx512, avx2, sse4.2 (x86-64), "
@@ -153,13 +155,14 @@ CLI::App* add_converge_command(CLI::App& app) {
         ->delimiter(',')
         ->check(CLI::IsMember({"uniform", "cosine"}));
     c->add_option("--estimator", a.estimators,
-                  "Estimators to sweep: report, nee, mis; default: the scene's")
+                  "Estimators to sweep, comma-separated: " + describe_estimators() +
+                      "; default: the scene's")
         ->delimiter(',')
-        ->check(CLI::IsMember({"report", "nee", "mis"}));
+        ->check(CLI::IsMember(estimator_names()));
     c->add_option("--reference-estimator", a.reference_estimator,
-                  "Estimator of the rendered reference (all three are unbiased; mis converges "
+                  "Estimator of the rendered reference (every one is unbiased; mis converges "
                   "fastest where emitters can be sampled); default: the scene's")
-        ->check(CLI::IsMember({"report", "nee", "mis"}));
+        ->check(CLI::IsMember(estimator_names()));
     c->add_option("--width", a.width, "Image width (overrides render.width)")
         ->check(CLI::Range(1, 1 << 16));
     c->add_option("--height", a.height, "Image height (overrides render.height)")
@@ -248,7 +251,7 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         check_render_size(s, scene.source);
         RenderOptions options;
         options.threads = a.threads;
-        options.integrator = a.reference_integrator;
+        options.integrator = integrator_of(a.reference_integrator, "--reference-integrator");
         options.progress = !a.quiet;
         options.cancel = a.cancel;
         const RenderResult r = render(s, options);

@@ -24,7 +24,7 @@ struct ConvergeArgs {
     std::filesystem::path reference;
     std::filesystem::path save_reference;
     int64_t reference_spp = 4096;
-    std::string reference_integrator = "wavefront";
+    std::string reference_integrator = "wavefront";  // (names: integrators/registry.h)
     std::vector<int64_t> spp = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024};
     std::vector<std::string> integrators = {"scalar", "wavefront"};
     std::vector<std::string> isas = {"auto"};

@@ -13,6 +13,7 @@
 #include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/wavefront.h"
 #include "io/output_file.h"
+#include "integrators/registry.h"
 
 namespace cierzo {
 
@@ -65,7 +66,8 @@ int total_threads(const RenderStats& st) {
 }
 
 void check_render_isa(const RenderJob& job) {
-    if (job.integrator == "wavefront") require_isa(parse_isa(job.isa), "--isa");
+    if (integrator_of(job.integrator) == Integrator::kWavefront)
+        require_isa(parse_isa(job.isa), "--isa");
 }
 
 void apply_render_overrides(Scene& scene, const RenderJob& a) {
@@ -91,7 +93,7 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     RenderSettings& s = scene.settings;
     RenderOptions options;
     options.threads = a.threads;
-    options.integrator = a.integrator;
+    options.integrator = integrator_of(a.integrator);
     options.isa = a.isa;
     options.pool_size = a.pool;
     options.time_budget = a.time_budget;
@@ -100,11 +102,12 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     options.progress = a.progress && root;
 
     // Checkpoints: what the pixels depend on, the state to continue from, where to write
-    const int pool = a.integrator == "wavefront"
+    const bool wavefront = options.integrator == Integrator::kWavefront;
+    const int pool = wavefront
                          ? (a.pool > 0 ? a.pool : WavefrontRenderer::kDefaultPoolSize)
                          : 0;
     const Isa chosen = parse_isa(a.isa) == Isa::kAuto ? best_isa() : parse_isa(a.isa);
-    const std::string isa = a.integrator == "wavefront" ? isa_name(chosen) : "scalar";
+    const std::string isa = wavefront ? isa_name(chosen) : "scalar";
     const fs::path checkpoint = !a.checkpoint.empty() ? a.checkpoint : a.resume;
     done.checkpoint = checkpoint;
     if (a.checkpoint_every_given && checkpoint.empty())

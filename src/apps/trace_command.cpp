@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "integrators/registry.h"
 #include "integrators/wavefront/wavefront.h"
 #include "scene/scene_json.h"
 
@@ -71,7 +72,7 @@ CLI::App* add_trace_command(CLI::App& app) {
     t->add_option("--integrator", g_args.integrator,
                   "wavefront (its SIMD traversal, K rays set up at a time) or scalar (the "
                   "reference's, one ray at a time)")
-        ->check(CLI::IsMember({"wavefront", "scalar"}))
+        ->check(CLI::IsMember(integrator_names()))
         ->capture_default_str();
     t->add_option("--isa", g_args.isa, "Wavefront instruction set; valid on this CPU: " +
                                            usable_isa_names())
@@ -86,12 +87,13 @@ CLI::App* add_trace_command(CLI::App& app) {
 int run_trace_command() {
     const TraceArgs& a = g_args;
     const Isa isa = parse_isa(a.isa);
-    if (a.integrator == "wavefront") require_isa(isa, "--isa");
+    const bool simd = integrator_of(a.integrator) == Integrator::kWavefront;
+    if (simd) require_isa(isa, "--isa");
     const Scene scene = load_scene(a.scene);
     const std::vector<float> rays = read_rays(a.rays);
     const size_t count = rays.size() / 7;
     std::unique_ptr<WavefrontRenderer> wavefront;
-    if (a.integrator == "wavefront") wavefront = std::make_unique<WavefrontRenderer>(scene, isa);
+    if (simd) wavefront = std::make_unique<WavefrontRenderer>(scene, isa);
     const auto pass = [&](TraceTotals& totals) {
         if (wavefront) return wavefront->trace(rays.data(), count, totals);
         for (size_t i = 0; i < count; ++i) {

@@ -19,6 +19,7 @@
 
 #include "core/error.h"
 #include "io/output_file.h"
+#include "integrators/registry.h"
 
 namespace cierzo {
 

@@ -62,7 +62,7 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
         s.settings.estimator = with_config(scene.settings.estimator, config);
         RenderOptions options;
         options.threads = sweep.threads;
-        options.integrator = config.integrator;
+        options.integrator = integrator_of(config.integrator);
         options.isa = config.isa;
         options.pool_size = config.pool_size;
         options.progress = false;

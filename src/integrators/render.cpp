@@ -142,9 +142,6 @@ std::vector<Tile> image_tiles(int width, int height) {
 }
 
 RenderResult render(const Scene& scene, const RenderOptions& options) {
-    if (options.integrator != "scalar" && options.integrator != "wavefront")
-        throw InputError("unknown integrator '" + options.integrator +
-                         "' (valid: wavefront, scalar)");
     // (an emitter is chosen from 24 random bits)
     if (scene.settings.estimator.kind != Estimator::kReport &&
         scene.emitters.count() > (size_t(1) << 24))
@@ -154,7 +151,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     const mpi::World& world = mpi::world();
     const bool root = world.rank == 0;
     std::unique_ptr<WavefrontRenderer> wavefront;
-    if (options.integrator == "wavefront")
+    if (options.integrator == Integrator::kWavefront)
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
                                                         options.pool_size, options.specialise);
     const int threads =
@@ -167,7 +164,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     RenderResult result{root ? Film(rs.width, rs.height) : Film(0, 0), {}};
     RenderStats& st = result.stats;
     st.threads = threads;
-    st.integrator = options.integrator;
+    st.integrator = integrator_name(options.integrator);
     st.isa = wavefront ? isa_name(wavefront->isa()) : "scalar";
     if (wavefront) st.pool_size = wavefront->pool_size(), st.pool_bytes = wavefront->pool_bytes();
     RankStats mine{world.rank, mpi::host_name(), threads};

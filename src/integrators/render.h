@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "integrators/film.h"
+#include "integrators/registry.h"
 #include "scene/scene.h"
 
 namespace cierzo {
@@ -48,7 +49,7 @@ struct RenderState {
 
 struct RenderOptions {
     int threads = 0;  // 0: every CPU this process may run on (TBB's default concurrency)
-    std::string integrator = "wavefront";  // or "scalar", the reference
+    Integrator integrator = Integrator::kWavefront;
     std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2, neon
     int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
     bool specialise = true;                // wavefront: skip what the scene does not use

@@ -27,21 +27,6 @@ Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& u
     return c;
 }
 
-const char* estimator_name(Estimator e) {
-    switch (e) {
-        case Estimator::kNee: return "nee";
-        case Estimator::kMis: return "mis";
-        default: return "report";
-    }
-}
-
-std::optional<Estimator> parse_estimator(std::string_view name) {
-    if (name == "report") return Estimator::kReport;
-    if (name == "nee") return Estimator::kNee;
-    if (name == "mis") return Estimator::kMis;
-    return std::nullopt;
-}
-
 namespace {
 
 // Area-weighted vertex normals: each vertex gets the sum of (v1 - v0) × (v2 - v0) of the

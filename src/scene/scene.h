@@ -72,9 +72,6 @@ struct Mesh {
     size_t triangle_count() const { return indices.size() / 3; }
 };
 
-// "report", "nee", "mis" and back.
-const char* estimator_name(Estimator e);
-std::optional<Estimator> parse_estimator(std::string_view name);
 
 struct PointLight {
     Vec3f position;

@@ -16,6 +16,7 @@
 
 #include "core/error.h"
 #include "io/mesh.h"
+#include "integrators/registry.h"
 
 namespace cierzo {
 

@@ -23,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "integrators/registry.h"
 #include "integrators/wavefront/isa.h"
 #include "support/emulator.h"
 #include "support/program_test.h"
@@ -192,6 +193,38 @@ TEST_F(cli, OneThreadHandsNothingBetweenThreads) {
     const json j = json::parse(read_file(stats));
     EXPECT_EQ(j["scheduler"]["units"], 16 * 16 * 5);  // 16 x 16 tiles, passes 1, 2, 4, 8, 16
     EXPECT_LT(usage.ru_nvcsw, 100) << "voluntary context switches";
+}
+
+// The registry is the one list of names: each name reads back as its entry, `render` and
+// `converge` offer every one (a name the program refuses would be a second list), and the
+// docs describe every one (an entry added without docs fails here).
+TEST_F(cli, EveryIntegratorAndEstimatorIsOfferedAndDocumented) {
+    const std::string render_help = run("--help").out, converge_help = run("--help", "converge").out;
+    const std::string estimators_doc = read_file(CIERZO_SOURCE_DIR "/docs/estimators.md");
+    const std::string readme = read_file(CIERZO_SOURCE_DIR "/README.md");
+    for (const cierzo::IntegratorEntry& e : cierzo::kIntegrators) {
+        SCOPED_TRACE(e.name);
+        EXPECT_EQ(cierzo::parse_integrator(e.name), e.id);
+        EXPECT_EQ(std::string(cierzo::integrator_name(e.id)), e.name);
+        EXPECT_NE(render_help.find(e.name), std::string::npos);
+        EXPECT_NE(converge_help.find(e.name), std::string::npos);
+        EXPECT_NE(readme.find(std::string("**") + e.name + "**"), std::string::npos);
+    }
+    for (const cierzo::EstimatorEntry& e : cierzo::kEstimators) {
+        SCOPED_TRACE(e.name);
+        EXPECT_EQ(cierzo::parse_estimator(e.name), e.id);
+        EXPECT_EQ(std::string(cierzo::estimator_name(e.id)), e.name);
+        EXPECT_NE(render_help.find(e.summary), std::string::npos);
+        EXPECT_NE(converge_help.find(e.summary), std::string::npos);
+        EXPECT_NE(estimators_doc.find(std::string("`") + e.name + "`"), std::string::npos);
+        // ... and a scene file may name it
+        json j = json::parse(kTinyScene);
+        j["render"]["estimator"] = e.name;
+        const Outcome r = run(quote(write("e.json", j.dump())) + kQuiet + " --spp 1");
+        EXPECT_EQ(r.exit_code, 0) << r.err;
+    }
+    EXPECT_FALSE(cierzo::parse_estimator("bdpt"));
+    EXPECT_FALSE(cierzo::parse_integrator("gpu"));
 }
 
 TEST_F(cli, StatsAreConsistent) {

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "integrators/registry.h"
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
@@ -42,7 +43,7 @@ Difference compare(const Film& a, const Film& b) {
 
 RenderResult render_with(const Scene& scene, const std::string& integrator, const std::string& isa) {
     RenderOptions o;
-    o.integrator = integrator;
+    o.integrator = integrator_of(integrator);
     o.isa = isa;
     o.threads = 2;
     o.progress = false;
@@ -96,7 +97,7 @@ TEST(Agreement, EveryPixelGetsItsPathsWhateverThePoolAndTileShapes) {
         std::vector<Image> images;
         for (int pool : {16, 48, 512, 2048}) {
             RenderOptions o;
-            o.integrator = "wavefront";
+            o.integrator = Integrator::kWavefront;
             o.isa = isa_name(isa);
             o.threads = 1;
             o.pool_size = pool;

@@ -16,6 +16,7 @@
 
 #include "core/error.h"
 #include "integrators/checkpoint.h"
+#include "integrators/registry.h"
 #include "integrators/render.h"
 #include "io/image.h"
 #include "scene/scene_json.h"
@@ -65,7 +66,7 @@ std::vector<test::Variant> checked_variants() {
 
 RenderOptions options_for(const test::Variant& v, int threads) {
     RenderOptions o;
-    o.integrator = v.integrator;
+    o.integrator = integrator_of(v.integrator);
     o.isa = v.isa;
     o.threads = threads;
     o.progress = false;

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "integrators/registry.h"
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
@@ -30,7 +31,7 @@ Scene load(const std::string& name) {
 RenderResult render_with(const Scene& scene, const std::string& integrator,
                          const std::string& isa, int threads) {
     RenderOptions o;
-    o.integrator = integrator;
+    o.integrator = integrator_of(integrator);
     o.isa = isa;
     o.threads = threads;
     o.progress = false;

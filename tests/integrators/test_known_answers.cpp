@@ -8,6 +8,7 @@
 
 #include <cmath>
 
+#include "integrators/registry.h"
 #include "integrators/render.h"
 #include "integrators/scalar.h"
 #include "kernels/rng.h"
@@ -31,7 +32,7 @@ const char* g_integrator = CIERZO_TEST_INTEGRATOR;
 
 RenderResult render_quiet(const Scene& scene, int threads = 1) {
     RenderOptions o;
-    o.integrator = g_integrator;
+    o.integrator = integrator_of(g_integrator);
     o.isa = CIERZO_TEST_ISA;
     o.threads = threads;
     o.progress = false;

@@ -20,6 +20,7 @@
 #include "scene/scene_json.h"
 #include "support/render_variants.h"
 #include "support/uv_sphere.h"
+#include "integrators/registry.h"
 
 namespace cierzo {
 namespace {

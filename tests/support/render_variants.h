@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "integrators/registry.h"
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
@@ -27,7 +28,7 @@ inline std::vector<Variant> variants() {
 
 inline RenderResult run(const Scene& scene, const Variant& v) {
     RenderOptions o;
-    o.integrator = v.integrator;
+    o.integrator = integrator_of(v.integrator);
     o.isa = v.isa;
     o.threads = 2;
     o.progress = false;

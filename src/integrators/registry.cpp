@@ -1,0 +1,75 @@
+// Names and descriptions of the integrators and estimators (see registry.h).
+#include "integrators/registry.h"
+
+#include "core/error.h"
+
+namespace cierzo {
+
+namespace {
+
+template <class Entries>
+std::vector<std::string> names_of(const Entries& entries) {
+    std::vector<std::string> out;
+    for (const auto& e : entries) out.push_back(e.name);
+    return out;
+}
+
+template <class Entries>
+std::string describe(const Entries& entries) {
+    std::string text;
+    const size_t n = std::size(entries);
+    for (size_t i = 0; i < n; ++i) {
+        if (i > 0) text += i + 1 == n ? " or " : ", ";
+        text += entries[i].name;
+        text += " (";
+        text += entries[i].summary;
+        text += ")";
+    }
+    return text;
+}
+
+std::string joined(const std::vector<std::string>& names) {
+    std::string text;
+    for (const std::string& n : names) text += (text.empty() ? "" : ", ") + n;
+    return text;
+}
+
+}  // namespace
+
+const char* integrator_name(Integrator i) {
+    for (const IntegratorEntry& e : kIntegrators)
+        if (e.id == i) return e.name;
+    return "unknown";
+}
+
+const char* estimator_name(Estimator id) {
+    for (const EstimatorEntry& e : kEstimators)
+        if (e.id == id) return e.name;
+    return "unknown";
+}
+
+std::optional<Integrator> parse_integrator(std::string_view name) {
+    for (const IntegratorEntry& e : kIntegrators)
+        if (name == e.name) return e.id;
+    return std::nullopt;
+}
+
+std::optional<Estimator> parse_estimator(std::string_view name) {
+    for (const EstimatorEntry& e : kEstimators)
+        if (name == e.name) return e.id;
+    return std::nullopt;
+}
+
+std::vector<std::string> integrator_names() { return names_of(kIntegrators); }
+std::vector<std::string> estimator_names() { return names_of(kEstimators); }
+
+Integrator integrator_of(std::string_view name, std::string_view option) {
+    if (const std::optional<Integrator> i = parse_integrator(name)) return *i;
+    throw InputError(std::string(option) + ": unknown integrator '" + std::string(name) +
+                     "' (valid: " + joined(integrator_names()) + ")");
+}
+
+std::string describe_integrators() { return describe(kIntegrators); }
+std::string describe_estimators() { return describe(kEstimators); }
+
+}  // namespace cierzo
