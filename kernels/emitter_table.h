@@ -5,14 +5,9 @@
 
 #include <cstdint>
 
-namespace cierzo {
+#include "settings.h"
 
-// Which estimator renders the image (render.estimator, --estimator).
-enum class Estimator : int32_t {
-    kReport = 0,  // the report's: emitters are found only by the paths that hit them
-    kNee = 1,     // next-event estimation: one emitter sample per Phong vertex
-    kMis = 2,     // both strategies, weighted by the power heuristic
-};
+namespace cierzo {
 
 // The kinds of emitter that can be sampled.
 enum EmitterKind : int32_t { kEmitterSphere = 0, kEmitterTriangle = 1 };

@@ -21,6 +21,7 @@
 #include "intersect.h"
 #include "rng.h"
 #include "sampling.h"
+#include "settings.h"
 #include "texture.h"
 
 namespace cierzo {
@@ -34,19 +35,6 @@ enum Lobe : int32_t {
     kLobeRefract = 3,   // perfect refraction
     kLobeAbsorbed = 4,
     kLobeCount = 4,
-};
-
-// Settings of the estimator that a scene or the command line may change.
-struct EstimatorSettings {
-    // The roulette's total survival probability never exceeds this, so every path ends.
-    float survival_cap = 0.9f;
-    // Diffuse directions: uniform over the hemisphere as in the report, or cosine-weighted.
-    bool cosine_diffuse = false;
-    // The report's estimator, next-event estimation, or multiple importance sampling.
-    Estimator kind = Estimator::kReport;
-    // Multiplies the emitter-sampling pdf that next-event estimation divides by. Always 1;
-    // the tests set it to 1.05 to show that a 5% error in that pdf is caught.
-    float light_pdf_scale = 1.0f;
 };
 
 // The report's material at one hit point, textures already evaluated.

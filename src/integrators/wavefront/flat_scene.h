@@ -103,10 +103,7 @@ struct FlatScene {
     float cam_origin[3], cam_forward[3], cam_left[3], cam_up[3];
     int32_t width, height;
     uint32_t seed;
-    float survival_cap;
-    bool cosine_diffuse;
-    Estimator estimator;
-    float light_pdf_scale;
+    EstimatorSettings estimator;  // the scene's, as it is
     float scene_ior;
     FlatFeatures features;
 };

@@ -39,7 +39,7 @@ struct LobeStep {
         const F u2 = uniform<F>(key, bounce, Purpose::kDirection2);
         Scatter<F> sc;
         if constexpr (kLobe == kLobeDiffuse) {
-            sc = sample_diffuse(m, nsf, u1, u2, probability, s.cosine_diffuse);
+            sc = sample_diffuse(m, nsf, u1, u2, probability, s.estimator.cosine_diffuse);
         } else if constexpr (kLobe == kLobeSpecular) {
             sc = sample_specular(m, d0, nsf, u1, u2, probability);
         } else if constexpr (kLobe == kLobeMirror) {
@@ -52,7 +52,8 @@ struct LobeStep {
             sc.weight = select(on_arriving_side(sc.dir, nf), sc.weight, Vec3<F>(F(0.0f)));
         beta = beta0 * sc.weight;
         if (s.features.nee)
-            pdf = sampled_lobe_pdf<kLobe>(m, d0, nsf, sc.dir, probability, s.cosine_diffuse);
+            pdf = sampled_lobe_pdf<kLobe>(m, d0, nsf, sc.dir, probability,
+                                          s.estimator.cosine_diffuse);
         alive = max_component(beta) > F(0.0f);
         o = offset_ray_origin(pos, select(dot(sc.dir, n) > F(0.0f), n, -n), magnitude);
         d = sc.dir;
@@ -110,7 +111,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
         if (f.nee && any(em)) {
             const F lobe_pdf = F::load_aligned(p.lobe_pdf + i);
-            le = le * emitter_hit_weight<F>(s.emitters, s.estimator,
+            le = le * emitter_hit_weight<F>(s.emitters, s.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), lobe_pdf,
                                             ray.o, d, length(pos - ray.o));
         }
@@ -144,10 +145,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             const Vec3<F> nsf = shading ? facing_shading_normal(sf.ns, nf) : nf;
             const Vec3<F> origin = offset_ray_origin(pos, nf, sf.magnitude);
             if (f.nee) {
-                const EstimatorSettings est{s.survival_cap, s.cosine_diffuse, s.estimator,
-                                            s.light_pdf_scale};
                 const EmitterShadow<F> es =
-                    emitter_shadow(s.emitters, est, m, d, nsf, origin, key, bounce);
+                    emitter_shadow(s.emitters, s.estimator, m, d, nsf, origin, key, bounce);
                 const Vec3<F> c = beta * es.value;
                 auto want = phong & es.ok & (max_component(c) > F(0.0f));
                 if (shading) want = want & on_arriving_side(es.wi, nf);
@@ -182,8 +181,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
 
     // Russian roulette over the lobes
     F probability;
-    I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe), s.survival_cap,
-                         probability);
+    I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe),
+                                 s.estimator.survival_cap, probability);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kFused == kLobeCount) {

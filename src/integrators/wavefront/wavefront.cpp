@@ -271,8 +271,7 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     d.mesh_emitter = padded(scene.emitters.mesh_first);
     f.sphere_emitter = d.sphere_emitter.data();
     f.mesh_emitter = d.mesh_emitter.data();
-    f.estimator = scene.settings.estimator.kind;
-    f.light_pdf_scale = scene.settings.estimator.light_pdf_scale;
+    f.estimator = scene.settings.estimator;
 
     // Camera, settings, features
     const Camera& c = scene.camera;
@@ -282,8 +281,6 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     }
     f.width = scene.settings.width, f.height = scene.settings.height;
     f.seed = scene.settings.seed;
-    f.survival_cap = scene.settings.estimator.survival_cap;
-    f.cosine_diffuse = scene.settings.estimator.cosine_diffuse;
     f.scene_ior = scene.scene_ior;
     const SceneFeatures sf = scene.features();
     const bool tree = !scene.bvh.empty();

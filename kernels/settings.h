@@ -1,0 +1,31 @@
+// The estimator's plain settings, outside the per-ISA namespaces: one type that the scene,
+// the scalar reference and every ISA's kernels share (no kernel types, no functions, so
+// the per-ISA objects share no code through it).
+#pragma once
+
+#include <cstdint>
+
+namespace cierzo {
+
+// Which estimator renders the image (render.estimator, --estimator; names and descriptions
+// in src/integrators/registry.h).
+enum class Estimator : int32_t {
+    kReport = 0,  // the report's: emitters are found only by the paths that hit them
+    kNee = 1,     // next-event estimation: one emitter sample per Phong vertex
+    kMis = 2,     // both strategies, weighted by the power heuristic
+};
+
+// Settings of the estimator that a scene or the command line may change.
+struct EstimatorSettings {
+    // The roulette's total survival probability never exceeds this, so every path ends.
+    float survival_cap = 0.9f;
+    // Diffuse directions: uniform over the hemisphere as in the report, or cosine-weighted.
+    bool cosine_diffuse = false;
+    // The report's estimator, next-event estimation, or multiple importance sampling.
+    Estimator kind = Estimator::kReport;
+    // Multiplies the emitter-sampling pdf that next-event estimation divides by. Always 1;
+    // the tests set it to 1.05 to show that a 5% error in that pdf is caught.
+    float light_pdf_scale = 1.0f;
+};
+
+}  // namespace cierzo
