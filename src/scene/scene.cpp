@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "kernels/prim_id.h"
 #include "kernels/shading.h"
 #include "kernels/traverse.h"
 
@@ -60,6 +61,13 @@ std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& p,
 
 void Scene::finalize() {
     const auto start = std::chrono::steady_clock::now();
+    // (hit records hold an index of 24 bits: kernels/prim_id.h)
+    for (const auto& [count, what] : {std::pair{spheres.size(), "spheres"},
+                                      std::pair{planes.size(), "planes"},
+                                      std::pair{quadrics.size(), "quadrics"}})
+        if (count > size_t(kPrimIndexMask))
+            throw InputError(source.string() + ": " + std::to_string(count) + " " + what +
+                             "; a scene holds at most 16,777,215 of each");
     // Shading normals: every smooth object's geometry has one per vertex (the file's, or
     // area-weighted ones)
     smooth_shading = false;
@@ -289,18 +297,15 @@ struct ScalarQuadrics {
     }
 };
 
-// Hit kinds of the unbounded list's ids
-constexpr int32_t kPlaneId = 0;
-constexpr int32_t kQuadricId = 1 << 30;
 
 }  // namespace
 
 bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
     float best = tmax;
     int32_t id = -1;
-    closest_unbounded(ray, best, id, int32_t(planes.size()), ScalarPlanes{planes}, kPlaneId,
-                      int32_t(unbounded_quadrics.size()),
-                      ScalarQuadrics{quadrics, unbounded_quadrics}, kQuadricId);
+    closest_unbounded(ray, best, id, int32_t(planes.size()), ScalarPlanes{planes},
+                      kPrimPlane << kPrimShift, int32_t(unbounded_quadrics.size()),
+                      ScalarQuadrics{quadrics, unbounded_quadrics}, kPrimQuadric << kPrimShift);
     BvhHit tree{};
     const bool in_tree =
         traverse<false, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), best, tree);
@@ -316,10 +321,10 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
         hit.material = quadrics[index].material;
     };
     if (!in_tree) {
-        if (id >= kQuadricId) {
-            quadric(size_t(id - kQuadricId));
+        if (id >> kPrimShift == kPrimQuadric) {
+            quadric(size_t(id & kPrimIndexMask));
         } else {
-            const size_t i = size_t(id);
+            const size_t i = size_t(id & kPrimIndexMask);
             hit.n = {planes.nx[i], planes.ny[i], planes.nz[i]};
             hit.material = planes.material[i];
         }

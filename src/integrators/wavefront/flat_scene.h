@@ -7,16 +7,12 @@
 
 #include "accel/bvh.h"
 #include "kernels/emitter_table.h"
+#include "kernels/prim_id.h"
 
 namespace cierzo {
 
 // Every per-primitive and per-material table is padded to a multiple of 16 entries, so a
 // whole SIMD register can be loaded from it.
-
-// Primitive ids in hit records: kind in the top byte, index below.
-enum PrimKind : int32_t { kPrimSphere = 1, kPrimPlane = 2, kPrimQuadric = 3, kPrimMesh = 4 };
-inline constexpr int32_t kPrimShift = 24;
-inline constexpr int32_t kPrimIndexMask = (1 << kPrimShift) - 1;
 
 // The colour channels of a material, in this order.
 enum MaterialColor : int { kColEmission = 0, kColKd, kColKs, kColKr, kColKt, kColCount };

@@ -181,9 +181,10 @@ void trace_rays_isa(const FlatScene& s, const float* rays, size_t count, TraceTo
         const Ray<F> ray{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
         F t = at(6);
         I prim(-1);
-        closest_unbounded(ray, t, prim, s.plane_count, PlaneTable<F>{s.plane_lanes}, 0,
-                          s.unbounded_quadric_count,
-                          QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics}, 1 << 30);
+        closest_unbounded(ray, t, prim, s.plane_count, PlaneTable<F>{s.plane_lanes},
+                          kPrimPlane << kPrimShift, s.unbounded_quadric_count,
+                          QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics},
+                          kPrimQuadric << kPrimShift);
         alignas(64) float tt[K];
         t.store_aligned(tt);
         uint32_t hit = mask_bits(mask_f32(prim >= I(0)));

@@ -191,8 +191,6 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.plane_material = d.plane_material.data();
     d.plane_lanes = lanes_of({&pl.nx, &pl.ny, &pl.nz, &pl.distance});
     f.plane_lanes = d.plane_lanes.data();
-    if (sp.size() >= size_t(1) << kPrimShift || scene.quadrics.size() >= size_t(1) << kPrimShift)
-        throw InputError(scene.source.string() + ": more than 2^24 spheres or quadrics");
     for (const Quadric& q : scene.quadrics) {
         d.quadric.insert(d.quadric.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h,
                                            q.q.i, q.q.j, q.box_min.x, q.box_min.y, q.box_min.z,
