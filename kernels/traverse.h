@@ -1,5 +1,5 @@
-// The one traversal of the scene BVH (layout in src/accel/bvh.h), for both integrators: one
-// ray at a time through 8-wide nodes, templated on the lane type N that tests a node's
+// The one traversal of the scene BVH (layout in kernels/bvh_layout.h), for both integrators:
+// one ray at a time through 8-wide nodes, templated on the lane type N that tests a node's
 // children and a leaf block's primitives — `float` (one child at a time: the scalar
 // reference) or an xsimd batch of 8 floats (or 4, twice: the wavefront). Every primitive
 // kernel is the one of kernels/intersect.h and kernels/triangle.h, so the two integrators
@@ -14,7 +14,7 @@
 #include <type_traits>
 #include <utility>
 
-#include "accel/bvh.h"
+#include "bvh_layout.h"
 #include "intersect.h"
 #include "triangle.h"
 

@@ -4,8 +4,8 @@
 // mesh's own BVH (built once, however many objects use the mesh) reached through the
 // object's transform. Built here (bvh_build.cpp: binned SAH, TBB-parallel for big inputs,
 // collapsed to 8-wide nodes); traversed by kernels/traverse.h, the one traversal both
-// integrators call. The layout below is plain data, so the per-ISA kernels include it too.
-// Design and measurements: docs/acceleration.md.
+// integrators call, over the plain layout of kernels/bvh_layout.h. Design and measurements:
+// docs/acceleration.md.
 #pragma once
 
 #include <cstddef>
@@ -14,94 +14,10 @@
 #include <span>
 #include <vector>
 
+#include "kernels/bvh_layout.h"
 #include "kernels/vec3.h"
 
 namespace cierzo {
-
-// Children per node, and primitives per leaf block: one AVX register of floats (SSE and
-// NEON: 4 + 4).
-inline constexpr int kWideBvhWidth = 8;
-// The binary build tree's depth bound, and the traversal stack's: every wide level lowers
-// the binary depth by at least one and leaves at most 7 entries on the stack.
-inline constexpr int kBvhMaxDepth = 96;
-inline constexpr int kWideBvhStackSize = (kWideBvhWidth - 1) * kBvhMaxDepth + 1;
-// Never a leaf above this many primitives (at most two blocks of 8).
-inline constexpr uint32_t kBvhMaxLeafSize = 2 * kWideBvhWidth;
-
-// Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches
-// (Ize, "Robust BVH Ray Traversal", JCGT 2013).
-inline constexpr float kBvhFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f));
-
-// What a leaf holds: all its primitives are of one kind.
-enum BvhLeafKind : uint8_t {
-    kLeafTriangles = 0,  // child: first TriangleBlock
-    kLeafSpheres = 1,    // child: first SphereBlock
-    kLeafQuadrics = 2,   // child: first entry of `items` (quadric indices)
-    kLeafInstances = 3,  // child: first entry of `items` (instance indices)
-};
-
-// A node holds its children's boxes in SoA, so one ray tests all of them with a few SIMD
-// operations; 256 bytes, 4 cache lines (boxes in the first 3).
-//   bounds[0..2][i]  min x, y, z of child i; bounds[3..5][i] its max x, y, z
-//   child[i]         inner child: its node index; leaf: where its primitives start (kind[i])
-//   count[i]         leaf: its primitives (1-16); inner child: 0
-//   kind[i]          leaf: a BvhLeafKind
-//   slots            children in use, in slots [0, slots); unused slots have an empty box
-//                    (min +inf, max -inf) and are also masked off by the traversal
-//   leaves           bit i set: slot i is a leaf
-struct alignas(64) WideBvhNode {
-    float bounds[6][kWideBvhWidth];
-    uint32_t child[kWideBvhWidth];
-    uint16_t count[kWideBvhWidth];
-    uint8_t kind[kWideBvhWidth];
-    uint32_t slots;
-    uint32_t leaves;
-};
-static_assert(sizeof(WideBvhNode) == 256);
-
-// Eight triangles in SoA (288 bytes): v[0..2] the x, y, z of vertex 0, v[3..5] vertex 1,
-// v[6..8] vertex 2, lane l being triangle l. Lanes past a leaf's last triangle have all
-// vertices at the origin, a degenerate triangle that the watertight test never hits.
-struct alignas(32) TriangleBlock {
-    float v[9][kWideBvhWidth];
-};
-static_assert(sizeof(TriangleBlock) == 288);
-
-// Eight spheres in SoA (128 bytes): centre x, y, z and radius. Unused lanes have a NaN
-// centre, which no ray hits.
-struct alignas(32) SphereBlock {
-    float c[4][kWideBvhWidth];
-};
-static_assert(sizeof(SphereBlock) == 128);
-
-struct BvhView;
-
-// An object that uses a shared mesh: the mesh's BVH in its own space, the world-to-object
-// affine map for rays (x' = M x + m; t is the same in both spaces, as the direction is
-// mapped without normalising), and the inverse transpose of the object-to-world linear part
-// for normals. Row-major 3 × 4 and 3 × 3.
-struct BvhInstance {
-    const BvhView* geometry;
-    float to_object[12];
-    float normal_to_world[9];
-    uint32_t mesh;  // the Scene::meshes entry of this object (its material, its colours)
-};
-
-// The structure as the traversal reads it: pointers into a Bvh's arrays.
-struct BvhView {
-    const WideBvhNode* nodes = nullptr;  // root first; none when nothing can be hit
-    int32_t node_count = 0;
-    const TriangleBlock* triangles = nullptr;
-    const uint32_t* triangle_mesh = nullptr;   // block lane (8 * block + lane) -> mesh
-    const uint32_t* triangle_index = nullptr;  // block lane -> the triangle in its mesh
-    const SphereBlock* spheres = nullptr;
-    const uint32_t* sphere_index = nullptr;    // block lane -> Scene sphere index
-    const uint32_t* items = nullptr;           // quadric or instance indices of leaves
-    const float* quadrics = nullptr;           // 16 floats per scene quadric: A..J, box min, max
-    const BvhInstance* instances = nullptr;
-    int32_t instance_count = 0;
-    float bounds[6] = {0, 0, 0, -1, -1, -1};   // min xyz, max xyz of everything (empty: min > max)
-};
 
 // ---- Building ------------------------------------------------------------------------------
 

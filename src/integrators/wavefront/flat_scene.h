@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "accel/bvh.h"
+#include "kernels/bvh_layout.h"
 #include "kernels/emitter_table.h"
 #include "kernels/prim_id.h"
 
