@@ -16,6 +16,7 @@
 
 #include "core/error.h"
 #include "io/mesh.h"
+#include "scene/strict_json.h"
 
 namespace cierzo {
 
@@ -27,9 +28,6 @@ namespace fs = std::filesystem;
 // Limits that refuse absurd requests before anything is allocated.
 constexpr int64_t kMaxDimension = 1 << 16;
 constexpr int64_t kMaxPixels = int64_t(1) << 28;
-// Far deeper than any scene needs (5 levels); deeper input would overflow the stack of the
-// recursive JSON copies and dumps used below.
-constexpr int kMaxNesting = 64;
 
 // A JSON object being read: knows where it is for messages and which keys were used, so
 // that an unknown (misspelt) key is an error rather than silently ignored.
@@ -626,67 +624,7 @@ struct Loader {
 
 
 Scene parse_scene(const std::string& text, const fs::path& path) {
-    json root;
-    try {
-        // The callback refuses, as the text is read: deep nesting (before any recursion on
-        // it), and a key given twice in one object (the parser would keep the last)
-        struct Frame {
-            bool array = false;
-            int index = -1;    // an array's current element
-            std::string name;  // where it is, for messages: "render", "objects[2]"
-            std::string last_key;
-            std::set<std::string> keys;
-        };
-        std::vector<Frame> frames;
-        const auto child_name = [&]() -> std::string {
-            if (frames.empty()) return "scene";
-            Frame& parent = frames.back();
-            if (parent.array) return parent.name + "[" + std::to_string(++parent.index) + "]";
-            return frames.size() == 1 ? parent.last_key : parent.name + "." + parent.last_key;
-        };
-        const json::parser_callback_t check = [&](int depth, json::parse_event_t event,
-                                                  json& parsed) {
-            using E = json::parse_event_t;
-            if (depth >= kMaxNesting && (event == E::object_start || event == E::array_start))
-                throw InputError(path.string() + ": invalid JSON: arrays and objects nested " +
-                                 "deeper than " + std::to_string(kMaxNesting) + " levels");
-            switch (event) {
-                case E::object_start:
-                case E::array_start: {
-                    Frame f;
-                    f.array = event == E::array_start;
-                    f.name = child_name();
-                    frames.push_back(std::move(f));
-                    break;
-                }
-                case E::object_end:
-                case E::array_end:
-                    if (!frames.empty()) frames.pop_back();
-                    break;
-                case E::key: {
-                    Frame& f = frames.back();
-                    f.last_key = parsed.get<std::string>();
-                    if (!f.keys.insert(f.last_key).second)
-                        throw InputError(path.string() + ": " + f.name + ": duplicate key '" +
-                                         f.last_key + "' (each key may be given once)");
-                    break;
-                }
-                case E::value:
-                    if (!frames.empty() && frames.back().array) ++frames.back().index;
-                    break;
-            }
-            return true;
-        };
-        root = json::parse(text, check, true, /*ignore_comments=*/true);
-    } catch (const json::exception& e) {
-        // parse_error (with line and column), or out_of_range for a number such as 1e400
-        // that overflows a double
-        std::string what = e.what();
-        const auto bracket = what.find("] ");
-        if (what.rfind("[json.exception.", 0) == 0 && bracket != std::string::npos)
-            what = what.substr(bracket + 2);
-        throw InputError(path.string() + ": invalid JSON: " + what);
-    }
+    const json root = parse_strict_json(text, path);
     Loader l;
     l.file = path;
     l.scene.source = path;
