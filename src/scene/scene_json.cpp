@@ -6,11 +6,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <set>
-#include <sstream>
+#include <system_error>
 
 #include <nlohmann/json.hpp>
 
@@ -236,6 +237,24 @@ struct Loader {
     Scene scene;
     std::map<std::string, int32_t> material_ids;
     std::map<int32_t, Mesh> loose_triangles;  // by material
+    // Named materials and objects read while the text was parsed (parse_document), and the
+    // first error met there, to be thrown where reading the whole document would meet it
+    bool materials_read = false;
+    std::exception_ptr materials_error, objects_error;
+
+    explicit Loader(const fs::path& path) : file(path) {
+        scene.source = path;
+        scene.settings.output = path.parent_path() / (path.stem().string() + ".exr");
+    }
+
+    void materials(Reader& root, const json& mats) {
+        if (!mats.is_object()) root.fail("'materials' must be an object of name: material");
+        for (auto it = mats.begin(); it != mats.end(); ++it) {
+            material_ids[it.key()] = int32_t(scene.materials.size());
+            scene.materials.push_back(
+                read_material(it.value(), "materials." + it.key(), it.key(), file));
+        }
+    }
 
     int32_t material_ref(Reader& r) {
         const json& v = r.get("material");
@@ -620,15 +639,39 @@ struct Loader {
     }
 };
 
-}  // namespace
+// The scene file's JSON document. Where "materials" comes before "objects" (as in every
+// generated scene), the objects are read as the parser hands them over and never kept in the
+// document, so a scene of a million spheres is never a document of a million objects; else
+// they are read from the document by build_scene. Either way the same error is reported:
+// one met here is kept and thrown by build_scene where reading in order would meet it.
+json parse_document(const std::string& text, Loader& l) {
+    JsonStream stream;
+    stream.key = "objects";
+    stream.begin = [&l](const json& document) {
+        const auto mats = document.find("materials");
+        if (mats == document.end()) return false;
+        l.materials_read = true;
+        try {
+            Reader root(document, "scene", l.file);
+            l.materials(root, *mats);
+        } catch (const InputError&) {
+            l.materials_error = std::current_exception();
+        }
+        return true;
+    };
+    stream.element = [&l](const json& object, size_t i) {
+        if (l.materials_error || l.objects_error) return;  // (the first error is reported)
+        try {
+            l.object(object, "objects[" + std::to_string(i) + "]");
+        } catch (const InputError&) {
+            l.objects_error = std::current_exception();
+        }
+    };
+    return parse_strict_json(text, l.file, &stream);
+}
 
-
-Scene parse_scene(const std::string& text, const fs::path& path) {
-    const json root = parse_strict_json(text, path);
-    Loader l;
-    l.file = path;
-    l.scene.source = path;
-    l.scene.settings.output = path.parent_path() / (path.stem().string() + ".exr");
+Scene build_scene(Loader& l, const json& root) {
+    const fs::path& path = l.file;
     Reader r(root, "scene", path);
     l.render_settings(r);
     l.scene.scene_ior = float(r.number("scene_ior", 1.0));
@@ -637,18 +680,15 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
     // Materials by name, then objects that refer to them
     if (r.has("materials")) {
         const json& mats = r.get("materials");
-        if (!mats.is_object()) r.fail("'materials' must be an object of name: material");
-        for (auto it = mats.begin(); it != mats.end(); ++it) {
-            l.material_ids[it.key()] = int32_t(l.scene.materials.size());
-            l.scene.materials.push_back(
-                read_material(it.value(), "materials." + it.key(), it.key(), path));
-        }
+        if (l.materials_error) std::rethrow_exception(l.materials_error);
+        if (!l.materials_read) l.materials(r, mats);
     } else {
         r.allow({"materials"});
     }
     const json& objects = r.get("objects");
     if (!objects.is_array()) r.fail("'objects' must be an array");
-    for (size_t i = 0; i < objects.size(); ++i)
+    if (l.objects_error) std::rethrow_exception(l.objects_error);
+    for (size_t i = 0; i < objects.size(); ++i)  // (none if they were read while parsing)
         l.object(objects[i], "objects[" + std::to_string(i) + "]");
     l.finish_meshes();
     for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
@@ -676,12 +716,32 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
     return std::move(l.scene);
 }
 
+}  // namespace
+
+Scene parse_scene(const std::string& text, const fs::path& path) {
+    Loader l(path);
+    const json root = parse_document(text, l);
+    return build_scene(l, root);
+}
+
 Scene load_scene(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(path.string() + ": cannot open scene file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return parse_scene(ss.str(), path);
+    Loader l(path);
+    json root;
+    {
+        // Read at its size (no second copy), and freed before the scene is built
+        std::string text;
+        std::error_code size_unknown;
+        const auto size = fs::file_size(path, size_unknown);
+        if (!size_unknown) text.reserve(size);
+        char chunk[1 << 16];
+        while (in.read(chunk, sizeof chunk) || in.gcount() > 0)
+            text.append(chunk, size_t(in.gcount()));
+        if (in.bad()) throw InputError(path.string() + ": cannot read scene file");
+        root = parse_document(text, l);
+    }
+    return build_scene(l, root);
 }
 
 }  // namespace cierzo

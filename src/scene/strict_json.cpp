@@ -20,7 +20,8 @@ using nlohmann::json;
 // json_sax_dom_parser does, with the checks added.
 class StrictDocumentBuilder {
 public:
-    explicit StrictDocumentBuilder(const std::filesystem::path& file) : file_(file) {}
+    StrictDocumentBuilder(const std::filesystem::path& file, const JsonStream* stream)
+        : file_(file), stream_(stream) {}
 
     json document;
 
@@ -56,9 +57,13 @@ public:
     }
 
 private:
-    // An array or object being filled; for an object, its latest key and that key's value
+    // An array or object being filled: for an array, how many elements it has had (a
+    // streamed one keeps none) and whether it is streamed; for an object, its latest key and
+    // that key's value
     struct Open {
         json* value;
+        size_t count = 0;
+        bool streamed = false;
         const std::string* key = nullptr;
         json* member = nullptr;
     };
@@ -73,6 +78,7 @@ private:
         if (parent.value->is_array()) {
             json::array_t& a = parent.value->get_ref<json::array_t&>();
             a.push_back(std::move(v));
+            ++parent.count;
             return &a.back();
         }
         *parent.member = std::move(v);
@@ -80,7 +86,15 @@ private:
     }
     bool put(json&& v) {
         place(std::move(v));
+        complete();
         return true;
+    }
+    // The latest value placed is complete: handed over if its array is streamed
+    void complete() {
+        if (open_.empty() || !open_.back().streamed) return;
+        json::array_t& a = open_.back().value->get_ref<json::array_t&>();
+        stream_->element(a.back(), open_.back().count - 1);
+        a.pop_back();
     }
 
     bool open(json::value_t kind) {
@@ -88,11 +102,16 @@ private:
             throw InputError(file_.string() + ": invalid JSON: arrays and objects nested " +
                              "deeper than " + std::to_string(kMaxJsonNesting) + " levels");
         // (its parent grows no more while it is open, so the pointer stays valid)
-        open_.push_back({place(json(kind))});
+        json* value = place(json(kind));
+        const bool streamed = stream_ && kind == json::value_t::array && open_.size() == 1 &&
+                              open_[0].value->is_object() && *open_[0].key == stream_->key &&
+                              stream_->begin(document);
+        open_.push_back({value, 0, streamed});
         return true;
     }
     bool close() {
         open_.pop_back();
+        complete();
         return true;
     }
 
@@ -102,18 +121,20 @@ private:
         if (i == 0) return "scene";
         const Open& parent = open_[i - 1];
         if (parent.value->is_array())
-            return name(i - 1) + "[" + std::to_string(parent.value->size() - 1) + "]";
+            return name(i - 1) + "[" + std::to_string(parent.count - 1) + "]";
         return i == 1 ? *parent.key : name(i - 1) + "." + *parent.key;
     }
 
     const std::filesystem::path& file_;
+    const JsonStream* stream_;
     std::vector<Open> open_;
 };
 
 }  // namespace
 
-json parse_strict_json(const std::string& text, const std::filesystem::path& file) {
-    StrictDocumentBuilder builder(file);
+json parse_strict_json(const std::string& text, const std::filesystem::path& file,
+                       const JsonStream* stream) {
+    StrictDocumentBuilder builder(file, stream);
     try {
         json::sax_parse(text, &builder, json::input_format_t::json, /*strict=*/true,
                         /*ignore_comments=*/true);

@@ -765,6 +765,88 @@ TEST(scene_json_errors, ADuplicateKeyDeepInsideIsNamedByItsPath) {
                                 "syntax error"));
 }
 
+// A scene as text with "materials" before "objects" (whose objects the reader takes while it
+// parses) or after them (read from the whole document): the same scene, the same errors.
+std::string ordered_scene(bool materials_first, const std::string& materials,
+                          const std::string& objects, const std::string& after = "") {
+    const std::string cam = R"("camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]})";
+    const std::string m = R"("materials": )" + materials;
+    const std::string o = R"("objects": )" + objects;
+    return "{" + cam + ", " + (materials_first ? m + ", " + o : o + ", " + m) + after + "}";
+}
+
+TEST(scene_json_values, MaterialsBeforeOrAfterTheObjectsGiveTheSameScene) {
+    const std::string materials = R"({"w": {"kd": 0.5}, "a": {"kr": [0.25, 0.5, 1]}})";
+    const std::string objects = R"([
+        {"type": "sphere", "center": [1, 2, 3], "radius": 0.5, "material": "w"},
+        {"type": "plane", "normal": [0, 2, 0], "distance": 1, "material": {"kd": [0.1, 0.2, 0.3]}},
+        {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "a"},
+        {"type": "sphere", "center": [4, 5, 6], "radius": 2, "material": {"emission": 3}},
+        {"type": "sphere", "center": [7, 8, 9], "radius": 1, "material": "a"}])";
+    const Scene first = parse_text(ordered_scene(true, materials, objects));
+    const Scene last = parse_text(ordered_scene(false, materials, objects));
+    for (const Scene* s : {&first, &last}) {
+        ASSERT_EQ(s->spheres.size(), 3u);
+        EXPECT_EQ(s->spheres.cx, (std::vector<float>{1, 4, 7}));
+        EXPECT_EQ(s->spheres.radius, (std::vector<float>{0.5f, 2, 1}));
+        ASSERT_EQ(s->planes.size(), 1u);
+        EXPECT_EQ(s->planes.distance[0], 0.5f);
+        ASSERT_EQ(s->meshes.size(), 1u);
+        // Named materials first, in name order, then the inline ones in the order of the file
+        ASSERT_EQ(s->materials.size(), 4u);
+        EXPECT_EQ(s->materials[0].name, "a");
+        EXPECT_EQ(s->materials[1].name, "w");
+        expect_vec(s->materials[2].kd.a, 0.1f, 0.2f, 0.3f);
+        expect_vec(s->materials[3].emission.a, 3, 3, 3);
+        EXPECT_EQ(s->spheres.material, (std::vector<int32_t>{1, 3, 0}));
+        EXPECT_EQ(s->planes.material[0], 2);
+        EXPECT_EQ(s->meshes[0].material, 0);
+    }
+}
+
+TEST(scene_json_errors, MaterialsBeforeOrAfterTheObjectsGiveTheSameError) {
+    const std::string w = R"({"w": {"kd": 0.5}})";
+    const std::string good = R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"})";
+    const std::string bad = R"({"type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "w"})";
+    const auto objects = [&](const std::string& second, const std::string& fourth) {
+        return "[" + good + ", " + second + ", " + good + ", " + fourth + "]";
+    };
+    struct Case {
+        std::string materials, objects, after, error;
+    };
+    const std::string radius = "objects[1] (sphere): 'radius' must be > 0";
+    const std::vector<Case> cases = {
+        // The first bad object, not a later one
+        {w, objects(bad, R"({"type": "cone"})"), "", radius},
+        // Keys read before the objects, whatever their place in the file
+        {w, objects(bad, good), R"(, "render": {"spp": 0})", "render: 'spp' must be in"},
+        {w, objects(bad, good), R"(, "scene_ior": -1)", "scene: 'scene_ior' must be > 0"},
+        {R"({"w": {"kd": -1}})", objects(bad, good), R"(, "render": {"spp": 0})",
+         "render: 'spp' must be in"},
+        {R"({"w": {"kd": -1}})", objects(bad, good), "", "materials.w: 'kd' must be finite"},
+        {"[1]", objects(bad, good), "", "scene: 'materials' must be an object"},
+        // and after them
+        {w, objects(bad, good), R"(, "lights": [{"position": 1}], "extra": 1)", radius},
+        {w, objects(good, good), R"(, "lights": [{"position": 1}], "extra": 1)",
+         "lights[0]: 'position' must be an array of 3 numbers"},
+        {w, objects(R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "x"})",
+                    good),
+         R"(, "extra": 1)", "objects[1] (sphere): unknown material 'x'"},
+        // Errors of the JSON itself come first, wherever they are
+        {w, objects(bad, R"({"type": "sphere", "radius": 1, "radius": 1})"), "",
+         "objects[3]: duplicate key 'radius'"},
+        {w, objects(bad, good), R"(, "render": {"spp": 0}, "x": [1,])", "invalid JSON"},
+        {w, objects(bad, good), R"(, "render": {"spp": 0}, "x": 1e400)", "number overflow"},
+    };
+    for (const Case& c : cases)
+        for (bool materials_first : {true, false}) {
+            SCOPED_TRACE(std::string(materials_first ? "materials first: " : "objects first: ") +
+                         c.error);
+            EXPECT_TRUE(text_fails_with(
+                ordered_scene(materials_first, c.materials, c.objects, c.after), c.error));
+        }
+}
+
 TEST(scene_json_errors, NestingDeeperThan64LevelsIsRefused) {
     // The document is level 1, 'objects' 2, the sphere 3, its centre 4, and each array in
     // the centre one more. 64 levels are read (the centre is then refused for its shape),
