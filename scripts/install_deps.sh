@@ -3,20 +3,26 @@
 # libraries (tinyobjloader for OBJ meshes); Open MPI (distributed renders); npm for the test
 # meshes; matplotlib for the plots; Python's headers, pybind11, NumPy and pytest for the
 # Python module and its tests, and venv, pip, setuptools and wheel for `pip install .`.
-# Skips what is installed.
+# With --render, only what the two programs need (scripts/render_default.sh): the compiler,
+# CMake, Ninja and the libraries. Skips what is installed.
 set -euo pipefail
-packages=(g++ cmake ninja-build pkg-config libxsimd-dev libopenexr-dev libimath-dev
-          libgtest-dev libgmock-dev libbenchmark-dev libtbb-dev libcli11-dev nlohmann-json3-dev
-          libfmt-dev libstb-dev libtinyobjloader-dev python3-matplotlib openmpi-bin
-          libopenmpi-dev python3-dev pybind11-dev python3-numpy python3-pytest python3-venv
-          python3-pip python3-setuptools python3-wheel)
+render=(g++ cmake ninja-build pkg-config libxsimd-dev libopenexr-dev libimath-dev libtbb-dev
+        libcli11-dev nlohmann-json3-dev libfmt-dev libstb-dev libtinyobjloader-dev)
+rest=(libgtest-dev libgmock-dev libbenchmark-dev python3-matplotlib openmpi-bin libopenmpi-dev
+      python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-pip
+      python3-setuptools python3-wheel)
+case "${1:-}" in
+    --render) packages=("${render[@]}") ;;
+    "") packages=("${render[@]}" "${rest[@]}") ;;
+    *) echo "usage: $0 [--render]" >&2; exit 2 ;;
+esac
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 # npm (only to fetch the test meshes): Debian's package only where no npm is on the PATH,
 # since it conflicts with a Node.js installed another way
-command -v npm >/dev/null 2>&1 || missing+=(npm)
+[ "${1:-}" = --render ] || command -v npm >/dev/null 2>&1 || missing+=(npm)
 [ ${#missing[@]} -eq 0 ] && exit 0
 sudo=""
 [ "$(id -u)" -ne 0 ] && sudo="sudo"

@@ -6,17 +6,19 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <set>
-#include <sstream>
+#include <system_error>
 
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "io/mesh.h"
 #include "integrators/registry.h"
+#include "scene/strict_json.h"
 
 namespace cierzo {
 
@@ -28,9 +30,6 @@ namespace fs = std::filesystem;
 // Limits that refuse absurd requests before anything is allocated.
 constexpr int64_t kMaxDimension = 1 << 16;
 constexpr int64_t kMaxPixels = int64_t(1) << 28;
-// Far deeper than any scene needs (5 levels); deeper input would overflow the stack of the
-// recursive JSON copies and dumps used below.
-constexpr int kMaxNesting = 64;
 
 // A JSON object being read: knows where it is for messages and which keys were used, so
 // that an unknown (misspelt) key is an error rather than silently ignored.
@@ -239,6 +238,24 @@ struct Loader {
     Scene scene;
     std::map<std::string, int32_t> material_ids;
     std::map<int32_t, Mesh> loose_triangles;  // by material
+    // Named materials and objects read while the text was parsed (parse_document), and the
+    // first error met there, to be thrown where reading the whole document would meet it
+    bool materials_read = false;
+    std::exception_ptr materials_error, objects_error;
+
+    explicit Loader(const fs::path& path) : file(path) {
+        scene.source = path;
+        scene.settings.output = path.parent_path() / (path.stem().string() + ".exr");
+    }
+
+    void materials(Reader& root, const json& mats) {
+        if (!mats.is_object()) root.fail("'materials' must be an object of name: material");
+        for (auto it = mats.begin(); it != mats.end(); ++it) {
+            material_ids[it.key()] = int32_t(scene.materials.size());
+            scene.materials.push_back(
+                read_material(it.value(), "materials." + it.key(), it.key(), file));
+        }
+    }
 
     int32_t material_ref(Reader& r) {
         const json& v = r.get("material");
@@ -624,75 +641,39 @@ struct Loader {
     }
 };
 
-}  // namespace
+// The scene file's JSON document. Where "materials" comes before "objects" (as in every
+// generated scene), the objects are read as the parser hands them over and never kept in the
+// document, so a scene of a million spheres is never a document of a million objects; else
+// they are read from the document by build_scene. Either way the same error is reported:
+// one met here is kept and thrown by build_scene where reading in order would meet it.
+json parse_document(const std::string& text, Loader& l) {
+    JsonStream stream;
+    stream.key = "objects";
+    stream.begin = [&l](const json& document) {
+        const auto mats = document.find("materials");
+        if (mats == document.end()) return false;
+        l.materials_read = true;
+        try {
+            Reader root(document, "scene", l.file);
+            l.materials(root, *mats);
+        } catch (const InputError&) {
+            l.materials_error = std::current_exception();
+        }
+        return true;
+    };
+    stream.element = [&l](const json& object, size_t i) {
+        if (l.materials_error || l.objects_error) return;  // (the first error is reported)
+        try {
+            l.object(object, "objects[" + std::to_string(i) + "]");
+        } catch (const InputError&) {
+            l.objects_error = std::current_exception();
+        }
+    };
+    return parse_strict_json(text, l.file, &stream);
+}
 
-
-Scene parse_scene(const std::string& text, const fs::path& path) {
-    json root;
-    try {
-        // The callback refuses, as the text is read: deep nesting (before any recursion on
-        // it), and a key given twice in one object (the parser would keep the last)
-        struct Frame {
-            bool array = false;
-            int index = -1;    // an array's current element
-            std::string name;  // where it is, for messages: "render", "objects[2]"
-            std::string last_key;
-            std::set<std::string> keys;
-        };
-        std::vector<Frame> frames;
-        const auto child_name = [&]() -> std::string {
-            if (frames.empty()) return "scene";
-            Frame& parent = frames.back();
-            if (parent.array) return parent.name + "[" + std::to_string(++parent.index) + "]";
-            return frames.size() == 1 ? parent.last_key : parent.name + "." + parent.last_key;
-        };
-        const json::parser_callback_t check = [&](int depth, json::parse_event_t event,
-                                                  json& parsed) {
-            using E = json::parse_event_t;
-            if (depth >= kMaxNesting && (event == E::object_start || event == E::array_start))
-                throw InputError(path.string() + ": invalid JSON: arrays and objects nested " +
-                                 "deeper than " + std::to_string(kMaxNesting) + " levels");
-            switch (event) {
-                case E::object_start:
-                case E::array_start: {
-                    Frame f;
-                    f.array = event == E::array_start;
-                    f.name = child_name();
-                    frames.push_back(std::move(f));
-                    break;
-                }
-                case E::object_end:
-                case E::array_end:
-                    if (!frames.empty()) frames.pop_back();
-                    break;
-                case E::key: {
-                    Frame& f = frames.back();
-                    f.last_key = parsed.get<std::string>();
-                    if (!f.keys.insert(f.last_key).second)
-                        throw InputError(path.string() + ": " + f.name + ": duplicate key '" +
-                                         f.last_key + "' (each key may be given once)");
-                    break;
-                }
-                case E::value:
-                    if (!frames.empty() && frames.back().array) ++frames.back().index;
-                    break;
-            }
-            return true;
-        };
-        root = json::parse(text, check, true, /*ignore_comments=*/true);
-    } catch (const json::exception& e) {
-        // parse_error (with line and column), or out_of_range for a number such as 1e400
-        // that overflows a double
-        std::string what = e.what();
-        const auto bracket = what.find("] ");
-        if (what.rfind("[json.exception.", 0) == 0 && bracket != std::string::npos)
-            what = what.substr(bracket + 2);
-        throw InputError(path.string() + ": invalid JSON: " + what);
-    }
-    Loader l;
-    l.file = path;
-    l.scene.source = path;
-    l.scene.settings.output = path.parent_path() / (path.stem().string() + ".exr");
+Scene build_scene(Loader& l, const json& root) {
+    const fs::path& path = l.file;
     Reader r(root, "scene", path);
     l.render_settings(r);
     l.scene.scene_ior = float(r.number("scene_ior", 1.0));
@@ -701,18 +682,15 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
     // Materials by name, then objects that refer to them
     if (r.has("materials")) {
         const json& mats = r.get("materials");
-        if (!mats.is_object()) r.fail("'materials' must be an object of name: material");
-        for (auto it = mats.begin(); it != mats.end(); ++it) {
-            l.material_ids[it.key()] = int32_t(l.scene.materials.size());
-            l.scene.materials.push_back(
-                read_material(it.value(), "materials." + it.key(), it.key(), path));
-        }
+        if (l.materials_error) std::rethrow_exception(l.materials_error);
+        if (!l.materials_read) l.materials(r, mats);
     } else {
         r.allow({"materials"});
     }
     const json& objects = r.get("objects");
     if (!objects.is_array()) r.fail("'objects' must be an array");
-    for (size_t i = 0; i < objects.size(); ++i)
+    if (l.objects_error) std::rethrow_exception(l.objects_error);
+    for (size_t i = 0; i < objects.size(); ++i)  // (none if they were read while parsing)
         l.object(objects[i], "objects[" + std::to_string(i) + "]");
     l.finish_meshes();
     for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
@@ -740,12 +718,32 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
     return std::move(l.scene);
 }
 
+}  // namespace
+
+Scene parse_scene(const std::string& text, const fs::path& path) {
+    Loader l(path);
+    const json root = parse_document(text, l);
+    return build_scene(l, root);
+}
+
 Scene load_scene(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(path.string() + ": cannot open scene file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    Scene scene = parse_scene(ss.str(), path);
+    Loader l(path);
+    json root;
+    {
+        // Read at its size (no second copy), and freed before the scene is built
+        std::string text;
+        std::error_code size_unknown;
+        const auto size = fs::file_size(path, size_unknown);
+        if (!size_unknown) text.reserve(size);
+        char chunk[1 << 16];
+        while (in.read(chunk, sizeof chunk) || in.gcount() > 0)
+            text.append(chunk, size_t(in.gcount()));
+        if (in.bad()) throw InputError(path.string() + ": cannot read scene file");
+        root = parse_document(text, l);
+    }
+    Scene scene = build_scene(l, root);
     scene.files.insert(scene.files.begin(), path);
     return scene;
 }

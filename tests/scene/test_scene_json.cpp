@@ -59,6 +59,17 @@ Scene parse_text(const std::string& text) { return parse_scene(text, kFake); }
 ::testing::AssertionResult fails_with(const json& j, const std::string& phrase) {
     return text_fails_with(j.dump(), phrase);
 }
+// The whole message of the InputError that parsing `text` throws, or what happened instead.
+std::string error_of(const std::string& text) {
+    try {
+        parse_scene(text, kFake);
+    } catch (const InputError& e) {
+        return e.what();
+    } catch (const std::exception& e) {
+        return std::string("not an InputError: ") + e.what();
+    }
+    return "no error";
+}
 
 // A fresh folder per test for the cases that need real files.
 class TempDir {
@@ -433,6 +444,42 @@ TEST(scene_json_values, CommentsAreAllowed) {
     EXPECT_EQ(s.spheres.radius[0], 7.0f);
 }
 
+TEST(scene_json_values, ALongArrayOfObjectsLoadsInOrder) {
+    // 20,000 spheres, one in four with a material of its own: each lands in its place; a
+    // duplicate key in the last is named by its index, and a syntax error after it by its line
+    const int n = 20000;
+    const auto scene = [&](const std::string& last, const std::string& end) {
+        std::string text = R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+            "materials": {"w": {"kd": 0.5}},
+            "objects": [)";
+        for (int i = 0; i < n - 1; ++i) {
+            text += R"({"type": "sphere", "center": [)" + std::to_string(i) +
+                    R"(, 0, 0], "radius": 0.25, "material": )";
+            text += i % 4 == 3 ? R"({"kd": [0.5, 0.25, )" + std::to_string(i) + "]}" : R"("w")";
+            text += "},\n";
+        }
+        return text + last + end;
+    };
+    const std::string last =
+        R"({"type": "sphere", "center": [-1, 0, 0], "radius": 2, "material": "w"})";
+    const Scene s = parse_text(scene(last, "]}"));
+    ASSERT_EQ(s.spheres.size(), size_t(n));
+    EXPECT_EQ(s.materials.size(), size_t(1 + (n - 1) / 4));
+    size_t misplaced = 0;
+    for (int i = 0; i < n - 1; ++i) {
+        const Material& m = s.materials[size_t(s.spheres.material[size_t(i)])];
+        misplaced += s.spheres.cx[size_t(i)] != float(i) ||
+                     (i % 4 == 3 ? m.kd.a.z != float(i) : m.name != "w");
+    }
+    EXPECT_EQ(misplaced, 0u);
+    EXPECT_EQ(s.spheres.cx[size_t(n - 1)], -1.0f);
+    EXPECT_EQ(s.spheres.radius[size_t(n - 1)], 2.0f);
+    EXPECT_EQ(error_of(scene(R"({"type": "sphere", "radius": 1, "radius": 2})", "]}")),
+              std::string(kFake) + ": objects[19999]: duplicate key 'radius' (each key may "
+                                   "be given once)");
+    EXPECT_TRUE(text_fails_with(scene(last, "\n]]"), "line 20003, column 2"));
+}
+
 TEST(scene_json_values, PointLights) {
     json j = base_scene();
     j["lights"] = json::parse(R"([{"position": [1, 2, 3], "intensity": [4, 5, 6]},
@@ -680,6 +727,152 @@ TEST(scene_json_errors, ADuplicateKeyIsRefusedWhereverItIs) {
                                      R"("materials": {"w": {"kd": 0.5}, "v": {"kd": 0.5}})",
                                      objects)));
 }
+TEST(scene_json_errors, ADuplicateKeyDeepInsideIsNamedByItsPath) {
+    const std::string cam = R"("camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]})";
+    const std::string sphere =
+        R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kd": 1}})";
+    const std::string file = std::string(kFake) + ": ";
+    const std::string once = " (each key may be given once)";
+    // In a texture, in an inline material, in the second object
+    EXPECT_EQ(error_of("{" + cam + R"(, "objects": [)" + sphere + R"(, {"type": "sphere",
+                  "center": [0, 0, 0], "radius": 1, "material": {"kd": {"texture": "sin",
+                  "a": 1, "b": 0, "a": 2}}}]})"),
+              file + "objects[1].material.kd: duplicate key 'a'" + once);
+    // In an object inside an array inside an array
+    EXPECT_EQ(error_of("{" + cam + R"(, "objects": [)" + sphere + R"(, {"type": "triangle",
+                  "vertices": [[0, 0, 0], [1, 0, 0], {"x": 0, "x": 1}], "material": "w"}]})"),
+              file + "objects[1].vertices[2]: duplicate key 'x'" + once);
+    // Every element before it counts once, whatever it is: number, string, array, object, null
+    EXPECT_EQ(error_of("{" + cam + R"(, "objects": [1, "two", [3, [4]], {"five": {"six": 6}},
+                  null, {"k": 1, "k": 2}]})"),
+              file + "objects[5]: duplicate key 'k'" + once);
+    // In a point light, after the objects; in the camera; at the top of the file
+    EXPECT_EQ(error_of("{" + cam + R"(, "objects": [], "lights": [{"position": [0, 0, 0],
+                  "intensity": 1}, {"position": [0, 0, 0], "position": [1, 1, 1]}]})"),
+              file + "lights[1]: duplicate key 'position'" + once);
+    EXPECT_EQ(error_of(R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0],
+                  "position": [0, 0, 3]}, "objects": []})"),
+              file + "camera: duplicate key 'position'" + once);
+    EXPECT_EQ(error_of("{" + cam + R"(, "objects": [], "objects": []})"),
+              file + "scene: duplicate key 'objects'" + once);
+    // A document that is an array is "scene" too
+    EXPECT_EQ(error_of(R"([{"a": 1}, [{"a": 1, "a": 1}]])"),
+              file + "scene[1][0]: duplicate key 'a'" + once);
+    // Found while reading: before a syntax error further on, after one before it
+    EXPECT_EQ(error_of("{" + cam + R"(, "objects": [{"r": 1, "r": 1}, ,]})"),
+              file + "objects[0]: duplicate key 'r'" + once);
+    EXPECT_TRUE(text_fails_with("{" + cam + R"(, "objects": [, {"r": 1, "r": 1}]})",
+                                "syntax error"));
+}
+
+// A scene as text with "materials" before "objects" (whose objects the reader takes while it
+// parses) or after them (read from the whole document): the same scene, the same errors.
+std::string ordered_scene(bool materials_first, const std::string& materials,
+                          const std::string& objects, const std::string& after = "") {
+    const std::string cam = R"("camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]})";
+    const std::string m = R"("materials": )" + materials;
+    const std::string o = R"("objects": )" + objects;
+    return "{" + cam + ", " + (materials_first ? m + ", " + o : o + ", " + m) + after + "}";
+}
+
+TEST(scene_json_values, MaterialsBeforeOrAfterTheObjectsGiveTheSameScene) {
+    const std::string materials = R"({"w": {"kd": 0.5}, "a": {"kr": [0.25, 0.5, 1]}})";
+    const std::string objects = R"([
+        {"type": "sphere", "center": [1, 2, 3], "radius": 0.5, "material": "w"},
+        {"type": "plane", "normal": [0, 2, 0], "distance": 1, "material": {"kd": [0.1, 0.2, 0.3]}},
+        {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "a"},
+        {"type": "sphere", "center": [4, 5, 6], "radius": 2, "material": {"emission": 3}},
+        {"type": "sphere", "center": [7, 8, 9], "radius": 1, "material": "a"}])";
+    const Scene first = parse_text(ordered_scene(true, materials, objects));
+    const Scene last = parse_text(ordered_scene(false, materials, objects));
+    for (const Scene* s : {&first, &last}) {
+        ASSERT_EQ(s->spheres.size(), 3u);
+        EXPECT_EQ(s->spheres.cx, (std::vector<float>{1, 4, 7}));
+        EXPECT_EQ(s->spheres.radius, (std::vector<float>{0.5f, 2, 1}));
+        ASSERT_EQ(s->planes.size(), 1u);
+        EXPECT_EQ(s->planes.distance[0], 0.5f);
+        ASSERT_EQ(s->meshes.size(), 1u);
+        // Named materials first, in name order, then the inline ones in the order of the file
+        ASSERT_EQ(s->materials.size(), 4u);
+        EXPECT_EQ(s->materials[0].name, "a");
+        EXPECT_EQ(s->materials[1].name, "w");
+        expect_vec(s->materials[2].kd.a, 0.1f, 0.2f, 0.3f);
+        expect_vec(s->materials[3].emission.a, 3, 3, 3);
+        EXPECT_EQ(s->spheres.material, (std::vector<int32_t>{1, 3, 0}));
+        EXPECT_EQ(s->planes.material[0], 2);
+        EXPECT_EQ(s->meshes[0].material, 0);
+    }
+}
+
+TEST(scene_json_errors, MaterialsBeforeOrAfterTheObjectsGiveTheSameError) {
+    const std::string w = R"({"w": {"kd": 0.5}})";
+    const std::string good = R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"})";
+    const std::string bad = R"({"type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "w"})";
+    const auto objects = [&](const std::string& second, const std::string& fourth) {
+        return "[" + good + ", " + second + ", " + good + ", " + fourth + "]";
+    };
+    struct Case {
+        std::string materials, objects, after, error;
+    };
+    const std::string radius = "objects[1] (sphere): 'radius' must be > 0";
+    const std::vector<Case> cases = {
+        // The first bad object, not a later one
+        {w, objects(bad, R"({"type": "cone"})"), "", radius},
+        // Keys read before the objects, whatever their place in the file
+        {w, objects(bad, good), R"(, "render": {"spp": 0})", "render: 'spp' must be in"},
+        {w, objects(bad, good), R"(, "scene_ior": -1)", "scene: 'scene_ior' must be > 0"},
+        {R"({"w": {"kd": -1}})", objects(bad, good), R"(, "render": {"spp": 0})",
+         "render: 'spp' must be in"},
+        {R"({"w": {"kd": -1}})", objects(bad, good), "", "materials.w: 'kd' must be finite"},
+        {"[1]", objects(bad, good), "", "scene: 'materials' must be an object"},
+        // and after them
+        {w, objects(bad, good), R"(, "lights": [{"position": 1}], "extra": 1)", radius},
+        {w, objects(good, good), R"(, "lights": [{"position": 1}], "extra": 1)",
+         "lights[0]: 'position' must be an array of 3 numbers"},
+        {w, objects(R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "x"})",
+                    good),
+         R"(, "extra": 1)", "objects[1] (sphere): unknown material 'x'"},
+        // Errors of the JSON itself come first, wherever they are
+        {w, objects(bad, R"({"type": "sphere", "radius": 1, "radius": 1})"), "",
+         "objects[3]: duplicate key 'radius'"},
+        {w, objects(bad, good), R"(, "render": {"spp": 0}, "x": [1,])", "invalid JSON"},
+        {w, objects(bad, good), R"(, "render": {"spp": 0}, "x": 1e400)", "number overflow"},
+    };
+    for (const Case& c : cases)
+        for (bool materials_first : {true, false}) {
+            SCOPED_TRACE(std::string(materials_first ? "materials first: " : "objects first: ") +
+                         c.error);
+            EXPECT_TRUE(text_fails_with(
+                ordered_scene(materials_first, c.materials, c.objects, c.after), c.error));
+        }
+}
+
+TEST(scene_json_errors, NestingDeeperThan64LevelsIsRefused) {
+    // The document is level 1, 'objects' 2, the sphere 3, its centre 4, and each array in
+    // the centre one more. 64 levels are read (the centre is then refused for its shape),
+    // 65 are refused by the JSON reader before anything recurses on them.
+    const auto scene = [](int levels) {
+        const int inner = levels - 4;
+        return R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+            "objects": [{"type": "sphere", "radius": 1, "material": {"kd": 1}, "center": [)" +
+               std::string(size_t(inner), '[') + "0" + std::string(size_t(inner), ']') +
+               "]}]}";
+    };
+    const std::string deep = std::string(kFake) +
+                             ": invalid JSON: arrays and objects nested deeper than 64 levels";
+    EXPECT_TRUE(text_fails_with(scene(64), "objects[0] (sphere): 'center' must be an array"));
+    EXPECT_EQ(error_of(scene(65)), deep);
+    EXPECT_EQ(error_of(scene(1000)), deep);
+    // Objects count as arrays do: a material of 62 nested objects is levels 3 to 64
+    std::string material = "1";
+    for (int i = 0; i < 62; ++i) material = R"({"m": )" + material + "}";
+    const std::string cam = R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]}, )";
+    EXPECT_TRUE(text_fails_with(cam + R"("materials": {"w": )" + material + R"(}, "objects": []})",
+                                "materials.w: unknown key 'm'"));
+    EXPECT_EQ(error_of(cam + R"("materials": {"w": {"m": )" + material + R"(}}, "objects": []})"),
+              deep);
+}
+
 TEST(scene_json_errors, UnknownKeyInAMaterialListsTheValidOnes) {
     json j = base_scene();
     j["materials"]["white"]["shininnes"] = 10;
