@@ -19,10 +19,15 @@ struct Camera {
     }
 };
 
+// How a look_at frame is oriented. Left-handed, the report's (and every scene of scenes/):
+// with up = +y and looking along +z, +x is on the right of the image. Right-handed, the
+// frame of OBJ, glTF and Blender scenes and their published cameras: the same camera sees
+// +x on the left, so the image is the left-handed one mirrored left to right.
+enum class Handedness { kLeft, kRight };
+
 // The frame of a camera at `position` looking at `target` with vertical field of view
-// `vfov_degrees` and the given aspect ratio (width / height). With up = +y and looking
-// along +z, +x is to the right in the image, as in the report.
+// `vfov_degrees` and the given aspect ratio (width / height).
 Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& up_hint,
-                      float vfov_degrees, float aspect);
+                      float vfov_degrees, float aspect, Handedness hand = Handedness::kLeft);
 
 }  // namespace cierzo

@@ -15,10 +15,11 @@
 namespace cierzo {
 
 Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& up_hint,
-                      float vfov_degrees, float aspect) {
+                      float vfov_degrees, float aspect, Handedness hand) {
     const Vec3f f = normalize(target - position);
-    const Vec3f right = normalize(cross(up_hint, f));
-    const Vec3f up = cross(f, right);
+    const Vec3f right = hand == Handedness::kLeft ? normalize(cross(up_hint, f))
+                                                  : normalize(cross(f, up_hint));
+    const Vec3f up = hand == Handedness::kLeft ? cross(f, right) : cross(right, f);
     const float half = std::tan(vfov_degrees * kPi / 360.0f);
     Camera c;
     c.origin = position;
@@ -252,7 +253,8 @@ void Scene::set_resolution(int width, int height) {
     settings.height = height;
     if (look_at)
         camera = look_at_camera(look_at->position, look_at->target, look_at->up,
-                                look_at->vfov_degrees, float(width) / float(height));
+                                look_at->vfov_degrees, float(width) / float(height),
+                                look_at->handedness);
 }
 
 SceneFeatures Scene::features() const {

@@ -131,6 +131,7 @@ struct Emitters {
 struct LookAt {
     Vec3f position, target, up;
     float vfov_degrees;
+    Handedness handedness = Handedness::kLeft;
 };
 
 class Scene {

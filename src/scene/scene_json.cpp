@@ -584,8 +584,13 @@ struct Loader {
             if (r.has("forward") || r.has("left"))
                 r.fail("'forward' and 'left' belong to the explicit frame form; they cannot be "
                        "combined with 'look_at'");
-            scene.look_at = LookAt{position, target, up, float(vfov)};
-            scene.camera = look_at_camera(position, target, up, float(vfov), aspect);
+            const std::string hand = r.string("handedness", "left");
+            if (hand != "left" && hand != "right")
+                r.fail("'handedness' must be \"left\" (the report's: up +y and looking along +z "
+                       "put +x on the right) or \"right\" (OBJ, glTF, Blender: +x on the left)");
+            const Handedness h = hand == "left" ? Handedness::kLeft : Handedness::kRight;
+            scene.look_at = LookAt{position, target, up, float(vfov), h};
+            scene.camera = look_at_camera(position, target, up, float(vfov), aspect, h);
             // In float, a vfov just below 180 can round to a half-angle past 90 degrees (an
             // upside-down frame) and one just above 0 to a frame of zero size
             if (!(dot(scene.camera.up, up) > 0.0f) ||
@@ -606,6 +611,9 @@ struct Loader {
             if (r.has("vfov"))
                 r.fail("'vfov' belongs to the 'look_at' form; in the explicit frame form the "
                        "lengths of 'left' and 'up' set the field of view");
+            if (r.has("handedness"))
+                r.fail("'handedness' belongs to the 'look_at' form; in the explicit frame form "
+                       "'left' says where the image's left is");
         }
         r.finish();
     }

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "integrators/render.h"
 #include "scene/scene_json.h"
 
 namespace cierzo {
@@ -358,6 +359,67 @@ TEST(scene_json_values, LookAtCameraPutsPlusXOnTheRight) {
     EXPECT_GT(br.d.x, 0.0f);
     EXPECT_LT(br.d.y, 0.0f);
     EXPECT_NEAR(br.d.x / br.d.z, 2.0f, 1e-5f);
+}
+
+// Bit-for-bit equality of two vectors.
+void expect_same(const Vec3f& a, const Vec3f& b) {
+    EXPECT_EQ(a.x, b.x);
+    EXPECT_EQ(a.y, b.y);
+    EXPECT_EQ(a.z, b.z);
+}
+
+// A right-handed camera (OBJ, glTF, Blender) sees the left-handed image mirrored: the same
+// forward and up, the opposite left, bit for bit; a new aspect ratio keeps the handedness;
+// and a render shows an emitter at +x on the left instead of the right.
+TEST(scene_json_values, RightHandedCameraMirrorsTheImage) {
+    json j = base_scene();
+    j["camera"] = {{"position", {0.3, -0.2, -3}}, {"look_at", {0.1, 0.4, 5}}, {"up", {0.1, 1, 0}},
+                   {"vfov", 50}};
+    const Scene left = parse(j);
+    j["camera"]["handedness"] = "right";
+    Scene right = parse(j);
+    expect_same(right.camera.forward, left.camera.forward);
+    expect_same(right.camera.up, left.camera.up);
+    expect_same(right.camera.left, -left.camera.left);
+    right.set_resolution(300, 100);
+    Scene wide = left;
+    wide.set_resolution(300, 100);
+    expect_same(right.camera.left, -wide.camera.left);
+    j["camera"]["handedness"] = "left";
+    expect_same(parse(j).camera.left, left.camera.left);
+
+    // Looking along +z with up +y at an emitter at +x: its light lands on the right of a
+    // left-handed image and on the left of a right-handed one
+    json scene = json::parse(R"({
+        "render": {"width": 16, "height": 8, "spp": 2},
+        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "vfov": 60},
+        "materials": {"lamp": {"emission": 1}},
+        "objects": [{"type": "sphere", "center": [1, 0, 3], "radius": 0.5, "material": "lamp"}]
+    })");
+    for (const char* hand : {"left", "right"}) {
+        SCOPED_TRACE(hand);
+        scene["camera"]["handedness"] = hand;
+        RenderOptions o;
+        o.integrator = Integrator::kScalar;
+        o.threads = 1;
+        o.progress = false;
+        const Image image = render(parse(scene), o).film.mean();
+        double halves[2] = {0, 0};
+        for (int y = 0; y < image.height; ++y)
+            for (int x = 0; x < image.width; ++x) halves[x * 2 / image.width] += image.pixel(x, y)[0];
+        const int lit = std::string(hand) == "left" ? 1 : 0;
+        EXPECT_GT(halves[lit], 0.0);
+        EXPECT_EQ(halves[1 - lit], 0.0);
+    }
+}
+
+TEST(scene_json_values, HandednessIsCheckedAndBelongsToLookAt) {
+    json j = base_scene();
+    j["camera"]["handedness"] = "up";
+    EXPECT_TRUE(fails_with(j, "camera: 'handedness' must be \"left\""));
+    j["camera"] = {{"position", {0, 0, -3}}, {"forward", {0, 0, 1}}, {"left", {-1, 0, 0}},
+                   {"up", {0, 1, 0}}, {"handedness", "right"}};
+    EXPECT_TRUE(fails_with(j, "'handedness' belongs to the 'look_at' form"));
 }
 
 TEST(scene_json_values, LookAtCameraDefaults) {
