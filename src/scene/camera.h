@@ -1,5 +1,6 @@
 // The report's pinhole camera: an origin and an image-plane frame (forward, left, up); a
-// pixel's ray goes through a uniformly random point inside the pixel.
+// pixel's ray goes through a uniformly random point inside the pixel, and a point projects
+// back onto the image.
 #pragma once
 
 #include "kernels/camera.h"
@@ -17,6 +18,14 @@ struct Camera {
     Ray<T> generate(const T& sx, const T& sy, float inv_width, float inv_height) const {
         return pinhole_ray(origin, forward, left, up, sx, sy, inv_width, inv_height);
     }
+    // Where point p lands on a width × height image (kernels/camera.h), and the importance
+    // of the direction towards it.
+    template <class T>
+    FilmPoint<T> project(const Vec3<T>& p, float width, float height) const {
+        return pinhole_project(origin, forward, left, up, p, width, height);
+    }
+    Vec3f film_normal() const { return pinhole_film_normal(forward, left, up); }
+    float film_area() const { return pinhole_film_area(forward, left, up); }
 };
 
 // How a look_at frame is oriented. Left-handed, the report's (and every scene of scenes/):

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <limits>
+#include <random>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -420,6 +422,98 @@ TEST(scene_json_values, HandednessIsCheckedAndBelongsToLookAt) {
     j["camera"] = {{"position", {0, 0, -3}}, {"forward", {0, 0, 1}}, {"left", {-1, 0, 0}},
                    {"up", {0, 1, 0}}, {"handedness", "right"}};
     EXPECT_TRUE(fails_with(j, "'handedness' belongs to the 'look_at' form"));
+}
+
+// project() is generate()'s inverse: a point anywhere along a pixel's ray lands on that
+// image position, for look_at cameras of either handedness and aspect, and for a skewed
+// explicit frame (the report's form takes any three vectors).
+TEST(camera_projection, ProjectInvertsGenerate) {
+    std::vector<std::pair<Camera, std::pair<int, int>>> cameras;
+    json j = base_scene();
+    for (const char* hand : {"left", "right"})
+        for (const auto& [w, h] : {std::pair{64, 48}, std::pair{40, 90}}) {
+            j["render"] = {{"width", w}, {"height", h}};
+            j["camera"] = {{"position", {0.3, -1, -3}}, {"look_at", {0.1, 0.4, 5}},
+                           {"up", {0.2, 1, 0}}, {"vfov", 70}, {"handedness", hand}};
+            cameras.push_back({parse(j).camera, {w, h}});
+        }
+    Camera skewed;
+    skewed.origin = {1, 2, 3};
+    skewed.forward = {0.1f, 0.2f, 2.0f};
+    skewed.left = {-0.8f, 0.3f, 0.1f};
+    skewed.up = {0.2f, 0.9f, -0.3f};
+    cameras.push_back({skewed, {50, 50}});
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    for (const auto& [c, size] : cameras) {
+        const auto [w, h] = size;
+        double worst = 0.0;
+        for (int i = 0; i < 2000; ++i) {
+            const float sx = unit(rng) * float(w), sy = unit(rng) * float(h);
+            const Ray<float> ray = c.generate(sx, sy, 1.0f / float(w), 1.0f / float(h));
+            const float t = std::exp(unit(rng) * 9.0f - 4.0f);  // 0.02 to 150
+            const FilmPoint<float> f = c.project(ray.o + ray.d * t, float(w), float(h));
+            if (sx > 1e-3f && sy > 1e-3f && sx < float(w) - 1e-3f && sy < float(h) - 1e-3f)
+                EXPECT_TRUE(f.on_film) << sx << " " << sy;
+            worst = std::max({worst, double(std::fabs(f.sx - sx)), double(std::fabs(f.sy - sy))});
+            // The same point seen behind the camera is off the film
+            EXPECT_FALSE(c.project(ray.o - ray.d * t, float(w), float(h)).on_film);
+        }
+        EXPECT_LT(worst, 2e-3) << "pixels";
+    }
+}
+
+TEST(camera_projection, PointsOffTheFilmAndNonFinitePointsAreRefused) {
+    json j = base_scene();
+    j["render"] = {{"width", 100}, {"height", 50}};
+    j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"vfov", 90}};
+    const Camera c = parse(j).camera;  // tan(vfov/2) = 1: the film spans x in [-2, 2] at z = 1
+    EXPECT_TRUE(c.project(Vec3f(1.9f, 0.9f, 1.0f), 100.0f, 50.0f).on_film);
+    EXPECT_FALSE(c.project(Vec3f(2.1f, 0.0f, 1.0f), 100.0f, 50.0f).on_film);
+    EXPECT_FALSE(c.project(Vec3f(0.0f, 1.1f, 1.0f), 100.0f, 50.0f).on_film);
+    EXPECT_FALSE(c.project(Vec3f(0.0f, 0.0f, 0.0f), 100.0f, 50.0f).on_film);  // the pinhole
+    EXPECT_FALSE(c.project(Vec3f(1.0f, 0.0f, 0.0f), 100.0f, 50.0f).on_film);  // beside it
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    const float inf = std::numeric_limits<float>::infinity();
+    EXPECT_FALSE(c.project(Vec3f(nan, 0.0f, 1.0f), 100.0f, 50.0f).on_film);
+    EXPECT_FALSE(c.project(Vec3f(0.0f, 0.0f, inf), 100.0f, 50.0f).on_film);
+    // +x is on the right of this left-handed frame: the point lands right of the centre
+    EXPECT_GT(c.project(Vec3f(1.0f, 0.0f, 1.0f), 100.0f, 50.0f).sx, 50.0f);
+    EXPECT_NEAR(c.project(Vec3f(1.0f, 0.0f, 1.0f), 100.0f, 50.0f).sx, 75.0f, 1e-4f);
+}
+
+// The importance is normalised: ∫_film We·cos θ dω = 1, estimated over directions drawn
+// uniformly on the sphere (a planted 5% error in the film area fails it).
+TEST(camera_projection, ImportanceIntegratesToOneOverTheFilm) {
+    json j = base_scene();
+    j["render"] = {{"width", 80}, {"height", 60}};
+    j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0.3, 0.2, 1}}, {"up", {0.1, 1, 0}},
+                   {"vfov", 60}};
+    for (bool skew : {false, true}) {
+        Camera c = parse(j).camera;
+        if (skew) c.left = c.left + c.up * 0.3f;  // a non-orthogonal frame
+        const Vec3f n = c.film_normal();
+        const float area = c.film_area();
+        std::mt19937 rng(5);
+        std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+        const int samples = 400000;
+        double sum = 0.0, sum_sq = 0.0;
+        for (int i = 0; i < samples; ++i) {
+            const float z = 1.0f - 2.0f * unit(rng), phi = 2.0f * 3.14159265f * unit(rng);
+            const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+            const Vec3f d(r * std::cos(phi), r * std::sin(phi), z);
+            double v = 0.0;
+            if (c.project(c.origin + d, 80.0f, 60.0f).on_film) {
+                const float cos_t = dot(d, n);
+                v = double(pinhole_importance(cos_t, area) * cos_t) * 4.0 * 3.14159265358979;
+            }
+            sum += v, sum_sq += v * v;
+        }
+        const double mean = sum / samples;
+        const double sigma = std::sqrt((sum_sq / samples - mean * mean) / samples);
+        EXPECT_NEAR(mean, 1.0, std::max(4.0 * sigma, 1e-3)) << (skew ? "skewed" : "look_at");
+        EXPECT_LT(sigma, 0.01);  // (so that a 5% error cannot hide in the noise)
+    }
 }
 
 TEST(scene_json_values, LookAtCameraDefaults) {
