@@ -263,12 +263,17 @@ TEST_F(outputs, AFifoIsWrittenForItsReader) {
 TEST_F(outputs, TheNullDeviceTakesEveryOutputAndStaysADevice) {
     if (!make_device("null", 3)) GTEST_SKIP() << "mknod needs root: " << std::strerror(errno);
     fs::create_symlink("null", dir_ / "null.exr");
-    const Outcome r = run(quote(scene_) + kFast + " --out " + quote(dir_ / "null.exr") +
-                          " --stats " + quote(dir_ / "null"));
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    EXPECT_TRUE(is_char_device(dir_ / "null"));
-    EXPECT_TRUE(is_link(dir_ / "null.exr"));
-    EXPECT_EQ(other_files({"scene.json", "tri.obj", "null", "null.exr"}),
+    fs::create_symlink("null", dir_ / "null.json");
+    for (const char* stats : {"null", "null.json"}) {
+        SCOPED_TRACE(stats);
+        const Outcome r = run(quote(scene_) + kFast + " --out " + quote(dir_ / "null.exr") +
+                              " --stats " + quote(dir_ / stats));
+        EXPECT_EQ(r.exit_code, 0) << r.err;
+        EXPECT_TRUE(is_char_device(dir_ / "null"));
+        EXPECT_TRUE(is_link(dir_ / "null.exr"));
+        EXPECT_TRUE(is_link(dir_ / "null.json"));
+    }
+    EXPECT_EQ(other_files({"scene.json", "tri.obj", "null", "null.exr", "null.json"}),
               std::vector<std::string>{});
 }
 
