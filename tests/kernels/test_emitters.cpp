@@ -10,53 +10,21 @@
 #include <random>
 
 #include "kernels/estimator.h"
-#include "scene/scene_json.h"
+#include "support/emitter_tests.h"
 #include "support/statistics.h"
 
 namespace cierzo {
 namespace {
 
-// A scene of the given objects (JSON) with emitters, for its emitter table.
-Scene scene_of(const std::string& objects) {
-    return parse_scene(R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0], "vfov": 40},
-        "materials": {"L": {"emission": [2, 1, 0.5]}, "M": {"emission": 7}, "w": {"kd": 0.5}},
-        "objects": [)" + objects + "]}",
-                       "/tmp/emitters.json");
-}
-
-struct Uniforms {
-    std::mt19937 rng{12345};
-    std::uniform_real_distribution<float> u{0.0f, 1.0f};
-    float operator()() {
-        // [0, 1) with 24 bits, as the estimator's numbers
-        return std::floor(u(rng) * 16777216.0f) * 0x1.0p-24f;
-    }
-};
-
-// Equal-solid-angle bins of a direction around `axis` within a cone of 1 - cos = one_minus:
-// 16 bands of 1 - cos θ, 16 sectors of φ measured in a frame built here (not the sampler's).
-int cone_bin(const Vec3f& dir, const Vec3f& axis, double one_minus) {
-    const Vec3f helper = std::abs(axis.x) < 0.9f ? Vec3f(1, 0, 0) : Vec3f(0, 1, 0);
-    const Vec3f t = normalize(cross(axis, helper)), b = cross(axis, t);
-    // 1 - cos θ from sin²θ = |dir × axis|² in double (1 - dot cancels for a narrow cone)
-    const double cx = double(dir.y) * axis.z - double(dir.z) * axis.y;
-    const double cy = double(dir.z) * axis.x - double(dir.x) * axis.z;
-    const double cz = double(dir.x) * axis.y - double(dir.y) * axis.x;
-    const double sin2 = cx * cx + cy * cy + cz * cz;
-    const double cos_t = double(dir.x) * axis.x + double(dir.y) * axis.y + double(dir.z) * axis.z;
-    const double band = (cos_t > 0 ? sin2 / (1.0 + cos_t) : 1.0 - cos_t) / one_minus;
-    const double phi = std::atan2(double(dot(dir, b)), double(dot(dir, t))) + M_PI;
-    const int i = std::min(15, std::max(0, int(band * 16.0)));
-    const int j = std::min(15, std::max(0, int(phi / (2.0 * M_PI) * 16.0)));
-    return i * 16 + j;
-}
+using test::cone_bin;
+using test::Uniforms;
 
 TEST(EmitterSampling, SphereConeIsUniformInSolidAngleAndHitsTheSphere) {
     // Near (the cone is wide), far (narrow) and very far (1 - cos θmax ≈ 5e-9 would cancel
     // in 1 - cos)
     for (const float distance : {1.5f, 6.0f, 5000.0f}) {
         SCOPED_TRACE(distance);
-        const Scene scene = scene_of(R"({"type": "sphere", "center": [0.3, -0.2, 0.5],
+        const Scene scene = test::emitter_scene(R"({"type": "sphere", "center": [0.3, -0.2, 0.5],
                                          "radius": 0.5, "material": "L"})");
         const EmitterTable e = scene.emitters.table();
         ASSERT_EQ(e.count, 1);
@@ -87,7 +55,8 @@ TEST(EmitterSampling, SphereConeIsUniformInSolidAngleAndHitsTheSphere) {
 
 TEST(EmitterSampling, FromInsideASphereEveryDirectionIsEquallyLikely) {
     const Scene scene =
-        scene_of(R"({"type": "sphere", "center": [0, 0, 0], "radius": 10, "material": "L"})");
+        test::emitter_scene(R"({"type": "sphere", "center": [0, 0, 0], "radius": 10,
+                                "material": "L"})");
     const EmitterTable e = scene.emitters.table();
     const Vec3f x{2.0f, -3.0f, 1.0f};
     Uniforms u;
@@ -109,7 +78,7 @@ TEST(EmitterSampling, FromInsideASphereEveryDirectionIsEquallyLikely) {
 
 TEST(EmitterSampling, TriangleIsUniformInAreaWithTheSolidAngleDensity) {
     const Vec3f v0{-1.0f, 0.5f, 2.0f}, v1{1.5f, 0.2f, 2.5f}, v2{0.0f, 2.0f, 1.0f};
-    const Scene scene = scene_of(
+    const Scene scene = test::emitter_scene(
         R"({"type": "triangle", "vertices": [[-1, 0.5, 2], [1.5, 0.2, 2.5], [0, 2, 1]],
             "material": "L"})");
     const EmitterTable e = scene.emitters.table();
@@ -132,24 +101,11 @@ TEST(EmitterSampling, TriangleIsUniformInAreaWithTheSolidAngleDensity) {
         const double cos_l = std::abs(double(dot(n, s.wi)));
         ASSERT_NEAR(double(s.pdf) * area * cos_l / (double(s.t) * s.t), 1.0, 1e-4);
         ASSERT_NEAR(emitter_pdf<float>(e, 0, x, s.wi, s.t) / s.pdf, 1.0, 1e-5);
-        // Barycentrics by least squares on the two edges
-        const Vec3f q = p - v0, e1 = v1 - v0, e2 = v2 - v0;
-        const double a11 = dot(e1, e1), a12 = dot(e1, e2), a22 = dot(e2, e2);
-        const double b1 = dot(q, e1), b2 = dot(q, e2), det = a11 * a22 - a12 * a12;
-        const double beta = (b1 * a22 - b2 * a12) / det, gamma = (a11 * b2 - a12 * b1) / det;
-        ASSERT_GE(beta, -1e-5);
-        ASSERT_GE(gamma, -1e-5);
-        ASSERT_LE(beta + gamma, 1.0 + 1e-5);
-        // Cell (i, j) of the k × k grid of the unit right triangle, upper or lower half
-        const double fb = std::clamp(beta, 0.0, 1.0 - 1e-9) * k;
-        const double fg = std::clamp(gamma, 0.0, 1.0 - 1e-9) * k;
-        const int i = std::min(int(fb), k - 1), j = std::min(int(fg), k - 1 - i);
-        const bool upper = (fb - i) + (fg - j) > 1.0;
-        // Row i has 2(k - i) - 1 cells
-        int index = 0;
-        for (int r = 0; r < i; ++r) index += 2 * (k - r) - 1;
-        index += 2 * j + (upper ? 1 : 0);
-        observed[size_t(std::min(index, k * k - 1))] += 1.0;
+        const test::Barycentrics b = test::barycentrics_of(p, v0, v1, v2);
+        ASSERT_GE(b.beta, -1e-5);
+        ASSERT_GE(b.gamma, -1e-5);
+        ASSERT_LE(b.beta + b.gamma, 1.0 + 1e-5);
+        observed[size_t(test::triangle_cell(b, k))] += 1.0;
     }
     const std::vector<double> expected(size_t(k * k), double(n_samples) / (k * k));
     const auto [stat, dof] = test::chi_square(observed, expected);
@@ -159,7 +115,7 @@ TEST(EmitterSampling, TriangleIsUniformInAreaWithTheSolidAngleDensity) {
 TEST(EmitterSampling, DensityIntegratesToOneOverTheEmitter) {
     // ∫ pdf(ω) dω over the directions that reach the emitter, by uniform directions from x:
     // 1 for a sampling density that is normalised (a wrong d² or cos would not be)
-    const Scene scene = scene_of(
+    const Scene scene = test::emitter_scene(
         R"({"type": "triangle", "vertices": [[-1, -1, 2], [1.5, -0.5, 2.5], [0, 1.5, 1.5]],
             "material": "L"},
            {"type": "sphere", "center": [-1, 0.5, 1.2], "radius": 0.6, "material": "M"})");
@@ -189,7 +145,7 @@ TEST(EmitterSampling, DensityIntegratesToOneOverTheEmitter) {
 
 TEST(EmitterSampling, AliasTableChoosesEmittersInProportionToPower) {
     // Powers area × max Le computed here: spheres 4πr²·Le, triangles ½|e1 × e2|·Le
-    const Scene scene = scene_of(
+    const Scene scene = test::emitter_scene(
         R"({"type": "sphere", "center": [0, 0, 3], "radius": 0.2, "material": "L"},
            {"type": "sphere", "center": [1, 0, 3], "radius": 0.05, "material": "M"},
            {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "M"},
@@ -248,7 +204,7 @@ TEST(Mis, TheTwoWeightsOfADirectionSumToOne) {
     // For random vertices, Phong materials and emitters: a direction's light-side weight
     // (computed as an emitter sample would) plus its BSDF-side weight (as a path that
     // sampled it and hit the emitter would) is 1, for the diffuse and the specular lobe
-    const Scene scene = scene_of(
+    const Scene scene = test::emitter_scene(
         R"({"type": "sphere", "center": [0.5, 1, 2], "radius": 0.7, "material": "L"},
            {"type": "triangle", "vertices": [[-2, -1, 3], [2, -1, 3.5], [0, 2, 4]],
             "material": "M"},
