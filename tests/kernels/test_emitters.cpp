@@ -1,7 +1,8 @@
 // Emitter sampling for next-event estimation (kernels/estimator.h), checked against its
 // stated densities: chi-square of the directions a sphere's cone sampler and an inside
 // sampler produce, of the points a triangle's area sampler produces, and of the emitters
-// the alias table chooses (against powers computed here); the hit-side density equals the
+// the alias table chooses (against powers computed here, and the same emitter chosen by
+// the position sampler of kernels/light_sampling.h); the hit-side density equals the
 // sampling side's and integrates to 1 over the emitter; and the two MIS weights of one
 // direction sum to 1 for random vertices, materials and emitters.
 #include <gtest/gtest.h>
@@ -10,6 +11,7 @@
 #include <random>
 
 #include "kernels/estimator.h"
+#include "kernels/light_sampling.h"
 #include "support/emitter_tests.h"
 #include "support/statistics.h"
 
@@ -179,20 +181,24 @@ TEST(EmitterSampling, AliasTableChoosesEmittersInProportionToPower) {
         EXPECT_NEAR(e.pmf[j], known[of[j]].power / total, 1e-6) << j;
     }
     // Samples from a point that sees every emitter; the chosen one is told by its Le, its
-    // kind and its density (the hit-side density of the right emitter equals it)
+    // kind and its density (the hit-side density of the right emitter equals it). The
+    // position sampler of light paths (kernels/light_sampling.h) chooses the same emitter
+    // from the same numbers, and says which.
     std::vector<double> observed(5, 0.0), expected(5);
     Uniforms u;
     const int n = 400000;
     const Vec3f x{0.3f, 0.2f, -20.0f};
     for (int k = 0; k < n; ++k) {
-        const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u());
-        int which = -1;
+        const float u_pick = u(), u_alias = u(), u1 = u(), u2 = u();
+        const EmitterSample<float> s = sample_emitter(e, x, u_pick, u_alias, u1, u2);
+        int which = -1, chosen = -1;
         for (int j = 0; j < 5; ++j)
             if (bool(s.sphere) == (e.kind[j] == kEmitterSphere) &&
                 s.le.x == e.data[j * kEmitterStride + 13] &&
                 std::abs(s.pdf / emitter_pdf<float>(e, j, x, s.wi, s.t) - 1.0f) < 1e-3f)
-                which = of[j];
+                which = of[j], chosen = j;
         ASSERT_GE(which, 0);
+        ASSERT_EQ(sample_emitter_position(e, u_pick, u_alias, u1, u2).id, chosen);
         observed[size_t(which)] += 1.0;
     }
     for (int k = 0; k < 5; ++k) expected[size_t(k)] = known[k].power / total * n;
