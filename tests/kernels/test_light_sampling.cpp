@@ -69,35 +69,23 @@ TEST(LightSampling, SpherePointsAreUniformByArea) {
 
 TEST(LightSampling, TrianglePointsAreUniformByArea) {
     // Bins of equal area: 64 congruent sub-triangles, from barycentrics solved here
-    const Vec3f v0{-1.0f, 0.5f, 2.0f}, v1{1.5f, 0.2f, 2.5f}, v2{0.0f, 2.0f, 1.0f};
-    const Scene scene = test::emitter_scene(
-        R"({"type": "triangle", "vertices": [[-1, 0.5, 2], [1.5, 0.2, 2.5], [0, 2, 1]],
-            "material": "M"})");
+    test::TriangleHistogram h;
+    const Scene scene = test::emitter_scene(test::TriangleHistogram::object("M"));
     const EmitterTable e = scene.emitters.table();
     ASSERT_EQ(e.count, 1);
-    const Vec3f nc = cross(v1 - v0, v2 - v0);
-    const double area = 0.5 * double(length(nc));
-    const int k = 8;
-    std::vector<double> observed(size_t(k * k), 0.0);
     Uniforms u;
-    const int n = k * k * 1600;
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < h.k * h.k * 1600; ++i) {
         const EmitterPosition<float> s = sample_emitter_position(e, u(), u(), u(), u());
         ASSERT_TRUE(s.ok);
-        ASSERT_NEAR(double(s.pdf) * area, 1.0, 1e-5);
+        ASSERT_NEAR(double(s.pdf) * h.area(), 1.0, 1e-5);
         ASSERT_EQ(emitter_position_pdf<float>(e, s.id), s.pdf);
-        ASSERT_NEAR(dot(s.n, normalize(nc)), 1.0f, 1e-6f);
-        ASSERT_NEAR(dot(s.p - v0, s.n), 0.0f, 1e-5f);  // in the triangle's plane
+        ASSERT_NEAR(dot(s.n, h.normal()), 1.0f, 1e-6f);
+        ASSERT_NEAR(dot(s.p - h.v0, s.n), 0.0f, 1e-5f);  // in the triangle's plane
         ASSERT_EQ(s.le.x, 7.0f);
-        const test::Barycentrics b = test::barycentrics_of(s.p, v0, v1, v2);
-        ASSERT_GE(b.beta, -1e-5);
-        ASSERT_GE(b.gamma, -1e-5);
-        ASSERT_LE(b.beta + b.gamma, 1.0 + 1e-5);
-        observed[size_t(test::triangle_cell(b, k))] += 1.0;
+        ASSERT_TRUE(h.add(s.p)) << "off the triangle";
     }
-    const std::vector<double> expected(size_t(k * k), double(n) / (k * k));
-    const auto [stat, dof] = test::chi_square(observed, expected);
-    EXPECT_LT(stat, test::chi_square_critical(dof)) << "dof " << dof;
+    const auto [stat, critical] = h.chi_square_test();
+    EXPECT_LT(stat, critical);
 }
 
 TEST(LightSampling, EmittedDirectionsAreCosineWeightedOnEitherSide) {

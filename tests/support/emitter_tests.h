@@ -7,9 +7,12 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "kernels/vec3.h"
 #include "scene/scene_json.h"
+#include "support/statistics.h"
 
 namespace cierzo::test {
 
@@ -83,5 +86,37 @@ inline int triangle_cell(const Barycentrics& b, int k) {
     index += 2 * j + (upper ? 1 : 0);
     return std::min(index, k * k - 1);
 }
+
+// The triangle the emitter tests sample, and a histogram of points on it over its k² cells,
+// to compare with the uniform density by chi-square.
+struct TriangleHistogram {
+    static constexpr int k = 8;
+    const Vec3f v0{-1.0f, 0.5f, 2.0f}, v1{1.5f, 0.2f, 2.5f}, v2{0.0f, 2.0f, 1.0f};
+    std::vector<double> observed = std::vector<double>(size_t(k * k), 0.0);
+
+    // The triangle as a scene object of `material`
+    static std::string object(const std::string& material) {
+        return R"({"type": "triangle", "vertices": [[-1, 0.5, 2], [1.5, 0.2, 2.5], [0, 2, 1]],
+                   "material": ")" + material + R"("})";
+    }
+    double area() const { return 0.5 * double(length(cross(v1 - v0, v2 - v0))); }
+    Vec3f normal() const { return normalize(cross(v1 - v0, v2 - v0)); }
+    // Counts p; false where p is not on the triangle
+    bool add(const Vec3f& p) {
+        const Barycentrics b = barycentrics_of(p, v0, v1, v2);
+        if (!(b.beta >= -1e-5 && b.gamma >= -1e-5 && b.beta + b.gamma <= 1.0 + 1e-5))
+            return false;
+        observed[size_t(triangle_cell(b, k))] += 1.0;
+        return true;
+    }
+    // Pearson's statistic against equal counts, and its critical value
+    std::pair<double, double> chi_square_test() const {
+        double n = 0.0;
+        for (const double o : observed) n += o;
+        const std::vector<double> expected(observed.size(), n / (k * k));
+        const auto [stat, dof] = chi_square(observed, expected);
+        return {stat, chi_square_critical(dof)};
+    }
+};
 
 }  // namespace cierzo::test
