@@ -272,6 +272,40 @@ auto emitter_entry(const EmitterTable& e, const E* table, const I32<T>& id) {
     return Lanes(gather_table(table, id));
 }
 
+// Whether emitter id is a sphere (else a triangle).
+template <class T>
+Mask<T> emitter_is_sphere(const EmitterTable& e, const I32<T>& id) {
+    return mask_f32(emitter_entry<T>(e, e.kind, id) == I32<T>(kEmitterSphere));
+}
+
+// A point uniform by area on the triangle v0, v0 + e1, v0 + e2: barycentrics
+// (√u1(1 - u2), √u1·u2) of e1 and e2.
+template <class T>
+Vec3<T> sample_triangle_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2,
+                             const T& u1, const T& u2) {
+    const T su = sqrt(u1);
+    return fma(e2, su * u2, fma(e1, su - su * u2, v0));
+}
+
+// The emitter chosen by power through the alias table (kernels/emitter_table.h): slot
+// ⌊u_pick·count⌋, kept if u_alias < its q, else its alias. Its pmf and kind with it.
+// The one choice rule of every emitter sampler (here and kernels/light_sampling.h).
+template <class T>
+struct EmitterChoice {
+    I32<T> id;
+    T pmf;
+    Mask<T> sphere;
+};
+template <class T>
+EmitterChoice<T> choose_emitter(const EmitterTable& e, const T& u_pick, const T& u_alias) {
+    using I = I32<T>;
+    const I slot = min(to_int(u_pick * T(float(e.count))), I(e.count - 1));
+    const I id = e.count == 1 ? I(0)
+                              : select(mask_i32(u_alias < gather_table(e.alias_q, slot)), slot,
+                                       gather_table(e.alias, slot));
+    return {id, emitter_entry<T>(e, e.pmf, id), emitter_is_sphere<T>(e, id)};
+}
+
 // Chooses an emitter by power (alias table) and samples it from x:
 //   - a sphere seen from outside by the solid angle of its cone, uniformly
 //     (pdf 1 / (2π(1 - cos θmax))); from inside, every direction (pdf 1/4π);
@@ -281,16 +315,13 @@ auto emitter_entry(const EmitterTable& e, const E* table, const I32<T>& id) {
 template <class T>
 EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T& u_pick,
                                 const T& u_alias, const T& u1, const T& u2) {
-    using I = I32<T>;
-    const I slot = min(to_int(u_pick * T(float(e.count))), I(e.count - 1));
-    const I id = e.count == 1 ? I(0)
-                              : select(mask_i32(u_alias < gather_table(e.alias_q, slot)), slot,
-                                       gather_table(e.alias, slot));
+    const EmitterChoice<T> choice = choose_emitter(e, u_pick, u_alias);
+    const I32<T>& id = choice.id;
+    const T& pmf = choice.pmf;
+    const Mask<T>& sphere = choice.sphere;
     const auto at = [&](int k) { return emitter_field<T>(e, id, k); };
     const Vec3<T> p0{at(0), at(1), at(2)};
     const T size = at(3);
-    const T pmf = emitter_entry<T>(e, e.pmf, id);
-    const auto sphere = mask_f32(emitter_entry<T>(e, e.kind, id) == I(kEmitterSphere));
     EmitterSample<T> out;
     out.le = {at(13), at(14), at(15)};
     out.sphere = sphere;
@@ -327,8 +358,7 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
     const auto triangle = !sphere;
     if (any(triangle)) {
         const Vec3<T> e1{at(4), at(5), at(6)}, e2{at(7), at(8), at(9)}, nl{at(10), at(11), at(12)};
-        const T su = sqrt(u1);
-        const Vec3<T> p = fma(e2, su * u2, fma(e1, su - su * u2, p0));
+        const Vec3<T> p = sample_triangle_area(p0, e1, e2, u1, u2);
         const Vec3<T> to = p - x;
         const T d2 = dot(to, to);
         const T dist = sqrt(d2);
@@ -351,7 +381,7 @@ T emitter_pdf(const EmitterTable& e, const I32<T>& id, const Vec3<T>& x, const V
     const auto at = [&](int k) { return emitter_field<T>(e, id, k); };
     const T pmf = emitter_entry<T>(e, e.pmf, id);
     const T size = at(3);
-    const auto sphere = mask_f32(emitter_entry<T>(e, e.kind, id) == I32<T>(kEmitterSphere));
+    const auto sphere = emitter_is_sphere<T>(e, id);
     T pdf = T(0.0f);
     if (any(sphere)) {
         const Vec3<T> to_c = Vec3<T>{at(0), at(1), at(2)} - x;

@@ -69,6 +69,17 @@ xsimd::batch<float, A> pow_inv(const xsimd::batch<float, A>& u, const xsimd::bat
     return select(u > B(0.0f), xsimd::exp(xsimd::log(u) / e), B(0.0f));
 }
 
+// Uniform over the whole sphere of directions: pdf = 1 / (4π). sin θ = 2√(u1(1 - u1)),
+// which does not cancel near the poles as √(1 - z²) would.
+template <class T>
+Vec3<T> sample_uniform_sphere(const T& u1, const T& u2) {
+    const T z = T(1.0f) - T(2.0f) * u1;
+    const T r = T(2.0f) * sqrt(max(T(0.0f), u1 * (T(1.0f) - u1)));
+    T s, c;
+    sincos_2pi(u2, s, c);
+    return {r * c, r * s, z};
+}
+
 // The Phong lobe around z: pdf = (s+1)/(2π) · cos^s α, α the angle to the axis.
 template <class T>
 Vec3<T> sample_phong_lobe(const T& u1, const T& u2, const T& shininess) {

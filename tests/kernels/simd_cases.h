@@ -14,6 +14,7 @@
 #include "kernels/camera.h"
 #include "kernels/estimator.h"
 #include "kernels/intersect.h"
+#include "kernels/light_sampling.h"
 #include "kernels/rng.h"
 
 namespace cierzo {
@@ -34,10 +35,12 @@ enum class KernelCase : int32_t {
     kLobeMirror,
     kLobeRefraction,
     kPhongRngCamera,  // Phong f·cos, a uniform number, a camera ray's direction
+    kLightPosition,   // a point on an emitter: id, point, normal, pdf_A, its density function
+    kLightDirections,  // an emitted direction, its pdf and density function; a point light's
 };
-inline constexpr int kCaseCount = 6;
+inline constexpr int kCaseCount = 8;
 inline constexpr int kMaxCaseOutputs = 8;
-inline constexpr int kCaseOutputs[kCaseCount] = {3, 7, 7, 7, 7, 5};
+inline constexpr int kCaseOutputs[kCaseCount] = {3, 7, 7, 7, 7, 5, 8, 8};
 
 // The all-dead checks, a bit each when it holds: every lane of a black material absorbed;
 // no lane hits a sphere behind the rays; zero-direction padding lanes hit no plane.
@@ -92,6 +95,25 @@ U32<T> index_lanes(size_t i) {
         for (size_t k = 0; k < T::size; ++k) idx[k] = uint32_t(i + k);
         return U32<T>::load_aligned(idx);
     }
+}
+
+// The light sampling cases' emitters: spheres of radius 0.7 and 1e-4 and two triangles,
+// with pmf 0.1, 0.2, 0.3, 0.4 and their alias table (records as kEmitterStride describes)
+inline constexpr float kCaseEmitterQ[4] = {0.4f, 0.8f, 1.0f, 0.8f};
+inline constexpr int32_t kCaseEmitterAlias[4] = {3, 3, 2, 2};
+inline constexpr float kCaseEmitterPmf[4] = {0.1f, 0.2f, 0.3f, 0.4f};
+inline constexpr int32_t kCaseEmitterKind[4] = {kEmitterSphere, kEmitterSphere,
+                                                kEmitterTriangle, kEmitterTriangle};
+inline constexpr float kCaseEmitterData[4 * kEmitterStride] = {
+    0.5f, -0.3f, 1.0f, 0.7f, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 1, 0.5f,
+    1, 2, 3, 1e-4f, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7, 7, 7,
+    -1, 0.5f, 2, 2.1213203f, 2, 0, 0, 0, 1.5f, 1.5f, 0, -0.70710677f, 0.70710677f, 1, 2, 3,
+    0, 0, 1, 0.15f, 3, 0, 0, 0, 0.1f, 0, 0, 0, 1, 2, 2, 2};
+
+// u, with the lanes below 0.03 and above 0.97 moved to the ends 0 and 1 - 2^-24.
+template <class T>
+T with_extremes(const T& u) {
+    return select(u < T(0.03f), T(0.0f), select(u > T(0.97f), T(1.0f - 0x1.0p-24f), u));
 }
 
 // Case c on inputs i, i + 1, … (as many as T has lanes); output k goes to out[k] + i.
@@ -151,6 +173,34 @@ void run_kernel_case(KernelCase c, const CaseInputs& in, size_t i, float* const*
                                               Vec3f{0, 1, 0}, u0 * T(64.0f), u1 * T(48.0f),
                                               1.0f / 64.0f, 1.0f / 48.0f);
             store_lanes(cam.d.x, out[3] + i), store_lanes(cam.d.y, out[4] + i);
+            return;
+        }
+        case KernelCase::kLightPosition: {
+            const EmitterTable e{4, kCaseEmitterQ, kCaseEmitterAlias, kCaseEmitterPmf,
+                                 kCaseEmitterKind, kCaseEmitterData};
+            // (a fourth number from the ray's origin, in [0, 1))
+            const T u3 = min(abs(r.o.x) * T(0.25f), T(1.0f - 0x1.0p-24f));
+            const EmitterPosition<T> s = sample_emitter_position(e, u0, u1, with_extremes(u2),
+                                                                 with_extremes(u3));
+            store_lanes(to_float(s.id), out[0] + i);
+            store_lanes(s.p.x, out[1] + i), store_lanes(s.p.y, out[2] + i);
+            store_lanes(s.p.z, out[3] + i);
+            store_lanes(s.n.x, out[4] + i), store_lanes(s.n.z, out[5] + i);
+            store_lanes(select(s.ok, s.pdf, T(-1.0f)), out[6] + i);
+            store_lanes(emitter_position_pdf<T>(e, s.id), out[7] + i);
+            return;
+        }
+        case KernelCase::kLightDirections: {
+            // about the ray's direction as the normal
+            const EmittedDirection<T> d =
+                sample_emitted_direction(r.d, with_extremes(u0), with_extremes(u1));
+            store_lanes(d.dir.x, out[0] + i), store_lanes(d.dir.y, out[1] + i);
+            store_lanes(d.dir.z, out[2] + i), store_lanes(d.pdf, out[3] + i);
+            store_lanes(emitted_direction_pdf(r.d, d.dir), out[4] + i);
+            const PointLightDirection<T> l =
+                sample_point_light_direction(with_extremes(u1), with_extremes(u2));
+            store_lanes(l.dir.x, out[5] + i), store_lanes(l.dir.y, out[6] + i);
+            store_lanes(l.dir.z, out[7] + i);
             return;
         }
     }

@@ -1,7 +1,8 @@
 // Emitter sampling for next-event estimation (kernels/estimator.h), checked against its
 // stated densities: chi-square of the directions a sphere's cone sampler and an inside
 // sampler produce, of the points a triangle's area sampler produces, and of the emitters
-// the alias table chooses (against powers computed here); the hit-side density equals the
+// the alias table chooses (against powers computed here, and the same emitter chosen by
+// the position sampler of kernels/light_sampling.h); the hit-side density equals the
 // sampling side's and integrates to 1 over the emitter; and the two MIS weights of one
 // direction sum to 1 for random vertices, materials and emitters.
 #include <gtest/gtest.h>
@@ -10,53 +11,22 @@
 #include <random>
 
 #include "kernels/estimator.h"
-#include "scene/scene_json.h"
+#include "kernels/light_sampling.h"
+#include "support/emitter_tests.h"
 #include "support/statistics.h"
 
 namespace cierzo {
 namespace {
 
-// A scene of the given objects (JSON) with emitters, for its emitter table.
-Scene scene_of(const std::string& objects) {
-    return parse_scene(R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0], "vfov": 40},
-        "materials": {"L": {"emission": [2, 1, 0.5]}, "M": {"emission": 7}, "w": {"kd": 0.5}},
-        "objects": [)" + objects + "]}",
-                       "/tmp/emitters.json");
-}
-
-struct Uniforms {
-    std::mt19937 rng{12345};
-    std::uniform_real_distribution<float> u{0.0f, 1.0f};
-    float operator()() {
-        // [0, 1) with 24 bits, as the estimator's numbers
-        return std::floor(u(rng) * 16777216.0f) * 0x1.0p-24f;
-    }
-};
-
-// Equal-solid-angle bins of a direction around `axis` within a cone of 1 - cos = one_minus:
-// 16 bands of 1 - cos θ, 16 sectors of φ measured in a frame built here (not the sampler's).
-int cone_bin(const Vec3f& dir, const Vec3f& axis, double one_minus) {
-    const Vec3f helper = std::abs(axis.x) < 0.9f ? Vec3f(1, 0, 0) : Vec3f(0, 1, 0);
-    const Vec3f t = normalize(cross(axis, helper)), b = cross(axis, t);
-    // 1 - cos θ from sin²θ = |dir × axis|² in double (1 - dot cancels for a narrow cone)
-    const double cx = double(dir.y) * axis.z - double(dir.z) * axis.y;
-    const double cy = double(dir.z) * axis.x - double(dir.x) * axis.z;
-    const double cz = double(dir.x) * axis.y - double(dir.y) * axis.x;
-    const double sin2 = cx * cx + cy * cy + cz * cz;
-    const double cos_t = double(dir.x) * axis.x + double(dir.y) * axis.y + double(dir.z) * axis.z;
-    const double band = (cos_t > 0 ? sin2 / (1.0 + cos_t) : 1.0 - cos_t) / one_minus;
-    const double phi = std::atan2(double(dot(dir, b)), double(dot(dir, t))) + M_PI;
-    const int i = std::min(15, std::max(0, int(band * 16.0)));
-    const int j = std::min(15, std::max(0, int(phi / (2.0 * M_PI) * 16.0)));
-    return i * 16 + j;
-}
+using test::cone_bin;
+using test::Uniforms;
 
 TEST(EmitterSampling, SphereConeIsUniformInSolidAngleAndHitsTheSphere) {
     // Near (the cone is wide), far (narrow) and very far (1 - cos θmax ≈ 5e-9 would cancel
     // in 1 - cos)
     for (const float distance : {1.5f, 6.0f, 5000.0f}) {
         SCOPED_TRACE(distance);
-        const Scene scene = scene_of(R"({"type": "sphere", "center": [0.3, -0.2, 0.5],
+        const Scene scene = test::emitter_scene(R"({"type": "sphere", "center": [0.3, -0.2, 0.5],
                                          "radius": 0.5, "material": "L"})");
         const EmitterTable e = scene.emitters.table();
         ASSERT_EQ(e.count, 1);
@@ -87,7 +57,8 @@ TEST(EmitterSampling, SphereConeIsUniformInSolidAngleAndHitsTheSphere) {
 
 TEST(EmitterSampling, FromInsideASphereEveryDirectionIsEquallyLikely) {
     const Scene scene =
-        scene_of(R"({"type": "sphere", "center": [0, 0, 0], "radius": 10, "material": "L"})");
+        test::emitter_scene(R"({"type": "sphere", "center": [0, 0, 0], "radius": 10,
+                                "material": "L"})");
     const EmitterTable e = scene.emitters.table();
     const Vec3f x{2.0f, -3.0f, 1.0f};
     Uniforms u;
@@ -108,58 +79,32 @@ TEST(EmitterSampling, FromInsideASphereEveryDirectionIsEquallyLikely) {
 }
 
 TEST(EmitterSampling, TriangleIsUniformInAreaWithTheSolidAngleDensity) {
-    const Vec3f v0{-1.0f, 0.5f, 2.0f}, v1{1.5f, 0.2f, 2.5f}, v2{0.0f, 2.0f, 1.0f};
-    const Scene scene = scene_of(
-        R"({"type": "triangle", "vertices": [[-1, 0.5, 2], [1.5, 0.2, 2.5], [0, 2, 1]],
-            "material": "L"})");
+    // Bins: the triangle cut into 8 × 8 = 64 congruent sub-triangles of equal area, found
+    // from the barycentric coordinates of each point (solved here, not the sampler's)
+    test::TriangleHistogram h;
+    const Scene scene = test::emitter_scene(test::TriangleHistogram::object("L"));
     const EmitterTable e = scene.emitters.table();
     ASSERT_EQ(e.count, 1);
     const Vec3f x{0.2f, -0.5f, -1.0f};
-    const Vec3f nc = cross(v1 - v0, v2 - v0);
-    const double area = 0.5 * double(length(nc));
-    const Vec3f n = normalize(nc);
-    // Bins: the triangle cut into 8 × 8 × ... = 64 congruent sub-triangles of equal area,
-    // found from the barycentric coordinates of each point (solved here, not the sampler's)
-    const int k = 8;
-    std::vector<double> observed(size_t(k * k), 0.0);
+    const Vec3f n = h.normal();
     Uniforms u;
-    const int n_samples = 64 * 800;
-    for (int s_i = 0; s_i < n_samples; ++s_i) {
+    for (int s_i = 0; s_i < 64 * 800; ++s_i) {
         const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u());
         ASSERT_TRUE(s.ok);
-        const Vec3f p = x + s.wi * s.t;
         // Density d² / (A |cos θl|), and the hit side's
         const double cos_l = std::abs(double(dot(n, s.wi)));
-        ASSERT_NEAR(double(s.pdf) * area * cos_l / (double(s.t) * s.t), 1.0, 1e-4);
+        ASSERT_NEAR(double(s.pdf) * h.area() * cos_l / (double(s.t) * s.t), 1.0, 1e-4);
         ASSERT_NEAR(emitter_pdf<float>(e, 0, x, s.wi, s.t) / s.pdf, 1.0, 1e-5);
-        // Barycentrics by least squares on the two edges
-        const Vec3f q = p - v0, e1 = v1 - v0, e2 = v2 - v0;
-        const double a11 = dot(e1, e1), a12 = dot(e1, e2), a22 = dot(e2, e2);
-        const double b1 = dot(q, e1), b2 = dot(q, e2), det = a11 * a22 - a12 * a12;
-        const double beta = (b1 * a22 - b2 * a12) / det, gamma = (a11 * b2 - a12 * b1) / det;
-        ASSERT_GE(beta, -1e-5);
-        ASSERT_GE(gamma, -1e-5);
-        ASSERT_LE(beta + gamma, 1.0 + 1e-5);
-        // Cell (i, j) of the k × k grid of the unit right triangle, upper or lower half
-        const double fb = std::clamp(beta, 0.0, 1.0 - 1e-9) * k;
-        const double fg = std::clamp(gamma, 0.0, 1.0 - 1e-9) * k;
-        const int i = std::min(int(fb), k - 1), j = std::min(int(fg), k - 1 - i);
-        const bool upper = (fb - i) + (fg - j) > 1.0;
-        // Row i has 2(k - i) - 1 cells
-        int index = 0;
-        for (int r = 0; r < i; ++r) index += 2 * (k - r) - 1;
-        index += 2 * j + (upper ? 1 : 0);
-        observed[size_t(std::min(index, k * k - 1))] += 1.0;
+        ASSERT_TRUE(h.add(x + s.wi * s.t)) << "off the triangle";
     }
-    const std::vector<double> expected(size_t(k * k), double(n_samples) / (k * k));
-    const auto [stat, dof] = test::chi_square(observed, expected);
-    EXPECT_LT(stat, test::chi_square_critical(dof));
+    const auto [stat, critical] = h.chi_square_test();
+    EXPECT_LT(stat, critical);
 }
 
 TEST(EmitterSampling, DensityIntegratesToOneOverTheEmitter) {
     // ∫ pdf(ω) dω over the directions that reach the emitter, by uniform directions from x:
     // 1 for a sampling density that is normalised (a wrong d² or cos would not be)
-    const Scene scene = scene_of(
+    const Scene scene = test::emitter_scene(
         R"({"type": "triangle", "vertices": [[-1, -1, 2], [1.5, -0.5, 2.5], [0, 1.5, 1.5]],
             "material": "L"},
            {"type": "sphere", "center": [-1, 0.5, 1.2], "radius": 0.6, "material": "M"})");
@@ -189,7 +134,7 @@ TEST(EmitterSampling, DensityIntegratesToOneOverTheEmitter) {
 
 TEST(EmitterSampling, AliasTableChoosesEmittersInProportionToPower) {
     // Powers area × max Le computed here: spheres 4πr²·Le, triangles ½|e1 × e2|·Le
-    const Scene scene = scene_of(
+    const Scene scene = test::emitter_scene(
         R"({"type": "sphere", "center": [0, 0, 3], "radius": 0.2, "material": "L"},
            {"type": "sphere", "center": [1, 0, 3], "radius": 0.05, "material": "M"},
            {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "M"},
@@ -223,20 +168,24 @@ TEST(EmitterSampling, AliasTableChoosesEmittersInProportionToPower) {
         EXPECT_NEAR(e.pmf[j], known[of[j]].power / total, 1e-6) << j;
     }
     // Samples from a point that sees every emitter; the chosen one is told by its Le, its
-    // kind and its density (the hit-side density of the right emitter equals it)
+    // kind and its density (the hit-side density of the right emitter equals it). The
+    // position sampler of light paths (kernels/light_sampling.h) chooses the same emitter
+    // from the same numbers, and says which.
     std::vector<double> observed(5, 0.0), expected(5);
     Uniforms u;
     const int n = 400000;
     const Vec3f x{0.3f, 0.2f, -20.0f};
     for (int k = 0; k < n; ++k) {
-        const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u());
-        int which = -1;
+        const float u_pick = u(), u_alias = u(), u1 = u(), u2 = u();
+        const EmitterSample<float> s = sample_emitter(e, x, u_pick, u_alias, u1, u2);
+        int which = -1, chosen = -1;
         for (int j = 0; j < 5; ++j)
             if (bool(s.sphere) == (e.kind[j] == kEmitterSphere) &&
                 s.le.x == e.data[j * kEmitterStride + 13] &&
                 std::abs(s.pdf / emitter_pdf<float>(e, j, x, s.wi, s.t) - 1.0f) < 1e-3f)
-                which = of[j];
+                which = of[j], chosen = j;
         ASSERT_GE(which, 0);
+        ASSERT_EQ(sample_emitter_position(e, u_pick, u_alias, u1, u2).id, chosen);
         observed[size_t(which)] += 1.0;
     }
     for (int k = 0; k < 5; ++k) expected[size_t(k)] = known[k].power / total * n;
@@ -248,7 +197,7 @@ TEST(Mis, TheTwoWeightsOfADirectionSumToOne) {
     // For random vertices, Phong materials and emitters: a direction's light-side weight
     // (computed as an emitter sample would) plus its BSDF-side weight (as a path that
     // sampled it and hit the emitter would) is 1, for the diffuse and the specular lobe
-    const Scene scene = scene_of(
+    const Scene scene = test::emitter_scene(
         R"({"type": "sphere", "center": [0.5, 1, 2], "radius": 0.7, "material": "L"},
            {"type": "triangle", "vertices": [[-2, -1, 3], [2, -1, 3.5], [0, 2, 4]],
             "material": "M"},

@@ -133,6 +133,11 @@ TEST_P(SimdKernels, PhongEvaluationRandomNumbersAndCamera) {
     compare(KernelCase::kPhongRngCamera, 64.0f, 1.0f, "phong/rng/camera");
 }
 
+TEST_P(SimdKernels, LightSampling) {
+    compare(KernelCase::kLightPosition, 64.0f, 1.0f, "emitter position");
+    compare(KernelCase::kLightDirections, 64.0f, 1.0f, "emitted/point-light direction");
+}
+
 TEST_P(SimdKernels, AllDeadBatchStaysDead) {
     // Every lane absorbed (black material) and every lane missing: masks all false, no NaN
     const uint32_t holds = cases.dead_batch(in.view());
