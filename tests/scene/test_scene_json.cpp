@@ -453,8 +453,9 @@ TEST(camera_projection, ProjectInvertsGenerate) {
             const Ray<float> ray = c.generate(sx, sy, 1.0f / float(w), 1.0f / float(h));
             const float t = std::exp(unit(rng) * 9.0f - 4.0f);  // 0.02 to 150
             const FilmPoint<float> f = c.project(ray.o + ray.d * t, float(w), float(h));
-            if (sx > 1e-3f && sy > 1e-3f && sx < float(w) - 1e-3f && sy < float(h) - 1e-3f)
+            if (sx > 1e-3f && sy > 1e-3f && sx < float(w) - 1e-3f && sy < float(h) - 1e-3f) {
                 EXPECT_TRUE(f.on_film) << sx << " " << sy;
+            }
             worst = std::max({worst, double(std::fabs(f.sx - sx)), double(std::fabs(f.sy - sy))});
             // The same point seen behind the camera is off the film
             EXPECT_FALSE(c.project(ray.o - ray.d * t, float(w), float(h)).on_film);
