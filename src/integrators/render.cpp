@@ -35,12 +35,14 @@ public:
         : options_(options), stats_(stats) {}
     ~CheckpointWriter() { join(); }
 
-    // Writes `state` in the background, unless a write is still going on.
-    void start(RenderState state) {
+    // Writes the state `snapshot()` returns in the background, unless a write is still
+    // going on; then no snapshot is taken (it copies the whole film).
+    template <class Snapshot>
+    void start(const Snapshot& snapshot) {
         if (writing_) return;
         join();
         writing_ = true;
-        thread_ = std::thread([this, s = std::move(state)] { write(s); });
+        thread_ = std::thread([this, s = snapshot()] { write(s); });
     }
     // Writes `state` now; returns whether it was written.
     bool write(const RenderState& state) {
@@ -188,16 +190,16 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
 
         CheckpointWriter checkpoints(options, st);
         WorkTotals totals;
-        auto next_checkpoint = start + std::chrono::duration_cast<Clock::duration>(
-                                           std::chrono::duration<double>(options.checkpoint_every));
+        const auto every = std::chrono::duration_cast<Clock::duration>(
+            std::chrono::duration<double>(options.checkpoint_every));
+        auto next_checkpoint = start + every;
         // The main thread's duties: interruption, and checkpoints when they are due
         const std::function<void()> duties = [&] {
             if (options.cancel && options.cancel->load()) coord.poll_interrupt();
             if (options.checkpoint && options.checkpoint_every > 0.0 &&
                 Clock::now() >= next_checkpoint && !coord.stopping()) {
-                checkpoints.start(coord.snapshot(resume));
-                next_checkpoint = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                     std::chrono::duration<double>(options.checkpoint_every));
+                checkpoints.start([&] { return coord.snapshot(resume); });
+                next_checkpoint = Clock::now() + every;
             }
         };
         // Alone, the main thread is one of the render threads; with other ranks it serves
@@ -227,7 +229,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         checkpoints.join();
         coord.rethrow_failure();  // (a render thread's error, e.g. out of memory)
         // The final state (with the tiles done of the pass in progress, after a stop)
-        if (options.checkpoint) st.checkpoint_final_failed = !checkpoints.write(coord.snapshot(resume));
+        if (options.checkpoint)
+            st.checkpoint_final_failed = !checkpoints.write(coord.snapshot(resume));
         mine.rays = totals.rays, mine.units = totals.units;
         mine.seconds = double(totals.last_ns.load()) * 1e-9;
         st.units = totals.units;

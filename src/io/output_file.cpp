@@ -48,7 +48,8 @@ std::optional<int> descriptor_of(const fs::path& path) {
     std::string own = "/proc/";  // (appended: GCC 12 warns falsely of "a" + string + "b")
     own += std::to_string(::getpid());
     own += "/fd/";
-    for (const std::string& prefix : {std::string("/proc/self/fd/"), std::string("/dev/fd/"), own}) {
+    for (const std::string& prefix :
+         {std::string("/proc/self/fd/"), std::string("/dev/fd/"), own}) {
         if (p.size() <= prefix.size() || p.compare(0, prefix.size(), prefix) != 0) continue;
         int fd = -1;
         const char* end = p.data() + p.size();
@@ -103,25 +104,24 @@ Identity identity_of_stat(const struct stat& st) {
     return id;
 }
 
-// The identity of an existing file, or nothing.
+// The identity of an existing file (links followed), or nothing.
 std::optional<Identity> existing_identity(const fs::path& path) {
     struct stat st;
-    if (path == "-" ? ::fstat(STDOUT_FILENO, &st) != 0 : ::stat(path.c_str(), &st) != 0)
-        return std::nullopt;
+    if (::stat(path.c_str(), &st) != 0) return std::nullopt;
     return identity_of_stat(st);
 }
 
-// The identity of an output (resolve_output has accepted it).
-Identity output_identity(const fs::path& path) {
-    const LinkEnd end = follow_links(path, "");
+// The identity of what a resolved output writes to.
+Identity output_identity(const OutputTarget& target) {
     struct stat st;
-    if (end.descriptor && ::fstat(*end.descriptor, &st) == 0) return identity_of_stat(st);
-    if (std::optional<Identity> id = existing_identity(end.path)) return *id;
+    if (target.descriptor >= 0 && ::fstat(target.descriptor, &st) == 0)
+        return identity_of_stat(st);
+    if (std::optional<Identity> id = existing_identity(target.file)) return *id;
     Identity id;
     std::error_code ec;
-    fs::path resolved = fs::absolute(end.path, ec);
+    fs::path resolved = fs::absolute(target.file, ec);
     if (!ec) resolved = fs::weakly_canonical(resolved, ec);
-    id.where = (ec ? end.path.lexically_normal() : resolved).string();
+    id.where = (ec ? target.file.lexically_normal() : resolved).string();
     return id;
 }
 
@@ -280,18 +280,20 @@ OutputTarget resolve_output(const fs::path& path, const std::string& what) {
 }
 
 void check_outputs(const std::vector<OutputPath>& outputs, const std::vector<InputPath>& inputs) {
+    std::vector<std::pair<const InputPath*, Identity>> existing;
+    for (const InputPath& in : inputs) {
+        const std::optional<Identity> id =
+            in.path.empty() ? std::nullopt : existing_identity(in.path);
+        if (id) existing.emplace_back(&in, *id);
+    }
     std::vector<std::pair<const OutputPath*, Identity>> seen;
     for (const OutputPath& out : outputs) {
         if (out.path.empty()) continue;
-        resolve_output(out.path, out.what);
-        const Identity id = output_identity(out.path);
-        for (const InputPath& in : inputs) {
-            if (in.path.empty()) continue;
-            const std::optional<Identity> input = existing_identity(in.path);
-            if (input && same_file(id, *input))
+        const Identity id = output_identity(resolve_output(out.path, out.what));
+        for (const auto& [in, in_id] : existing)
+            if (same_file(id, in_id))
                 throw InputError(out.path.string() + ": " + out.option + " is the same file as " +
-                                 in.what + " " + in.path.string() + "; nothing was written");
-        }
+                                 in->what + " " + in->path.string() + "; nothing was written");
         for (const auto& [other, other_id] : seen)
             if (same_file(id, other_id))
                 throw InputError(out.path.string() + ": " + out.option + " is the same file as " +
@@ -303,7 +305,7 @@ void check_outputs(const std::vector<OutputPath>& outputs, const std::vector<Inp
 
 bool writes_over(const fs::path& output, const fs::path& input) {
     const std::optional<Identity> in = existing_identity(input);
-    return in && same_file(output_identity(output), *in);
+    return in && same_file(output_identity(resolve_output(output)), *in);
 }
 
 void write_output(const fs::path& path, const std::function<void(const fs::path& tmp)>& write) {
