@@ -30,4 +30,26 @@ struct EmitterTable {
     const float* data = nullptr;       // count * kEmitterStride
 };
 
+// Where paths from the lights start (light tracing, kernels/transport.h): a sampled emitter
+// of the table above or a point light, chosen by power. Built by the scene
+// (Scene::light_starts).
+struct LightStartTable {
+    float emitter_probability = 0.0f;  // of starting on a sampled emitter
+    int32_t point_count = 0;
+    const float* point_cdf = nullptr;  // point_count cumulative probabilities, the last 1
+    // Per point light, 6 floats: its position, and its intensity over the probability of
+    // choosing it (with the point lights' share), times (η_scene/η_medium)² for a light that
+    // sits inside a refractive object (docs/estimators.md, "light tracing")
+    const float* point = nullptr;
+};
+
+// The pinhole as paths from the lights see it: the frame (kernels/camera.h), the image
+// size, the film's area at distance 1 and its unit normal.
+struct PinholeFrame {
+    float origin[3], forward[3], left[3], up[3];
+    float width = 1.0f, height = 1.0f;
+    float film_area = 1.0f;
+    float film_normal[3];
+};
+
 }  // namespace cierzo

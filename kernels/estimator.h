@@ -130,7 +130,16 @@ Scatter<T> sample_mirror(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
 // orientation) turned to the arriving side. With `shading` (a scene with smooth meshes), a
 // refracted direction that does not cross the geometric surface, or a reflected one that does,
 // gets weight 0 (kernels/shading.h). With ns = n the result is the same, bit for bit.
-template <class T>
+//
+// Transport modes. The report's refraction keeps radiance as it is (weight kt, no η²), so its
+// refraction operator is not its own adjoint (Veach 1997, §5.2): a camera path (radiance
+// mode) has weight kt, and a path from the lights (importance mode) that crosses from index
+// η_i to η_t has weight kt·(η_i/η_t)², so that both estimate the same integral. Entering glass
+// from the scene (η 1 → 1.5) a light path's weight is kt/2.25; leaving it, 2.25·kt. Total
+// internal reflection has weight kt in both modes. (docs/estimators.md says more.)
+enum class Transport : int32_t { kRadiance = 0, kImportance = 1 };
+
+template <Transport kMode = Transport::kRadiance, class T>
 Scatter<T> sample_refraction(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& n,
                              const Vec3<T>& ns, const T& scene_ior, const T& probability,
                              bool shading = false) {
@@ -145,6 +154,8 @@ Scatter<T> sample_refraction(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& 
     const auto reflected = k < T(0.0f);
     const Vec3<T> dir = normalize(select(reflected, reflect(d, nf), refracted));
     Vec3<T> weight = m.kt * (T(1.0f) / probability);
+    if constexpr (kMode == Transport::kImportance)
+        weight = weight * select(reflected, T(1.0f), eta * eta);
     if (shading) {
         // The side it should leave to: the arriving side when reflected, the other one when
         // refracted (d·n < 0 on the arriving side of n)
@@ -159,13 +170,21 @@ Scatter<T> sample_refraction(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& 
 // kd/π + ks·(s+2)/(2π)·cos^s α, α between wi and the mirror direction of d, restricted to
 // the lobe's half-space cos α > 0 (the half the specular sampler covers). 0 when wi is
 // below the surface seen from d.
+// The Phong BRDF is symmetric (cos α = wi·reflect(d) = reflect(wi)·d), so radiance and
+// importance evaluate it alike: f itself is phong_f, the same without the cosine (0 below).
 template <class T>
-Vec3<T> phong_f_cos(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const Vec3<T>& wi) {
-    const T cos_i = dot(wi, nf);
+Vec3<T> phong_f(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const Vec3<T>& wi,
+                T& cos_i) {
+    cos_i = dot(wi, nf);
     const T cos_a = max(dot(wi, reflect(d, nf)), T(0.0f));
     const T s = m.shininess;
     const T spec = (s + T(2.0f)) * T(0.5f * kInvPi) * pow_s(cos_a, s);
-    const Vec3<T> f = fma(m.ks, spec, m.kd * T(kInvPi));
+    return fma(m.ks, spec, m.kd * T(kInvPi));
+}
+template <class T>
+Vec3<T> phong_f_cos(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const Vec3<T>& wi) {
+    T cos_i;
+    const Vec3<T> f = phong_f(m, d, nf, wi, cos_i);
     return f * select(cos_i > T(0.0f), cos_i, T(0.0f));
 }
 
@@ -441,10 +460,14 @@ EmitterShadow<T> emitter_shadow(const EmitterTable& e, const EstimatorSettings& 
 // The weight of a sampled emitter's Le when the BSDF strategy has hit it, coming from x in
 // direction d at distance t after a vertex whose lobe sampled d with density lobe_pdf (0:
 // the camera, a mirror or a refraction, where it counts in full). nee: 0 after a Phong
-// lobe (its emitter samples counted this light already); mis: the power heuristic.
+// lobe (its emitter samples counted this light already); mis: the power heuristic; lt: 0
+// after any vertex, the camera included (the light paths bring it), 1 for an emitter that
+// is not sampled.
 template <class T>
 T emitter_hit_weight(const EmitterTable& e, Estimator kind, const I32<T>& id, const T& lobe_pdf,
                      const Vec3<T>& x, const Vec3<T>& d, const T& t) {
+    if (kind == Estimator::kLt)  // light paths bring every sampled emitter's light
+        return select(mask_f32(id >= I32<T>(0)), T(0.0f), T(1.0f));
     const auto sampled = mask_f32(id >= I32<T>(0)) & (lobe_pdf > T(0.0f));
     if (kind == Estimator::kReport || none(sampled)) return T(1.0f);
     if (kind == Estimator::kNee) return select(sampled, T(0.0f), T(1.0f));

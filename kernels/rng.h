@@ -39,6 +39,13 @@ inline U path_key(uint32_t seed, const U& pixel, const U& sample) {
     return hash32(hash32(pixel ^ s) + sample * U(0x9e3779b9u));
 }
 
+// The key of the path from the lights traced beside camera path `key` (light tracing: one
+// light path per camera path, keyed by the same (seed, pixel, sample)).
+template <class U>
+inline U light_path_key(const U& key) {
+    return hash32(key ^ splat<U, 0x2545f491u>());
+}
+
 // A uniform number in [0, 1) with 24 random bits for (path, bounce, purpose).
 template <class T>
 inline T uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {

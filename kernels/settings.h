@@ -13,7 +13,12 @@ enum class Estimator : int32_t {
     kReport = 0,  // the report's: emitters are found only by the paths that hit them
     kNee = 1,     // next-event estimation: one emitter sample per Phong vertex
     kMis = 2,     // both strategies, weighted by the power heuristic
+    kLt = 3,      // light tracing: paths from the lights, splatted through the pinhole
 };
+
+// Whether the estimator's paths start at the lights and land anywhere in the image (their
+// sums are splatted, and their error comes from batch statistics).
+inline constexpr bool splats(Estimator e) { return e == Estimator::kLt; }
 
 // Settings of the estimator that a scene or the command line may change.
 struct EstimatorSettings {

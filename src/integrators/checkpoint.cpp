@@ -27,7 +27,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kFormat = "cierzo checkpoint 1";
+constexpr const char* kFormat = "cierzo checkpoint 2";
 
 // FNV-1a, 64 bits, taken eight bytes at a time (a mesh of millions of triangles is
 // hundreds of megabytes: byte by byte took a second).
@@ -186,7 +186,10 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
     put("cierzo:spp", std::to_string(id.spp));
     put("cierzo:spp_reached", std::to_string(state.spp_done));
     put("cierzo:pending_end", std::to_string(state.pending_end));
-    put("cierzo:rays", fmt::format("{} {} {}", state.rays.camera, state.rays.extension, state.rays.shadow));
+    put("cierzo:rays", fmt::format("{} {} {} {}", state.rays.camera, state.rays.extension,
+                                   state.rays.shadow, state.rays.light));
+    // (estimators that splat: the film's passes are batches; see Film::merge_batch)
+    put("cierzo:batches", fmt::format("{} {}", film.batches(), film.nonfinite_splats()));
     put("cierzo:seconds", fmt::format("{:.6f}", state.seconds));
     put("cierzo:tile_size", std::to_string(kTileSize));
     const bool pending = !state.pending_tiles.empty();
@@ -258,8 +261,13 @@ Checkpoint read_checkpoint(const fs::path& path) {
         s.spp_done = get_int(header, path, "cierzo:spp_reached");
         s.pending_end = get_int(header, path, "cierzo:pending_end");
         std::istringstream rays(get(header, path, "cierzo:rays"));
-        if (!(rays >> s.rays.camera >> s.rays.extension >> s.rays.shadow))
+        if (!(rays >> s.rays.camera >> s.rays.extension >> s.rays.shadow >> s.rays.light))
             throw InputError(path.string() + ": checkpoint header 'cierzo:rays' is malformed");
+        std::istringstream batches(get(header, path, "cierzo:batches"));
+        int64_t batch_count = 0;
+        uint64_t nonfinite_splats = 0;
+        if (!(batches >> batch_count >> nonfinite_splats) || batch_count < 0)
+            throw InputError(path.string() + ": checkpoint header 'cierzo:batches' is malformed");
         s.seconds = std::stod(get(header, path, "cierzo:seconds"));
 
         const Imf::ChannelList& channels = header.channels();
@@ -288,6 +296,7 @@ Checkpoint read_checkpoint(const fs::path& path) {
         file.readPixels(0, int(h) - 1);
         s.film = Film(int(w), int(h));
         words_to_film(words, s.film);
+        s.film.set_batches(batch_count, nonfinite_splats);
 
         // Consistency: every pixel of the film has spp_done paths; a pending tile's pixels
         // all have pending_end - spp_done, the others none

@@ -17,6 +17,52 @@ void Film::merge(const FilmTile& tile) {
             at(x, y).merge(src[size_t(y - tile.y0()) * w + size_t(x - tile.x0())]);
 }
 
+void SplatSums::add(const std::vector<Splat>& splats) {
+    for (const Splat& s : splats) {
+        const double v[3] = {s.value.x, s.value.y, s.value.z};
+        bool ok = true;
+        for (double c : v) ok = ok && std::isfinite(c) && std::abs(c) < 0x1.0p80;
+        if (!ok) {
+            ++nonfinite_;
+            continue;
+        }
+        for (int c = 0; c < 3; ++c)
+            sums_[3 * size_t(s.pixel) + size_t(c)] += Fixed(std::nearbyint(v[c] * kScale));
+    }
+}
+
+void Film::merge_batch(const FilmTile& tile, const SplatSums& splats) {
+    for (int y = tile.y0(); y < tile.y1(); ++y) {
+        for (int x = tile.x0(); x < tile.x1(); ++x) {
+            const PixelSums& camera = tile.at(x, y);
+            PixelSums& p = at(x, y);
+            const size_t i = size_t(y) * size_t(width_) + size_t(x);
+            const double n = double(std::max<uint64_t>(camera.count, 1));
+            for (int c = 0; c < 3; ++c) {
+                const double total = camera.sum[c] + splats.at(i, c);
+                p.sum[c] += total;
+                p.sum_sq[c] += total * total / n;
+            }
+            p.count += camera.count;
+            p.nonfinite += camera.nonfinite;
+        }
+    }
+}
+
+std::optional<double> Film::variance_of_mean(const PixelSums& p, int c) const {
+    const double n = double(p.count);
+    if (batches_ > 0) {
+        // Σ n_k (m_k - m)² over the passes k, over (passes - 1), per path
+        if (batches_ < 2 || p.count == 0) return std::nullopt;
+        const double spread = std::max(0.0, p.sum_sq[c] - p.sum[c] * p.sum[c] / n);
+        return spread / (double(batches_ - 1) * n);
+    }
+    if (p.count < 2) return std::nullopt;
+    const double m = p.sum[c] / n;
+    const double var = std::max(0.0, (p.sum_sq[c] / n - m * m) * n / (n - 1.0));
+    return var / n;
+}
+
 Image Film::mean() const {
     Image img(width_, height_);
     for (size_t i = 0; i < pixels_.size(); ++i) {
@@ -31,13 +77,8 @@ Image Film::variance_of_mean() const {
     Image img(width_, height_);
     for (size_t i = 0; i < pixels_.size(); ++i) {
         const PixelSums& p = pixels_[i];
-        if (p.count < 2) continue;
-        const double n = double(p.count);
-        for (int c = 0; c < 3; ++c) {
-            const double m = p.sum[c] / n;
-            const double var = std::max(0.0, (p.sum_sq[c] / n - m * m) * n / (n - 1.0));
-            img.rgb[i * 3 + size_t(c)] = float(var / n);
-        }
+        for (int c = 0; c < 3; ++c)
+            img.rgb[i * 3 + size_t(c)] = float(variance_of_mean(p, c).value_or(0.0));
     }
     return img;
 }
@@ -47,7 +88,7 @@ std::optional<double> Film::mean_relative_error() const {
     double total = 0.0;
     size_t used = 0, estimable = 0;
     for (const PixelSums& p : pixels_) {
-        if (p.count < 2) continue;
+        if (!variance_of_mean(p, 0)) continue;
         ++estimable;
         const double n = double(p.count);
         double rel = 0.0;
@@ -55,8 +96,7 @@ std::optional<double> Film::mean_relative_error() const {
         for (int c = 0; c < 3; ++c) {
             const double m = p.sum[c] / n;
             if (std::abs(m) < 1e-12) continue;
-            const double var = std::max(0.0, (p.sum_sq[c] / n - m * m) * n / (n - 1.0));
-            rel += std::sqrt(var / n) / std::abs(m);
+            rel += std::sqrt(*variance_of_mean(p, c)) / std::abs(m);
             ++channels;
         }
         if (channels == 0) continue;
@@ -70,7 +110,7 @@ std::optional<double> Film::mean_relative_error() const {
 uint64_t Film::nonfinite_samples() const {
     uint64_t n = 0;
     for (const PixelSums& p : pixels_) n += p.nonfinite;
-    return n;
+    return n + nonfinite_splats_;
 }
 
 uint64_t Film::min_samples() const {

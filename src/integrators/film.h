@@ -55,6 +55,35 @@ struct PixelSums {
     }
 };
 
+// One contribution of a path from the lights to a pixel of the image (anywhere in it).
+struct Splat {
+    uint32_t pixel;  // y * width + x
+    Vec3f value;
+};
+
+// A pass's splats, added up exactly: each value is rounded once to a multiple of 2^-40 and
+// summed as a 128-bit integer, so the sums are the same bits whatever order the splats come
+// in (from any thread, any process, any split of the work). A value that is not finite, or
+// of magnitude 2^80 or more, is counted and left out; one below 2^-41 rounds to 0.
+class SplatSums {
+public:
+    __extension__ typedef __int128 Fixed;
+    static constexpr double kScale = 0x1.0p40;  // units per 1
+
+    // Zero sums for `pixels` pixels.
+    void reset(size_t pixels) { sums_.assign(3 * pixels, Fixed(0)), nonfinite_ = 0; }
+    void add(const std::vector<Splat>& splats);
+    // Pixel i's sums of one channel, as a double.
+    double at(size_t pixel, int channel) const {
+        return double(sums_[3 * pixel + size_t(channel)]) / kScale;
+    }
+    uint64_t nonfinite() const { return nonfinite_; }
+
+private:
+    std::vector<Fixed> sums_;
+    uint64_t nonfinite_ = 0;
+};
+
 // The sums of one tile of pixels [x0, x1) × [y0, y1) over one pass, starting from zero: what
 // a thread (or another process) renders, merged into the film with Film::merge once the
 // whole pass is done. Each pixel's image is therefore the sum, in pass order, of per-pass
@@ -95,6 +124,11 @@ public:
     std::vector<PixelSums>& pixels() { return pixels_; }
     const std::vector<PixelSums>& pixels() const { return pixels_; }
 
+    // What paths from the lights traced for this unit added to the image, anywhere in it
+    // (in the order they were traced; the coordinator adds them up exactly, SplatSums).
+    std::vector<Splat> splats;
+    void splat(uint32_t image_index, const Vec3f& v) { splats.push_back({image_index, v}); }
+
 private:
     int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, image_width_ = 0;
     std::vector<PixelSums> pixels_;
@@ -111,6 +145,21 @@ public:
     }
     // Adds a tile's sums of one pass to its pixels.
     void merge(const FilmTile& tile);
+    // Estimators that splat (light tracing): adds one pass of `paths` paths per pixel as one
+    // batch, the tile's camera-path sums plus the pass's splats at each of its pixels. A
+    // pixel's sum then grows by the pass's total S, sum_sq by S²/n (n its paths), so the
+    // variance comes from the spread of the passes' means (batch statistics: a splatted
+    // path has no per-pixel sample of its own). end_batch() counts the pass once its tiles
+    // are in.
+    void merge_batch(const FilmTile& tile, const SplatSums& splats);
+    void end_batch(uint64_t nonfinite_splats) { ++batches_, nonfinite_splats_ += nonfinite_splats; }
+    // Passes added as batches (0: the film holds per-path sums), and the splats left out
+    // as not finite
+    int64_t batches() const { return batches_; }
+    uint64_t nonfinite_splats() const { return nonfinite_splats_; }
+    void set_batches(int64_t batches, uint64_t nonfinite_splats) {
+        batches_ = batches, nonfinite_splats_ = nonfinite_splats;
+    }
     // Every pixel, row by row (for checkpoints).
     std::vector<PixelSums>& pixels() { return pixels_; }
     const std::vector<PixelSums>& pixels() const { return pixels_; }
@@ -126,8 +175,13 @@ public:
     uint64_t min_samples() const;
 
 private:
+    // The variance of pixel p's mean in one channel (per-path or batch statistics)
+    std::optional<double> variance_of_mean(const PixelSums& p, int channel) const;
+
     int width_, height_;
     std::vector<PixelSums> pixels_;
+    int64_t batches_ = 0;
+    uint64_t nonfinite_splats_ = 0;
 };
 
 }  // namespace cierzo

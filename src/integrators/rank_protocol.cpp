@@ -43,8 +43,9 @@ struct RequestHeader {
 struct ResultHeader {
     int32_t tile, pass;
     int64_t s0, s1;
-    uint64_t rays[3];
+    uint64_t rays[4];
     LaneStats lanes;
+    uint64_t splats;  // after the tile's PixelSums
 };
 struct GrantHeader {
     int32_t over = 0;
@@ -78,15 +79,19 @@ T read(const std::vector<char>& buf, size_t& at) {
 // in memory: ranks run the same build, so the bits go across unchanged.
 
 size_t encoded_size(const UnitResult& r) {
-    return sizeof(ResultHeader) + r.sums.pixels().size() * sizeof(PixelSums);
+    return sizeof(ResultHeader) + r.sums.pixels().size() * sizeof(PixelSums) +
+           r.sums.splats.size() * sizeof(Splat);
 }
 
 void encode_result(std::vector<char>& msg, const UnitResult& r) {
     append(msg, ResultHeader{r.unit.tile, r.unit.pass, r.unit.s0, r.unit.s1,
-                             {r.rays.camera, r.rays.extension, r.rays.shadow}, r.lanes});
+                             {r.rays.camera, r.rays.extension, r.rays.shadow, r.rays.light},
+                             r.lanes, r.sums.splats.size()});
     const auto& px = r.sums.pixels();
     const char* p = reinterpret_cast<const char*>(px.data());
     msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
+    const char* s = reinterpret_cast<const char*>(r.sums.splats.data());
+    msg.insert(msg.end(), s, s + r.sums.splats.size() * sizeof(Splat));
 }
 
 UnitResult decode_result(const std::vector<char>& msg, size_t& at, const std::vector<Tile>& tiles,
@@ -95,12 +100,17 @@ UnitResult decode_result(const std::vector<char>& msg, size_t& at, const std::ve
     if (rh.tile < 0 || size_t(rh.tile) >= tiles.size())
         throw std::runtime_error("a rank sent a unit of an unknown tile");
     UnitResult r{Unit{rh.tile, rh.pass, rh.s0, rh.s1}, pool.make(tiles[size_t(rh.tile)], 0),
-                 RayCounts{rh.rays[0], rh.rays[1], rh.rays[2]}, rh.lanes};
+                 RayCounts{rh.rays[0], rh.rays[1], rh.rays[2], rh.rays[3]}, rh.lanes};
     auto& px = r.sums.pixels();
     const size_t bytes = px.size() * sizeof(PixelSums);
     if (at + bytes > msg.size()) throw std::runtime_error("truncated unit from a rank");
     std::memcpy(px.data(), msg.data() + at, bytes);
     at += bytes;
+    if (rh.splats > (msg.size() - at) / sizeof(Splat))
+        throw std::runtime_error("truncated unit from a rank");
+    r.sums.splats.resize(rh.splats);
+    std::memcpy(r.sums.splats.data(), msg.data() + at, rh.splats * sizeof(Splat));
+    at += rh.splats * sizeof(Splat);
     return r;
 }
 

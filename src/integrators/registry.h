@@ -41,6 +41,9 @@ inline constexpr EstimatorEntry kEstimators[] = {
      "the report's: emitters found by the paths that hit them; the default"},
     {Estimator::kNee, "nee", "next-event estimation: plus one emitter sample per Phong vertex"},
     {Estimator::kMis, "mis", "both strategies, weighted by the power heuristic"},
+    {Estimator::kLt, "lt",
+     "light tracing: paths from the lights, each vertex connected to the pinhole (a mirror or "
+     "glass seen directly shows only what camera paths find)"},
 };
 
 const char* integrator_name(Integrator i);

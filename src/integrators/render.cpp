@@ -152,6 +152,21 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                          "at most 2^24 (16,777,216)");
     const mpi::World& world = mpi::world();
     const bool root = world.rank == 0;
+    std::vector<std::string> warnings;
+    if (splats(scene.settings.estimator.kind)) {
+        // Light tracing needs lights to start from; emitters it cannot sample (planes,
+        // quadrics, textured emission) are left to the camera's paths
+        if (scene.light_starts.total_power <= 0.0 && scene.emitters.unsampled_objects == 0)
+            throw InputError(scene.source.string() +
+                             ": the lt estimator needs a light: the scene has no point light "
+                             "and no emitter");
+        if (scene.light_starts.total_power <= 0.0)
+            warnings.push_back(
+                scene.source.string() +
+                ": no light or emitter here can start a light path (planes, quadrics and "
+                "textured emission are not sampled): light tracing adds nothing, the image is "
+                "the camera paths' alone");
+    }
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == Integrator::kWavefront)
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
@@ -165,6 +180,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     const UnitRenderer renderer(scene, wavefront.get(), tiles, pool);
     RenderResult result{root ? Film(rs.width, rs.height) : Film(0, 0), {}};
     RenderStats& st = result.stats;
+    st.warnings = warnings;  // (the program prints them at the end)
     st.threads = threads;
     st.integrator = integrator_name(options.integrator);
     st.isa = wavefront ? isa_name(wavefront->isa()) : "scalar";
@@ -253,7 +269,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     // Every rank's figures, on rank 0
     if (world.size > 1) gather_rank_stats(mine, st.isa, st);
     if (!root) return result;
-    st.paths = st.rays.camera;
+    st.paths = st.rays.camera + st.rays.light;
     st.nonfinite_samples = result.film.nonfinite_samples();
     st.mean_relative_error = result.film.mean_relative_error();
     st.spp_reached = int64_t(result.film.min_samples());

@@ -25,10 +25,11 @@ inline constexpr int kTileSize = 16;
 struct RayCounts {
     uint64_t camera = 0;
     uint64_t extension = 0;
-    uint64_t shadow = 0;
-    uint64_t total() const { return camera + extension + shadow; }
+    uint64_t shadow = 0;    // towards point lights, emitter samples and (lt) the pinhole
+    uint64_t light = 0;     // the first ray of each path from the lights (lt)
+    uint64_t total() const { return camera + extension + shadow + light; }
     RayCounts& operator+=(const RayCounts& o) {
-        camera += o.camera, extension += o.extension, shadow += o.shadow;
+        camera += o.camera, extension += o.extension, shadow += o.shadow, light += o.light;
         return *this;
     }
 };

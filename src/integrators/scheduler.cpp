@@ -48,25 +48,31 @@ UnitResult UnitRenderer::render(const Unit& u) const {
 
 // ---- The coordinator -----------------------------------------------------------------------
 
-void Coordinator::PassWork::reset(size_t tiles) {
+void Coordinator::PassWork::reset(size_t tiles, size_t splat_pixels) {
     sums.assign(tiles, std::nullopt);
     done.assign(tiles, 0);
     done_count = 0, cursor = 0, rays = {};
+    if (splat_pixels) splats.reset(splat_pixels);
 }
 
 Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
                          const std::vector<Tile>& tiles, std::vector<int64_t> bounds, Film& film,
                          Clock::time_point start, Progress& progress, TilePool& pool)
     : options_(options), tiles_(tiles), bounds_(std::move(bounds)), film_(film), start_(start),
-      progress_(progress), pool_(pool), width_(scene.settings.width) {
+      progress_(progress), pool_(pool), width_(scene.settings.width),
+      splat_pixels_(splats(scene.settings.estimator.kind)
+                        ? size_t(scene.settings.width) * size_t(scene.settings.height)
+                        : 0) {
     passes_ = int32_t(bounds_.size()) - 1;
-    for (PassWork& w : work_) w.reset(tiles_.size());
+    for (PassWork& w : work_) w.reset(tiles_.size(), splat_pixels_);
     if (passes_ <= 0) stopping_ = true;
 }
 
 void Coordinator::restore_pending(const RenderState& state) {
     std::lock_guard lock(mutex_);
-    if (passes_ <= 0 || state.pending_end != bounds_[1] || state.pending_tiles.empty()) return;
+    if (passes_ <= 0 || state.pending_end != bounds_[1] || state.pending_tiles.empty() ||
+        splat_pixels_)
+        return;
     PassWork& w = work_[0];
     for (size_t t = 0; t < tiles_.size() && t < state.pending_tiles.size(); ++t) {
         if (!state.pending_tiles[t]) continue;
@@ -105,6 +111,10 @@ void Coordinator::complete(UnitResult&& r) {
     const size_t t = size_t(r.unit.tile);
     if (w.done[t]) throw std::logic_error("a unit was rendered twice");
     w.rays += r.rays;
+    if (splat_pixels_) {
+        w.splats.add(r.sums.splats);
+        r.sums.splats = {};
+    }
     w.sums[t] = std::move(r.sums);
     w.done[t] = 1;
     ++w.done_count;
@@ -150,7 +160,7 @@ RenderState Coordinator::snapshot(const RenderState* resumed) const {
     if (resumed) s.rays += resumed->rays;
     s.seconds = seconds_since(start_) + (resumed ? resumed->seconds : 0.0);
     const PassWork& w = work_[first_];
-    if (frontier_ < passes_ && w.done_count > 0) {
+    if (frontier_ < passes_ && w.done_count > 0 && !splat_pixels_) {
         s.pending_end = bounds_[size_t(frontier_) + 1];
         s.pending_tiles = w.done;
         s.pending = Film(film_.width(), film_.height());
@@ -191,11 +201,15 @@ void Coordinator::commit_passes() {
     while (!stopping_ && work_[first_].done_count == tiles_.size()) {
         PassWork& w = work_[first_];
         for (std::optional<FilmTile>& f : w.sums) {
-            film_.merge(*f);
+            if (splat_pixels_)
+                film_.merge_batch(*f, w.splats);
+            else
+                film_.merge(*f);
             pool_.give(std::move(*f));
         }
+        if (splat_pixels_) film_.end_batch(w.splats.nonfinite());
         rays_ += w.rays;
-        w.reset(tiles_.size());
+        w.reset(tiles_.size(), splat_pixels_);
         first_ ^= 1;
         ++frontier_;
         if (frontier_ == passes_) {

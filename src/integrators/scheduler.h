@@ -5,7 +5,10 @@
 // tile of that pass is in, so each pixel's sums are always film + pass 0 + pass 1 + ..., in
 // that order, whoever rendered each pass: the image is bit-identical for any number of
 // threads and processes. The film thus always holds whole passes, and a stop or a checkpoint
-// at any moment has the same paths in every pixel.
+// at any moment has the same paths in every pixel. Paths from the lights (an estimator that
+// splats) land anywhere in the image: their splats are added up exactly as units come in
+// (SplatSums: integer sums, the same bits in any order), and with the tiles' sums once the
+// pass is whole; a checkpoint then keeps whole passes only.
 #pragma once
 
 #include <chrono>
@@ -115,7 +118,8 @@ private:
         size_t done_count = 0;
         size_t cursor = 0;  // next tile to hand out
         RayCounts rays;
-        void reset(size_t tiles);
+        SplatSums splats;  // estimators that splat: the pass's splats, added up as they come
+        void reset(size_t tiles, size_t splat_pixels);
     };
 
     // The next unit of the pass in progress (ahead = 0) or of the next one (ahead = 1).
@@ -132,6 +136,7 @@ private:
     Progress& progress_;
     TilePool& pool_;
     int width_;
+    size_t splat_pixels_;  // the image's pixels for an estimator that splats, else 0
     int32_t passes_ = 0;
     int32_t frontier_ = 0;  // the pass in progress; passes before it are in the film
     int first_ = 0;         // work_[first_] is the pass in progress, the other the next

@@ -126,6 +126,62 @@ void Scene::finalize() {
     bvh.build(in);
     bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     build_emitters();
+    build_light_starts();
+}
+
+void Scene::build_light_starts() {
+    LightStarts& ls = light_starts;
+    ls = LightStarts{};
+    // The medium around each point light: a ray from it whose first hit is a refractive
+    // object seen from inside puts the light in that object. A light's intensity is the one
+    // it has in its own medium (as for a physical light; a point light at the centre of a
+    // glass ball lights the room around the ball with its I); the report's radiance, which
+    // refraction keeps as it is, is that of the scene's medium, so its paths start with
+    // (η_scene/η)² (kernels/estimator.h, Transport).
+    std::vector<double> power;
+    for (const PointLight& l : lights) {
+        float ior = scene_ior;
+        Hit hit;
+        const Vec3f probe = normalize(Vec3f{0.267f, 0.873f, 0.408f});
+        if (intersect({l.position, probe}, kRayFar, hit)) {
+            const Material& m = materials[size_t(hit.material)];
+            if (!m.kt.is_zero() && !m.is_emitter() && dot(probe, hit.n) > 0.0f) ior = m.ior;
+        }
+        ls.medium_ior.push_back(ior);
+        const double scale = double(scene_ior / ior) * double(scene_ior / ior);
+        const double p = 4.0 * double(kPi) * double(max_component(l.intensity)) * scale;
+        power.push_back(std::isfinite(p) && p > 0.0 ? p : 0.0);
+    }
+    double point_power = 0.0;
+    for (double p : power) point_power += p;
+    const double emitter_power = 2.0 * double(kPi) * emitters.total_power;
+    ls.total_power = point_power + emitter_power;
+    if (!(ls.total_power > 0.0) || !std::isfinite(ls.total_power)) {
+        ls.total_power = 0.0;
+        return;
+    }
+    ls.emitter_probability = float(emitter_power / ls.total_power);
+    if (!(point_power > 0.0)) {
+        ls.emitter_probability = 1.0f;
+        return;
+    }
+    if (emitter_power > 0.0 && ls.emitter_probability >= 1.0f) ls.emitter_probability = 0x1.fffffep-1f;
+    // P(point lights) as the sampler computes it, from the float probability
+    const double p_points = 1.0 - double(ls.emitter_probability);
+    double cumulative = 0.0;
+    for (size_t i = 0; i < lights.size(); ++i) {
+        if (!(power[i] > 0.0)) continue;
+        cumulative += power[i];
+        ls.point_cdf.push_back(float(cumulative / point_power));
+        const double pmf = power[i] / point_power;
+        const double scale = double(scene_ior / ls.medium_ior[i]) *
+                             double(scene_ior / ls.medium_ior[i]) / (p_points * pmf);
+        const PointLight& l = lights[i];
+        ls.point.insert(ls.point.end(),
+                        {l.position.x, l.position.y, l.position.z, float(l.intensity.x * scale),
+                         float(l.intensity.y * scale), float(l.intensity.z * scale)});
+    }
+    ls.point_cdf.back() = 1.0f;
 }
 
 namespace {

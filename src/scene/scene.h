@@ -13,6 +13,7 @@
 #include "accel/bvh.h"
 #include "kernels/estimator.h"
 #include "kernels/intersect.h"
+#include "kernels/transport.h"
 #include "scene/camera.h"
 
 namespace cierzo {
@@ -126,6 +127,21 @@ struct Emitters {
     }
 };
 
+// Where paths from the lights start (light tracing; kernels/transport.h): the sampled
+// emitters, with power 2π·A·max Le (emission is two-sided), and the point lights, with
+// power 4π·max I, chosen by power. Built by Scene::finalize.
+struct LightStarts {
+    float emitter_probability = 0.0f;
+    std::vector<float> point_cdf, point;  // see LightStartTable
+    // Per point light: the refractive index of the medium it sits in (the scene's, or that
+    // of the refractive object around it), and whether any light can start at all
+    std::vector<float> medium_ior;
+    double total_power = 0.0;
+    LightStartTable table() const {
+        return {emitter_probability, int32_t(point_cdf.size()), point_cdf.data(), point.data()};
+    }
+};
+
 // A camera given by position, target, up and vertical field of view: kept so the frame can
 // be rebuilt for another aspect ratio.
 struct LookAt {
@@ -158,6 +174,7 @@ public:
     double bvh_seconds = 0.0;  // building every BVH, in finalize()
     bool smooth_shading = false;  // some mesh is smooth (set by finalize())
     Emitters emitters;
+    LightStarts light_starts;
 
     // Call once after filling the arrays: builds the BVHs (a copy of the scene shares its
     // meshes' BVHs).
@@ -191,11 +208,18 @@ public:
         return first < 0 ? -1 : first + int32_t(hit.triangle);
     }
 
+    // The pinhole as paths from the lights see it (kernels/transport.h).
+    PinholeFrame pinhole() const {
+        return pinhole_frame(camera.origin, camera.forward, camera.left, camera.up,
+                             settings.width, settings.height);
+    }
+
     // The unit shading normal of a hit on smooth mesh `object` (Hit::ns).
     Vec3f shading_normal(const Mesh& object, const Hit& hit) const;
 
 private:
     void build_emitters();
+    void build_light_starts();
     Vec3f color_at(const ColorSource& c, const Hit& hit) const;
 };
 

@@ -48,6 +48,7 @@ struct FlatFeatures {
     int lobe_kinds;  // how many of the four lobes occur (1: no lobe bucketing needed)
     uint32_t texture_channels;  // bit c: some material textures colour channel c
     bool nee;  // the estimator samples emitters (nee or mis, and the scene has some to sample)
+    bool lt;   // light tracing: camera paths count only the emitters light paths cannot start on
     bool smooth;  // some mesh shades with interpolated normals (kernels/shading.h)
 };
 
@@ -100,6 +101,11 @@ struct FlatScene {
     int32_t width, height;
     uint32_t seed;
     EstimatorSettings estimator;  // the scene's, as it is
+    // Light tracing: where light paths start, the pinhole they connect to, and whether the
+    // camera's paths are traced too (some emitter cannot be sampled)
+    LightStartTable light_starts;
+    PinholeFrame pinhole;
+    bool lt_camera_paths;
     float scene_ior;
     FlatFeatures features;
 };
@@ -115,6 +121,9 @@ struct TileJob {
     // back out of that count.
     void (*finish)(void* film, int32_t count, const uint32_t* pixel, const float* r,
                    const float* g, const float* b);
+    // Light tracing: adds `count` splats (pixel index anywhere in the image, value), in order.
+    void (*splat)(void* film, int32_t count, const uint32_t* pixel, const float* r,
+                  const float* g, const float* b);
 };
 
 // What `cierzo trace` counts: rays, hits and the sum of the hits' distances.
@@ -126,6 +135,7 @@ struct TraceTotals {
 // Counters a tile returns.
 struct WavefrontCounters {
     uint64_t camera = 0, extension = 0, shadow = 0;
+    uint64_t light = 0;  // light paths started (lt)
     uint64_t lanes_active = 0, lanes_total = 0;  // shading lane utilisation
     uint64_t isect_active = 0, isect_total = 0;  // intersection lane utilisation
     uint64_t shadow_active = 0, shadow_total = 0;  // shadow-ray lane utilisation

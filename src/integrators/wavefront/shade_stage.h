@@ -109,8 +109,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     if (f.emitters) {
         const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
         Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
-        if (f.nee && any(em)) {
-            const F lobe_pdf = F::load_aligned(p.lobe_pdf + i);
+        if ((f.nee || f.lt) && any(em)) {
+            const F lobe_pdf = f.nee ? F::load_aligned(p.lobe_pdf + i) : F(0.0f);
             le = le * emitter_hit_weight<F>(s.emitters, s.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), lobe_pdf,
                                             ray.o, d, length(pos - ray.o));
@@ -258,7 +258,9 @@ CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
                              I::load_aligned(p.material + i),
                              mask_f32(I::load_aligned(p.alive + i) != I(0)),
                              max(max_abs(pos), max_abs(ray.o)),
-                             w.scene.features.nee ? I::load_aligned(p.emitter + i) : I(-1)};
+                             w.scene.features.nee || w.scene.features.lt
+                                 ? I::load_aligned(p.emitter + i)
+                                 : I(-1)};
         shade_batch<kFused>(w, i, ray, sf, queued);
     }
     p.shadow_count = queued;

@@ -94,7 +94,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
                         lookup<A>(s.sphere_cz, count, j)};
         n = select(mask_f32(m), normalize(pos - c), n);
         material = select(m, lookup<A>(s.sphere_material, count, j), material);
-        if (f.nee) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
+        if (f.nee || f.lt) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
     }
     if (f.planes) {
         const auto m = kind == I(kPrimPlane);
@@ -126,7 +126,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         // (mesh is the last kind: n is final here, and smooth_normals keeps it for the
         // lanes that are not on a smooth mesh)
         if (f.smooth) ns = smooth_normals(w, i, mesh, mask_f32(m) & w.live_mask(i), pos, n);
-        if (f.nee) {
+        if (f.nee || f.lt) {
             const I first = lookup<A>(s.mesh_emitter, s.mesh_count, mesh);
             const I tri = xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
             emitter = select(m & (first >= I(0)), first + tri, emitter);
@@ -147,7 +147,7 @@ void store_surfaces(Wave<A>& w, int32_t i, const Surfaces<A>& sf) {
     store3(sf.n, p.nx, p.ny, p.nz, i);
     if (w.scene.features.smooth) store3(sf.ns, p.snx, p.sny, p.snz, i);
     sf.material.store_aligned(p.material + i);
-    if (w.scene.features.nee) sf.emitter.store_aligned(p.emitter + i);
+    if (w.scene.features.nee || w.scene.features.lt) sf.emitter.store_aligned(p.emitter + i);
     select(mask_i32(sf.hit), I(1), I(0)).store_aligned(p.alive + i);
 }
 

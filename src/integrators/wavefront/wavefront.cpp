@@ -25,6 +25,12 @@ void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float*
     for (int32_t i = 0; i < count; ++i) f.at_index(pixel[i]).add_counted({r[i], g[i], b[i]});
 }
 
+void splat_paths(void* film, int32_t count, const uint32_t* pixel, const float* r,
+                 const float* g, const float* b) {
+    FilmTile& f = *static_cast<FilmTile*>(film);
+    for (int32_t i = 0; i < count; ++i) f.splat(pixel[i], {r[i], g[i], b[i]});
+}
+
 FlatColor flatten(const ColorSource& c) {
     return {uint32_t(c.kind), {c.a.x, c.a.y, c.a.z}, {c.b.x, c.b.y, c.b.z}, c.frequency,
             {c.axis.x, c.axis.y, c.axis.z}, {c.axis2.x, c.axis2.y, c.axis2.z}};
@@ -154,7 +160,8 @@ struct WavefrontRenderer::Data {
 
 // Whether the estimator samples emitters: nee or mis, and emitters it can sample.
 static bool samples_emitters(const Scene& scene) {
-    return scene.settings.estimator.kind != Estimator::kReport && scene.emitters.count() > 0;
+    const Estimator e = scene.settings.estimator.kind;
+    return (e == Estimator::kNee || e == Estimator::kMis) && scene.emitters.count() > 0;
 }
 
 // Shadow rays a Phong vertex may queue: one per point light, one emitter sample.
@@ -270,6 +277,9 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.sphere_emitter = d.sphere_emitter.data();
     f.mesh_emitter = d.mesh_emitter.data();
     f.estimator = scene.settings.estimator;
+    f.light_starts = scene.light_starts.table();
+    f.pinhole = scene.pinhole();
+    f.lt_camera_paths = scene.emitters.unsampled_objects > 0;
 
     // Camera, settings, features
     const Camera& c = scene.camera;
@@ -287,13 +297,16 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
                   sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
-                  texture_channels, false, false};
+                  texture_channels, false, false, false};
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
         const bool meshes = f.features.meshes;
         f.features = {true, true, true, meshes, tree, packet, true, true, true,
-                      true, true, true, true, 4,    texture_channels, false, false};
+                      true, true, true, true, 4,    texture_channels, false, false, false};
     }
+    // Light tracing: camera paths shoot no shadow rays (the light paths bring every light)
+    f.features.lt = splats(scene.settings.estimator.kind);
+    if (f.features.lt) f.features.lights = false;
     f.features.nee = samples_emitters(scene);
     f.features.smooth = sf.smooth;
 }
@@ -311,12 +324,14 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
     if (int64_t(tile.x1 - tile.x0) * (tile.y1 - tile.y0) >= (int64_t(1) << 23))
         throw std::logic_error("wavefront tiles must have fewer than 2^23 pixels");
     PathPool& pool = data_->pools.local().pool;
-    const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, tile.s0, tile.s1, &film, finish_paths};
+    const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, tile.s0,    tile.s1,
+                      &film,    finish_paths, splat_paths};
     WavefrontCounters c;
     // Every path of the job is counted now; the kernels hand over only the radiant ones
     film.count_paths(uint64_t(tile.s1 - tile.s0));
     data_->entry(data_->flat, pool, job, c);
     rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;
+    rays.light += c.light;
     lanes.shade_active += c.lanes_active, lanes.shade_total += c.lanes_total;
     lanes.isect_active += c.isect_active, lanes.isect_total += c.isect_total;
     lanes.shadow_active += c.shadow_active, lanes.shadow_total += c.shadow_total;

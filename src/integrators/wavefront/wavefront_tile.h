@@ -10,6 +10,7 @@
 
 #include "integrators/wavefront/compact_stage.h"
 #include "integrators/wavefront/intersect_stage.h"
+#include "integrators/wavefront/light_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/shade_stage.h"
 #include "integrators/wavefront/shadow_stage.h"
@@ -109,11 +110,19 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
     auto run = [&](auto fused) {
         render_tile_stages<decltype(fused)::value, A>(scene, pool, job, counters);
     };
-    if (f.lobe_kinds != 1) return run(std::integral_constant<int, kLobeCount>{});
-    if (f.diffuse) return run(std::integral_constant<int, kLobeDiffuse>{});
-    if (f.specular) return run(std::integral_constant<int, kLobeSpecular>{});
-    if (f.mirror) return run(std::integral_constant<int, kLobeMirror>{});
-    run(std::integral_constant<int, kLobeRefract>{});
+    // Light tracing: the camera's paths only where some emitter is not sampled, then the
+    // paths from the lights
+    if (!f.lt || scene.lt_camera_paths) {
+        if (f.lobe_kinds != 1) run(std::integral_constant<int, kLobeCount>{});
+        else if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
+        else if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
+        else if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
+        else run(std::integral_constant<int, kLobeRefract>{});
+    }
+    if (f.lt) {
+        Wave<A> w{scene, pool, counters};
+        render_light_paths(w, job);
+    }
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

@@ -1,0 +1,259 @@
+// Paths from the lights in the wavefront (light tracing, --estimator lt), through the same
+// pool, intersection, surface and material stages as the camera's, with the kernels of
+// kernels/transport.h:
+//   regenerate: free slots take the tile's next (pixel, sample) keys, each a light path's
+//     start (a light chosen by power, a point, a direction); an emitter's point is connected
+//     to the pinhole at once;
+//   intersect → surfaces (→ materials, textured scenes) → vertex: every Phong vertex is
+//     connected to the pinhole (its shadow ray traced on the batch's registers, the splat
+//     queued), the roulette picks a lobe, the lobe is sampled in importance mode, and the
+//     survivors move to the front of the pool;
+// until every light path of the tile has ended. Splats go to the film in batches (TileJob).
+#pragma once
+
+#include "integrators/wavefront/camera_stage.h"
+#include "integrators/wavefront/intersect_stage.h"
+#include "integrators/wavefront/material_stage.h"
+#include "integrators/wavefront/surface_stage.h"
+#include "kernels/transport.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+// Queues the splats of the lanes in `bits` (pixel, value) at the pool's splat queue
+// (p.done_*: a light path hands no radiance over when it ends). At most one splat per lane
+// processed so far is queued, so the queue never outruns the pool.
+template <class A>
+void queue_splats(PathPool& p, uint32_t bits, const xsimd::batch<int32_t, A>& pixel,
+                  const Vec3<xsimd::batch<float, A>>& v, int32_t& queued) {
+    using U = xsimd::batch<uint32_t, A>;
+    if (!bits) return;
+    compress<A>(xsimd::bitwise_cast<U>(pixel), bits).store_unaligned(p.done_pixel + queued);
+    compress<A>(v.x, bits).store_unaligned(p.done_r + queued);
+    compress<A>(v.y, bits).store_unaligned(p.done_g + queued);
+    compress<A>(v.z, bits).store_unaligned(p.done_b + queued);
+    queued += std::popcount(bits);
+}
+
+template <class A>
+void flush_splats(const TileJob& job, PathPool& p, int32_t& queued) {
+    if (queued) job.splat(job.film, queued, p.done_pixel, p.done_r, p.done_g, p.done_b);
+    queued = 0;
+}
+
+// The connection of the lanes in `want` at points `pos` (offset to `origin` on the pinhole's
+// side) to the pinhole: the shadow ray traced here, the splats of the clear ones queued.
+template <class A>
+void connect_lanes(Wave<A>& w, typename Wave<A>::M want, const Vec3<typename Wave<A>::F>& origin,
+                   const CameraConnection<typename Wave<A>::F>& c,
+                   const Vec3<typename Wave<A>::F>& value, int32_t& queued) {
+    using F = typename Wave<A>::F;
+    constexpr int32_t K = Wave<A>::K;
+    want = want & c.ok & (max_component(value) > F(0.0f));
+    const uint32_t bits = mask_bits(want);
+    if (!bits) return;
+    const auto blocked = occluded<A>(w.scene, Ray<F>{origin, c.wc}, c.dist * F(1.0f - 1e-5f), want);
+    queue_splats<A>(w.pool, mask_bits(want & !blocked), c.pixel, value, queued);
+    w.counters.shadow += uint64_t(std::popcount(bits));
+    w.counters.shadow_active += uint64_t(std::popcount(bits));
+    w.counters.shadow_total += uint64_t(K);
+}
+
+// Regeneration: the paths [w.live, ...) take the tile's next keys (as the camera's would)
+// and become light paths: start sampled, the emitter's point connected, ray and throughput
+// set; a start that cannot be sampled is dead at once (its throughput 0).
+template <class A>
+CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor, int32_t& queued) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const int32_t first = w.live;
+    const uint64_t before = w.counters.camera;
+    // (the camera's regeneration assigns pixels and keys; its rays are replaced below)
+    generate_camera_paths<false>(w, cursor);
+    w.counters.light += w.counters.camera - before;
+    w.counters.camera = before;
+    const int32_t end = w.live;
+    for (int32_t i = first / K * K; i < end; i += K) {
+        const F lane = Wave<A>::lane_index();
+        const auto fresh = (lane >= F(float(first - i))) & (lane < F(float(end - i)));
+        const U key = light_path_key(U::load_aligned(p.key + i));
+        const LightStart<F> ls = sample_light_start<F>(s.emitters, s.light_starts, key);
+        // The emitter's point itself, seen by the pinhole
+        const auto surface = fresh & ls.ok & ls.on_surface;
+        if (any(surface)) {
+            const CameraConnection<F> c = connect_camera(s.pinhole, ls.p);
+            const F cos_l = dot(c.wc, ls.n);
+            const Vec3<F> origin =
+                offset_ray_origin(ls.p, select(cos_l > F(0.0f), ls.n, -ls.n), max_abs(ls.p));
+            connect_lanes(w, surface, origin, c, ls.le * (abs(cos_l) * c.factor), queued);
+        }
+        const Vec3<F> o = select(ls.on_surface,
+                                 offset_ray_origin(ls.p, select(dot(ls.dir, ls.n) > F(0.0f), ls.n, -ls.n),
+                                                   max_abs(ls.p)),
+                                 ls.p);
+        const auto keep = [&](const F& v, float* a) {
+            select(fresh, v, F::load_aligned(a + i)).store_aligned(a + i);
+        };
+        const Vec3<F> beta = select(ls.ok, ls.beta, Vec3<F>(F(0.0f)));
+        keep(o.x, p.ox), keep(o.y, p.oy), keep(o.z, p.oz);
+        keep(ls.dir.x, p.dx), keep(ls.dir.y, p.dy), keep(ls.dir.z, p.dz);
+        keep(beta.x, p.beta_r), keep(beta.y, p.beta_g), keep(beta.z, p.beta_b);
+        select(mask_u32(fresh), key, U::load_aligned(p.key + i)).store_aligned(p.key + i);
+        select(mask_u32(fresh), U(1u), U::load_aligned(p.bounce + i)).store_aligned(p.bounce + i);
+    }
+}
+
+// One batch's light-path vertices (rays `ray`, surfaces `sf`): connection, roulette, lobe in
+// importance mode; the survivors are compacted to the front of the pool at `kept`.
+template <class A, class Read>
+void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
+                        const Surfaces<A>& sf, const Read& evaluated, int32_t& kept,
+                        int32_t& queued) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const FlatFeatures& f = s.features;
+    const bool shading = f.smooth;
+    const I mat = sf.material;
+    auto alive = sf.hit;
+    // Emitters absorb what reaches them
+    if (f.emitters) alive = alive & !mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0));
+    const Bsdf<F> m = hit_bsdf<kLobeCount, A>(s, mat, evaluated);
+    const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
+    const U key = U::load_aligned(p.key + i);
+    const U bounce = U::load_aligned(p.bounce + i);
+    const Vec3<F>& d = ray.d;
+    const Vec3<F> nf = facing_normal(sf.n, d);
+    const Vec3<F> nsf = shading ? facing_shading_normal(sf.ns, nf) : nf;
+
+    // Every Phong vertex is seen from the pinhole
+    const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+    if (any(phong)) {
+        const CameraConnection<F> c = connect_camera(s.pinhole, sf.pos);
+        const Vec3<F> origin = offset_ray_origin(sf.pos, nf, sf.magnitude);
+        connect_lanes(w, phong & on_arriving_side(c.wc, nf), origin, c,
+                      camera_contribution(m, beta, d, nf, nsf, c, shading), queued);
+    }
+
+    // The roulette and the chosen lobe, in importance mode
+    F probability;
+    const I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe),
+                               s.estimator.survival_cap, probability);
+    alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
+    const F u1 = uniform<F>(key, bounce, Purpose::kDirection1);
+    const F u2 = uniform<F>(key, bounce, Purpose::kDirection2);
+    Vec3<F> dir(F(0.0f)), weight(F(0.0f));
+    const auto take = [&](int kind, const Scatter<F>& sc) {
+        const auto chosen = mask_f32(lobe == I(kind));
+        dir = select(chosen, sc.dir, dir);
+        weight = select(chosen, sc.weight, weight);
+    };
+    const auto chose = [&](int kind) { return any(alive & mask_f32(lobe == I(kind))); };
+    if (f.diffuse && chose(kLobeDiffuse))
+        take(kLobeDiffuse, sample_diffuse(m, nsf, u1, u2, probability, s.estimator.cosine_diffuse));
+    if (f.specular && chose(kLobeSpecular))
+        take(kLobeSpecular, sample_specular(m, d, nsf, u1, u2, probability));
+    if (f.mirror && chose(kLobeMirror)) take(kLobeMirror, sample_mirror(m, d, nsf, probability));
+    if (f.refraction && chose(kLobeRefract))
+        take(kLobeRefract, sample_refraction<Transport::kImportance>(
+                               m, d, sf.n, sf.ns, F(s.scene_ior), probability, shading));
+    if (shading) {
+        const auto reflected_wrong = mask_f32(lobe != I(kLobeRefract)) & !on_arriving_side(dir, nf);
+        weight = select(reflected_wrong, Vec3<F>(F(0.0f)),
+                        weight * shading_correction(-d, dir, sf.n, nsf));
+    }
+    const Vec3<F> beta1 = beta * weight;
+    alive = alive & (max_component(beta1) > F(0.0f));
+    const Vec3<F> o = offset_ray_origin(sf.pos, select(dot(dir, sf.n) > F(0.0f), sf.n, -sf.n),
+                                        sf.magnitude);
+    // Survivors to the front of the pool, in order (kept <= i: nothing unread is overwritten)
+    const uint32_t bits = mask_bits(alive);
+    const Vec3<F>* v[3] = {&o, &dir, &beta1};
+    float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz}, {p.beta_r, p.beta_g, p.beta_b}};
+    for (int k = 0; k < 3; ++k) {
+        compress<A>(v[k]->x, bits).store_unaligned(dst[k][0] + kept);
+        compress<A>(v[k]->y, bits).store_unaligned(dst[k][1] + kept);
+        compress<A>(v[k]->z, bits).store_unaligned(dst[k][2] + kept);
+    }
+    compress<A>(key, bits).store_unaligned(p.key + kept);
+    compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + kept);
+    kept += std::popcount(bits);
+    w.counters.extension += uint64_t(std::popcount(bits));
+    w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
+    w.counters.lanes_total += uint64_t(K);
+}
+
+// The light paths of one tile (one per pixel and sample of the job), to the end.
+template <class A>
+void render_light_paths(Wave<A>& w, const TileJob& job) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const bool textures = w.scene.features.textures;
+    TileCursor cursor;
+    cursor.job = job;
+    cursor.tile_width = job.x1 - job.x0;
+    cursor.tile_pixels = cursor.tile_width * (job.y1 - job.y0);
+    cursor.total = int64_t(cursor.tile_pixels) * (job.sample_end - job.sample_begin);
+    cursor.sample = uint32_t(job.sample_begin);
+    w.live = 0;
+    for (;;) {
+        int32_t queued = 0;
+        generate_light_paths(w, cursor, queued);
+        flush_splats<A>(job, p, queued);
+        if (w.live == 0) break;
+        int32_t kept = 0;
+        const int32_t end = w.rounded_up(w.live);
+        if (!textures) {
+            for (int32_t i = 0; i < end; i += K) {
+                const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+                F t;
+                I prim;
+                closest_hit(w, i, ray, t, prim);
+                const Surfaces<A> sf = resolve_surfaces(w, i, ray, t, prim);
+                light_vertex_batch(w, i, ray, sf, [](int) { return Vec3<F>(F(0.0f)); }, kept,
+                                   queued);
+            }
+        } else {
+            // Textured: every hit first, then the material stage, then the vertices
+            for (int32_t i = 0; i < end; i += K) {
+                const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+                F t;
+                I prim;
+                closest_hit(w, i, ray, t, prim);
+                const Surfaces<A> sf = resolve_surfaces(w, i, ray, t, prim);
+                store_surfaces(w, i, sf);
+                prim.store_aligned(p.prim + i);
+            }
+            evaluate_sorted_materials(w, p.material_starts);
+            for (int32_t i = 0; i < end; i += K) {
+                const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+                const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
+                const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
+                const Surfaces<A> sf{pos,
+                                     n,
+                                     w.scene.features.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
+                                     I::load_aligned(p.material + i),
+                                     mask_f32(I::load_aligned(p.alive + i) != I(0)),
+                                     max(max_abs(pos), max_abs(ray.o)),
+                                     I(-1)};
+                light_vertex_batch(
+                    w, i, ray, sf,
+                    [&](int c) { return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i); },
+                    kept, queued);
+            }
+        }
+        flush_splats<A>(job, p, queued);
+        w.live = kept;
+    }
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo
