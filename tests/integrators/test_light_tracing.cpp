@@ -1,0 +1,354 @@
+// Light tracing (--estimator lt) through both integrators and every ISA this CPU runs:
+//   - analytic answers: a point light at the centre of a lossless glass ball inside a closed
+//     diffuse sphere (only light paths find it: L = ρI/(πR²(1-ρ)); the camera-path
+//     estimators give exactly 0); the same room without the ball (every estimator gives L);
+//     the camera inside an emitting sphere (camera paths: exactly Le; lt: Le);
+//   - the adjoint of the report's refraction: an emitter inside a glass ball lights the room
+//     the same through lt as through mis (a missing or misplaced η² is a factor 2.25);
+//   - lt against mis per pixel on a scene whose emitters can all be sampled and where the
+//     camera sees no mirror or glass (a z-test at Šidák-corrected α = 0.01 passes on ≥ 99%
+//     of pixels, and the means agree within 3σ); scalar and wavefront lt likewise;
+//   - the image is the same bits for 1, 2 and 3 threads; the splat sums are the same bits
+//     in any order and any split;
+//   - a scene with no light is refused; one whose emitters cannot be sampled renders with
+//     a warning, and is then the report's image bit for bit.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "integrators/render.h"
+#include "scene/scene_json.h"
+#include "support/emulator.h"
+#include "support/render_variants.h"
+
+namespace cierzo {
+namespace {
+
+using test::run;
+using test::Variant;
+using test::variants;
+
+Scene scene_of(const std::string& json, Estimator e, int spp) {
+    Scene s = parse_scene(json, "lt_test.json");
+    s.settings.estimator.kind = e;
+    s.settings.spp = spp;
+    return s;
+}
+
+// Image mean of channel c and its standard error (from the pixels' variances of the mean).
+struct Mean {
+    double mean = 0, sigma = 0;
+};
+Mean image_mean(const Film& film, int c) {
+    const Image m = film.mean(), v = film.variance_of_mean();
+    const double n = double(m.rgb.size() / 3);
+    Mean out;
+    for (size_t i = size_t(c); i < m.rgb.size(); i += 3) {
+        EXPECT_TRUE(std::isfinite(m.rgb[i]));
+        out.mean += m.rgb[i];
+        out.sigma += v.rgb[i];
+    }
+    out.mean /= n;
+    out.sigma = std::sqrt(out.sigma) / n;
+    return out;
+}
+
+// A closed diffuse sphere of radius 2 (albedo 0.5) with a point light of intensity 1 at its
+// centre, optionally inside a glass ball of radius 0.5; the camera inside, looking away
+// from the centre (it never looks through the ball).
+std::string room(bool ball, const std::string& extra = "", bool light = true) {
+    return std::string(R"({"render": {"width": 24, "height": 24, "seed": 7},
+        "camera": {"position": [0, 0, -1.2], "forward": [0, 0, -1], "left": [-2, 0, 0],
+                   "up": [0, 2, 0]},
+        "materials": {"wall": {"kd": [0.5, 0.5, 0.5]}, "glass": {"kt": [1, 1, 1], "ior": 1.5},
+                      "hot": {"emission": [10, 10, 10]}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": "wall"})") +
+           (ball ? R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "glass"})"
+                 : "") +
+           extra + "]" +
+           (light ? R"(, "lights": [{"position": [0, 0, 0], "intensity": [1, 1, 1]}])" : "") + "}";
+}
+constexpr double kRoomL = 0.5 * 1.0 / (M_PI * 4.0 * (1.0 - 0.5));  // ρI/(πR²(1-ρ)) = 0.0796
+
+int spp(int native, int lighter) { return test::lighter_settings() ? lighter : native; }
+
+TEST(LightTracing, FindsAPointLightInsideAGlassBall) {
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        const RenderResult r = run(scene_of(room(true), Estimator::kLt, spp(2048, 128)), v);
+        const Mean m = image_mean(r.film, 0);
+        std::printf("lt, glass ball, %s %s: mean %.5f ± %.5f (L = %.5f)\n", v.integrator.c_str(),
+                    v.isa.c_str(), m.mean, m.sigma, kRoomL);
+        EXPECT_LT(m.sigma, 0.004 * kRoomL * (test::lighter_settings() ? 4 : 1));
+        EXPECT_NEAR(m.mean, kRoomL, std::max(4 * m.sigma, 0.002 * kRoomL));
+        EXPECT_NEAR(m.mean, kRoomL, 0.01 * kRoomL * (test::lighter_settings() ? 4 : 1));
+        EXPECT_EQ(r.film.nonfinite_samples(), 0u);
+    }
+    // No camera path can reach it: the camera-path estimators' limit, exactly black
+    for (Estimator e : {Estimator::kReport, Estimator::kNee, Estimator::kMis}) {
+        const RenderResult r = run(scene_of(room(true), e, 4), variants().back());
+        EXPECT_EQ(image_mean(r.film, 0).mean, 0.0);
+    }
+}
+
+TEST(LightTracing, EveryEstimatorLightsTheRoomWithoutTheBall) {
+    for (Estimator e : {Estimator::kReport, Estimator::kNee, Estimator::kMis, Estimator::kLt}) {
+        for (const Variant& v : variants()) {
+            SCOPED_TRACE(std::string(estimator_name(e)) + " " + v.integrator + " " + v.isa);
+            const RenderResult r = run(scene_of(room(false), e, spp(512, 64)), v);
+            const Mean m = image_mean(r.film, 1);
+            EXPECT_NEAR(m.mean, kRoomL, std::max(4 * m.sigma, 0.002 * kRoomL));
+            EXPECT_NEAR(m.mean, kRoomL, 0.015 * kRoomL * (test::lighter_settings() ? 3 : 1));
+        }
+    }
+}
+
+// The camera inside an emitting sphere of Le (1, 2, 3): camera paths see exactly Le, light
+// paths bring it through the emitter's own points connected to the pinhole.
+TEST(LightTracing, CameraInsideAnEmittingSphere) {
+    const std::string json = R"({"render": {"width": 16, "height": 12, "seed": 2},
+        "camera": {"position": [0.3, -0.2, 0.1], "look_at": [1, 0, 0], "up": [0, 1, 0], "vfov": 60},
+        "materials": {"L": {"emission": [1, 2, 3]}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": "L"}]})";
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        for (Estimator e : {Estimator::kReport, Estimator::kMis}) {
+            const RenderResult r = run(scene_of(json, e, 4), v);
+            for (size_t i = 0; i < r.film.pixels().size(); ++i)
+                for (int c = 0; c < 3; ++c)
+                    ASSERT_EQ(r.film.mean().rgb[3 * i + size_t(c)], float(c + 1));
+        }
+        const RenderResult r = run(scene_of(json, Estimator::kLt, spp(2048, 128)), v);
+        for (int c = 0; c < 3; ++c) {
+            const Mean m = image_mean(r.film, c);
+            EXPECT_NEAR(m.mean, c + 1.0, std::max(4 * m.sigma, 0.002 * (c + 1)));
+            EXPECT_LT(m.sigma, 0.01 * (c + 1) * (test::lighter_settings() ? 4 : 1));
+        }
+    }
+}
+
+// An emitter inside the glass ball: camera paths reach it through the glass (radiance
+// unchanged by the report's refraction), light paths leave the glass with (η_i/η_t)² = 2.25:
+// the two estimate the same image only with the adjoint right.
+TEST(LightTracing, RefractionIsTheAdjointOfTheCamerasRefraction) {
+    const std::string json =
+        room(true, R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.25, "material": "hot"})",
+             false);
+    const Variant v = variants().back();
+    const RenderResult lt = run(scene_of(json, Estimator::kLt, spp(512, 64)), v);
+    const RenderResult mis = run(scene_of(json, Estimator::kMis, spp(512, 64)), v);
+    const Mean a = image_mean(lt.film, 0), b = image_mean(mis.film, 0);
+    std::printf("emitter in glass: lt %.5f ± %.5f, mis %.5f ± %.5f\n", a.mean, a.sigma, b.mean,
+                b.sigma);
+    const double sigma = std::hypot(a.sigma, b.sigma);
+    EXPECT_LT(sigma, 0.03 * b.mean);  // (a factor 2.25 is then far outside)
+    EXPECT_NEAR(a.mean, b.mean, 3.5 * sigma);
+}
+
+// Per-pixel agreement of two renders: the share of pixels (over channels) whose z-test
+// passes at the Šidák-corrected level for α = 0.01 over every pixel and channel.
+double pixels_agreeing(const Film& a, const Film& b) {
+    const Image ma = a.mean(), va = a.variance_of_mean(), mb = b.mean(), vb = b.variance_of_mean();
+    const size_t n = ma.rgb.size();
+    const double alpha = 1.0 - std::pow(1.0 - 0.01, 1.0 / double(n));
+    // The two-sided critical z for alpha (by bisection on erfc)
+    double lo = 0, hi = 10;
+    for (int k = 0; k < 60; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (std::erfc(mid / std::sqrt(2.0)) > alpha ? lo : hi) = mid;
+    }
+    size_t pass = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const double d = double(ma.rgb[i]) - double(mb.rgb[i]);
+        const double s = std::sqrt(double(va.rgb[i]) + double(vb.rgb[i]));
+        pass += std::abs(d) <= lo * s || d == 0.0;
+    }
+    return double(pass) / double(n);
+}
+
+// A box of diffuse and glossy planes lit by an emitting sphere, an emitting square of two
+// triangles and a point light; a glossy sphere on the floor. Everything samplable, no
+// mirror or glass.
+const char* kBox = R"({"render": {"width": 20, "height": 16, "seed": 11},
+    "camera": {"position": [0, 0, -3.2], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov": 50},
+    "materials": {"white": {"kd": [0.7, 0.7, 0.7]}, "red": {"kd": [0.7, 0.15, 0.1]},
+                  "gloss": {"kd": [0.2, 0.4, 0.6], "ks": [0.3, 0.3, 0.3], "shininess": 20},
+                  "L": {"emission": [6, 5, 4]}, "Q": {"emission": [3, 3, 5]}},
+    "objects": [
+      {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "white"},
+      {"type": "plane", "normal": [0, -1, 0], "distance": 1, "material": "white"},
+      {"type": "plane", "normal": [1, 0, 0], "distance": 1, "material": "red"},
+      {"type": "plane", "normal": [-1, 0, 0], "distance": 1, "material": "gloss"},
+      {"type": "plane", "normal": [0, 0, -1], "distance": 1, "material": "white"},
+      {"type": "plane", "normal": [0, 0, 1], "distance": 3.5, "material": "white"},
+      {"type": "sphere", "center": [0.4, -0.6, 0.2], "radius": 0.4, "material": "gloss"},
+      {"type": "sphere", "center": [-0.5, 0.6, 0.3], "radius": 0.15, "material": "L"},
+      {"type": "triangle", "vertices": [[0.2, 0.99, -0.2], [0.6, 0.99, -0.2], [0.6, 0.99, 0.2]],
+       "material": "Q"},
+      {"type": "triangle", "vertices": [[0.2, 0.99, -0.2], [0.6, 0.99, 0.2], [0.2, 0.99, 0.2]],
+       "material": "Q"}],
+    "lights": [{"position": [-0.3, 0.2, -0.5], "intensity": [0.3, 0.3, 0.2]}]})";
+
+TEST(LightTracing, AgreesWithMisPerPixel) {
+    const int n = spp(1024, 128);
+    const Variant wavefront = variants().back();
+    const RenderResult mis = run(scene_of(kBox, Estimator::kMis, n), wavefront);
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        Scene s = scene_of(kBox, Estimator::kLt, n);
+        s.settings.seed = 12;  // independent of the mis render
+        const RenderResult lt = run(s, v);
+        const double share = pixels_agreeing(lt.film, mis.film);
+        std::printf("lt vs mis, %s %s: %.2f%% of pixels agree\n", v.integrator.c_str(),
+                    v.isa.c_str(), 100 * share);
+        EXPECT_GE(share, 0.99);
+        for (int c = 0; c < 3; ++c) {
+            const Mean a = image_mean(lt.film, c), b = image_mean(mis.film, c);
+            EXPECT_NEAR(a.mean, b.mean, 3.5 * std::hypot(a.sigma, b.sigma));
+            EXPECT_LT(std::hypot(a.sigma, b.sigma), 0.02 * b.mean);
+        }
+        EXPECT_EQ(lt.film.nonfinite_samples(), 0u);
+    }
+}
+
+// A 5% error in the light paths' weight (planted as a 5% brighter light for lt only) fails
+// the same check: the tolerance is tight enough to see it.
+TEST(LightTracing, APlantedFivePercentErrorIsCaught) {
+    const int n = spp(1024, 128);
+    const Variant v = variants().back();
+    const RenderResult mis = run(scene_of(kBox, Estimator::kMis, n), v);
+    // Every start weight 5% high: emitters' and point lights' alike
+    std::string json = kBox;
+    for (const auto& [from, to] : {std::pair<std::string, std::string>{"[6, 5, 4]", "[6.3, 5.25, 4.2]"},
+                                   {"[3, 3, 5]", "[3.15, 3.15, 5.25]"},
+                                   {"[0.3, 0.3, 0.2]", "[0.315, 0.315, 0.21]"}}) {
+        const size_t at = json.find(from);
+        ASSERT_NE(at, std::string::npos);
+        json.replace(at, from.size(), to);
+    }
+    Scene brighter = scene_of(json, Estimator::kLt, n);
+    brighter.settings.seed = 12;
+    const RenderResult lt = run(brighter, v);
+    bool caught = false;
+    for (int c = 0; c < 3; ++c) {
+        const Mean a = image_mean(lt.film, c), b = image_mean(mis.film, c);
+        caught = caught || std::abs(a.mean - b.mean) > 3.5 * std::hypot(a.sigma, b.sigma);
+    }
+    EXPECT_TRUE(caught);
+}
+
+TEST(LightTracing, ScalarAndWavefrontAgree) {
+    const int n = spp(512, 64);
+    const RenderResult scalar = run(scene_of(kBox, Estimator::kLt, n), variants().front());
+    for (const Variant& v : variants()) {
+        if (v.integrator == "scalar") continue;
+        SCOPED_TRACE(v.isa);
+        Scene s = scene_of(kBox, Estimator::kLt, n);
+        s.settings.seed = 99;
+        const RenderResult w = run(s, v);
+        EXPECT_GE(pixels_agreeing(w.film, scalar.film), 0.99);
+        for (int c = 0; c < 3; ++c) {
+            const Mean a = image_mean(w.film, c), b = image_mean(scalar.film, c);
+            EXPECT_NEAR(a.mean, b.mean, 3.5 * std::hypot(a.sigma, b.sigma));
+        }
+    }
+}
+
+TEST(LightTracing, SameBitsForAnyNumberOfThreads) {
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        const Scene s = scene_of(kBox, Estimator::kLt, 40);
+        std::vector<Image> images;
+        for (int threads : {1, 2, 3}) {
+            RenderOptions o;
+            o.integrator = integrator_of(v.integrator);
+            o.isa = v.isa;
+            o.threads = threads;
+            o.progress = false;
+            images.push_back(render(s, o).film.mean());
+        }
+        EXPECT_EQ(images[0].rgb, images[1].rgb);
+        EXPECT_EQ(images[0].rgb, images[2].rgb);
+    }
+}
+
+TEST(SplatSums, SameBitsInAnyOrderAndSplit) {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> value(-1e3f, 1e6f);
+    std::uniform_int_distribution<uint32_t> pixel(0, 63);
+    std::vector<Splat> all;
+    for (int i = 0; i < 5000; ++i) {
+        const float scale = std::ldexp(1.0f, int(pixel(rng)) - 40);
+        all.push_back({pixel(rng), Vec3f(value(rng) * scale, value(rng), -value(rng) * 1e-3f)});
+    }
+    SplatSums one;
+    one.reset(64);
+    one.add(all);
+    for (int trial = 0; trial < 3; ++trial) {
+        std::vector<Splat> shuffled = all;
+        std::shuffle(shuffled.begin(), shuffled.end(), rng);
+        SplatSums split;
+        split.reset(64);
+        const size_t a = shuffled.size() / (trial + 2), b = shuffled.size() / 2 + 7;
+        split.add({shuffled.begin() + long(b), shuffled.end()});
+        split.add({shuffled.begin(), shuffled.begin() + long(a)});
+        split.add({shuffled.begin() + long(a), shuffled.begin() + long(b)});
+        for (size_t p = 0; p < 64; ++p)
+            for (int c = 0; c < 3; ++c) ASSERT_EQ(split.at(p, c), one.at(p, c));
+    }
+    // Against a double sum, to the rounding of each value to 2^-40
+    double exact = 0.0;
+    for (const Splat& s : all)
+        if (s.pixel == 3) exact += double(s.value.y);
+    EXPECT_NEAR(one.at(3, 1), exact, 1e-9 * std::abs(exact) + 5000 * 0x1.0p-40);
+    // Not finite, or too large to add: counted and left out
+    SplatSums bad;
+    bad.reset(2);
+    bad.add({{1, Vec3f(NAN, 0, 0)}, {1, Vec3f(0, INFINITY, 0)}, {0, Vec3f(1e30f, 0, 0)},
+             {0, Vec3f(2.0f, 0, 0)}});
+    EXPECT_EQ(bad.nonfinite(), 3u);
+    EXPECT_EQ(bad.at(0, 0), 2.0);
+    EXPECT_EQ(bad.at(1, 0), 0.0);
+}
+
+TEST(LightTracing, RefusesASceneWithoutLight) {
+    const std::string dark = R"({"render": {"width": 4, "height": 4},
+        "camera": {"position": [0, 0, -2], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov": 40},
+        "materials": {"w": {"kd": [0.5, 0.5, 0.5]}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"}]})";
+    try {
+        run(scene_of(dark, Estimator::kLt, 1), variants().front());
+        FAIL() << "rendered a scene without light";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("lt_test.json"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("no point light and no emitter"), std::string::npos)
+            << e.what();
+    }
+}
+
+// Only an emitting plane (never sampled): the camera's paths bring it, as the report's
+// estimator does, with the same random numbers: the same image bit for bit, and a warning.
+TEST(LightTracing, EmittersThatCannotBeSampledAreTheCamerasAlone) {
+    const std::string json = R"({"render": {"width": 12, "height": 10, "seed": 4},
+        "camera": {"position": [0, 0, -2], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov": 60},
+        "materials": {"w": {"kd": [0.5, 0.5, 0.5]}, "sky": {"emission": [1, 1, 2]}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"},
+                    {"type": "plane", "normal": [0, -1, 0], "distance": 3, "material": "sky"}]})";
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        const RenderResult lt = run(scene_of(json, Estimator::kLt, 16), v);
+        const RenderResult report = run(scene_of(json, Estimator::kReport, 16), v);
+        EXPECT_EQ(lt.film.mean().rgb, report.film.mean().rgb);
+        EXPECT_GT(image_mean(lt.film, 2).mean, 0.1);
+        ASSERT_EQ(lt.stats.warnings.size(), 1u);
+        EXPECT_NE(lt.stats.warnings[0].find("light tracing adds nothing"), std::string::npos);
+    }
+}
+
+}  // namespace
+}  // namespace cierzo
