@@ -188,7 +188,7 @@ void BM_CameraRays(benchmark::State& state) {
     WavefrontCounters counters;
     Wave<A> w{scene, mem.pool, counters};
     TileCursor start;
-    start.job = {32, 48, 48, 64, 0, 8, nullptr, nullptr};
+    start.job = {32, 48, 48, 64, 0, 8, nullptr, nullptr, nullptr};
     start.tile_width = 16, start.tile_pixels = 256, start.total = 256 * 8;
     double paths = 0;
     for (auto _ : state) {
@@ -238,7 +238,8 @@ void BM_Compaction(benchmark::State& state) {
     int64_t finished = 0;
     const TileJob job{0, 0, 16, 16, 0, 1, &finished,
                       [](void* film, int32_t count, const uint32_t*, const float*, const float*,
-                         const float*) { *static_cast<int64_t*>(film) += count; }};
+                         const float*) { *static_cast<int64_t*>(film) += count; },
+                      nullptr};
     double paths = 0;
     for (auto _ : state) {
         w.live = kPool;

@@ -52,4 +52,18 @@ struct PinholeFrame {
     float film_normal[3];
 };
 
+// What a path vertex needs of the scene beyond its hit (kernels/path_vertex.h): the
+// emitters, the estimator, the point lights camera paths shoot shadow rays to, the scene's
+// refractive index, and three switches. Built by Scene::path_context for both integrators.
+struct PathContext {
+    EmitterTable emitters;
+    EstimatorSettings estimator;
+    const float* lights = nullptr;  // 6 floats each: position, intensity
+    int32_t light_count = 0;        // 0 under lt (its light paths bring point lights)
+    float scene_ior = 1.0f;
+    bool smooth = false;  // some mesh shades with interpolated normals (kernels/shading.h)
+    bool nee = false;     // the estimator samples emitters: nee or mis, with emitters to sample
+    bool lt = false;      // light tracing: camera paths count only emitters never sampled
+};
+
 }  // namespace cierzo

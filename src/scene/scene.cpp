@@ -127,6 +127,24 @@ void Scene::finalize() {
     bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     build_emitters();
     build_light_starts();
+    light_data.clear();
+    for (const PointLight& l : lights)
+        light_data.insert(light_data.end(), {l.position.x, l.position.y, l.position.z,
+                                             l.intensity.x, l.intensity.y, l.intensity.z});
+}
+
+PathContext Scene::path_context() const {
+    PathContext c;
+    const Estimator e = settings.estimator.kind;
+    c.emitters = emitters.table();
+    c.estimator = settings.estimator;
+    c.lt = e == Estimator::kLt;
+    c.nee = (e == Estimator::kNee || e == Estimator::kMis) && emitters.count() > 0;
+    c.lights = light_data.data();
+    c.light_count = c.lt ? 0 : int32_t(light_data.size() / 6);
+    c.scene_ior = scene_ior;
+    c.smooth = smooth_shading;
+    return c;
 }
 
 void Scene::build_light_starts() {

@@ -175,6 +175,7 @@ public:
     bool smooth_shading = false;  // some mesh is smooth (set by finalize())
     Emitters emitters;
     LightStarts light_starts;
+    std::vector<float> light_data;  // the point lights, 6 floats each (set by finalize())
 
     // Call once after filling the arrays: builds the BVHs (a copy of the scene shares its
     // meshes' BVHs).
@@ -207,6 +208,9 @@ public:
         const int32_t first = emitters.mesh_first[size_t(hit.mesh)];
         return first < 0 ? -1 : first + int32_t(hit.triangle);
     }
+
+    // What a path vertex needs of the scene (kernels/path_vertex.h), for both integrators.
+    PathContext path_context() const;
 
     // The pinhole as paths from the lights see it (kernels/transport.h).
     PinholeFrame pinhole() const {

@@ -101,6 +101,7 @@ struct FlatScene {
     int32_t width, height;
     uint32_t seed;
     EstimatorSettings estimator;  // the scene's, as it is
+    PathContext path;             // what a path vertex needs (kernels/path_vertex.h)
     // Light tracing: where light paths start, the pinhole they connect to, and whether the
     // camera's paths are traced too (some emitter cannot be sampled)
     LightStartTable light_starts;

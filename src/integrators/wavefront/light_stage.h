@@ -15,7 +15,7 @@
 #include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/surface_stage.h"
-#include "kernels/transport.h"
+#include "kernels/path_vertex.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -119,7 +119,6 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
     const FlatFeatures& f = s.features;
-    const bool shading = f.smooth;
     const I mat = sf.material;
     auto alive = sf.hit;
     // Emitters absorb what reaches them
@@ -129,57 +128,48 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     const U key = U::load_aligned(p.key + i);
     const U bounce = U::load_aligned(p.bounce + i);
     const Vec3<F>& d = ray.d;
-    const Vec3<F> nf = facing_normal(sf.n, d);
-    const Vec3<F> nsf = shading ? facing_shading_normal(sf.ns, nf) : nf;
+    const VertexFrame<F> v = vertex_frame(s.path, d, sf.pos, sf.n, sf.ns, sf.magnitude);
 
     // Every Phong vertex is seen from the pinhole
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     if (any(phong)) {
         const CameraConnection<F> c = connect_camera(s.pinhole, sf.pos);
-        const Vec3<F> origin = offset_ray_origin(sf.pos, nf, sf.magnitude);
-        connect_lanes(w, phong & on_arriving_side(c.wc, nf), origin, c,
-                      camera_contribution(m, beta, d, nf, nsf, c, shading), queued);
+        connect_lanes(w, phong & on_arriving_side(c.wc, v.nf), v.origin, c,
+                      camera_contribution(m, beta, d, v.nf, v.nsf, c, s.path.smooth), queued);
     }
 
-    // The roulette and the chosen lobe, in importance mode
+    // The roulette and the chosen lobe, in importance mode (each lobe some lane chose)
     F probability;
     const I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe),
                                s.estimator.survival_cap, probability);
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
-    const F u1 = uniform<F>(key, bounce, Purpose::kDirection1);
-    const F u2 = uniform<F>(key, bounce, Purpose::kDirection2);
-    Vec3<F> dir(F(0.0f)), weight(F(0.0f));
-    const auto take = [&](int kind, const Scatter<F>& sc) {
-        const auto chosen = mask_f32(lobe == I(kind));
-        dir = select(chosen, sc.dir, dir);
-        weight = select(chosen, sc.weight, weight);
+    Continuation<F> next{Vec3<F>(F(0.0f)), Vec3<F>(F(0.0f)), Vec3<F>(F(0.0f)), F(0.0f)};
+    const auto run = [&](auto kind) {
+        constexpr int kLobe = decltype(kind)::value;
+        const auto chosen = alive & mask_f32(lobe == I(kLobe));
+        if (!any(chosen)) return;
+        const Continuation<F> c = continue_path<kLobe, Transport::kImportance>(
+            s.path, m, d, v, sf.pos, sf.n, sf.ns, sf.magnitude, probability, key, bounce);
+        next.o = select(chosen, c.o, next.o);
+        next.d = select(chosen, c.d, next.d);
+        next.weight = select(chosen, c.weight, next.weight);
     };
-    const auto chose = [&](int kind) { return any(alive & mask_f32(lobe == I(kind))); };
-    if (f.diffuse && chose(kLobeDiffuse))
-        take(kLobeDiffuse, sample_diffuse(m, nsf, u1, u2, probability, s.estimator.cosine_diffuse));
-    if (f.specular && chose(kLobeSpecular))
-        take(kLobeSpecular, sample_specular(m, d, nsf, u1, u2, probability));
-    if (f.mirror && chose(kLobeMirror)) take(kLobeMirror, sample_mirror(m, d, nsf, probability));
-    if (f.refraction && chose(kLobeRefract))
-        take(kLobeRefract, sample_refraction<Transport::kImportance>(
-                               m, d, sf.n, sf.ns, F(s.scene_ior), probability, shading));
-    if (shading) {
-        const auto reflected_wrong = mask_f32(lobe != I(kLobeRefract)) & !on_arriving_side(dir, nf);
-        weight = select(reflected_wrong, Vec3<F>(F(0.0f)),
-                        weight * shading_correction(-d, dir, sf.n, nsf));
-    }
-    const Vec3<F> beta1 = beta * weight;
+    if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
+    if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
+    if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
+    if (f.refraction) run(std::integral_constant<int, kLobeRefract>{});
+    const Vec3<F> beta1 = beta * next.weight;
     alive = alive & (max_component(beta1) > F(0.0f));
-    const Vec3<F> o = offset_ray_origin(sf.pos, select(dot(dir, sf.n) > F(0.0f), sf.n, -sf.n),
-                                        sf.magnitude);
+    const Vec3<F>& o = next.o;
+    const Vec3<F>& dir = next.d;
     // Survivors to the front of the pool, in order (kept <= i: nothing unread is overwritten)
     const uint32_t bits = mask_bits(alive);
-    const Vec3<F>* v[3] = {&o, &dir, &beta1};
+    const Vec3<F>* out[3] = {&o, &dir, &beta1};
     float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz}, {p.beta_r, p.beta_g, p.beta_b}};
     for (int k = 0; k < 3; ++k) {
-        compress<A>(v[k]->x, bits).store_unaligned(dst[k][0] + kept);
-        compress<A>(v[k]->y, bits).store_unaligned(dst[k][1] + kept);
-        compress<A>(v[k]->z, bits).store_unaligned(dst[k][2] + kept);
+        compress<A>(out[k]->x, bits).store_unaligned(dst[k][0] + kept);
+        compress<A>(out[k]->y, bits).store_unaligned(dst[k][1] + kept);
+        compress<A>(out[k]->z, bits).store_unaligned(dst[k][2] + kept);
     }
     compress<A>(key, bits).store_unaligned(p.key + kept);
     compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + kept);

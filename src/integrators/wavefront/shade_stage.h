@@ -8,6 +8,7 @@
 #include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/surface_stage.h"
+#include "kernels/path_vertex.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -32,31 +33,14 @@ struct LobeStep {
     LobeStep(const FlatScene& s, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
              const F& probability, const U& key, const U& bounce) {
-        const bool shading = s.features.smooth;
-        const Vec3<F> nf = facing_normal(n, d0);
-        const Vec3<F> nsf = shading ? facing_shading_normal(ns, nf) : nf;
-        const F u1 = uniform<F>(key, bounce, Purpose::kDirection1);
-        const F u2 = uniform<F>(key, bounce, Purpose::kDirection2);
-        Scatter<F> sc;
-        if constexpr (kLobe == kLobeDiffuse) {
-            sc = sample_diffuse(m, nsf, u1, u2, probability, s.estimator.cosine_diffuse);
-        } else if constexpr (kLobe == kLobeSpecular) {
-            sc = sample_specular(m, d0, nsf, u1, u2, probability);
-        } else if constexpr (kLobe == kLobeMirror) {
-            sc = sample_mirror(m, d0, nsf, probability);
-        } else {
-            sc = sample_refraction(m, d0, n, ns, F(s.scene_ior), probability, shading);
-        }
-        // A reflection about the shading normal must leave on the geometric surface's side
-        if (kLobe != kLobeRefract && shading)
-            sc.weight = select(on_arriving_side(sc.dir, nf), sc.weight, Vec3<F>(F(0.0f)));
-        beta = beta0 * sc.weight;
-        if (s.features.nee)
-            pdf = sampled_lobe_pdf<kLobe>(m, d0, nsf, sc.dir, probability,
-                                          s.estimator.cosine_diffuse);
+        const VertexFrame<F> v = vertex_frame(s.path, d0, pos, n, ns, magnitude);
+        const Continuation<F> next = continue_path<kLobe>(s.path, m, d0, v, pos, n, ns, magnitude,
+                                                          probability, key, bounce);
+        beta = beta0 * next.weight;
+        pdf = next.pdf;
         alive = max_component(beta) > F(0.0f);
-        o = offset_ray_origin(pos, select(dot(sc.dir, n) > F(0.0f), n, -n), magnitude);
-        d = sc.dir;
+        o = next.o;
+        d = next.d;
     }
 };
 
@@ -103,13 +87,12 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const Vec3<F>& d = ray.d;
     const Vec3<F>& n = sf.n;
     const Vec3<F>& pos = sf.pos;
-    const bool shading = f.smooth;  // shading normals (kernels/shading.h)
 
     // An emitter ends the path (after a Phong bounce, a sampled one is weighted: nee, mis)
     if (f.emitters) {
         const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
         Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
-        if ((f.nee || f.lt) && any(em)) {
+        if (weighs_emitter_hits(s.path) && any(em)) {
             const F lobe_pdf = f.nee ? F::load_aligned(p.lobe_pdf + i) : F(0.0f);
             le = le * emitter_hit_weight<F>(s.emitters, s.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), lobe_pdf,
@@ -136,46 +119,27 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         queued += std::popcount(bits);
     };
 
-    // Point lights through shadow rays at Phong vertices: queue f·cos θ·I/d² · β; and with
-    // nee or mis one emitter sample (kernels/estimator.h)
+    // Direct light at Phong vertices (kernels/path_vertex.h): each shadow ray queued, or
+    // (kInlineNee: the emitter sample alone) traced here on the batch's registers
     if (f.lights || f.nee) {
         const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         if (any(phong)) {
-            const Vec3<F> nf = facing_normal(n, d);
-            const Vec3<F> nsf = shading ? facing_shading_normal(sf.ns, nf) : nf;
-            const Vec3<F> origin = offset_ray_origin(pos, nf, sf.magnitude);
-            if (f.nee) {
-                const EmitterShadow<F> es =
-                    emitter_shadow(s.emitters, s.estimator, m, d, nsf, origin, key, bounce);
-                const Vec3<F> c = beta * es.value;
-                auto want = phong & es.ok & (max_component(c) > F(0.0f));
-                if (shading) want = want & on_arriving_side(es.wi, nf);
-                const uint32_t bits = mask_bits(want);
-                if constexpr (kInlineNee) {
-                    if (bits) {
-                        const auto blocked = occluded<A>(s, Ray<F>{origin, es.wi}, es.tmax, want);
-                        rad = select(want & !blocked, rad + c, rad);
-                        w.counters.shadow += uint64_t(std::popcount(bits));
-                        w.counters.shadow_active += uint64_t(std::popcount(bits));
-                        w.counters.shadow_total += uint64_t(K);
-                    }
-                } else if (bits) {
-                    queue(bits, origin, es.wi, es.tmax, c);
-                }
-            }
-            for (int32_t j = 0; j < s.light_count; ++j) {
-                const float* l = s.light + 6 * j;
-                const Vec3<F> to = Vec3<F>(F(l[0]), F(l[1]), F(l[2])) - origin;
-                const F d2 = dot(to, to);
-                const F dist = sqrt(d2);
-                const Vec3<F> wi = to * (F(1.0f) / dist);
-                const Vec3<F> c = beta * phong_f_cos(m, d, nsf, wi) *
-                                  Vec3<F>(F(l[3]), F(l[4]), F(l[5])) * (F(1.0f) / d2);
-                auto lit = phong & (max_component(c) > F(0.0f));
-                if (shading) lit = lit & on_arriving_side(wi, nf);
-                const uint32_t bits = mask_bits(lit);
-                if (bits) queue(bits, origin, wi, dist * F(1.0f - 1e-5f), c);
-            }
+            const VertexFrame<F> v = vertex_frame(s.path, d, pos, n, sf.ns, sf.magnitude);
+            direct_light(s.path, m, d, v, beta, phong, key, bounce,
+                         [&](const ShadowRequest<F>& r) {
+                             const uint32_t bits = mask_bits(r.want);
+                             if (!bits) return;
+                             if constexpr (kInlineNee) {
+                                 const auto blocked =
+                                     occluded<A>(s, Ray<F>{v.origin, r.dir}, r.tmax, r.want);
+                                 rad = select(r.want & !blocked, rad + r.value, rad);
+                                 w.counters.shadow += uint64_t(std::popcount(bits));
+                                 w.counters.shadow_active += uint64_t(std::popcount(bits));
+                                 w.counters.shadow_total += uint64_t(K);
+                             } else {
+                                 queue(bits, v.origin, r.dir, r.tmax, r.value);
+                             }
+                         });
         }
     }
 

@@ -277,6 +277,7 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.sphere_emitter = d.sphere_emitter.data();
     f.mesh_emitter = d.mesh_emitter.data();
     f.estimator = scene.settings.estimator;
+    f.path = scene.path_context();
     f.light_starts = scene.light_starts.table();
     f.pinhole = scene.pinhole();
     f.lt_camera_paths = scene.emitters.unsampled_objects > 0;

@@ -1,0 +1,164 @@
+// One path vertex, written once for both integrators (T = float: the scalar loops, which
+// trace what it asks for at once; T = xsimd::batch: the wavefront stages, which queue it or
+// trace it on the batch's registers). A vertex is, in this order:
+//   1. its frame: the geometric normal facing the arriving ray, the shading normal turned to
+//      it, and the origin of the rays that leave on that side (vertex_frame);
+//   2. what an emitter hit adds is weighed by emitter_hit_weight (kernels/estimator.h) where
+//      the estimator weighs it (weighs_emitter_hits);
+//   3. the direct light of a Phong vertex: the shadow-ray requests of one emitter sample
+//      (nee, mis) and of every point light, each with what it adds if clear, the path's
+//      throughput included (direct_light);
+//   4. the roulette (choose_lobe), and the chosen lobe's continuation: direction, weight,
+//      the origin of the next ray, and the density the estimator's MIS needs (continue_path),
+//      in radiance mode for camera paths and importance mode for paths from the lights.
+// The scalar reference and the wavefront both call exactly these, so no rule of the
+// estimator stands in two places; the wavefront's specialisations (one lobe fused in
+// registers, compaction in shading, inline shadow rays) only decide where the results go.
+#pragma once
+
+#include "estimator.h"
+#include "shading.h"
+#include "transport.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+// What a path vertex needs of the scene beyond its hit: plain values and arrays, built once
+// per scene (Scene::path_context) and shared by the scalar reference and the flat scene.
+// (Defined in kernels/emitter_table.h with the other plain tables: PathContext.)
+
+// Whether emitter hits are weighed: nee and mis (emitters they sample), lt (all sampled).
+inline bool weighs_emitter_hits(const PathContext& c) { return c.nee || c.lt; }
+
+template <class T>
+struct VertexFrame {
+    Vec3<T> nf;      // the geometric normal on the arriving side
+    Vec3<T> nsf;     // the shading normal turned to that side (nf without smooth meshes)
+    Vec3<T> origin;  // rays leaving on the arriving side start here
+};
+
+template <class T>
+VertexFrame<T> vertex_frame(const PathContext& c, const Vec3<T>& d, const Vec3<T>& pos,
+                            const Vec3<T>& n, const Vec3<T>& ns, const T& magnitude) {
+    VertexFrame<T> v;
+    v.nf = facing_normal(n, d);
+    v.nsf = c.smooth ? facing_shading_normal(ns, v.nf) : v.nf;
+    v.origin = offset_ray_origin(pos, v.nf, magnitude);
+    return v;
+}
+
+// A shadow ray a vertex asks for: from the frame's origin along `dir` up to `tmax`; if
+// nothing blocks it, the path gains `value` (the throughput passed to direct_light
+// included). Lanes not in `want` ask for nothing. `emitter_sample`: the emitter sample's ray
+// (else a point light's).
+template <class T>
+struct ShadowRequest {
+    Vec3<T> dir;
+    T tmax;
+    Vec3<T> value;
+    Mask<T> want;
+    bool emitter_sample;
+};
+
+// The direct light of the Phong vertices in `phong` (the material m, the ray's direction d,
+// the path's throughput beta): one emitter sample where the estimator samples emitters, then
+// each point light; `emit(request)` is called for each, in that order. The wavefront passes
+// the throughput (each ray is queued with its own contribution); the scalar loop passes 1
+// and multiplies the sum of what its clear rays bring by the throughput, as the report
+// writes it (the two differ only in the rounding of that product). f·cos θ·I/d² for a
+// point light (kernels/estimator.h, phong_f_cos), emitter_shadow's value for the sample; a
+// light on the wrong geometric side of a smooth mesh's vertex is not asked for.
+template <class T, class Emit>
+void direct_light(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
+                  const VertexFrame<T>& v, const Vec3<T>& beta, const Mask<T>& phong,
+                  const U32<T>& key, const U32<T>& bounce, Emit&& emit) {
+    if (c.nee) {
+        const EmitterShadow<T> es =
+            emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, v.origin, key, bounce);
+        const Vec3<T> value = beta * es.value;
+        Mask<T> want = phong & es.ok & (max_component(value) > T(0.0f));
+        if (c.smooth) want = want & on_arriving_side(es.wi, v.nf);
+        emit(ShadowRequest<T>{es.wi, es.tmax, value, want, true});
+    }
+    for (int32_t j = 0; j < c.light_count; ++j) {
+        const float* l = c.lights + 6 * j;
+        const Vec3<T> to = Vec3<T>(T(l[0]), T(l[1]), T(l[2])) - v.origin;
+        const T d2 = dot(to, to);
+        const T dist = sqrt(d2);
+        const Vec3<T> wi = to * (T(1.0f) / dist);
+        const Vec3<T> value =
+            beta * phong_f_cos(m, d, v.nsf, wi) * Vec3<T>(T(l[3]), T(l[4]), T(l[5])) * (T(1.0f) / d2);
+        Mask<T> want = phong & (max_component(value) > T(0.0f));
+        if (c.smooth) want = want & on_arriving_side(wi, v.nf);
+        emit(ShadowRequest<T>{wi, dist * T(1.0f - 1e-5f), value, want, false});
+    }
+}
+
+// The continuation of a path through lobe kLobe (chosen by the roulette with `probability`):
+// the new direction, the factor of the throughput (0 where the path ends here), the origin
+// of the next ray (just off the surface, on the side the direction leaves to), and, where the
+// estimator samples emitters, the density the lobe sampled the direction with (P(lobe)
+// included; 0 for a delta lobe). kMode: radiance (camera paths) or importance (paths from the
+// lights: the refraction's (η_i/η_t)², and the shading normals' correction).
+template <class T>
+struct Continuation {
+    Vec3<T> o, d, weight;
+    T pdf;
+};
+
+template <int kLobe, Transport kMode = Transport::kRadiance, class T>
+Continuation<T> continue_path(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
+                              const VertexFrame<T>& v, const Vec3<T>& pos, const Vec3<T>& n,
+                              const Vec3<T>& ns, const T& magnitude, const T& probability,
+                              const U32<T>& key, const U32<T>& bounce) {
+    const T u1 = uniform<T>(key, bounce, Purpose::kDirection1);
+    const T u2 = uniform<T>(key, bounce, Purpose::kDirection2);
+    Scatter<T> sc;
+    if constexpr (kLobe == kLobeDiffuse) {
+        sc = sample_diffuse(m, v.nsf, u1, u2, probability, c.estimator.cosine_diffuse);
+    } else if constexpr (kLobe == kLobeSpecular) {
+        sc = sample_specular(m, d, v.nsf, u1, u2, probability);
+    } else if constexpr (kLobe == kLobeMirror) {
+        sc = sample_mirror(m, d, v.nsf, probability);
+    } else {
+        sc = sample_refraction<kMode>(m, d, n, ns, T(c.scene_ior), probability, c.smooth);
+    }
+    // A reflection about the shading normal must leave on the geometric surface's side
+    if (kLobe != kLobeRefract && c.smooth)
+        sc.weight = select(on_arriving_side(sc.dir, v.nf), sc.weight, Vec3<T>(T(0.0f)));
+    if (kMode == Transport::kImportance && c.smooth)
+        sc.weight = sc.weight * shading_correction(-d, sc.dir, n, v.nsf);
+    Continuation<T> out;
+    out.d = sc.dir;
+    out.weight = sc.weight;
+    out.pdf = c.nee ? sampled_lobe_pdf<kLobe>(m, d, v.nsf, sc.dir, probability,
+                                              c.estimator.cosine_diffuse)
+                    : T(0.0f);
+    out.o = offset_ray_origin(pos, select(dot(sc.dir, n) > T(0.0f), n, -n), magnitude);
+    return out;
+}
+
+// The same for a lobe known only at run time (one path: the scalar loops).
+template <Transport kMode = Transport::kRadiance>
+Continuation<float> continue_path(int32_t lobe, const PathContext& c, const Bsdf<float>& m,
+                                  const Vec3f& d, const VertexFrame<float>& v, const Vec3f& pos,
+                                  const Vec3f& n, const Vec3f& ns, float magnitude,
+                                  float probability, uint32_t key, uint32_t bounce) {
+    switch (lobe) {
+        case kLobeDiffuse:
+            return continue_path<kLobeDiffuse, kMode>(c, m, d, v, pos, n, ns, magnitude,
+                                                      probability, key, bounce);
+        case kLobeSpecular:
+            return continue_path<kLobeSpecular, kMode>(c, m, d, v, pos, n, ns, magnitude,
+                                                       probability, key, bounce);
+        case kLobeMirror:
+            return continue_path<kLobeMirror, kMode>(c, m, d, v, pos, n, ns, magnitude,
+                                                     probability, key, bounce);
+        default:
+            return continue_path<kLobeRefract, kMode>(c, m, d, v, pos, n, ns, magnitude,
+                                                      probability, key, bounce);
+    }
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo
