@@ -45,8 +45,32 @@ struct Bsdf {
     T ior;        // the object's refractive index
 };
 
-// Russian roulette over the lobes. p_i = max RGB of lobe i; if Σ p_i exceeds the survival
-// cap, all are scaled down so they sum to it. Returns the chosen lobe and its probability.
+// The roulette's probabilities, apart from its draw: P(lobe i) = p_i·scale, p_i the max RGB
+// of lobe i, scale = cap/Σp where Σp exceeds the survival cap (else 1); the continuation
+// probability q = Σ P(lobe) = min(Σp, cap) is the chance a path goes on from the vertex, and
+// P(lobe)/q the choice of the lobe once it does. choose_lobe draws from exactly these.
+template <class T>
+struct LobeProbabilities {
+    T lobe[4];   // diffuse, Phong specular, mirror, refraction
+    T survival;  // q
+};
+template <class T>
+LobeProbabilities<T> lobe_probabilities(const Bsdf<T>& m, float survival_cap) {
+    const T pd = max_component(m.kd);
+    const T ps = max_component(m.ks);
+    const T pr = max_component(m.kr);
+    const T pt = max_component(m.kt);
+    const T sum = pd + ps + pr + pt;
+    const T scale = select(sum > T(survival_cap), T(survival_cap) / sum, T(1.0f));
+    LobeProbabilities<T> out;
+    out.lobe[0] = pd * scale, out.lobe[1] = ps * scale;
+    out.lobe[2] = pr * scale, out.lobe[3] = pt * scale;
+    out.survival = ((out.lobe[0] + out.lobe[1]) + out.lobe[2]) + out.lobe[3];
+    return out;
+}
+
+// Russian roulette over the lobes (lobe_probabilities). Returns the chosen lobe and its
+// probability.
 // kOnly: the one lobe whose colour may be non-zero, where the caller knows it (a scene with
 // one lobe kind); the others' thresholds are then exactly 0 and the same choice is made
 // from that lobe alone, with bit-identical results.
@@ -62,14 +86,9 @@ I32<T> choose_lobe(const Bsdf<T>& m, const T& u, float survival_cap, T& probabil
         probability = kOnly == kLobeRefract ? c : select(chosen, c, T(0.0f));
         return select(mask_i32(chosen), I(kOnly), I(kLobeAbsorbed));
     }
-    const T pd = max_component(m.kd);
-    const T ps = max_component(m.ks);
-    const T pr = max_component(m.kr);
-    const T pt = max_component(m.kt);
-    const T sum = pd + ps + pr + pt;
-    const T scale = select(sum > T(survival_cap), T(survival_cap) / sum, T(1.0f));
+    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap);
     // The lobe index is the number of cumulative thresholds that u has passed
-    const T c1 = pd * scale, c2 = c1 + ps * scale, c3 = c2 + pr * scale, c4 = c3 + pt * scale;
+    const T c1 = lp.lobe[0], c2 = c1 + lp.lobe[1], c3 = c2 + lp.lobe[2], c4 = c3 + lp.lobe[3];
     const I one(1), zero(0);
     const I lobe = select(mask_i32(u >= c1), one, zero) + select(mask_i32(u >= c2), one, zero) +
                    select(mask_i32(u >= c3), one, zero) + select(mask_i32(u >= c4), one, zero);
@@ -176,9 +195,11 @@ template <class T>
 Vec3<T> phong_f(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const Vec3<T>& wi,
                 T& cos_i) {
     cos_i = dot(wi, nf);
-    const T cos_a = max(dot(wi, reflect(d, nf)), T(0.0f));
+    const T r = dot(wi, reflect(d, nf));
     const T s = m.shininess;
-    const T spec = (s + T(2.0f)) * T(0.5f * kInvPi) * pow_s(cos_a, s);
+    // (0 outside the lobe's half-space, s = 0 included, where cos^0 would be 1)
+    const T lobe = select(r > T(0.0f), pow_s(max(r, T(0.0f)), s), T(0.0f));
+    const T spec = (s + T(2.0f)) * T(0.5f * kInvPi) * lobe;
     return fma(m.ks, spec, m.kd * T(kInvPi));
 }
 template <class T>
@@ -195,12 +216,9 @@ Vec3<T> phong_f_cos(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const
 template <class T>
 void phong_lobe_probabilities(const Bsdf<T>& m, float survival_cap, T& p_diffuse,
                               T& p_specular) {
-    const T pd = max_component(m.kd);
-    const T ps = max_component(m.ks);
-    const T sum = pd + ps + max_component(m.kr) + max_component(m.kt);
-    const T scale = select(sum > T(survival_cap), T(survival_cap) / sum, T(1.0f));
-    p_diffuse = pd * scale;
-    p_specular = ps * scale;
+    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap);
+    p_diffuse = lp.lobe[0];
+    p_specular = lp.lobe[1];
 }
 
 // The diffuse and specular terms of phong_f_cos apart, and each lobe's own sampling density
@@ -229,6 +247,42 @@ PhongLobes<T> phong_lobes(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
         out.specular = m.ks * ((s + T(2.0f)) * T(0.5f * kInvPi) * lobe * c);
         out.pdf_specular = (s + T(1.0f)) * T(0.5f * kInvPi) * lobe;
     }
+    return out;
+}
+
+// The report's material evaluated as a BSDF, for estimators that weigh strategies from both
+// ends of a path: for the directions wo (towards where the path came from) and wi (the
+// other one), both unit, f(wo, wi) of the Phong lobes (delta lobes are never evaluated: 0),
+// the cosine of wi to nf (the geometric or shading normal on wo's side), and the densities
+// of the BSDF strategy, the roulette's P(lobe) times the lobe's own density: `pdf` of
+// sampling wi from wo, `pdf_reverse` of sampling wo from wi. The Phong lobes are symmetric,
+// so f and the specular density are the same both ways; the diffuse density is that of the
+// sampled direction (uniform 1/2π, or cos θ/π), and 0 below the surface. f is 0 where wi is
+// below the surface seen from wo (the material only reflects through these lobes).
+template <class T>
+struct BsdfEval {
+    Vec3<T> f;
+    T cos_i;
+    T pdf, pdf_reverse;
+};
+template <class T>
+BsdfEval<T> bsdf_eval(const Bsdf<T>& m, const Vec3<T>& wo, const Vec3<T>& nf, const Vec3<T>& wi,
+                      float survival_cap, bool cosine) {
+    BsdfEval<T> out;
+    const Vec3<T> d = -wo;
+    const Vec3<T> f = phong_f(m, d, nf, wi, out.cos_i);
+    const T cos_o = dot(wo, nf);
+    const auto reflects = (out.cos_i > T(0.0f)) & (cos_o > T(0.0f));
+    out.f = select(reflects, f, Vec3<T>(T(0.0f)));
+    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap);
+    const auto diffuse_pdf = [&](const T& c) {
+        return cosine ? max(c, T(0.0f)) * T(kInvPi) : select(c > T(0.0f), T(0.5f * kInvPi), T(0.0f));
+    };
+    const T cos_a = dot(wi, normalize(reflect(d, nf)));
+    const T lobe = select(cos_a > T(0.0f), pow_s(max(cos_a, T(0.0f)), m.shininess), T(0.0f));
+    const T specular = (m.shininess + T(1.0f)) * T(0.5f * kInvPi) * lobe;
+    out.pdf = lp.lobe[0] * diffuse_pdf(out.cos_i) + lp.lobe[1] * specular;
+    out.pdf_reverse = lp.lobe[0] * diffuse_pdf(cos_o) + lp.lobe[1] * specular;
     return out;
 }
 
