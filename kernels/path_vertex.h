@@ -1,8 +1,8 @@
 // One path vertex, written once for both integrators (T = float: the scalar loops, which
 // trace what it asks for at once; T = xsimd::batch: the wavefront stages, which queue it or
 // trace it on the batch's registers). A vertex is, in this order:
-//   1. its frame: the geometric normal facing the arriving ray, the shading normal turned to
-//      it, and the origin of the rays that leave on that side (vertex_frame);
+//   1. its frame: the geometric normal facing the arriving ray and the shading normal turned
+//      to it (vertex_frame); rays that leave on that side start just off the surface;
 //   2. what an emitter hit adds is weighed by emitter_hit_weight (kernels/estimator.h) where
 //      the estimator weighs it (weighs_emitter_hits);
 //   3. the direct light of a Phong vertex: the shadow-ray requests of one emitter sample
@@ -32,27 +32,27 @@ inline bool weighs_emitter_hits(const PathContext& c) { return c.nee || c.lt; }
 
 template <class T>
 struct VertexFrame {
-    Vec3<T> nf;      // the geometric normal on the arriving side
-    Vec3<T> nsf;     // the shading normal turned to that side (nf without smooth meshes)
-    Vec3<T> origin;  // rays leaving on the arriving side start here
+    Vec3<T> nf;   // the geometric normal on the arriving side
+    Vec3<T> nsf;  // the shading normal turned to that side (nf without smooth meshes)
 };
 
 template <class T>
-VertexFrame<T> vertex_frame(const PathContext& c, const Vec3<T>& d, const Vec3<T>& pos,
-                            const Vec3<T>& n, const Vec3<T>& ns, const T& magnitude) {
+VertexFrame<T> vertex_frame(const PathContext& c, const Vec3<T>& d, const Vec3<T>& n,
+                            const Vec3<T>& ns) {
     VertexFrame<T> v;
     v.nf = facing_normal(n, d);
     v.nsf = c.smooth ? facing_shading_normal(ns, v.nf) : v.nf;
-    v.origin = offset_ray_origin(pos, v.nf, magnitude);
     return v;
 }
 
-// A shadow ray a vertex asks for: from the frame's origin along `dir` up to `tmax`; if
+// A shadow ray a vertex asks for: from `origin` (just off the surface on the arriving side)
+// along `dir` up to `tmax`; if
 // nothing blocks it, the path gains `value` (the throughput passed to direct_light
 // included). Lanes not in `want` ask for nothing. `emitter_sample`: the emitter sample's ray
 // (else a point light's).
 template <class T>
 struct ShadowRequest {
+    Vec3<T> origin;
     Vec3<T> dir;
     T tmax;
     Vec3<T> value;
@@ -70,19 +70,22 @@ struct ShadowRequest {
 // light on the wrong geometric side of a smooth mesh's vertex is not asked for.
 template <class T, class Emit>
 void direct_light(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
-                  const VertexFrame<T>& v, const Vec3<T>& beta, const Mask<T>& phong,
-                  const U32<T>& key, const U32<T>& bounce, Emit&& emit) {
+                  const VertexFrame<T>& v, const Vec3<T>& pos, const T& magnitude,
+                  const Vec3<T>& beta, const Mask<T>& phong, const U32<T>& key,
+                  const U32<T>& bounce, Emit&& emit) {
+    if (!c.nee && c.light_count == 0) return;
+    const Vec3<T> origin = offset_ray_origin(pos, v.nf, magnitude);
     if (c.nee) {
         const EmitterShadow<T> es =
-            emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, v.origin, key, bounce);
+            emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, key, bounce);
         const Vec3<T> value = beta * es.value;
         Mask<T> want = phong & es.ok & (max_component(value) > T(0.0f));
         if (c.smooth) want = want & on_arriving_side(es.wi, v.nf);
-        emit(ShadowRequest<T>{es.wi, es.tmax, value, want, true});
+        emit(ShadowRequest<T>{origin, es.wi, es.tmax, value, want, true});
     }
     for (int32_t j = 0; j < c.light_count; ++j) {
         const float* l = c.lights + 6 * j;
-        const Vec3<T> to = Vec3<T>(T(l[0]), T(l[1]), T(l[2])) - v.origin;
+        const Vec3<T> to = Vec3<T>(T(l[0]), T(l[1]), T(l[2])) - origin;
         const T d2 = dot(to, to);
         const T dist = sqrt(d2);
         const Vec3<T> wi = to * (T(1.0f) / dist);
@@ -90,27 +93,24 @@ void direct_light(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
             beta * phong_f_cos(m, d, v.nsf, wi) * Vec3<T>(T(l[3]), T(l[4]), T(l[5])) * (T(1.0f) / d2);
         Mask<T> want = phong & (max_component(value) > T(0.0f));
         if (c.smooth) want = want & on_arriving_side(wi, v.nf);
-        emit(ShadowRequest<T>{wi, dist * T(1.0f - 1e-5f), value, want, false});
+        emit(ShadowRequest<T>{origin, wi, dist * T(1.0f - 1e-5f), value, want, false});
     }
 }
 
-// The continuation of a path through lobe kLobe (chosen by the roulette with `probability`):
-// the new direction, the factor of the throughput (0 where the path ends here), the origin
-// of the next ray (just off the surface, on the side the direction leaves to), and, where the
-// estimator samples emitters, the density the lobe sampled the direction with (P(lobe)
-// included; 0 for a delta lobe). kMode: radiance (camera paths) or importance (paths from the
-// lights: the refraction's (η_i/η_t)², and the shading normals' correction).
-template <class T>
-struct Continuation {
-    Vec3<T> o, d, weight;
-    T pdf;
-};
-
+// The continuation of a path through lobe kLobe (chosen by the roulette with `probability`),
+// in three parts that the loops compose (kept apart so that a stage loop holds no more in
+// registers than it needs at each point):
+//   - continue_path: the new direction and the factor of the throughput (0 where the path
+//     ends here); kMode radiance (camera paths) or importance (paths from the lights: the
+//     refraction's (η_i/η_t)², and the shading normals' correction);
+//   - continuation_pdf: where the estimator samples emitters (MIS needs it), the density the
+//     lobe sampled the direction with (P(lobe) included; 0 for a delta lobe);
+//   - leaving_origin: the next ray's origin, just off the surface on the side it leaves to.
 template <int kLobe, Transport kMode = Transport::kRadiance, class T>
-Continuation<T> continue_path(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
-                              const VertexFrame<T>& v, const Vec3<T>& pos, const Vec3<T>& n,
-                              const Vec3<T>& ns, const T& magnitude, const T& probability,
-                              const U32<T>& key, const U32<T>& bounce) {
+Scatter<T> continue_path(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
+                         const VertexFrame<T>& v, const Vec3<T>& n, const Vec3<T>& ns,
+                         const T& probability, const U32<T>& key, const U32<T>& bounce) {
+    const bool smooth = c.smooth;
     const T u1 = uniform<T>(key, bounce, Purpose::kDirection1);
     const T u2 = uniform<T>(key, bounce, Purpose::kDirection2);
     Scatter<T> sc;
@@ -121,42 +121,55 @@ Continuation<T> continue_path(const PathContext& c, const Bsdf<T>& m, const Vec3
     } else if constexpr (kLobe == kLobeMirror) {
         sc = sample_mirror(m, d, v.nsf, probability);
     } else {
-        sc = sample_refraction<kMode>(m, d, n, ns, T(c.scene_ior), probability, c.smooth);
+        sc = sample_refraction<kMode>(m, d, n, ns, T(c.scene_ior), probability, smooth);
     }
     // A reflection about the shading normal must leave on the geometric surface's side
-    if (kLobe != kLobeRefract && c.smooth)
-        sc.weight = select(on_arriving_side(sc.dir, v.nf), sc.weight, Vec3<T>(T(0.0f)));
-    if (kMode == Transport::kImportance && c.smooth)
-        sc.weight = sc.weight * shading_correction(-d, sc.dir, n, v.nsf);
-    Continuation<T> out;
-    out.d = sc.dir;
-    out.weight = sc.weight;
-    out.pdf = c.nee ? sampled_lobe_pdf<kLobe>(m, d, v.nsf, sc.dir, probability,
-                                              c.estimator.cosine_diffuse)
-                    : T(0.0f);
-    out.o = offset_ray_origin(pos, select(dot(sc.dir, n) > T(0.0f), n, -n), magnitude);
-    return out;
+    if constexpr (kLobe != kLobeRefract)
+        if (smooth)
+            sc.weight = select(on_arriving_side(sc.dir, v.nf), sc.weight, Vec3<T>(T(0.0f)));
+    if constexpr (kMode == Transport::kImportance)
+        if (smooth) sc.weight = sc.weight * shading_correction(-d, sc.dir, n, v.nsf);
+    return sc;
 }
 
-// The same for a lobe known only at run time (one path: the scalar loops).
+// (it sets `pdf` only where the estimator samples emitters, and leaves it as it is, 0, where
+// it does not: a branch, so the density is never computed for nothing)
+template <int kLobe, class T>
+void continuation_pdf(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
+                      const VertexFrame<T>& v, const Vec3<T>& dir, const T& probability, T& pdf) {
+    if (c.nee)
+        pdf = sampled_lobe_pdf<kLobe>(m, d, v.nsf, dir, probability, c.estimator.cosine_diffuse);
+}
+
+template <class T>
+Vec3<T> leaving_origin(const Vec3<T>& pos, const Vec3<T>& n, const Vec3<T>& dir,
+                       const T& magnitude) {
+    return offset_ray_origin(pos, select(dot(dir, n) > T(0.0f), n, -n), magnitude);
+}
+
+// The three for a lobe known only at run time (one path: the scalar loops).
+struct ScalarContinuation {
+    Vec3f o, d, weight;
+    float pdf;
+};
 template <Transport kMode = Transport::kRadiance>
-Continuation<float> continue_path(int32_t lobe, const PathContext& c, const Bsdf<float>& m,
-                                  const Vec3f& d, const VertexFrame<float>& v, const Vec3f& pos,
-                                  const Vec3f& n, const Vec3f& ns, float magnitude,
-                                  float probability, uint32_t key, uint32_t bounce) {
+ScalarContinuation continue_path(int32_t lobe, const PathContext& c, const Bsdf<float>& m,
+                                 const Vec3f& d, const VertexFrame<float>& v, const Vec3f& pos,
+                                 const Vec3f& n, const Vec3f& ns, float magnitude,
+                                 float probability, uint32_t key, uint32_t bounce) {
+    const auto run = [&](auto kind) {
+        constexpr int kLobe = decltype(kind)::value;
+        const Scatter<float> sc =
+            continue_path<kLobe, kMode>(c, m, d, v, n, ns, probability, key, bounce);
+        ScalarContinuation out{leaving_origin(pos, n, sc.dir, magnitude), sc.dir, sc.weight, 0.0f};
+        continuation_pdf<kLobe>(c, m, d, v, sc.dir, probability, out.pdf);
+        return out;
+    };
     switch (lobe) {
-        case kLobeDiffuse:
-            return continue_path<kLobeDiffuse, kMode>(c, m, d, v, pos, n, ns, magnitude,
-                                                      probability, key, bounce);
-        case kLobeSpecular:
-            return continue_path<kLobeSpecular, kMode>(c, m, d, v, pos, n, ns, magnitude,
-                                                       probability, key, bounce);
-        case kLobeMirror:
-            return continue_path<kLobeMirror, kMode>(c, m, d, v, pos, n, ns, magnitude,
-                                                     probability, key, bounce);
-        default:
-            return continue_path<kLobeRefract, kMode>(c, m, d, v, pos, n, ns, magnitude,
-                                                      probability, key, bounce);
+        case kLobeDiffuse: return run(std::integral_constant<int, kLobeDiffuse>{});
+        case kLobeSpecular: return run(std::integral_constant<int, kLobeSpecular>{});
+        case kLobeMirror: return run(std::integral_constant<int, kLobeMirror>{});
+        default: return run(std::integral_constant<int, kLobeRefract>{});
     }
 }
 

@@ -5,23 +5,35 @@
 #include "kernels/path_vertex.h"
 #include "kernels/rng.h"
 
+// The path loops inline every kernel they call, as the wavefront's stage loops do (and as
+// the compiler chose to when the vertex rules were written inside them). Sanitizer builds
+// skip it, for their compile time.
+#if defined(__SANITIZE_ADDRESS__)
+#define CIERZO_PATH_LOOP
+#else
+#define CIERZO_PATH_LOOP [[gnu::flatten]]
+#endif
+
 namespace cierzo {
 
 namespace {
 
 // A shadow ray the vertex asked for, traced at once: what it adds if clear.
-Vec3f trace_request(const Scene& scene, const Vec3f& origin, const ShadowRequest<float>& r,
-                    RayCounts& rays) {
+Vec3f trace_request(const Scene& scene, const ShadowRequest<float>& r, RayCounts& rays) {
     if (!r.want) return Vec3f(0.0f);
     ++rays.shadow;
-    return scene.occluded({origin, r.dir}, r.tmax) ? Vec3f(0.0f) : r.value;
+    return scene.occluded({r.origin, r.dir}, r.tmax) ? Vec3f(0.0f) : r.value;
 }
 
 }  // namespace
 
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
                  RayCounts& rays) {
-    const PathContext c = scene.path_context();
+    return trace_path(scene, scene.path_context(), camera_ray, key, rays);
+}
+
+CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
+                                  const Ray<float>& camera_ray, uint32_t key, RayCounts& rays) {
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
@@ -44,15 +56,14 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
         const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
-        const VertexFrame<float> v = vertex_frame(c, ray.d, hit.p, hit.n, hit.ns, magnitude);
+        const VertexFrame<float> v = vertex_frame(c, ray.d, hit.n, hit.ns);
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
         if (material.has_phong()) {
             Vec3f lights(0.0f), sample(0.0f);
-            direct_light(c, m, ray.d, v, Vec3f(1.0f), true, key, bounce,
+            direct_light(c, m, ray.d, v, hit.p, magnitude, Vec3f(1.0f), true, key, bounce,
                          [&](const ShadowRequest<float>& r) {
-                             (r.emitter_sample ? sample : lights) +=
-                                 trace_request(scene, v.origin, r, rays);
+                             (r.emitter_sample ? sample : lights) += trace_request(scene, r, rays);
                          });
             if (c.light_count > 0) radiance += throughput * lights;
             if (c.nee) radiance += throughput * sample;
@@ -63,7 +74,7 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
         const int32_t lobe = choose_lobe(m, uniform<float>(key, bounce, Purpose::kLobe),
                                          c.estimator.survival_cap, p);
         if (lobe == kLobeAbsorbed) break;
-        const Continuation<float> next =
+        const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, key, bounce);
         lobe_pdf = next.pdf;
         throughput *= next.weight;
@@ -74,9 +85,9 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
     return radiance;
 }
 
-void trace_light_path(const Scene& scene, const PinholeFrame& pinhole, uint32_t camera_key,
-                      FilmTile& film, RayCounts& rays) {
-    const PathContext c = scene.path_context();
+CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
+                                       const PinholeFrame& pinhole, uint32_t camera_key,
+                                       FilmTile& film, RayCounts& rays) {
     const uint32_t key = light_path_key(camera_key);
     const LightStart<float> start =
         sample_light_start<float>(scene.emitters.table(), scene.light_starts.table(), key);
@@ -111,13 +122,14 @@ void trace_light_path(const Scene& scene, const PinholeFrame& pinhole, uint32_t 
         if (material.is_emitter()) break;  // emitters absorb what reaches them
         const Bsdf<float> m = scene.bsdf_at(hit);
         const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
-        const VertexFrame<float> v = vertex_frame(c, ray.d, hit.p, hit.n, hit.ns, magnitude);
+        const VertexFrame<float> v = vertex_frame(c, ray.d, hit.n, hit.ns);
 
         // Every Phong vertex is seen from the pinhole
         if (material.has_phong()) {
             const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
             if (on_arriving_side(cc.wc, v.nf))
-                connect(cc, v.origin, camera_contribution(m, beta, ray.d, v.nf, v.nsf, cc, c.smooth));
+                connect(cc, offset_ray_origin(hit.p, v.nf, magnitude),
+                        camera_contribution(m, beta, ray.d, v.nf, v.nsf, cc, c.smooth));
         }
 
         // The roulette and the chosen lobe, in importance mode
@@ -125,7 +137,7 @@ void trace_light_path(const Scene& scene, const PinholeFrame& pinhole, uint32_t 
         const int32_t lobe = choose_lobe(m, uniform<float>(key, bounce, Purpose::kLobe),
                                          c.estimator.survival_cap, p);
         if (lobe == kLobeAbsorbed) break;
-        const Continuation<float> next = continue_path<Transport::kImportance>(
+        const ScalarContinuation next = continue_path<Transport::kImportance>(
             lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, key, bounce);
         beta *= next.weight;
         if (!(max_component(beta) > 0.0f)) break;
@@ -142,6 +154,7 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
     const bool lt = splats(rs.estimator.kind);
     const bool camera_paths = !lt || scene.emitters.unsampled_objects > 0;
     const PinholeFrame pinhole = scene.pinhole();
+    const PathContext context = scene.path_context();
     for (int y = tile.y0; y < tile.y1; ++y) {
         for (int x = tile.x0; x < tile.x1; ++x) {
             PixelSums& px = film.at(x, y);
@@ -153,12 +166,12 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
                     const float sx = float(x) + uniform<float>(key, 0u, Purpose::kPixelX);
                     const float sy = float(y) + uniform<float>(key, 0u, Purpose::kPixelY);
                     ++rays.camera;
-                    px.add(trace_path(scene, scene.camera.generate(sx, sy, inv_w, inv_h), key,
-                                      rays));
+                    px.add(trace_path(scene, context, scene.camera.generate(sx, sy, inv_w, inv_h),
+                                      key, rays));
                 } else {
                     ++px.count;
                 }
-                if (lt) trace_light_path(scene, pinhole, key, film, rays);
+                if (lt) trace_light_path(scene, context, pinhole, key, film, rays);
             }
         }
     }

@@ -10,11 +10,15 @@ namespace cierzo {
 // The radiance carried back along one camera path, keyed by (seed, pixel, sample).
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
                  RayCounts& rays);
+// The same with the scene's path context (Scene::path_context) computed once by the caller.
+Vec3f trace_path(const Scene& scene, const PathContext& context, const Ray<float>& camera_ray,
+                 uint32_t key, RayCounts& rays);
 
 // One path from the lights (light tracing), keyed by the camera path it is traced beside:
 // every connection to the pinhole that nothing blocks is splatted into `film`.
-void trace_light_path(const Scene& scene, const PinholeFrame& pinhole, uint32_t camera_key,
-                      FilmTile& film, RayCounts& rays);
+void trace_light_path(const Scene& scene, const PathContext& context,
+                      const PinholeFrame& pinhole, uint32_t camera_key, FilmTile& film,
+                      RayCounts& rays);
 
 // Samples [tile.s0, tile.s1) of the tile's pixels, added to the tile's sums (and, with light
 // tracing, one path from the lights per sample, splatted).

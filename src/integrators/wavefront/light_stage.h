@@ -128,13 +128,14 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     const U key = U::load_aligned(p.key + i);
     const U bounce = U::load_aligned(p.bounce + i);
     const Vec3<F>& d = ray.d;
-    const VertexFrame<F> v = vertex_frame(s.path, d, sf.pos, sf.n, sf.ns, sf.magnitude);
+    const VertexFrame<F> v = vertex_frame(s.path, d, sf.n, sf.ns);
 
     // Every Phong vertex is seen from the pinhole
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     if (any(phong)) {
         const CameraConnection<F> c = connect_camera(s.pinhole, sf.pos);
-        connect_lanes(w, phong & on_arriving_side(c.wc, v.nf), v.origin, c,
+        connect_lanes(w, phong & on_arriving_side(c.wc, v.nf),
+                      offset_ray_origin(sf.pos, v.nf, sf.magnitude), c,
                       camera_contribution(m, beta, d, v.nf, v.nsf, c, s.path.smooth), queued);
     }
 
@@ -143,25 +144,23 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     const I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe),
                                s.estimator.survival_cap, probability);
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
-    Continuation<F> next{Vec3<F>(F(0.0f)), Vec3<F>(F(0.0f)), Vec3<F>(F(0.0f)), F(0.0f)};
+    Vec3<F> dir(F(0.0f)), weight(F(0.0f));
     const auto run = [&](auto kind) {
         constexpr int kLobe = decltype(kind)::value;
         const auto chosen = alive & mask_f32(lobe == I(kLobe));
         if (!any(chosen)) return;
-        const Continuation<F> c = continue_path<kLobe, Transport::kImportance>(
-            s.path, m, d, v, sf.pos, sf.n, sf.ns, sf.magnitude, probability, key, bounce);
-        next.o = select(chosen, c.o, next.o);
-        next.d = select(chosen, c.d, next.d);
-        next.weight = select(chosen, c.weight, next.weight);
+        const Scatter<F> sc = continue_path<kLobe, Transport::kImportance>(
+            s.path, m, d, v, sf.n, sf.ns, probability, key, bounce);
+        dir = select(chosen, sc.dir, dir);
+        weight = select(chosen, sc.weight, weight);
     };
     if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
     if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
     if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
     if (f.refraction) run(std::integral_constant<int, kLobeRefract>{});
-    const Vec3<F> beta1 = beta * next.weight;
+    const Vec3<F> beta1 = beta * weight;
     alive = alive & (max_component(beta1) > F(0.0f));
-    const Vec3<F>& o = next.o;
-    const Vec3<F>& dir = next.d;
+    const Vec3<F> o = leaving_origin(sf.pos, sf.n, dir, sf.magnitude);
     // Survivors to the front of the pool, in order (kept <= i: nothing unread is overwritten)
     const uint32_t bits = mask_bits(alive);
     const Vec3<F>* out[3] = {&o, &dir, &beta1};
@@ -181,7 +180,7 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
 
 // The light paths of one tile (one per pixel and sample of the job), to the end.
 template <class A>
-void render_light_paths(Wave<A>& w, const TileJob& job) {
+CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;

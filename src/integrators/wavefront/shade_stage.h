@@ -33,14 +33,14 @@ struct LobeStep {
     LobeStep(const FlatScene& s, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
              const F& probability, const U& key, const U& bounce) {
-        const VertexFrame<F> v = vertex_frame(s.path, d0, pos, n, ns, magnitude);
-        const Continuation<F> next = continue_path<kLobe>(s.path, m, d0, v, pos, n, ns, magnitude,
-                                                          probability, key, bounce);
-        beta = beta0 * next.weight;
-        pdf = next.pdf;
+        const VertexFrame<F> v = vertex_frame(s.path, d0, n, ns);
+        const Scatter<F> sc =
+            continue_path<kLobe>(s.path, m, d0, v, n, ns, probability, key, bounce);
+        beta = beta0 * sc.weight;
+        continuation_pdf<kLobe>(s.path, m, d0, v, sc.dir, probability, pdf);
         alive = max_component(beta) > F(0.0f);
-        o = next.o;
-        d = next.d;
+        o = leaving_origin(pos, n, sc.dir, magnitude);
+        d = sc.dir;
     }
 };
 
@@ -124,20 +124,20 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     if (f.lights || f.nee) {
         const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         if (any(phong)) {
-            const VertexFrame<F> v = vertex_frame(s.path, d, pos, n, sf.ns, sf.magnitude);
-            direct_light(s.path, m, d, v, beta, phong, key, bounce,
+            const VertexFrame<F> v = vertex_frame(s.path, d, n, sf.ns);
+            direct_light(s.path, m, d, v, pos, sf.magnitude, beta, phong, key, bounce,
                          [&](const ShadowRequest<F>& r) {
                              const uint32_t bits = mask_bits(r.want);
                              if (!bits) return;
                              if constexpr (kInlineNee) {
                                  const auto blocked =
-                                     occluded<A>(s, Ray<F>{v.origin, r.dir}, r.tmax, r.want);
+                                     occluded<A>(s, Ray<F>{r.origin, r.dir}, r.tmax, r.want);
                                  rad = select(r.want & !blocked, rad + r.value, rad);
                                  w.counters.shadow += uint64_t(std::popcount(bits));
                                  w.counters.shadow_active += uint64_t(std::popcount(bits));
                                  w.counters.shadow_total += uint64_t(K);
                              } else {
-                                 queue(bits, v.origin, r.dir, r.tmax, r.value);
+                                 queue(bits, r.origin, r.dir, r.tmax, r.value);
                              }
                          });
         }
