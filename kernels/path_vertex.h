@@ -6,8 +6,8 @@
 //   2. what an emitter hit adds is weighed by emitter_hit_weight (kernels/estimator.h) where
 //      the estimator weighs it (weighs_emitter_hits);
 //   3. the direct light of a Phong vertex: the shadow-ray requests of one emitter sample
-//      (nee, mis) and of every point light, each with what it adds if clear, the path's
-//      throughput included (direct_light);
+//      (nee, mis; emitter_request) and of every point light (point_light_request), each with
+//      what it adds if clear;
 //   4. the roulette (choose_lobe), and the chosen lobe's continuation: direction, weight,
 //      the origin of the next ray, and the density the estimator's MIS needs (continue_path),
 //      in radiance mode for camera paths and importance mode for paths from the lights.
@@ -36,12 +36,12 @@ struct VertexFrame {
     Vec3<T> nsf;  // the shading normal turned to that side (nf without smooth meshes)
 };
 
+// (`smooth`: PathContext::smooth, which the caller reads once)
 template <class T>
-VertexFrame<T> vertex_frame(const PathContext& c, const Vec3<T>& d, const Vec3<T>& n,
-                            const Vec3<T>& ns) {
+VertexFrame<T> vertex_frame(bool smooth, const Vec3<T>& d, const Vec3<T>& n, const Vec3<T>& ns) {
     VertexFrame<T> v;
     v.nf = facing_normal(n, d);
-    v.nsf = c.smooth ? facing_shading_normal(ns, v.nf) : v.nf;
+    v.nsf = smooth ? facing_shading_normal(ns, v.nf) : v.nf;
     return v;
 }
 
@@ -61,40 +61,48 @@ struct ShadowRequest {
 };
 
 // The direct light of the Phong vertices in `phong` (the material m, the ray's direction d,
-// the path's throughput beta): one emitter sample where the estimator samples emitters, then
-// each point light; `emit(request)` is called for each, in that order. The wavefront passes
-// the throughput (each ray is queued with its own contribution); the scalar loop passes 1
-// and multiplies the sum of what its clear rays bring by the throughput, as the report
-// writes it (the two differ only in the rounding of that product). f·cos θ·I/d² for a
-// point light (kernels/estimator.h, phong_f_cos), emitter_shadow's value for the sample; a
-// light on the wrong geometric side of a smooth mesh's vertex is not asked for.
-template <class T, class Emit>
-void direct_light(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
-                  const VertexFrame<T>& v, const Vec3<T>& pos, const T& magnitude,
-                  const Vec3<T>& beta, const Mask<T>& phong, const U32<T>& key,
-                  const U32<T>& bounce, Emit&& emit) {
-    if (!c.nee && c.light_count == 0) return;
-    const Vec3<T> origin = offset_ray_origin(pos, v.nf, magnitude);
-    if (c.nee) {
-        const EmitterShadow<T> es =
-            emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, key, bounce);
-        const Vec3<T> value = beta * es.value;
-        Mask<T> want = phong & es.ok & (max_component(value) > T(0.0f));
-        if (c.smooth) want = want & on_arriving_side(es.wi, v.nf);
-        emit(ShadowRequest<T>{origin, es.wi, es.tmax, value, want, true});
-    }
-    for (int32_t j = 0; j < c.light_count; ++j) {
-        const float* l = c.lights + 6 * j;
-        const Vec3<T> to = Vec3<T>(T(l[0]), T(l[1]), T(l[2])) - origin;
-        const T d2 = dot(to, to);
-        const T dist = sqrt(d2);
-        const Vec3<T> wi = to * (T(1.0f) / dist);
-        const Vec3<T> value =
-            beta * phong_f_cos(m, d, v.nsf, wi) * Vec3<T>(T(l[3]), T(l[4]), T(l[5])) * (T(1.0f) / d2);
-        Mask<T> want = phong & (max_component(value) > T(0.0f));
-        if (c.smooth) want = want & on_arriving_side(wi, v.nf);
-        emit(ShadowRequest<T>{origin, wi, dist * T(1.0f - 1e-5f), value, want, false});
-    }
+// the path's throughput beta), as shadow-ray requests from `origin` (shadow_origin): one
+// emitter sample where the estimator samples emitters (emitter_request, when c.nee), then
+// each point light j < c.light_count (point_light_request). The loops ask for them in that
+// order. f·cos θ·I/d² for a point light (kernels/estimator.h, phong_f_cos), emitter_shadow's
+// value for the sample; a light on the wrong geometric side of a smooth mesh's vertex is not
+// asked for. The wavefront passes the throughput (each ray is queued with its own
+// contribution); the scalar loop passes 1 and multiplies the sum of what its clear rays
+// bring by the throughput, as the report writes it (the two differ only in the rounding of
+// that product).
+template <class T>
+Vec3<T> shadow_origin(const VertexFrame<T>& v, const Vec3<T>& pos, const T& magnitude) {
+    return offset_ray_origin(pos, v.nf, magnitude);
+}
+
+template <class T>
+ShadowRequest<T> emitter_request(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
+                                 const VertexFrame<T>& v, const Vec3<T>& origin,
+                                 const Vec3<T>& beta, const Mask<T>& phong, const U32<T>& key,
+                                 const U32<T>& bounce) {
+    const EmitterShadow<T> es =
+        emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, key, bounce);
+    const Vec3<T> value = beta * es.value;
+    Mask<T> want = phong & es.ok & (max_component(value) > T(0.0f));
+    if (c.smooth) want = want & on_arriving_side(es.wi, v.nf);
+    return {origin, es.wi, es.tmax, value, want, true};
+}
+
+template <class T>
+ShadowRequest<T> point_light_request(const PathContext& c, int32_t j, const Bsdf<T>& m,
+                                     const Vec3<T>& d, const VertexFrame<T>& v,
+                                     const Vec3<T>& origin, const Vec3<T>& beta,
+                                     const Mask<T>& phong) {
+    const float* l = c.lights + 6 * j;
+    const Vec3<T> to = Vec3<T>(T(l[0]), T(l[1]), T(l[2])) - origin;
+    const T d2 = dot(to, to);
+    const T dist = sqrt(d2);
+    const Vec3<T> wi = to * (T(1.0f) / dist);
+    const Vec3<T> value =
+        beta * phong_f_cos(m, d, v.nsf, wi) * Vec3<T>(T(l[3]), T(l[4]), T(l[5])) * (T(1.0f) / d2);
+    Mask<T> want = phong & (max_component(value) > T(0.0f));
+    if (c.smooth) want = want & on_arriving_side(wi, v.nf);
+    return {origin, wi, dist * T(1.0f - 1e-5f), value, want, false};
 }
 
 // The continuation of a path through lobe kLobe (chosen by the roulette with `probability`),

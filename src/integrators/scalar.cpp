@@ -56,17 +56,21 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
         const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
-        const VertexFrame<float> v = vertex_frame(c, ray.d, hit.n, hit.ns);
+        const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
-        if (material.has_phong()) {
-            Vec3f lights(0.0f), sample(0.0f);
-            direct_light(c, m, ray.d, v, hit.p, magnitude, Vec3f(1.0f), true, key, bounce,
-                         [&](const ShadowRequest<float>& r) {
-                             (r.emitter_sample ? sample : lights) += trace_request(scene, r, rays);
-                         });
+        if (material.has_phong() && (c.light_count > 0 || c.nee)) {
+            const Vec3f origin = shadow_origin(v, hit.p, magnitude);
+            Vec3f lights(0.0f);
+            for (int32_t j = 0; j < c.light_count; ++j)
+                lights += trace_request(
+                    scene, point_light_request(c, j, m, ray.d, v, origin, Vec3f(1.0f), true), rays);
             if (c.light_count > 0) radiance += throughput * lights;
-            if (c.nee) radiance += throughput * sample;
+            if (c.nee)
+                radiance += throughput * trace_request(scene,
+                                                       emitter_request(c, m, ray.d, v, origin,
+                                                                       Vec3f(1.0f), true, key, bounce),
+                                                       rays);
         }
 
         // Russian roulette picks one lobe, or the path's death; the lobe continues it
@@ -122,7 +126,7 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
         if (material.is_emitter()) break;  // emitters absorb what reaches them
         const Bsdf<float> m = scene.bsdf_at(hit);
         const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
-        const VertexFrame<float> v = vertex_frame(c, ray.d, hit.n, hit.ns);
+        const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
 
         // Every Phong vertex is seen from the pinhole
         if (material.has_phong()) {

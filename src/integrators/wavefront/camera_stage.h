@@ -104,7 +104,7 @@ CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
         keep3(ray.d, p.dx, p.dy, p.dz);
         keep3(Vec3<F>(F(1.0f)), p.beta_r, p.beta_g, p.beta_b);
         if constexpr (kRadiance) keep3(Vec3<F>(F(0.0f)), p.rad_r, p.rad_g, p.rad_b);
-        if (s.features.nee) keep_f(F(0.0f), p.lobe_pdf).store_aligned(p.lobe_pdf + i);
+        if (s.path.nee) keep_f(F(0.0f), p.lobe_pdf).store_aligned(p.lobe_pdf + i);
     };
     int32_t i = first / K * K;
     if (i < first) {

@@ -30,7 +30,7 @@ void compact_paths(Wave<A>& w, const TileJob& job) {
         if (ended)
             done = queue_radiant<A>(p, i, ended, load3<F>(p.rad_r, p.rad_g, p.rad_b, i), done);
         for (float* a : fa) compress<A>(F::load_aligned(a + i), m).store_unaligned(a + kept);
-        if (w.scene.features.nee)
+        if (w.scene.path.nee)
             compress<A>(F::load_aligned(p.lobe_pdf + i), m).store_unaligned(p.lobe_pdf + kept);
         for (uint32_t* a : {p.key, p.pixel})
             compress<A>(U::load_aligned(a + i), m).store_unaligned(a + kept);

@@ -47,9 +47,8 @@ struct FlatFeatures {
     bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated
     int lobe_kinds;  // how many of the four lobes occur (1: no lobe bucketing needed)
     uint32_t texture_channels;  // bit c: some material textures colour channel c
-    bool nee;  // the estimator samples emitters (nee or mis, and the scene has some to sample)
-    bool lt;   // light tracing: camera paths count only the emitters light paths cannot start on
-    bool smooth;  // some mesh shades with interpolated normals (kernels/shading.h)
+    // (whether the estimator samples emitters, traces light paths, and whether some mesh is
+    // smooth: FlatScene::path, the one place the stages read them from)
 };
 
 struct FlatScene {
@@ -90,9 +89,8 @@ struct FlatScene {
     int32_t light_count;
     const float* light;
 
-    // Next-event estimation's emitters (kernels/emitter_table.h), the emitter of each sphere
-    // and the first of each mesh (-1: not sampled)
-    EmitterTable emitters;
+    // The emitter (of path.emitters, kernels/emitter_table.h) of each sphere and the first
+    // of each mesh (-1: not sampled)
     const int32_t* sphere_emitter;
     const int32_t* mesh_emitter;
 
@@ -100,14 +98,14 @@ struct FlatScene {
     float cam_origin[3], cam_forward[3], cam_left[3], cam_up[3];
     int32_t width, height;
     uint32_t seed;
-    EstimatorSettings estimator;  // the scene's, as it is
-    PathContext path;             // what a path vertex needs (kernels/path_vertex.h)
+    // What a path vertex needs (kernels/path_vertex.h): the emitters, the estimator's
+    // settings, the point lights, the scene's index, as the scalar reference has them
+    PathContext path;
     // Light tracing: where light paths start, the pinhole they connect to, and whether the
     // camera's paths are traced too (some emitter cannot be sampled)
     LightStartTable light_starts;
     PinholeFrame pinhole;
     bool lt_camera_paths;
-    float scene_ior;
     FlatFeatures features;
 };
 

@@ -80,7 +80,7 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor, int3
         const F lane = Wave<A>::lane_index();
         const auto fresh = (lane >= F(float(first - i))) & (lane < F(float(end - i)));
         const U key = light_path_key(U::load_aligned(p.key + i));
-        const LightStart<F> ls = sample_light_start<F>(s.emitters, s.light_starts, key);
+        const LightStart<F> ls = sample_light_start<F>(s.path.emitters, s.light_starts, key);
         // The emitter's point itself, seen by the pinhole
         const auto surface = fresh & ls.ok & ls.on_surface;
         if (any(surface)) {
@@ -128,7 +128,7 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     const U key = U::load_aligned(p.key + i);
     const U bounce = U::load_aligned(p.bounce + i);
     const Vec3<F>& d = ray.d;
-    const VertexFrame<F> v = vertex_frame(s.path, d, sf.n, sf.ns);
+    const VertexFrame<F> v = vertex_frame(s.path.smooth, d, sf.n, sf.ns);
 
     // Every Phong vertex is seen from the pinhole
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
@@ -142,7 +142,7 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     // The roulette and the chosen lobe, in importance mode (each lobe some lane chose)
     F probability;
     const I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe),
-                               s.estimator.survival_cap, probability);
+                               s.path.estimator.survival_cap, probability);
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     Vec3<F> dir(F(0.0f)), weight(F(0.0f));
     const auto run = [&](auto kind) {
@@ -228,7 +228,7 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
                 const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
                 const Surfaces<A> sf{pos,
                                      n,
-                                     w.scene.features.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
+                                     w.scene.path.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
                                      I::load_aligned(p.material + i),
                                      mask_f32(I::load_aligned(p.alive + i) != I(0)),
                                      max(max_abs(pos), max_abs(ray.o)),

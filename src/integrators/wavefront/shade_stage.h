@@ -33,7 +33,7 @@ struct LobeStep {
     LobeStep(const FlatScene& s, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
              const F& probability, const U& key, const U& bounce) {
-        const VertexFrame<F> v = vertex_frame(s.path, d0, n, ns);
+        const VertexFrame<F> v = vertex_frame(s.path.smooth, d0, n, ns);
         const Scatter<F> sc =
             continue_path<kLobe>(s.path, m, d0, v, n, ns, probability, key, bounce);
         beta = beta0 * sc.weight;
@@ -92,10 +92,14 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     if (f.emitters) {
         const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
         Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
-        if (weighs_emitter_hits(s.path) && any(em)) {
-            const F lobe_pdf = f.nee ? F::load_aligned(p.lobe_pdf + i) : F(0.0f);
-            le = le * emitter_hit_weight<F>(s.emitters, s.estimator.kind,
+        if (s.path.nee && any(em)) {
+            const F lobe_pdf = F::load_aligned(p.lobe_pdf + i);
+            le = le * emitter_hit_weight<F>(s.path.emitters, s.path.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), lobe_pdf,
+                                            ray.o, d, length(pos - ray.o));
+        } else if (s.path.lt && any(em)) {
+            le = le * emitter_hit_weight<F>(s.path.emitters, s.path.estimator.kind,
+                                            select(mask_i32(em), sf.emitter, I(-1)), F(0.0f),
                                             ray.o, d, length(pos - ray.o));
         }
         rad = select(em, rad + beta * le, rad);
@@ -121,32 +125,43 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
 
     // Direct light at Phong vertices (kernels/path_vertex.h): each shadow ray queued, or
     // (kInlineNee: the emitter sample alone) traced here on the batch's registers
-    if (f.lights || f.nee) {
+    // (kInlineNee is chosen only with emitter samples and no point lights: known at compile
+    // time there)
+    const bool nee = kInlineNee || s.path.nee;
+    if (kInlineNee || f.lights || nee) {
         const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         if (any(phong)) {
-            const VertexFrame<F> v = vertex_frame(s.path, d, n, sf.ns);
-            direct_light(s.path, m, d, v, pos, sf.magnitude, beta, phong, key, bounce,
-                         [&](const ShadowRequest<F>& r) {
-                             const uint32_t bits = mask_bits(r.want);
-                             if (!bits) return;
-                             if constexpr (kInlineNee) {
-                                 const auto blocked =
-                                     occluded<A>(s, Ray<F>{r.origin, r.dir}, r.tmax, r.want);
-                                 rad = select(r.want & !blocked, rad + r.value, rad);
-                                 w.counters.shadow += uint64_t(std::popcount(bits));
-                                 w.counters.shadow_active += uint64_t(std::popcount(bits));
-                                 w.counters.shadow_total += uint64_t(K);
-                             } else {
-                                 queue(bits, r.origin, r.dir, r.tmax, r.value);
-                             }
-                         });
+            const VertexFrame<F> v = vertex_frame(s.path.smooth, d, n, sf.ns);
+            const Vec3<F> origin = shadow_origin(v, pos, sf.magnitude);
+            if (nee) {
+                const ShadowRequest<F> r =
+                    emitter_request(s.path, m, d, v, origin, beta, phong, key, bounce);
+                const uint32_t bits = mask_bits(r.want);
+                if constexpr (kInlineNee) {
+                    if (bits) {
+                        const auto blocked = occluded<A>(s, Ray<F>{origin, r.dir}, r.tmax, r.want);
+                        rad = select(r.want & !blocked, rad + r.value, rad);
+                        w.counters.shadow += uint64_t(std::popcount(bits));
+                        w.counters.shadow_active += uint64_t(std::popcount(bits));
+                        w.counters.shadow_total += uint64_t(K);
+                    }
+                } else if (bits) {
+                    queue(bits, origin, r.dir, r.tmax, r.value);
+                }
+            }
+            for (int32_t j = 0; !kInlineNee && j < s.path.light_count; ++j) {
+                const ShadowRequest<F> r =
+                    point_light_request(s.path, j, m, d, v, origin, beta, phong);
+                const uint32_t bits = mask_bits(r.want);
+                if (bits) queue(bits, origin, r.dir, r.tmax, r.value);
+            }
         }
     }
 
     // Russian roulette over the lobes
     F probability;
     I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe),
-                                 s.estimator.survival_cap, probability);
+                                 s.path.estimator.survival_cap, probability);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kFused == kLobeCount) {
@@ -193,7 +208,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             store3(step.o, p.ox, p.oy, p.oz, i);
             store3(step.d, p.dx, p.dy, p.dz, i);
             store3(step.beta, p.beta_r, p.beta_g, p.beta_b, i);
-            if (f.nee) step.pdf.store_aligned(p.lobe_pdf + i);
+            if (s.path.nee) step.pdf.store_aligned(p.lobe_pdf + i);
         }
     }
     if constexpr (!kCompact) {
@@ -218,11 +233,11 @@ CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
         const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
         const Surfaces<A> sf{pos,
                              n,
-                             w.scene.features.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
+                             w.scene.path.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
                              I::load_aligned(p.material + i),
                              mask_f32(I::load_aligned(p.alive + i) != I(0)),
                              max(max_abs(pos), max_abs(ray.o)),
-                             w.scene.features.nee || w.scene.features.lt
+                             w.scene.path.nee || w.scene.path.lt
                                  ? I::load_aligned(p.emitter + i)
                                  : I(-1)};
         shade_batch<kFused>(w, i, ray, sf, queued);
@@ -251,7 +266,7 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         const Vec3<F> n = gather3<A>(p.nx, p.ny, p.nz, j);
         const LobeStep<kLobe, A> step(
             w.scene, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
-            w.scene.features.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
+            w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
             gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
             gather_lanes<A>(p.probability, j), gather_lanes<A>(p.key, j),
             gather_lanes<A>(p.bounce, j));
@@ -259,7 +274,7 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         scatter3(step.d, p.dx, p.dy, p.dz, j);
         scatter3(step.beta, p.beta_r, p.beta_g, p.beta_b, j);
         select(mask_i32(step.alive), I(1), I(0)).scatter(p.alive, j);
-        if (w.scene.features.nee) step.pdf.scatter(p.lobe_pdf, j);
+        if (w.scene.path.nee) step.pdf.scatter(p.lobe_pdf, j);
         const int32_t lanes = std::min(K, size - i);
         w.counters.extension +=
             uint64_t(std::popcount(mask_bits(step.alive) & ((1u << lanes) - 1u)));

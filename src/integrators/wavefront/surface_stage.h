@@ -94,7 +94,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
                         lookup<A>(s.sphere_cz, count, j)};
         n = select(mask_f32(m), normalize(pos - c), n);
         material = select(m, lookup<A>(s.sphere_material, count, j), material);
-        if (f.nee || f.lt) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
+        if (s.path.nee || s.path.lt) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
     }
     if (f.planes) {
         const auto m = kind == I(kPrimPlane);
@@ -125,15 +125,15 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         material = select(m, lookup<A>(s.mesh_material, s.mesh_count, mesh), material);
         // (mesh is the last kind: n is final here, and smooth_normals keeps it for the
         // lanes that are not on a smooth mesh)
-        if (f.smooth) ns = smooth_normals(w, i, mesh, mask_f32(m) & w.live_mask(i), pos, n);
-        if (f.nee || f.lt) {
+        if (s.path.smooth) ns = smooth_normals(w, i, mesh, mask_f32(m) & w.live_mask(i), pos, n);
+        if (s.path.nee || s.path.lt) {
             const I first = lookup<A>(s.mesh_emitter, s.mesh_count, mesh);
             const I tri = xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
             emitter = select(m & (first >= I(0)), first + tri, emitter);
         }
     }
     const auto hit = w.live_mask(i) & (to_float(prim) >= F(0.0f));
-    if (!(f.smooth && f.meshes)) ns = n;
+    if (!(s.path.smooth && f.meshes)) ns = n;
     return {pos, n, ns, select(mask_i32(hit), material, I(0)), hit,
             max(max_abs(pos), max_abs(ray.o)), emitter};
 }
@@ -145,9 +145,9 @@ void store_surfaces(Wave<A>& w, int32_t i, const Surfaces<A>& sf) {
     PathPool& p = w.pool;
     store3(sf.pos, p.px, p.py, p.pz, i);
     store3(sf.n, p.nx, p.ny, p.nz, i);
-    if (w.scene.features.smooth) store3(sf.ns, p.snx, p.sny, p.snz, i);
+    if (w.scene.path.smooth) store3(sf.ns, p.snx, p.sny, p.snz, i);
     sf.material.store_aligned(p.material + i);
-    if (w.scene.features.nee || w.scene.features.lt) sf.emitter.store_aligned(p.emitter + i);
+    if (w.scene.path.nee || w.scene.path.lt) sf.emitter.store_aligned(p.emitter + i);
     select(mask_i32(sf.hit), I(1), I(0)).store_aligned(p.alive + i);
 }
 

@@ -271,12 +271,10 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     f.light = d.light.data();
     // Next-event estimation's emitters: the scene's table, and per sphere and mesh the id
     // of its (first) emitter
-    f.emitters = scene.emitters.table();
     d.sphere_emitter = padded(scene.emitters.sphere_id);
     d.mesh_emitter = padded(scene.emitters.mesh_first);
     f.sphere_emitter = d.sphere_emitter.data();
     f.mesh_emitter = d.mesh_emitter.data();
-    f.estimator = scene.settings.estimator;
     f.path = scene.path_context();
     f.light_starts = scene.light_starts.table();
     f.pinhole = scene.pinhole();
@@ -290,7 +288,6 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     }
     f.width = scene.settings.width, f.height = scene.settings.height;
     f.seed = scene.settings.seed;
-    f.scene_ior = scene.scene_ior;
     const SceneFeatures sf = scene.features();
     const bool tree = !scene.bvh.empty();
     const bool packet = tree && packet_tree(scene.bvh.view());
@@ -298,18 +295,15 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
                   sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
-                  texture_channels, false, false, false};
+                  texture_channels};
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
         const bool meshes = f.features.meshes;
         f.features = {true, true, true, meshes, tree, packet, true, true, true,
-                      true, true, true, true, 4,    texture_channels, false, false, false};
+                      true, true, true, true, 4,    texture_channels};
     }
     // Light tracing: camera paths shoot no shadow rays (the light paths bring every light)
-    f.features.lt = splats(scene.settings.estimator.kind);
-    if (f.features.lt) f.features.lights = false;
-    f.features.nee = samples_emitters(scene);
-    f.features.smooth = sf.smooth;
+    if (f.path.lt) f.features.lights = false;
 }
 
 WavefrontRenderer::~WavefrontRenderer() = default;

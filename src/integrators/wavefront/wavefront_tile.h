@@ -74,14 +74,14 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
     if constexpr (kFused != kLobeCount) {
         // One lobe, no point lights, no textures: shading compacts, no radiance is carried;
         // with nee or mis, shading also traces the emitter sample and carries radiance
-        if (!f.lights && !f.textures && !f.nee) {
+        if (!f.lights && !f.textures && !scene.path.nee) {
             for (;;) {
                 generate_camera_paths<false>(w, cursor);
                 if (w.live == 0) return;
                 trace_paths<kFused, true>(w, job);
             }
         }
-        if (!f.lights && !f.textures && f.nee) {
+        if (!f.lights && !f.textures && scene.path.nee) {
             for (;;) {
                 generate_camera_paths<true>(w, cursor);
                 if (w.live == 0) return;
@@ -112,14 +112,14 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
     };
     // Light tracing: the camera's paths only where some emitter is not sampled, then the
     // paths from the lights
-    if (!f.lt || scene.lt_camera_paths) {
+    if (!scene.path.lt || scene.lt_camera_paths) {
         if (f.lobe_kinds != 1) run(std::integral_constant<int, kLobeCount>{});
         else if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
         else if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
         else if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
         else run(std::integral_constant<int, kLobeRefract>{});
     }
-    if (f.lt) {
+    if (scene.path.lt) {
         Wave<A> w{scene, pool, counters};
         render_light_paths(w, job);
     }
