@@ -49,15 +49,17 @@ void Film::merge_batch(const FilmTile& tile, const SplatSums& splats) {
     }
 }
 
-std::optional<double> Film::variance_of_mean(const PixelSums& p, int c) const {
+[[gnu::always_inline]] inline bool Film::estimable(const PixelSums& p) const {
+    return batches_ > 0 ? batches_ >= 2 && p.count > 0 : p.count >= 2;
+}
+
+[[gnu::always_inline]] inline double Film::variance_of_mean(const PixelSums& p, int c) const {
     const double n = double(p.count);
     if (batches_ > 0) {
         // Σ n_k (m_k - m)² over the passes k, over (passes - 1), per path
-        if (batches_ < 2 || p.count == 0) return std::nullopt;
         const double spread = std::max(0.0, p.sum_sq[c] - p.sum[c] * p.sum[c] / n);
         return spread / (double(batches_ - 1) * n);
     }
-    if (p.count < 2) return std::nullopt;
     const double m = p.sum[c] / n;
     const double var = std::max(0.0, (p.sum_sq[c] / n - m * m) * n / (n - 1.0));
     return var / n;
@@ -77,8 +79,8 @@ Image Film::variance_of_mean() const {
     Image img(width_, height_);
     for (size_t i = 0; i < pixels_.size(); ++i) {
         const PixelSums& p = pixels_[i];
-        for (int c = 0; c < 3; ++c)
-            img.rgb[i * 3 + size_t(c)] = float(variance_of_mean(p, c).value_or(0.0));
+        if (!estimable(p)) continue;
+        for (int c = 0; c < 3; ++c) img.rgb[i * 3 + size_t(c)] = float(variance_of_mean(p, c));
     }
     return img;
 }
@@ -86,24 +88,24 @@ Image Film::variance_of_mean() const {
 std::optional<double> Film::mean_relative_error() const {
     // Per pixel: the mean over its non-black channels of standard error / |mean|
     double total = 0.0;
-    size_t used = 0, estimable = 0;
+    size_t used = 0, estimated = 0;
     for (const PixelSums& p : pixels_) {
-        if (!variance_of_mean(p, 0)) continue;
-        ++estimable;
+        if (!estimable(p)) continue;
+        ++estimated;
         const double n = double(p.count);
         double rel = 0.0;
         int channels = 0;
         for (int c = 0; c < 3; ++c) {
             const double m = p.sum[c] / n;
             if (std::abs(m) < 1e-12) continue;
-            rel += std::sqrt(*variance_of_mean(p, c)) / std::abs(m);
+            rel += std::sqrt(variance_of_mean(p, c)) / std::abs(m);
             ++channels;
         }
         if (channels == 0) continue;
         total += rel / channels;
         ++used;
     }
-    if (estimable == 0) return std::nullopt;
+    if (estimated == 0) return std::nullopt;
     return used ? total / double(used) : 0.0;
 }
 

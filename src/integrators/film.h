@@ -175,8 +175,10 @@ public:
     uint64_t min_samples() const;
 
 private:
-    // The variance of pixel p's mean in one channel (per-path or batch statistics)
-    std::optional<double> variance_of_mean(const PixelSums& p, int channel) const;
+    // Whether pixel p's variance can be estimated (two paths, or two passes of batches), and
+    // then its mean's variance in one channel (per-path or batch statistics)
+    bool estimable(const PixelSums& p) const;
+    double variance_of_mean(const PixelSums& p, int channel) const;
 
     int width_, height_;
     std::vector<PixelSums> pixels_;

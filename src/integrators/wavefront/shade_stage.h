@@ -30,14 +30,14 @@ struct LobeStep {
 
     // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset; n the
     // geometric normal, ns the shading normal (= n without smooth meshes)
-    LobeStep(const FlatScene& s, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
+    // c: the scene's path context, or a copy whose switches the caller knows at compile time
+    LobeStep(const PathContext& c, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
              const F& probability, const U& key, const U& bounce) {
-        const VertexFrame<F> v = vertex_frame(s.path.smooth, d0, n, ns);
-        const Scatter<F> sc =
-            continue_path<kLobe>(s.path, m, d0, v, n, ns, probability, key, bounce);
+        const VertexFrame<F> v = vertex_frame(c.smooth, d0, n, ns);
+        const Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, key, bounce);
         beta = beta0 * sc.weight;
-        continuation_pdf<kLobe>(s.path, m, d0, v, sc.dir, probability, pdf);
+        continuation_pdf<kLobe>(c, m, d0, v, sc.dir, probability, pdf);
         alive = max_component(beta) > F(0.0f);
         o = leaving_origin(pos, n, sc.dir, magnitude);
         d = sc.dir;
@@ -73,6 +73,13 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
     const FlatFeatures& f = s.features;
+    // The path context, with the switches this instantiation knows at compile time (the
+    // compacting kernels are chosen for scenes without point lights: without emitter samples,
+    // or with them traced inline)
+    PathContext c = s.path;
+    if constexpr (kCompact) c.light_count = 0;
+    if constexpr (kCompact && !kInlineNee) c.nee = false;
+    if constexpr (kInlineNee) c.nee = true;
     auto alive = sf.hit;
     const I mat = sf.material;
     // Textured channels as the material stage left them
@@ -92,13 +99,13 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     if (f.emitters) {
         const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
         Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated);
-        if (s.path.nee && any(em)) {
+        if (c.nee && any(em)) {
             const F lobe_pdf = F::load_aligned(p.lobe_pdf + i);
-            le = le * emitter_hit_weight<F>(s.path.emitters, s.path.estimator.kind,
+            le = le * emitter_hit_weight<F>(c.emitters, c.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), lobe_pdf,
                                             ray.o, d, length(pos - ray.o));
-        } else if (s.path.lt && any(em)) {
-            le = le * emitter_hit_weight<F>(s.path.emitters, s.path.estimator.kind,
+        } else if (c.lt && any(em)) {
+            le = le * emitter_hit_weight<F>(c.emitters, c.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), F(0.0f),
                                             ray.o, d, length(pos - ray.o));
         }
@@ -114,9 +121,9 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     // and owner, each compressed in its register and stored whole at the queue's end (the
     // queue has K entries of slack; the lanes past the new end are overwritten next)
     const auto queue = [&](uint32_t bits, const Vec3<F>& origin, const Vec3<F>& wi,
-                           const F& tmax, const Vec3<F>& c) {
-        const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x, &wi.y,
-                            &wi.z,     &tmax,     &c.x,      &c.y,  &c.z};
+                           const F& tmax, const Vec3<F>& value) {
+        const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x,    &wi.y,
+                            &wi.z,     &tmax,     &value.x,  &value.y, &value.z};
         float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy, p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
         for (int k = 0; k < 10; ++k) compress<A>(*src[k], bits).store_unaligned(dst[k] + queued);
         compress<A>(Wave<A>::lane_ids(i), bits).store_unaligned(p.sowner + queued);
@@ -127,11 +134,11 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     // (kInlineNee: the emitter sample alone) traced here on the batch's registers
     // (kInlineNee is chosen only with emitter samples and no point lights: known at compile
     // time there)
-    const bool nee = kInlineNee || s.path.nee;
-    if (kInlineNee || f.lights || nee) {
+    const bool nee = c.nee;
+    if (f.lights || nee) {
         const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         if (any(phong)) {
-            const VertexFrame<F> v = vertex_frame(s.path.smooth, d, n, sf.ns);
+            const VertexFrame<F> v = vertex_frame(c.smooth, d, n, sf.ns);
             const Vec3<F> origin = shadow_origin(v, pos, sf.magnitude);
             if (nee) {
                 const ShadowRequest<F> r =
@@ -149,7 +156,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                     queue(bits, origin, r.dir, r.tmax, r.value);
                 }
             }
-            for (int32_t j = 0; !kInlineNee && j < s.path.light_count; ++j) {
+            for (int32_t j = 0; j < c.light_count; ++j) {
                 const ShadowRequest<F> r =
                     point_light_request(s.path, j, m, d, v, origin, beta, phong);
                 const uint32_t bits = mask_bits(r.want);
@@ -161,7 +168,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     // Russian roulette over the lobes
     F probability;
     I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe),
-                                 s.path.estimator.survival_cap, probability);
+                                 c.estimator.survival_cap, probability);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kFused == kLobeCount) {
@@ -170,7 +177,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     } else {
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
-        const LobeStep<kFused, A> step(s, m, sf.magnitude, d, pos, n, sf.ns, beta, probability,
+        const LobeStep<kFused, A> step(c, m, sf.magnitude, d, pos, n, sf.ns, beta, probability,
                                        key, bounce);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
@@ -208,7 +215,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             store3(step.o, p.ox, p.oy, p.oz, i);
             store3(step.d, p.dx, p.dy, p.dz, i);
             store3(step.beta, p.beta_r, p.beta_g, p.beta_b, i);
-            if (s.path.nee) step.pdf.store_aligned(p.lobe_pdf + i);
+            if (c.nee) step.pdf.store_aligned(p.lobe_pdf + i);
         }
     }
     if constexpr (!kCompact) {
@@ -265,7 +272,7 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         const F magnitude = max(max_abs(pos), max_abs(gather3<A>(p.ox, p.oy, p.oz, j)));
         const Vec3<F> n = gather3<A>(p.nx, p.ny, p.nz, j);
         const LobeStep<kLobe, A> step(
-            w.scene, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
+            w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
             w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
             gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
             gather_lanes<A>(p.probability, j), gather_lanes<A>(p.key, j),
