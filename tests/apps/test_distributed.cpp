@@ -151,6 +151,9 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         {"cornell.json", "wavefront", {"--spp", "40", "--width", "72", "--height", "56"}},
         {"cornell.json", "scalar", {"--spp", "12", "--width", "40", "--height", "36"}},
         {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis"}},
+        // (light tracing: splats of any unit land anywhere in the image)
+        {"emitting_spheres.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "lt"}},
+        {"point_lights.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt"}},
     };
     int k = 0;
     for (const Case& c : cases) {
@@ -278,18 +281,20 @@ TEST(Mpi, AKilledRankEndsTheRunNonZeroInBoundedTime) {
 // A checkpointed render is killed (SIGKILL) once a checkpoint holds part of it; the resume
 // ends in the image of an uninterrupted render, byte for byte. Under MPI too, resumed in one
 // process.
-void kill_and_resume(int ranks) {
-    const std::string tag = ranks ? "mpi" : "one";
+void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
+                     const std::vector<std::string>& estimator = {}) {
+    const std::string tag = (ranks ? "mpi" : "one") + std::string(estimator.empty() ? "" : "_lt");
     const fs::path full = kDir / ("full_" + tag + ".exr"), ck = kDir / ("ck_" + tag + ".exr");
     const fs::path part = kDir / ("part_" + tag + ".exr"), resumed = kDir / ("resumed_" + tag + ".exr");
     // (long enough that the kill lands mid-render: natively a 300-path render can end before
     // its first checkpoint, and the test would then have checked nothing)
     const std::string spp = emulated() ? "300" : "2000";
-    const std::vector<std::string> scene = {"--spp", spp, "--width", emulated() ? "64" : "160",
-                                            "--height", emulated() ? "48" : "120", "--variance"};
-    ASSERT_EQ(run({render_args("cornell.json", full, scene)}, "full"), 0);
+    std::vector<std::string> scene = {"--spp", spp, "--width", emulated() ? "64" : "160",
+                                      "--height", emulated() ? "48" : "120", "--variance"};
+    scene.insert(scene.end(), estimator.begin(), estimator.end());
+    ASSERT_EQ(run({render_args(scene_file, full, scene)}, "full"), 0);
     fs::remove(ck), fs::remove(part);
-    std::vector<std::string> a = render_args("cornell.json", part, scene);
+    std::vector<std::string> a = render_args(scene_file, part, scene);
     a.insert(a.end(), {"--checkpoint", ck.string(), "--checkpoint-every", "0.1"});
     const Running r = start({a, ranks}, "part");
     int64_t reached = 0;
@@ -315,7 +320,7 @@ void kill_and_resume(int ranks) {
     EXPECT_FALSE(fs::exists(part));
     std::vector<std::string> more = scene;
     more.insert(more.end(), {"--resume", ck.string(), "--stats", (kDir / "res.json").string()});
-    ASSERT_EQ(run({render_args("cornell.json", resumed, more)}, "resume"), 0) << text(kDir / "resume.stderr");
+    ASSERT_EQ(run({render_args(scene_file, resumed, more)}, "resume"), 0) << text(kDir / "resume.stderr");
     EXPECT_TRUE(same_pixels(full, resumed)) << "resumed from " << c.state.spp_done;
     EXPECT_EQ(stats(kDir / "res.json")["spp_resumed"].get<int64_t>(), c.state.spp_done);
     // The resume kept checkpointing into the same file, which now holds the finished render
@@ -327,6 +332,11 @@ TEST(Checkpoints, KilledAndResumedGivesTheUninterruptedImage) { kill_and_resume(
 TEST(Checkpoints, KilledUnderMpiAndResumedInOneProcessGivesTheSameImage) {
     REQUIRE_MPI();
     kill_and_resume(2);
+}
+
+// Light tracing's checkpoints keep whole passes (the splats of a pass in progress are redone)
+TEST(Checkpoints, KilledAndResumedLightTracingGivesTheUninterruptedImage) {
+    kill_and_resume(0, "emitting_spheres.json", {"--estimator", "lt"});
 }
 
 TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
