@@ -32,6 +32,8 @@ namespace {
 namespace fs = std::filesystem;
 
 using test::all_scenes;
+using test::image_mean;
+using test::ImageMean;
 using test::run;
 using test::Variant;
 using test::variants;
@@ -42,25 +44,6 @@ Scene with_estimator(Scene scene, Estimator e) {
 }
 
 const Estimator kAll[3] = {Estimator::kReport, Estimator::kNee, Estimator::kMis};
-
-// Mean of channel c over the image and its standard error (from each pixel's variance of
-// its mean), and the expected mean from `expected(x, y)` of each pixel.
-struct ImageMean {
-    double mean = 0, sigma = 0;
-};
-ImageMean image_mean(const Film& film, int c) {
-    const Image m = film.mean(), v = film.variance_of_mean();
-    const double n = double(m.rgb.size() / 3);
-    ImageMean out;
-    for (size_t i = size_t(c); i < m.rgb.size(); i += 3) {
-        EXPECT_TRUE(std::isfinite(m.rgb[i]));
-        out.mean += m.rgb[i];
-        out.sigma += v.rgb[i];
-    }
-    out.mean /= n;
-    out.sigma = std::sqrt(out.sigma) / n;
-    return out;
-}
 
 // A camera at (cx, cy, cz) looking at the origin of the plane y = 0 with a narrow field.
 std::string plane_scene(const std::string& emitter, int spp, float cam_x) {

@@ -29,6 +29,8 @@
 namespace cierzo {
 namespace {
 
+using test::image_mean;
+using Mean = test::ImageMean;
 using test::run;
 using test::Variant;
 using test::variants;
@@ -38,24 +40,6 @@ Scene scene_of(const std::string& json, Estimator e, int spp) {
     s.settings.estimator.kind = e;
     s.settings.spp = spp;
     return s;
-}
-
-// Image mean of channel c and its standard error (from the pixels' variances of the mean).
-struct Mean {
-    double mean = 0, sigma = 0;
-};
-Mean image_mean(const Film& film, int c) {
-    const Image m = film.mean(), v = film.variance_of_mean();
-    const double n = double(m.rgb.size() / 3);
-    Mean out;
-    for (size_t i = size_t(c); i < m.rgb.size(); i += 3) {
-        EXPECT_TRUE(std::isfinite(m.rgb[i]));
-        out.mean += m.rgb[i];
-        out.sigma += v.rgb[i];
-    }
-    out.mean /= n;
-    out.sigma = std::sqrt(out.sigma) / n;
-    return out;
 }
 
 // A closed diffuse sphere of radius 2 (albedo 0.5) with a point light of intensity 1 at its

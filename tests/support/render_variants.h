@@ -2,7 +2,10 @@
 // ISA this CPU runs, two threads; and every scene file of scenes/ that can be read here.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -33,6 +36,25 @@ inline RenderResult run(const Scene& scene, const Variant& v) {
     o.threads = 2;
     o.progress = false;
     return render(scene, o);
+}
+
+// Mean of channel c over the image and its standard error (from each pixel's variance of
+// its mean); every pixel's mean must be finite.
+struct ImageMean {
+    double mean = 0, sigma = 0;
+};
+inline ImageMean image_mean(const Film& film, int c) {
+    const Image m = film.mean(), v = film.variance_of_mean();
+    const double n = double(m.rgb.size() / 3);
+    ImageMean out;
+    for (size_t i = size_t(c); i < m.rgb.size(); i += 3) {
+        EXPECT_TRUE(std::isfinite(m.rgb[i]));
+        out.mean += m.rgb[i];
+        out.sigma += v.rgb[i];
+    }
+    out.mean /= n;
+    out.sigma = std::sqrt(out.sigma) / n;
+    return out;
 }
 
 // Every .json file of scenes/, sorted.

@@ -19,6 +19,17 @@ struct TileCursor {
     uint32_t sample = 0;     // sample index of path `next`
 };
 
+// A cursor at the start of a job: its first sample of its first pixel.
+inline TileCursor tile_cursor(const TileJob& job) {
+    TileCursor c;
+    c.job = job;
+    c.tile_width = job.x1 - job.x0;
+    c.tile_pixels = c.tile_width * (job.y1 - job.y0);
+    c.total = int64_t(c.tile_pixels) * (job.sample_end - job.sample_begin);
+    c.sample = uint32_t(job.sample_begin);
+    return c;
+}
+
 // floor(a / b) and the remainder, for whole numbers 0 <= a < 2^24 and 0 < b < 2^24 held in
 // floats: the rounded quotient is off by at most one, and the remainder's sign corrects it.
 template <class F>

@@ -186,13 +186,17 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const bool textures = w.scene.features.textures;
-    TileCursor cursor;
-    cursor.job = job;
-    cursor.tile_width = job.x1 - job.x0;
-    cursor.tile_pixels = cursor.tile_width * (job.y1 - job.y0);
-    cursor.total = int64_t(cursor.tile_pixels) * (job.sample_end - job.sample_begin);
-    cursor.sample = uint32_t(job.sample_begin);
+    TileCursor cursor = tile_cursor(job);
     w.live = 0;
+    // Batch i's rays, their closest hits and surfaces
+    const auto trace = [&](int32_t i, Ray<F>& ray) {
+        ray = {load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+        F t;
+        I prim;
+        closest_hit(w, i, ray, t, prim);
+        if (textures) prim.store_aligned(p.prim + i);  // (for the vertex colours)
+        return resolve_surfaces(w, i, ray, t, prim);
+    };
     for (;;) {
         int32_t queued = 0;
         generate_light_paths(w, cursor, queued);
@@ -202,39 +206,22 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
         const int32_t end = w.rounded_up(w.live);
         if (!textures) {
             for (int32_t i = 0; i < end; i += K) {
-                const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
-                F t;
-                I prim;
-                closest_hit(w, i, ray, t, prim);
-                const Surfaces<A> sf = resolve_surfaces(w, i, ray, t, prim);
+                Ray<F> ray;
+                const Surfaces<A> sf = trace(i, ray);
                 light_vertex_batch(w, i, ray, sf, [](int) { return Vec3<F>(F(0.0f)); }, kept,
                                    queued);
             }
         } else {
             // Textured: every hit first, then the material stage, then the vertices
             for (int32_t i = 0; i < end; i += K) {
-                const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
-                F t;
-                I prim;
-                closest_hit(w, i, ray, t, prim);
-                const Surfaces<A> sf = resolve_surfaces(w, i, ray, t, prim);
-                store_surfaces(w, i, sf);
-                prim.store_aligned(p.prim + i);
+                Ray<F> ray;
+                store_surfaces(w, i, trace(i, ray));
             }
             evaluate_sorted_materials(w, p.material_starts);
             for (int32_t i = 0; i < end; i += K) {
                 const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
-                const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
-                const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
-                const Surfaces<A> sf{pos,
-                                     n,
-                                     w.scene.path.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
-                                     I::load_aligned(p.material + i),
-                                     mask_f32(I::load_aligned(p.alive + i) != I(0)),
-                                     max(max_abs(pos), max_abs(ray.o)),
-                                     I(-1)};
                 light_vertex_batch(
-                    w, i, ray, sf,
+                    w, i, ray, load_surfaces(w, i, ray),
                     [&](int c) { return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i); },
                     kept, queued);
             }

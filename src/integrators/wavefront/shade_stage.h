@@ -230,24 +230,12 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
 template <int kFused, class A>
 CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
     using F = typename Wave<A>::F;
-    using I = typename Wave<A>::I;
     PathPool& p = w.pool;
     int32_t queued = 0;
     const int32_t end = w.rounded_up(w.live);
     for (int32_t i = 0; i < end; i += Wave<A>::K) {
         const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
-        const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
-        const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
-        const Surfaces<A> sf{pos,
-                             n,
-                             w.scene.path.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
-                             I::load_aligned(p.material + i),
-                             mask_f32(I::load_aligned(p.alive + i) != I(0)),
-                             max(max_abs(pos), max_abs(ray.o)),
-                             w.scene.path.nee || w.scene.path.lt
-                                 ? I::load_aligned(p.emitter + i)
-                                 : I(-1)};
-        shade_batch<kFused>(w, i, ray, sf, queued);
+        shade_batch<kFused>(w, i, ray, load_surfaces(w, i, ray), queued);
     }
     p.shadow_count = queued;
     w.counters.shadow += uint64_t(queued);

@@ -138,6 +138,24 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
             max(max_abs(pos), max_abs(ray.o)), emitter};
 }
 
+// The surfaces store_surfaces kept of batch `i` (rays `ray`), read back.
+template <class A>
+Surfaces<A> load_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    const PathPool& p = w.pool;
+    const PathContext& c = w.scene.path;
+    const Vec3<F> pos = load3<F>(p.px, p.py, p.pz, i);
+    const Vec3<F> n = load3<F>(p.nx, p.ny, p.nz, i);
+    return {pos,
+            n,
+            c.smooth ? load3<F>(p.snx, p.sny, p.snz, i) : n,
+            I::load_aligned(p.material + i),
+            mask_f32(I::load_aligned(p.alive + i) != I(0)),
+            max(max_abs(pos), max_abs(ray.o)),
+            c.nee || c.lt ? I::load_aligned(p.emitter + i) : I(-1)};
+}
+
 // Stores a batch's surfaces for the stages that run after the material sort.
 template <class A>
 void store_surfaces(Wave<A>& w, int32_t i, const Surfaces<A>& sf) {

@@ -64,12 +64,7 @@ template <int kFused, class A>
 void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& job,
                         WavefrontCounters& counters) {
     Wave<A> w{scene, pool, counters};
-    TileCursor cursor;
-    cursor.job = job;
-    cursor.tile_width = job.x1 - job.x0;
-    cursor.tile_pixels = cursor.tile_width * (job.y1 - job.y0);
-    cursor.total = int64_t(cursor.tile_pixels) * (job.sample_end - job.sample_begin);
-    cursor.sample = uint32_t(job.sample_begin);
+    TileCursor cursor = tile_cursor(job);
     const FlatFeatures& f = scene.features;
     if constexpr (kFused != kLobeCount) {
         // One lobe, no point lights, no textures: shading compacts, no radiance is carried;
