@@ -90,8 +90,10 @@ void encode_result(std::vector<char>& msg, const UnitResult& r) {
     const auto& px = r.sums.pixels();
     const char* p = reinterpret_cast<const char*>(px.data());
     msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
-    const char* s = reinterpret_cast<const char*>(r.sums.splats.data());
-    msg.insert(msg.end(), s, s + r.sums.splats.size() * sizeof(Splat));
+    if (!r.sums.splats.empty()) {
+        const char* s = reinterpret_cast<const char*>(r.sums.splats.data());
+        msg.insert(msg.end(), s, s + r.sums.splats.size() * sizeof(Splat));
+    }
 }
 
 UnitResult decode_result(const std::vector<char>& msg, size_t& at, const std::vector<Tile>& tiles,
@@ -108,9 +110,11 @@ UnitResult decode_result(const std::vector<char>& msg, size_t& at, const std::ve
     at += bytes;
     if (rh.splats > (msg.size() - at) / sizeof(Splat))
         throw std::runtime_error("truncated unit from a rank");
-    r.sums.splats.resize(rh.splats);
-    std::memcpy(r.sums.splats.data(), msg.data() + at, rh.splats * sizeof(Splat));
-    at += rh.splats * sizeof(Splat);
+    if (rh.splats > 0) {  // (memcpy may not be given the null data of an empty vector)
+        r.sums.splats.resize(rh.splats);
+        std::memcpy(r.sums.splats.data(), msg.data() + at, rh.splats * sizeof(Splat));
+        at += rh.splats * sizeof(Splat);
+    }
     return r;
 }
 
