@@ -23,10 +23,6 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
-// What a path vertex needs of the scene beyond its hit: plain values and arrays, built once
-// per scene (Scene::path_context) and shared by the scalar reference and the flat scene.
-// (Defined in kernels/emitter_table.h with the other plain tables: PathContext.)
-
 // Whether emitter hits are weighed: nee and mis (emitters they sample), lt (all sampled).
 inline bool weighs_emitter_hits(const PathContext& c) { return c.nee || c.lt; }
 
@@ -48,8 +44,7 @@ VertexFrame<T> vertex_frame(bool smooth, const Vec3<T>& d, const Vec3<T>& n, con
 // A shadow ray a vertex asks for: from `origin` (just off the surface on the arriving side)
 // along `dir` up to `tmax`; if
 // nothing blocks it, the path gains `value` (the throughput passed to direct_light
-// included). Lanes not in `want` ask for nothing. `emitter_sample`: the emitter sample's ray
-// (else a point light's).
+// included). Lanes not in `want` ask for nothing.
 template <class T>
 struct ShadowRequest {
     Vec3<T> origin;
@@ -57,7 +52,6 @@ struct ShadowRequest {
     T tmax;
     Vec3<T> value;
     Mask<T> want;
-    bool emitter_sample;
 };
 
 // The direct light of the Phong vertices in `phong` (the material m, the ray's direction d,
@@ -85,7 +79,7 @@ ShadowRequest<T> emitter_request(const PathContext& c, const Bsdf<T>& m, const V
     const Vec3<T> value = beta * es.value;
     Mask<T> want = phong & es.ok & (max_component(value) > T(0.0f));
     if (c.smooth) want = want & on_arriving_side(es.wi, v.nf);
-    return {origin, es.wi, es.tmax, value, want, true};
+    return {origin, es.wi, es.tmax, value, want};
 }
 
 template <class T>
@@ -102,7 +96,7 @@ ShadowRequest<T> point_light_request(const PathContext& c, int32_t j, const Bsdf
         beta * phong_f_cos(m, d, v.nsf, wi) * Vec3<T>(T(l[3]), T(l[4]), T(l[5])) * (T(1.0f) / d2);
     Mask<T> want = phong & (max_component(value) > T(0.0f));
     if (c.smooth) want = want & on_arriving_side(wi, v.nf);
-    return {origin, wi, dist * T(1.0f - 1e-5f), value, want, false};
+    return {origin, wi, dist * T(1.0f - 1e-5f), value, want};
 }
 
 // The continuation of a path through lobe kLobe (chosen by the roulette with `probability`),
