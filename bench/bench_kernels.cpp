@@ -188,7 +188,7 @@ void BM_CameraRays(benchmark::State& state) {
     WavefrontCounters counters;
     Wave<A> w{scene, mem.pool, counters};
     TileCursor start;
-    start.job = {32, 48, 48, 64, 0, 8, nullptr, nullptr, nullptr};
+    start.job = {32, 48, 48, 64, 0, 8, false, nullptr, nullptr, nullptr};
     start.tile_width = 16, start.tile_pixels = 256, start.total = 256 * 8;
     double paths = 0;
     for (auto _ : state) {
@@ -236,7 +236,7 @@ void BM_Compaction(benchmark::State& state) {
     std::bernoulli_distribution survives(0.8);
     for (int32_t i = 0; i < kPool; ++i) mem.pool.alive[i] = survives(rng) ? 1 : 0;
     int64_t finished = 0;
-    const TileJob job{0, 0, 16, 16, 0, 1, &finished,
+    const TileJob job{0, 0, 16, 16, 0, 1, false, &finished,
                       [](void* film, int32_t count, const uint32_t*, const float*, const float*,
                          const float*) { *static_cast<int64_t*>(film) += count; },
                       nullptr};

@@ -143,6 +143,25 @@ std::vector<Tile> image_tiles(int width, int height) {
     return tiles;
 }
 
+int light_batch_rows(int width) {
+    return std::max(1, (kLightBatchPixels + width / 2) / std::max(width, 1));
+}
+
+std::vector<Tile> work_units(int width, int height, bool light) {
+    std::vector<Tile> units;
+    if (light) {
+        const int rows = light_batch_rows(width);
+        for (int y = 0; y < height; y += rows) {
+            Tile batch{0, y, width, std::min(y + rows, height)};
+            batch.light = true;
+            units.push_back(batch);
+        }
+    }
+    const std::vector<Tile> tiles = image_tiles(width, height);
+    units.insert(units.end(), tiles.begin(), tiles.end());
+    return units;
+}
+
 RenderResult render(const Scene& scene, const RenderOptions& options) {
     // (an emitter is chosen from 24 random bits)
     if (scene.settings.estimator.kind != Estimator::kReport &&
@@ -174,7 +193,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     const int threads =
         options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
-    const std::vector<Tile> tiles = image_tiles(rs.width, rs.height);
+    const std::vector<Tile> tiles =
+        work_units(rs.width, rs.height, splats(scene.settings.estimator.kind));
     // (enough for two passes in flight and every thread's unit)
     TilePool pool(2 * tiles.size() + 8 * size_t(threads));
     const UnitRenderer renderer(scene, wavefront.get(), tiles, pool);

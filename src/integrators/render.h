@@ -121,11 +121,16 @@ struct RenderResult {
     RenderStats stats;
 };
 
-// A rectangle of pixels [x0, x1) × [y0, y1), and the samples [s0, s1) of each of its pixels
-// that one pass renders.
+// A unit of work's extent. A camera tile: a rectangle of pixels [x0, x1) × [y0, y1), and the
+// samples [s0, s1) of each of its pixels that one pass renders (its camera paths, or for
+// light tracing only the count of its samples where the camera traces none). A batch of light
+// paths (`light`): the paths from the lights that take the keys of those pixels and samples
+// (light path n of a pass has the key of camera sample n), whose splats land anywhere in the
+// image; it owns no pixels.
 struct Tile {
     int x0, y0, x1, y1;
     int64_t s0 = 0, s1 = 0;
+    bool light = false;
 };
 
 // The passes: pass k renders samples [bounds[k], bounds[k + 1]) of every pixel. From zero,
@@ -136,6 +141,15 @@ std::vector<int64_t> pass_bounds(int64_t start, int64_t spp);
 
 // The tiles of a width × height image, kTileSize square, in row order.
 std::vector<Tile> image_tiles(int width, int height);
+
+// Rows of the image per batch of light paths: about kLightBatchPixels pixels' keys (times
+// the samples of a pass) per unit, whole rows.
+inline constexpr int kLightBatchPixels = 1024;
+int light_batch_rows(int width);
+
+// The units of one pass: the image's tiles, and for an estimator that splats (`light`) the
+// batches of light paths first (the larger work, started first), then the tiles.
+std::vector<Tile> work_units(int width, int height, bool light);
 
 // Renders the scene with its settings (resolution, spp, seed) and the options, in passes of
 // a few paths per pixel over the whole image, so it can stop between passes with the same

@@ -153,29 +153,39 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
 void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays) {
     const RenderSettings& rs = scene.settings;
     const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
-    // Light tracing: one path from the lights per camera path; the camera's own paths only
-    // where some emitter is not sampled (they bring nothing else)
-    const bool lt = splats(rs.estimator.kind);
-    const bool camera_paths = !lt || scene.emitters.unsampled_objects > 0;
-    const PinholeFrame pinhole = scene.pinhole();
     const PathContext context = scene.path_context();
+    if (tile.light) {
+        // A batch of light paths: one per key of its pixels and samples
+        const PinholeFrame pinhole = scene.pinhole();
+        for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x) {
+                const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
+                for (int64_t s = tile.s0; s < tile.s1; ++s)
+                    trace_light_path(scene, context, pinhole, path_key(rs.seed, pixel, uint32_t(s)),
+                                     film, rays);
+            }
+        return;
+    }
+    // Light tracing traces the camera's own paths only where some emitter is not sampled
+    // (they bring nothing else); its tiles count their samples all the same
+    const bool camera_paths =
+        !splats(rs.estimator.kind) || scene.emitters.unsampled_objects > 0;
     for (int y = tile.y0; y < tile.y1; ++y) {
         for (int x = tile.x0; x < tile.x1; ++x) {
             PixelSums& px = film.at(x, y);
+            if (!camera_paths) {
+                px.count += uint64_t(tile.s1 - tile.s0);
+                continue;
+            }
             const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
             for (int64_t s = tile.s0; s < tile.s1; ++s) {
                 // A uniformly random point inside the pixel
                 const uint32_t key = path_key(rs.seed, pixel, uint32_t(s));
-                if (camera_paths) {
-                    const float sx = float(x) + uniform<float>(key, 0u, Purpose::kPixelX);
-                    const float sy = float(y) + uniform<float>(key, 0u, Purpose::kPixelY);
-                    ++rays.camera;
-                    px.add(trace_path(scene, context, scene.camera.generate(sx, sy, inv_w, inv_h),
-                                      key, rays));
-                } else {
-                    ++px.count;
-                }
-                if (lt) trace_light_path(scene, context, pinhole, key, film, rays);
+                const float sx = float(x) + uniform<float>(key, 0u, Purpose::kPixelX);
+                const float sy = float(y) + uniform<float>(key, 0u, Purpose::kPixelY);
+                ++rays.camera;
+                px.add(trace_path(scene, context, scene.camera.generate(sx, sy, inv_w, inv_h), key,
+                                  rays));
             }
         }
     }

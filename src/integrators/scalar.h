@@ -14,14 +14,16 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
 Vec3f trace_path(const Scene& scene, const PathContext& context, const Ray<float>& camera_ray,
                  uint32_t key, RayCounts& rays);
 
-// One path from the lights (light tracing), keyed by the camera path it is traced beside:
-// every connection to the pinhole that nothing blocks is splatted into `film`.
+// One path from the lights (light tracing), keyed by the camera sample whose key it takes
+// (light_path_key): every connection to the pinhole that nothing blocks is splatted into
+// `film`.
 void trace_light_path(const Scene& scene, const PathContext& context,
                       const PinholeFrame& pinhole, uint32_t camera_key, FilmTile& film,
                       RayCounts& rays);
 
-// Samples [tile.s0, tile.s1) of the tile's pixels, added to the tile's sums (and, with light
-// tracing, one path from the lights per sample, splatted).
+// Samples [tile.s0, tile.s1) of the tile's pixels, added to the tile's sums; for a batch of
+// light paths (tile.light), one path from the lights per key of those pixels and samples,
+// splatted.
 void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays);
 
 }  // namespace cierzo

@@ -17,6 +17,7 @@ void add(LaneStats& a, const LaneStats& b) {
 // ---- Tiles' memory and rendering -----------------------------------------------------------
 
 FilmTile TilePool::make(const Tile& g, int image_width) {
+    if (g.light) return FilmTile(g.x0, g.y0, g.x0, g.y0, image_width);  // (owns no pixels)
     std::vector<PixelSums> memory;
     {
         std::lock_guard lock(mutex_);
@@ -38,6 +39,8 @@ UnitResult UnitRenderer::render(const Unit& u) const {
     Tile t = tiles_[size_t(u.tile)];
     t.s0 = u.s0, t.s1 = u.s1;
     UnitResult r{u, pool_.make(t, scene_.settings.width), {}, {}};
+    if (t.light) r.sums.splats.reserve(size_t(t.x1 - t.x0) * size_t(t.y1 - t.y0) *
+                                       size_t(t.s1 - t.s0));
     if (wavefront_) {
         wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
     } else {
@@ -200,12 +203,14 @@ std::optional<Unit> Coordinator::take(int32_t ahead) {
 void Coordinator::commit_passes() {
     while (!stopping_ && work_[first_].done_count == tiles_.size()) {
         PassWork& w = work_[first_];
-        for (std::optional<FilmTile>& f : w.sums) {
+        for (size_t t = 0; t < tiles_.size(); ++t) {
+            FilmTile& f = *w.sums[t];
+            if (tiles_[t].light) continue;  // (its splats are in w.splats)
             if (splat_pixels_)
-                film_.merge_batch(*f, w.splats);
+                film_.merge_batch(f, w.splats);
             else
-                film_.merge(*f);
-            pool_.give(std::move(*f));
+                film_.merge(f);
+            pool_.give(std::move(f));
         }
         if (splat_pixels_) film_.end_batch(w.splats.nonfinite());
         rays_ += w.rays;

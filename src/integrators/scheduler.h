@@ -5,10 +5,11 @@
 // tile of that pass is in, so each pixel's sums are always film + pass 0 + pass 1 + ..., in
 // that order, whoever rendered each pass: the image is bit-identical for any number of
 // threads and processes. The film thus always holds whole passes, and a stop or a checkpoint
-// at any moment has the same paths in every pixel. Paths from the lights (an estimator that
-// splats) land anywhere in the image: their splats are added up exactly as units come in
-// (SplatSums: integer sums, the same bits in any order), and with the tiles' sums once the
-// pass is whole; a checkpoint then keeps whole passes only.
+// at any moment has the same paths in every pixel. An estimator that splats (light tracing)
+// has units of a second kind, batches of light paths (Tile::light, work_units): their splats
+// land anywhere in the image, are added up exactly as units come in (SplatSums: integer
+// sums, the same bits in any order), and join the tiles' sums once the pass is whole; a
+// checkpoint then keeps whole passes only.
 #pragma once
 
 #include <chrono>
@@ -33,7 +34,8 @@ inline double seconds_since(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-// One tile's samples [s0, s1): pass `pass` of tile `tile`.
+// One unit's samples [s0, s1): pass `pass` of unit `tile` (a camera tile or a batch of light
+// paths, by its index in the render's work_units).
 struct Unit {
     int32_t tile = 0;
     int32_t pass = 0;

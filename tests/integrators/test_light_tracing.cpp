@@ -9,7 +9,9 @@
 //     camera sees no mirror or glass (a z-test at Šidák-corrected α = 0.01 passes on ≥ 99%
 //     of pixels, and the means agree within 3σ); scalar and wavefront lt likewise;
 //   - the image is the same bits for 1, 2 and 3 threads; the splat sums are the same bits
-//     in any order and any split;
+//     in any order and any split; the units of a pass (batches of light paths, then camera
+//     tiles) each cover the image once, and a batch of light paths cut into rows splats
+//     the same bits as whole;
 //   - a scene with no light is refused; one whose emitters cannot be sampled renders with
 //     a warning, and is then the report's image bit for bit.
 #include <gtest/gtest.h>
@@ -22,6 +24,9 @@
 
 #include "core/error.h"
 #include "integrators/render.h"
+#include "integrators/scalar.h"
+#include "integrators/scheduler.h"
+#include "integrators/wavefront/wavefront.h"
 #include "scene/scene_json.h"
 #include "support/emulator.h"
 #include "support/render_variants.h"
@@ -299,6 +304,96 @@ TEST(SplatSums, SameBitsInAnyOrderAndSplit) {
     EXPECT_EQ(bad.nonfinite(), 3u);
     EXPECT_EQ(bad.at(0, 0), 2.0);
     EXPECT_EQ(bad.at(1, 0), 0.0);
+}
+
+TEST(WorkUnits, LightBatchesAndTilesEachCoverTheImageOnce) {
+    for (const auto& [w, h] : std::vector<std::pair<int, int>>{
+             {1, 1}, {7, 3}, {48, 40}, {250, 250}, {1000, 3}, {5000, 2}, {33, 2049}}) {
+        SCOPED_TRACE(std::to_string(w) + "x" + std::to_string(h));
+        const std::vector<Tile> tiles = image_tiles(w, h);
+        const std::vector<Tile> camera = work_units(w, h, false);
+        ASSERT_EQ(camera.size(), tiles.size());
+        for (size_t i = 0; i < tiles.size(); ++i) {
+            EXPECT_FALSE(camera[i].light);
+            EXPECT_EQ(camera[i].x0, tiles[i].x0);
+            EXPECT_EQ(camera[i].y1, tiles[i].y1);
+        }
+        const std::vector<Tile> units = work_units(w, h, true);
+        std::vector<int> by_light(size_t(w) * size_t(h), 0), by_tile(by_light.size(), 0);
+        bool tiles_begun = false;
+        int next_row = 0;
+        for (const Tile& u : units) {
+            ASSERT_LT(u.x0, u.x1);
+            ASSERT_LT(u.y0, u.y1);
+            if (u.light) {
+                EXPECT_FALSE(tiles_begun) << "light batches come first";
+                // Whole rows, in order, about kLightBatchPixels pixels (the last may be less)
+                EXPECT_EQ(u.x0, 0);
+                EXPECT_EQ(u.x1, w);
+                EXPECT_EQ(u.y0, next_row);
+                next_row = u.y1;
+                if (u.y1 < h && w <= kLightBatchPixels) {
+                    EXPECT_LE(std::abs((u.y1 - u.y0) * w - kLightBatchPixels), w);
+                }
+            } else {
+                tiles_begun = true;
+            }
+            for (int y = u.y0; y < u.y1; ++y)
+                for (int x = u.x0; x < u.x1; ++x)
+                    ++(u.light ? by_light : by_tile)[size_t(y) * size_t(w) + size_t(x)];
+        }
+        EXPECT_EQ(next_row, h);
+        EXPECT_EQ(std::count(by_light.begin(), by_light.end(), 1), long(by_light.size()));
+        EXPECT_EQ(std::count(by_tile.begin(), by_tile.end(), 1), long(by_tile.size()));
+    }
+}
+
+// A batch of light paths cut into batches of fewer rows, in any order, splats the same bits
+// as the whole batch: a light path's key is that of its pixel and sample, nothing of the
+// unit it runs in (so the scheduler may cut the work as it likes).
+TEST(LightTracing, ABatchCutIntoRowsSplatsTheSameBits) {
+    Scene s = scene_of(kBox, Estimator::kLt, 3);
+    const int w = s.settings.width, h = s.settings.height;
+    const auto sums_of = [&](const Variant& v, const std::vector<std::pair<int, int>>& rows,
+                             uint64_t& light) {
+        std::unique_ptr<WavefrontRenderer> wavefront;
+        if (v.integrator == "wavefront")
+            wavefront = std::make_unique<WavefrontRenderer>(s, parse_isa(v.isa));
+        SplatSums sums;
+        sums.reset(size_t(w) * size_t(h));
+        light = 0;
+        for (const auto& [y0, y1] : rows) {
+            Tile batch{0, y0, w, y1, 1, 3};
+            batch.light = true;
+            FilmTile film(0, y0, 0, y0, w);
+            RayCounts rays;
+            LaneStats lanes;
+            if (wavefront)
+                wavefront->render_tile(batch, film, rays, lanes);
+            else
+                render_tile_scalar(s, batch, film, rays);
+            EXPECT_TRUE(film.pixels().empty());
+            sums.add(film.splats);
+            light += rays.light;
+        }
+        EXPECT_LE(light, uint64_t(w) * uint64_t(h) * 2u);  // one per pixel and sample at most
+        return sums;
+    };
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        uint64_t light_whole = 0, light_cut = 0;
+        const SplatSums whole = sums_of(v, {{0, h}}, light_whole);
+        const SplatSums cut = sums_of(v, {{5, 6}, {h - 1, h}, {0, 5}, {6, h - 1}}, light_cut);
+        EXPECT_GT(light_whole, uint64_t(w) * uint64_t(h));
+        EXPECT_EQ(light_cut, light_whole);
+        double total = 0.0;
+        for (size_t p = 0; p < size_t(w) * size_t(h); ++p)
+            for (int c = 0; c < 3; ++c) {
+                ASSERT_EQ(cut.at(p, c), whole.at(p, c)) << "pixel " << p;
+                total += whole.at(p, c);
+            }
+        EXPECT_GT(total, 0.0);  // (the light paths reached the camera)
+    }
 }
 
 TEST(LightTracing, RefusesASceneWithoutLight) {

@@ -109,10 +109,12 @@ struct FlatScene {
     FlatFeatures features;
 };
 
-// One tile of work and where its finished paths go.
+// One unit of work and where its finished paths go: a camera tile, or a batch of light paths
+// (`light`: one per key of the pixels and samples, splatted).
 struct TileJob {
     int32_t x0, y0, x1, y1;
     int64_t sample_begin, sample_end;  // the samples of each pixel this job renders
+    bool light;
     void* film;
     // Adds the radiance of `count` finished paths (pixel index, radiance) to the film, in
     // order. The film has counted every path of the job before it starts (so paths whose

@@ -319,11 +319,11 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
     if (int64_t(tile.x1 - tile.x0) * (tile.y1 - tile.y0) >= (int64_t(1) << 23))
         throw std::logic_error("wavefront tiles must have fewer than 2^23 pixels");
     PathPool& pool = data_->pools.local().pool;
-    const TileJob job{tile.x0, tile.y0, tile.x1, tile.y1, tile.s0,    tile.s1,
-                      &film,    finish_paths, splat_paths};
+    const TileJob job{tile.x0, tile.y0,    tile.x1,     tile.y1, tile.s0,
+                      tile.s1, tile.light, &film, finish_paths, splat_paths};
     WavefrontCounters c;
-    // Every path of the job is counted now; the kernels hand over only the radiant ones
-    film.count_paths(uint64_t(tile.s1 - tile.s0));
+    // Every camera path of the job is counted now; the kernels hand over only the radiant ones
+    if (!tile.light) film.count_paths(uint64_t(tile.s1 - tile.s0));
     data_->entry(data_->flat, pool, job, c);
     rays.camera += c.camera, rays.extension += c.extension, rays.shadow += c.shadow;
     rays.light += c.light;

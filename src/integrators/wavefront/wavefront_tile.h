@@ -105,19 +105,19 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
     auto run = [&](auto fused) {
         render_tile_stages<decltype(fused)::value, A>(scene, pool, job, counters);
     };
-    // Light tracing: the camera's paths only where some emitter is not sampled, then the
-    // paths from the lights
-    if (!scene.path.lt || scene.lt_camera_paths) {
-        if (f.lobe_kinds != 1) run(std::integral_constant<int, kLobeCount>{});
-        else if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
-        else if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
-        else if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
-        else run(std::integral_constant<int, kLobeRefract>{});
-    }
-    if (scene.path.lt) {
+    // A batch of light paths; a camera tile (with light tracing, only where some emitter is
+    // not sampled: the camera's paths bring nothing else)
+    if (job.light) {
         Wave<A> w{scene, pool, counters};
         render_light_paths(w, job);
+        return;
     }
+    if (scene.path.lt && !scene.lt_camera_paths) return;
+    if (f.lobe_kinds != 1) run(std::integral_constant<int, kLobeCount>{});
+    else if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
+    else if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
+    else if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
+    else run(std::integral_constant<int, kLobeRefract>{});
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE
