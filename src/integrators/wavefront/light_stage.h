@@ -4,11 +4,12 @@
 //   regenerate: free slots take the tile's next (pixel, sample) keys, each a light path's
 //     start (a light chosen by power, a point, a direction); an emitter's point is connected
 //     to the pinhole at once;
-//   intersect → surfaces (→ materials, textured scenes) → vertex: every Phong vertex is
-//     connected to the pinhole (its shadow ray traced on the batch's registers, the splat
-//     queued), the roulette picks a lobe, the lobe is sampled in importance mode, and the
-//     survivors move to the front of the pool;
-// until every light path of the tile has ended. Splats go to the film in batches (TileJob).
+//   intersect → surfaces (→ materials, textured scenes) → vertex: every Phong vertex queues
+//     its connection to the pinhole, the roulette picks a lobe, the lobe is sampled in
+//     importance mode, and the survivors move to the front of the pool;
+//   camera connections: the queued shadow rays to the pinhole, traced in full batches; the
+//     clear ones are splatted;
+// until every light path of the batch has ended. Splats go to the film in batches (TileJob).
 #pragma once
 
 #include "integrators/wavefront/camera_stage.h"
@@ -41,29 +42,65 @@ void flush_splats(const TileJob& job, PathPool& p, int32_t& queued) {
     queued = 0;
 }
 
-// The connection of the lanes in `want` at points `pos` (offset to `origin` on the pinhole's
-// side) to the pinhole: the shadow ray traced here, the splats of the clear ones queued.
+// The connections of the lanes in `want` (from `origin`, offset to the pinhole's side) to
+// the pinhole, queued: the camera connections are a shadow-ray queue of
+// their own (the pool's shadow queue, which light paths use for nothing else: origin,
+// direction, distance, the value to splat, and the pixel in place of an owner), traced in
+// full batches by trace_camera_connections.
 template <class A>
-void connect_lanes(Wave<A>& w, typename Wave<A>::M want, const Vec3<typename Wave<A>::F>& origin,
-                   const CameraConnection<typename Wave<A>::F>& c,
-                   const Vec3<typename Wave<A>::F>& value, int32_t& queued) {
+void queue_connections(Wave<A>& w, typename Wave<A>::M want,
+                       const Vec3<typename Wave<A>::F>& origin,
+                       const CameraConnection<typename Wave<A>::F>& c,
+                       const Vec3<typename Wave<A>::F>& value, int32_t& connections) {
     using F = typename Wave<A>::F;
-    constexpr int32_t K = Wave<A>::K;
+    using U = typename Wave<A>::U;
+    PathPool& p = w.pool;
     want = want & c.ok & (max_component(value) > F(0.0f));
     const uint32_t bits = mask_bits(want);
     if (!bits) return;
-    const auto blocked = occluded<A>(w.scene, Ray<F>{origin, c.wc}, c.dist * F(1.0f - 1e-5f), want);
-    queue_splats<A>(w.pool, mask_bits(want & !blocked), c.pixel, value, queued);
-    w.counters.shadow += uint64_t(std::popcount(bits));
-    w.counters.shadow_active += uint64_t(std::popcount(bits));
-    w.counters.shadow_total += uint64_t(K);
+    const int32_t at = connections;
+    const auto put = [&](const F& v, float* a) { compress<A>(v, bits).store_unaligned(a + at); };
+    put(origin.x, p.sox), put(origin.y, p.soy), put(origin.z, p.soz);
+    put(c.wc.x, p.sdx), put(c.wc.y, p.sdy), put(c.wc.z, p.sdz);
+    put(c.dist * F(1.0f - 1e-5f), p.stmax);
+    put(value.x, p.sc_r), put(value.y, p.sc_g), put(value.z, p.sc_b);
+    compress<A>(xsimd::bitwise_cast<U>(c.pixel), bits)
+        .store_unaligned(reinterpret_cast<uint32_t*>(p.sowner) + at);
+    connections += std::popcount(bits);
+}
+
+// The queued camera connections, K at a time (any hit); the clear ones are splatted, and the
+// splats handed to the film.
+template <class A>
+CIERZO_STAGE_LOOP void trace_camera_connections(Wave<A>& w, const TileJob& job,
+                                                int32_t& connections) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const int32_t count = connections;
+    int32_t queued = 0;
+    for (int32_t i = 0; i < count; i += K) {
+        const Ray<F> ray{load3<F>(p.sox, p.soy, p.soz, i), load3<F>(p.sdx, p.sdy, p.sdz, i)};
+        const int32_t lanes = std::min(K, count - i);
+        const auto live = Wave<A>::lane_index() < F(float(lanes));
+        const auto blocked = occluded<A>(w.scene, ray, F::load_aligned(p.stmax + i), live);
+        queue_splats<A>(p, mask_bits(live & !blocked), I::load_aligned(p.sowner + i),
+                        load3<F>(p.sc_r, p.sc_g, p.sc_b, i), queued);
+        w.counters.shadow_active += uint64_t(lanes);
+        w.counters.shadow_total += uint64_t(K);
+    }
+    w.counters.shadow += uint64_t(count);
+    connections = 0;
+    flush_splats<A>(job, p, queued);
 }
 
 // Regeneration: the paths [w.live, ...) take the tile's next keys (as the camera's would)
 // and become light paths: start sampled, the emitter's point connected, ray and throughput
 // set; a start that cannot be sampled is dead at once (its throughput 0).
 template <class A>
-CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor, int32_t& queued) {
+CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor,
+                                            int32_t& connections) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     constexpr int32_t K = Wave<A>::K;
@@ -88,7 +125,8 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor, int3
             const F cos_l = dot(c.wc, ls.n);
             const Vec3<F> origin =
                 offset_ray_origin(ls.p, select(cos_l > F(0.0f), ls.n, -ls.n), max_abs(ls.p));
-            connect_lanes(w, surface, origin, c, ls.le * (abs(cos_l) * c.factor), queued);
+            queue_connections(w, surface, origin, c, ls.le * (abs(cos_l) * c.factor),
+                              connections);
         }
         const Vec3<F> o = select(ls.on_surface,
                                  offset_ray_origin(ls.p, select(dot(ls.dir, ls.n) > F(0.0f), ls.n, -ls.n),
@@ -111,7 +149,7 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor, int3
 template <class A, class Read>
 void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                         const Surfaces<A>& sf, const Read& evaluated, int32_t& kept,
-                        int32_t& queued) {
+                        int32_t& connections) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
@@ -134,9 +172,10 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     if (any(phong)) {
         const CameraConnection<F> c = connect_camera(s.pinhole, sf.pos);
-        connect_lanes(w, phong & on_arriving_side(c.wc, v.nf),
-                      offset_ray_origin(sf.pos, v.nf, sf.magnitude), c,
-                      camera_contribution(m, beta, d, v.nf, v.nsf, c, s.path.smooth), queued);
+        queue_connections(w, phong & on_arriving_side(c.wc, v.nf),
+                          offset_ray_origin(sf.pos, v.nf, sf.magnitude), c,
+                          camera_contribution(m, beta, d, v.nf, v.nsf, c, s.path.smooth),
+                          connections);
     }
 
     // The roulette and the chosen lobe, in importance mode (each lobe some lane chose)
@@ -178,7 +217,7 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     w.counters.lanes_total += uint64_t(K);
 }
 
-// The light paths of one tile (one per pixel and sample of the job), to the end.
+// The light paths of one batch (one per key of the job's pixels and samples), to the end.
 template <class A>
 CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
     using F = typename Wave<A>::F;
@@ -197,10 +236,10 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
         if (textures) prim.store_aligned(p.prim + i);  // (for the vertex colours)
         return resolve_surfaces(w, i, ray, t, prim);
     };
+    int32_t connections = 0;
     for (;;) {
-        int32_t queued = 0;
-        generate_light_paths(w, cursor, queued);
-        flush_splats<A>(job, p, queued);
+        generate_light_paths(w, cursor, connections);
+        trace_camera_connections<A>(w, job, connections);
         if (w.live == 0) break;
         int32_t kept = 0;
         const int32_t end = w.rounded_up(w.live);
@@ -209,7 +248,7 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
                 Ray<F> ray;
                 const Surfaces<A> sf = trace(i, ray);
                 light_vertex_batch(w, i, ray, sf, [](int) { return Vec3<F>(F(0.0f)); }, kept,
-                                   queued);
+                                   connections);
             }
         } else {
             // Textured: every hit first, then the material stage, then the vertices
@@ -223,10 +262,10 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
                 light_vertex_batch(
                     w, i, ray, load_surfaces(w, i, ray),
                     [&](int c) { return load3<F>(p.col[c][0], p.col[c][1], p.col[c][2], i); },
-                    kept, queued);
+                    kept, connections);
             }
         }
-        flush_splats<A>(job, p, queued);
+        trace_camera_connections<A>(w, job, connections);
         w.live = kept;
     }
 }
