@@ -11,6 +11,7 @@
 #include "kernels/prim_id.h"
 #include "kernels/shading.h"
 #include "kernels/traverse.h"
+#include "scene/flat_tables.h"
 
 namespace cierzo {
 
@@ -131,6 +132,7 @@ void Scene::finalize() {
     for (const PointLight& l : lights)
         light_data.insert(light_data.end(), {l.position.x, l.position.y, l.position.z,
                                              l.intensity.x, l.intensity.y, l.intensity.z});
+    flat_tables = build_flat_tables(*this);
 }
 
 PathContext Scene::path_context() const {

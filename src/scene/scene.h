@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -17,6 +18,8 @@
 #include "scene/camera.h"
 
 namespace cierzo {
+
+struct FlatTables;  // scene/flat_tables.h
 
 struct Material {
     std::string name;
@@ -176,9 +179,12 @@ public:
     Emitters emitters;
     LightStarts light_starts;
     std::vector<float> light_data;  // the point lights, 6 floats each (set by finalize())
+    // The tables of the scene's flat form (scene/flat_tables.h), for the wavefront kernels
+    std::shared_ptr<const FlatTables> flat_tables;
 
-    // Call once after filling the arrays: builds the BVHs (a copy of the scene shares its
-    // meshes' BVHs).
+    // Call once after filling the arrays: builds the BVHs, the emitters and the flat tables
+    // (a copy of the scene shares its meshes' BVHs and the flat tables; change no primitive
+    // or material afterwards without calling it again).
     void finalize();
 
     // The mesh entry holding the vertices and indices of mesh m (itself, or the geometry it

@@ -170,6 +170,7 @@ TEST(Extremes, ANonFiniteSampleIsCountedAndKeptOutOfTheImage) {
     Scene scene = parse_scene(box_scene("", "", 8), "/tmp/e.json");
     for (Material& m : scene.materials)
         if (m.is_emitter()) m.emission.a.y = std::nanf("");
+    scene.finalize();  // (the tables built from the materials)
     for (const Variant& v : variants()) {
         SCOPED_TRACE(std::string(v.integrator) + " " + v.isa);
         const RenderResult r = run(scene, v);

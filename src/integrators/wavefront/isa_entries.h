@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "integrators/wavefront/flat_scene.h"
+#include "integrators/wavefront/job.h"
 #include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/path_pool.h"
 

@@ -8,7 +8,7 @@
 #include <bit>
 #include <limits>
 
-#include "integrators/wavefront/flat_scene.h"
+#include "integrators/wavefront/job.h"
 #include "integrators/wavefront/path_pool.h"
 #include "kernels/estimator.h"
 #include "kernels/intersect.h"
