@@ -49,19 +49,23 @@ struct Bsdf {
 // of lobe i, scale = cap/Σp where Σp exceeds the survival cap (else 1); the continuation
 // probability q = Σ P(lobe) = min(Σp, cap) is the chance a path goes on from the vertex, and
 // P(lobe)/q the choice of the lobe once it does. choose_lobe draws from exactly these.
+// `normalised` (the throughput roulette, settings.h): scale = 1/Σp, so q = 1 wherever some
+// lobe is not black (throughput_roulette then decides the path's death).
 template <class T>
 struct LobeProbabilities {
     T lobe[4];   // diffuse, Phong specular, mirror, refraction
     T survival;  // q
 };
 template <class T>
-LobeProbabilities<T> lobe_probabilities(const Bsdf<T>& m, float survival_cap) {
+LobeProbabilities<T> lobe_probabilities(const Bsdf<T>& m, float survival_cap,
+                                        bool normalised = false) {
     const T pd = max_component(m.kd);
     const T ps = max_component(m.ks);
     const T pr = max_component(m.kr);
     const T pt = max_component(m.kt);
     const T sum = pd + ps + pr + pt;
-    const T scale = select(sum > T(survival_cap), T(survival_cap) / sum, T(1.0f));
+    const T scale = normalised ? select(sum > T(0.0f), T(1.0f) / sum, T(0.0f))
+                               : select(sum > T(survival_cap), T(survival_cap) / sum, T(1.0f));
     LobeProbabilities<T> out;
     out.lobe[0] = pd * scale, out.lobe[1] = ps * scale;
     out.lobe[2] = pr * scale, out.lobe[3] = pt * scale;
@@ -75,18 +79,20 @@ LobeProbabilities<T> lobe_probabilities(const Bsdf<T>& m, float survival_cap) {
 // one lobe kind); the others' thresholds are then exactly 0 and the same choice is made
 // from that lobe alone, with bit-identical results.
 template <int kOnly = kLobeCount, class T>
-I32<T> choose_lobe(const Bsdf<T>& m, const T& u, float survival_cap, T& probability) {
+I32<T> choose_lobe(const Bsdf<T>& m, const T& u, float survival_cap, T& probability,
+                   bool normalised = false) {
     using I = I32<T>;
     if constexpr (kOnly != kLobeCount) {
         const Vec3<T>* colour[4] = {&m.kd, &m.ks, &m.kr, &m.kt};
         const T p = max_component(*colour[kOnly]);
-        const T c = p * select(p > T(survival_cap), T(survival_cap) / p, T(1.0f));
+        const T c = normalised ? select(p > T(0.0f), T(1.0f), T(0.0f))
+                               : p * select(p > T(survival_cap), T(survival_cap) / p, T(1.0f));
         const auto chosen = u < c;
         // (an absorbed path gets what the general form gives it: the last lobe's share)
         probability = kOnly == kLobeRefract ? c : select(chosen, c, T(0.0f));
         return select(mask_i32(chosen), I(kOnly), I(kLobeAbsorbed));
     }
-    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap);
+    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap, normalised);
     // The lobe index is the number of cumulative thresholds that u has passed
     const T c1 = lp.lobe[0], c2 = c1 + lp.lobe[1], c3 = c2 + lp.lobe[2], c4 = c3 + lp.lobe[3];
     const I one(1), zero(0);
@@ -215,8 +221,8 @@ Vec3<T> phong_f_cos(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const
 // same scaling as choose_lobe), which the emitter sample's MIS weights need.
 template <class T>
 void phong_lobe_probabilities(const Bsdf<T>& m, float survival_cap, T& p_diffuse,
-                              T& p_specular) {
-    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap);
+                              T& p_specular, bool normalised = false) {
+    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap, normalised);
     p_diffuse = lp.lobe[0];
     p_specular = lp.lobe[1];
 }
@@ -267,14 +273,14 @@ struct BsdfEval {
 };
 template <class T>
 BsdfEval<T> bsdf_eval(const Bsdf<T>& m, const Vec3<T>& wo, const Vec3<T>& nf, const Vec3<T>& wi,
-                      float survival_cap, bool cosine) {
+                      float survival_cap, bool cosine, bool normalised = false) {
     BsdfEval<T> out;
     const Vec3<T> d = -wo;
     const Vec3<T> f = phong_f(m, d, nf, wi, out.cos_i);
     const T cos_o = dot(wo, nf);
     const auto reflects = (out.cos_i > T(0.0f)) & (cos_o > T(0.0f));
     out.f = select(reflects, f, Vec3<T>(T(0.0f)));
-    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap);
+    const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap, normalised);
     const auto diffuse_pdf = [&](const T& c) {
         return cosine ? max(c, T(0.0f)) * T(kInvPi) : select(c > T(0.0f), T(0.5f * kInvPi), T(0.0f));
     };
@@ -494,7 +500,7 @@ EmitterShadow<T> emitter_shadow(const EmitterTable& e, const EstimatorSettings& 
     Vec3<T> fcos;
     if (est.kind == Estimator::kMis) {
         T pd, ps;
-        phong_lobe_probabilities(m, est.survival_cap, pd, ps);
+        phong_lobe_probabilities(m, est.survival_cap, pd, ps, normalised_lobes(est));
         fcos = f.diffuse * power_heuristic(pdf, pd * f.pdf_diffuse) +
                f.specular * power_heuristic(pdf, ps * f.pdf_specular);
     } else {

@@ -143,6 +143,24 @@ void continuation_pdf(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
         pdf = sampled_lobe_pdf<kLobe>(m, d, v.nsf, dir, probability, c.estimator.cosine_diffuse);
 }
 
+// The throughput roulette (EstimatorSettings::roulette, kThroughput), applied to a camera
+// path's throughput `beta` after the lobe at vertex `bounce` (the camera's first hit is 0):
+// from vertex roulette_depth on, the path goes on with probability
+// q = min(max RGB of beta, survival cap), its throughput divided by q; else it ends
+// (throughput 0). The cap makes every path end, mirrors and glass included. Under the
+// report's roulette it returns beta unchanged.
+template <class T>
+Vec3<T> throughput_roulette(const EstimatorSettings& est, const Vec3<T>& beta,
+                            const U32<T>& key, const U32<T>& bounce) {
+    if (!normalised_lobes(est)) return beta;
+    const auto due = to_float(bounce) >= T(float(est.roulette_depth));
+    if (!any(due)) return beta;
+    const T q = min(max_component(beta), T(est.survival_cap));
+    const auto survives = second_uniform<T>(key, bounce, Purpose::kLobe) < q;
+    const Vec3<T> kept = select(survives, beta * (T(1.0f) / q), Vec3<T>(T(0.0f)));
+    return select(due, kept, beta);
+}
+
 template <class T>
 Vec3<T> leaving_origin(const Vec3<T>& pos, const Vec3<T>& n, const Vec3<T>& dir,
                        const T& magnitude) {

@@ -68,5 +68,16 @@ inline void uniform_pair(const U32<T>& key, const U32<T>& bounce, Purpose purpos
     v = to_float(hash32(bits ^ splat<U, 0x3c6ef372u>()) >> 8) * T(0x1.0p-24f);
 }
 
+// A second uniform for (path, bounce, purpose), independent of uniform()'s: the throughput
+// roulette's draw beside the lobe choice (Purpose::kLobe), with no purpose of its own, so the
+// numbers of every other decision are those they always were.
+template <class T>
+inline T second_uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
+    using U = U32<T>;
+    const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
+    const U bits = hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
+    return to_float(hash32(bits ^ splat<U, 0x510e527fu>()) >> 8) * T(0x1.0p-24f);
+}
+
 }  // namespace CIERZO_ISA_NAMESPACE
 }  // namespace cierzo

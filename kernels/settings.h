@@ -20,6 +20,19 @@ enum class Estimator : int32_t {
 // sums are splatted, and their error comes from batch statistics).
 inline constexpr bool splats(Estimator e) { return e == Estimator::kLt; }
 
+// The roulette that ends paths (render.roulette, --roulette).
+enum class Roulette : int32_t {
+    // The report's: one draw picks a lobe or the path's death at every vertex, P(lobe) the
+    // lobe's max RGB, scaled so that the survival never exceeds the cap.
+    kLobe = 0,
+    // For the camera-path estimators that sample emitters (nee, mis): the lobe is chosen in
+    // proportion to the lobes' max RGB alone (a path dies at a vertex only where every lobe
+    // is black), and from vertex `roulette_depth` on (the camera's first hit is vertex 0) a
+    // second draw lets the path go on with probability q = min(max RGB of its throughput,
+    // cap), its throughput divided by q.
+    kThroughput = 1,
+};
+
 // Settings of the estimator that a scene or the command line may change.
 struct EstimatorSettings {
     // The roulette's total survival probability never exceeds this, so every path ends.
@@ -31,6 +44,14 @@ struct EstimatorSettings {
     // Multiplies the emitter-sampling pdf that next-event estimation divides by. Always 1;
     // the tests set it to 1.05 to show that a 5% error in that pdf is caught.
     float light_pdf_scale = 1.0f;
+    // The roulette (kThroughput: nee and mis only), and the vertex it starts at
+    Roulette roulette = Roulette::kLobe;
+    int32_t roulette_depth = 3;
 };
+
+// Whether the lobe choice leaves out the path's death (the throughput roulette decides it).
+inline constexpr bool normalised_lobes(const EstimatorSettings& e) {
+    return e.roulette == Roulette::kThroughput;
+}
 
 }  // namespace cierzo

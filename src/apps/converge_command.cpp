@@ -42,6 +42,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     std::vector<int> estimators;
     for (const std::string& e : a.estimators) estimators.push_back(int(*parse_estimator(e)));
     if (estimators.empty()) estimators.push_back(-1);
+    std::vector<int> roulettes;
+    for (const std::string& r : a.roulettes) roulettes.push_back(int(*parse_roulette(r)));
+    if (roulettes.empty()) roulettes.push_back(-1);
     std::vector<ConvergeConfig> out;
     for (const std::string& integrator : a.integrators) {
         const bool scalar = integrator_of(integrator) == Integrator::kScalar;
@@ -52,7 +55,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                 for (float cap : caps)
                     for (int d : diffuse)
                         for (int e : estimators)
-                            out.push_back({integrator, scalar ? "auto" : isa, pool, cap, d, e});
+                            for (int r : roulettes)
+                                out.push_back({integrator, scalar ? "auto" : isa, pool, cap, d, e,
+                                               r, a.roulette_depth.value_or(-1)});
     }
     return out;
 }
@@ -60,7 +65,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
 }  // namespace
 
 std::string converge_csv_header() {
-    return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,estimator,threads,width,"
+    return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,roulette,estimator,threads,width,"
            "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
@@ -73,6 +78,13 @@ const char* diffuse_name(const EstimatorSettings& e) {
     return e.cosine_diffuse ? "cosine" : "uniform";
 }
 
+// "lobe", or "throughput3" (the throughput roulette from vertex 3)
+std::string roulette_label(const EstimatorSettings& e) {
+    return e.roulette == Roulette::kLobe
+               ? std::string(roulette_name(e.roulette))
+               : fmt::format("{}{}", roulette_name(e.roulette), e.roulette_depth);
+}
+
 std::string csv_row(const Scene& scene, const ConvergePoint& p) {
     const ImageError& e = p.error;
     // Efficiency: 1 / (error × time), the figure of merit of Monte Carlo estimators
@@ -80,10 +92,11 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
-        "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
-        p.estimator.survival_cap, diffuse_name(p.estimator), estimator_name(p.estimator.kind),
+        p.estimator.survival_cap, diffuse_name(p.estimator), roulette_label(p.estimator),
+        estimator_name(p.estimator.kind),
         p.stats.threads,
         scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
         p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
@@ -154,6 +167,15 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "Diffuse sampling to sweep: uniform, cosine; default: the scene's")
         ->delimiter(',')
         ->check(CLI::IsMember({"uniform", "cosine"}));
+    c->add_option("--roulette", a.roulettes,
+                  "Roulettes to sweep, comma-separated: " + describe_roulettes() +
+                      "; default: the scene's")
+        ->delimiter(',')
+        ->check(CLI::IsMember(roulette_names()));
+    c->add_option("--roulette-depth", a.roulette_depth,
+                  "The vertex the throughput roulette starts at (the camera's first hit: 0); "
+                  "default: the scene's")
+        ->check(CLI::Range(0, kMaxRouletteDepth));
     c->add_option("--estimator", a.estimators,
                   "Estimators to sweep, comma-separated: " + describe_estimators() +
                       "; default: the scene's")
@@ -248,6 +270,10 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         Scene s = scene;
         s.settings.spp = a.reference_spp;
         if (a.reference_estimator) s.settings.estimator.kind = *parse_estimator(*a.reference_estimator);
+        // (the scene's throughput roulette, where the reference's estimator cannot take it,
+        // gives way to the lobe roulette: either is unbiased)
+        EstimatorSettings& e = s.settings.estimator;
+        if (e.kind != Estimator::kNee && e.kind != Estimator::kMis) e.roulette = Roulette::kLobe;
         check_render_size(s, scene.source);
         RenderOptions options;
         options.threads = a.threads;
@@ -292,18 +318,19 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         });
     };
     if (!a.quiet)
-        std::fprintf(table, "%-9s %-7s %5s %5s %-7s %-6s %7s %10s %12s %12s %12s\n", "integr.", "isa",
-                    "pool", "cap", "diffuse", "est.", "spp", "seconds", "Mrays/s", "RMSE",
-                    "relMSE");
+        std::fprintf(table, "%-9s %-7s %5s %5s %-7s %-11s %-6s %7s %10s %12s %12s %12s\n",
+                     "integr.", "isa", "pool", "cap", "diffuse", "roulette", "est.", "spp",
+                     "seconds", "Mrays/s", "RMSE", "relMSE");
     const std::vector<ConvergePoint> points = run_converge(
         scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
             rows.push_back(csv_row(scene, p));
             write_csv();
             if (a.quiet) return;
-            std::fprintf(table, "%-9s %-7s %5d %5.2f %-7s %-6s %7lld %10.4f %12.2f %12.4g %12.4g\n",
+            std::fprintf(table,
+                         "%-9s %-7s %5d %5.2f %-7s %-11s %-6s %7lld %10.4f %12.2f %12.4g %12.4g\n",
                         p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
                         p.estimator.survival_cap, diffuse_name(p.estimator),
-                        estimator_name(p.estimator.kind),
+                        roulette_label(p.estimator).c_str(), estimator_name(p.estimator.kind),
                         static_cast<long long>(p.spp), p.seconds,
                         p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
                         std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
@@ -321,10 +348,11 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         }
         const ConvergePoint* last = &points[first + n - 1];
         std::fprintf(stderr,
-                     "%s %s pool %d cap %.2f %s %s: MSE ~ spp^%.2f, %.3g s per path per pixel\n",
+                     "%s %s pool %d cap %.2f %s %s %s: MSE ~ spp^%.2f, %.3g s per path per pixel\n",
                      last->config.integrator.c_str(), last->stats.isa.c_str(),
                      last->stats.pool_size, last->estimator.survival_cap,
-                     diffuse_name(last->estimator), estimator_name(last->estimator.kind),
+                     diffuse_name(last->estimator), roulette_label(last->estimator).c_str(),
+                     estimator_name(last->estimator.kind),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }
     if (csv_stream) csv_stream->close();

@@ -32,6 +32,8 @@ struct ConvergeArgs {
     std::vector<float> survival_caps;
     std::vector<std::string> diffuse_sampling;
     std::vector<std::string> estimators;
+    std::vector<std::string> roulettes;
+    std::optional<int> roulette_depth;
     std::optional<std::string> reference_estimator;
     std::optional<int> width, height;
     int threads = 0;

@@ -145,6 +145,14 @@ std::string scene_fingerprint(const Scene& scene) {
     return fmt::format("{:016x}", h.h);
 }
 
+namespace {
+std::string roulette_identity(const EstimatorSettings& e) {
+    return e.roulette == Roulette::kLobe
+               ? std::string(roulette_name(e.roulette))
+               : fmt::format("{} from {}", roulette_name(e.roulette), e.roulette_depth);
+}
+}  // namespace
+
 CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& integrator,
                                        const std::string& isa, int pool) {
     const RenderSettings& s = scene.settings;
@@ -156,6 +164,7 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     id.estimator = estimator_name(s.estimator.kind);
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
+    id.roulette = roulette_identity(s.estimator);
     id.integrator = integrator;
     id.isa = integrator == "wavefront" ? isa : "scalar";
     id.pool = integrator == "wavefront" ? pool : 0;
@@ -180,6 +189,7 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
     put("cierzo:estimator", id.estimator);
     put("cierzo:survival_cap", id.survival_cap);
     put("cierzo:diffuse_sampling", id.diffuse_sampling);
+    put("cierzo:roulette", id.roulette);
     put("cierzo:integrator", id.integrator);
     put("cierzo:isa", id.isa);
     put("cierzo:pool", std::to_string(id.pool));
@@ -251,6 +261,10 @@ Checkpoint read_checkpoint(const fs::path& path) {
         id.estimator = get(header, path, "cierzo:estimator");
         id.survival_cap = get(header, path, "cierzo:survival_cap");
         id.diffuse_sampling = get(header, path, "cierzo:diffuse_sampling");
+        // (a checkpoint written before the throughput roulette existed used the lobe one)
+        id.roulette = header.findTypedAttribute<Imf::StringAttribute>("cierzo:roulette")
+                          ? get(header, path, "cierzo:roulette")
+                          : std::string("lobe");
         id.integrator = get(header, path, "cierzo:integrator");
         id.isa = get(header, path, "cierzo:isa");
         id.pool = int(get_int(header, path, "cierzo:pool"));
@@ -351,6 +365,7 @@ std::vector<std::string> check_resume(const fs::path& path, const Checkpoint& c,
     differ("estimator", was.estimator, now.estimator);
     differ("survival cap", was.survival_cap, now.survival_cap);
     differ("diffuse sampling", was.diffuse_sampling, now.diffuse_sampling);
+    differ("roulette", was.roulette, now.roulette);
     differ("integrator", was.integrator, now.integrator);
     if (!diffs.empty()) {
         std::string msg = path.string() + ": cannot resume: the checkpoint was rendered with another ";

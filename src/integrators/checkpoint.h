@@ -28,6 +28,7 @@ struct CheckpointIdentity {
     uint32_t seed = 0;
     std::string estimator;         // report, nee, mis
     std::string survival_cap;      // exact, as %a
+    std::string roulette;          // "lobe", or "throughput from N" (its depth)
     std::string diffuse_sampling;  // uniform, cosine
     std::string integrator;        // wavefront, scalar
     std::string isa;               // the wavefront's kernels (the order of each pixel's sums)

@@ -47,6 +47,8 @@ EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& 
     if (config.survival_cap >= 0.0f) settings.survival_cap = config.survival_cap;
     if (config.cosine_diffuse >= 0) settings.cosine_diffuse = config.cosine_diffuse;
     if (config.estimator >= 0) settings.kind = Estimator(config.estimator);
+    if (config.roulette >= 0) settings.roulette = Roulette(config.roulette);
+    if (config.roulette_depth >= 0) settings.roulette_depth = config.roulette_depth;
     return settings;
 }
 

@@ -47,6 +47,8 @@ struct ConvergeConfig {
     float survival_cap = -1.0f;   // < 0: the scene's
     int cosine_diffuse = -1;      // -1: the scene's; 0 uniform, 1 cosine
     int estimator = -1;           // -1: the scene's; else an Estimator
+    int roulette = -1;            // -1: the scene's; else a Roulette
+    int roulette_depth = -1;      // -1: the scene's
 };
 
 struct ConvergePoint {

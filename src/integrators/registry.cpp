@@ -60,8 +60,33 @@ std::optional<Estimator> parse_estimator(std::string_view name) {
     return std::nullopt;
 }
 
+const char* roulette_name(Roulette id) {
+    for (const RouletteEntry& e : kRoulettes)
+        if (e.id == id) return e.name;
+    return "unknown";
+}
+
+std::optional<Roulette> parse_roulette(std::string_view name) {
+    for (const RouletteEntry& e : kRoulettes)
+        if (name == e.name) return e.id;
+    return std::nullopt;
+}
+
+void check_roulette(const EstimatorSettings& e, const std::string& source) {
+    if (e.roulette == Roulette::kThroughput && e.kind != Estimator::kNee &&
+        e.kind != Estimator::kMis)
+        throw InputError(source + ": the throughput roulette is for the nee and mis estimators; " +
+                         estimator_name(e.kind) +
+                         (e.kind == Estimator::kReport
+                              ? " keeps the report's roulette, exactly"
+                              : " keeps the lobe roulette (its paths start at the lights, "
+                                "with a throughput in units of power)") +
+                         " (use --roulette lobe)");
+}
+
 std::vector<std::string> integrator_names() { return names_of(kIntegrators); }
 std::vector<std::string> estimator_names() { return names_of(kEstimators); }
+std::vector<std::string> roulette_names() { return names_of(kRoulettes); }
 
 Integrator integrator_of(std::string_view name, std::string_view option) {
     if (const std::optional<Integrator> i = parse_integrator(name)) return *i;
@@ -71,5 +96,6 @@ Integrator integrator_of(std::string_view name, std::string_view option) {
 
 std::string describe_integrators() { return describe(kIntegrators); }
 std::string describe_estimators() { return describe(kEstimators); }
+std::string describe_roulettes() { return describe(kRoulettes); }
 
 }  // namespace cierzo

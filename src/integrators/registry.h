@@ -46,14 +46,34 @@ inline constexpr EstimatorEntry kEstimators[] = {
      "glass seen directly shows only what camera paths find)"},
 };
 
+struct RouletteEntry {
+    Roulette id;
+    const char* name;
+    const char* summary;  // for --help
+};
+
+inline constexpr RouletteEntry kRoulettes[] = {
+    {Roulette::kLobe, "lobe",
+     "the report's: one draw picks a lobe by its max RGB or the path's death, survival at "
+     "most the cap; the default, and the only one of report and lt"},
+    {Roulette::kThroughput, "throughput",
+     "nee and mis: the lobe chosen among the lobes alone, and from vertex --roulette-depth on "
+     "the path goes on with probability min(max RGB of its throughput, cap)"},
+};
+// The largest render.roulette_depth / --roulette-depth.
+inline constexpr int kMaxRouletteDepth = 1024;
+
 const char* integrator_name(Integrator i);
 const char* estimator_name(Estimator e);
 std::optional<Integrator> parse_integrator(std::string_view name);
 std::optional<Estimator> parse_estimator(std::string_view name);
+const char* roulette_name(Roulette r);
+std::optional<Roulette> parse_roulette(std::string_view name);
 
 // Every name, in the order above (the valid values of an option).
 std::vector<std::string> integrator_names();
 std::vector<std::string> estimator_names();
+std::vector<std::string> roulette_names();
 
 // The integrator named by `name`, or InputError "<option>: unknown integrator 'x' (valid:
 // wavefront, scalar)".
@@ -62,5 +82,10 @@ Integrator integrator_of(std::string_view name, std::string_view option = "--int
 // "name (summary), name (summary) or name (summary)", for --help.
 std::string describe_integrators();
 std::string describe_estimators();
+std::string describe_roulettes();
+
+// Refuses (InputError naming `source`) a roulette the estimator does not take: the
+// throughput roulette is for nee and mis only.
+void check_roulette(const EstimatorSettings& e, const std::string& source);
 
 }  // namespace cierzo

@@ -169,6 +169,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         throw InputError(scene.source.string() + ": " + std::to_string(scene.emitters.count()) +
                          " emitting spheres and triangles; the nee and mis estimators sample "
                          "at most 2^24 (16,777,216)");
+    check_roulette(scene.settings.estimator, scene.source.string());
     const mpi::World& world = mpi::world();
     const bool root = world.rank == 0;
     std::vector<std::string> warnings;

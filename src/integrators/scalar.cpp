@@ -76,12 +76,12 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         // Russian roulette picks one lobe, or the path's death; the lobe continues it
         float p = 0.0f;
         const int32_t lobe = choose_lobe(m, uniform<float>(key, bounce, Purpose::kLobe),
-                                         c.estimator.survival_cap, p);
+                                         c.estimator.survival_cap, p, normalised_lobes(c.estimator));
         if (lobe == kLobeAbsorbed) break;
         const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, key, bounce);
         lobe_pdf = next.pdf;
-        throughput *= next.weight;
+        throughput = throughput_roulette(c.estimator, throughput * next.weight, key, bounce);
         if (!(max_component(throughput) > 0.0f)) break;
         ray = {next.o, next.d};
         ++rays.extension;

@@ -639,6 +639,12 @@ struct Loader {
         if (sampling != "uniform" && sampling != "cosine")
             r.fail("'diffuse_sampling' must be \"uniform\" or \"cosine\"");
         s.estimator.cosine_diffuse = sampling == "cosine";
+        const std::string roulette = r.string("roulette", "lobe");
+        const std::optional<Roulette> rule = parse_roulette(roulette);
+        if (!rule) r.fail("'roulette' must be \"lobe\" or \"throughput\"");
+        s.estimator.roulette = *rule;
+        s.estimator.roulette_depth =
+            int32_t(r.integer("roulette_depth", s.estimator.roulette_depth, 0, kMaxRouletteDepth));
         const std::string estimator = r.string("estimator", "report");
         const std::optional<Estimator> kind = parse_estimator(estimator);
         if (!kind) r.fail("'estimator' must be \"report\", \"nee\" or \"mis\"");

@@ -35,6 +35,7 @@ namespace cierzo {
 namespace {
 
 using test::image_mean;
+using test::pixels_agreeing;
 using Mean = test::ImageMean;
 using test::run;
 using test::Variant;
@@ -138,27 +139,6 @@ TEST(LightTracing, RefractionIsTheAdjointOfTheCamerasRefraction) {
     // (a factor 2.25 is then far outside)
     EXPECT_LT(sigma, 0.03 * b.mean * (test::lighter_settings() ? 3 : 1));
     EXPECT_NEAR(a.mean, b.mean, 3.5 * sigma);
-}
-
-// Per-pixel agreement of two renders: the share of pixels (over channels) whose z-test
-// passes at the Šidák-corrected level for α = 0.01 over every pixel and channel.
-double pixels_agreeing(const Film& a, const Film& b) {
-    const Image ma = a.mean(), va = a.variance_of_mean(), mb = b.mean(), vb = b.variance_of_mean();
-    const size_t n = ma.rgb.size();
-    const double alpha = 1.0 - std::pow(1.0 - 0.01, 1.0 / double(n));
-    // The two-sided critical z for alpha (by bisection on erfc)
-    double lo = 0, hi = 10;
-    for (int k = 0; k < 60; ++k) {
-        const double mid = 0.5 * (lo + hi);
-        (std::erfc(mid / std::sqrt(2.0)) > alpha ? lo : hi) = mid;
-    }
-    size_t pass = 0;
-    for (size_t i = 0; i < n; ++i) {
-        const double d = double(ma.rgb[i]) - double(mb.rgb[i]);
-        const double s = std::sqrt(double(va.rgb[i]) + double(vb.rgb[i]));
-        pass += std::abs(d) <= lo * s || d == 0.0;
-    }
-    return double(pass) / double(n);
 }
 
 // A box of diffuse and glossy planes lit by an emitting sphere, an emitting square of two

@@ -57,6 +57,27 @@ inline ImageMean image_mean(const Film& film, int c) {
     return out;
 }
 
+// Per-pixel agreement of two renders: the share of pixels (over channels) whose z-test
+// passes at the Šidák-corrected level for α = 0.01 over every pixel and channel.
+inline double pixels_agreeing(const Film& a, const Film& b) {
+    const Image ma = a.mean(), va = a.variance_of_mean(), mb = b.mean(), vb = b.variance_of_mean();
+    const size_t n = ma.rgb.size();
+    const double alpha = 1.0 - std::pow(1.0 - 0.01, 1.0 / double(n));
+    // The two-sided critical z for alpha (by bisection on erfc)
+    double lo = 0, hi = 10;
+    for (int k = 0; k < 60; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (std::erfc(mid / std::sqrt(2.0)) > alpha ? lo : hi) = mid;
+    }
+    size_t pass = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const double d = double(ma.rgb[i]) - double(mb.rgb[i]);
+        const double s = std::sqrt(double(va.rgb[i]) + double(vb.rgb[i]));
+        pass += std::abs(d) <= lo * s || d == 0.0;
+    }
+    return double(pass) / double(n);
+}
+
 // Every .json file of scenes/, sorted.
 inline std::vector<std::filesystem::path> all_scenes() {
     std::vector<std::filesystem::path> out;

@@ -36,7 +36,7 @@ struct LobeStep {
              const F& probability, const U& key, const U& bounce) {
         const VertexFrame<F> v = vertex_frame(c.smooth, d0, n, ns);
         const Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, key, bounce);
-        beta = beta0 * sc.weight;
+        beta = throughput_roulette(c.estimator, beta0 * sc.weight, key, bounce);
         continuation_pdf<kLobe>(c, m, d0, v, sc.dir, probability, pdf);
         alive = max_component(beta) > F(0.0f);
         o = leaving_origin(pos, n, sc.dir, magnitude);
@@ -168,7 +168,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     // Russian roulette over the lobes
     F probability;
     I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe),
-                                 c.estimator.survival_cap, probability);
+                                 c.estimator.survival_cap, probability,
+                                 normalised_lobes(c.estimator));
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kFused == kLobeCount) {

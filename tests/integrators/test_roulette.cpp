@@ -1,0 +1,203 @@
+// The throughput roulette (render.roulette "throughput", --roulette throughput; nee and mis),
+// through both integrators and every ISA this CPU runs:
+//   - unbiased against analytic answers: a point light of intensity I at the centre of a
+//     closed diffuse sphere (radius R, albedo ρ: L = ρI/(πR²(1-ρ)) everywhere inside), and a
+//     diffuse ball inside an emitting sphere (ρ·Le on the ball), each image mean within 3σ
+//     (σ < 1.5%), with the roulette from vertex 0, 3 and 1024;
+//   - per pixel against the lobe roulette on a box with every lobe kind (diffuse, glossy,
+//     mirror, glass), sampled emitters and a point light (a z-test at Šidák-corrected
+//     α = 0.01 passes on ≥ 99% of pixels; with mis, means within 3.5σ and σ < 2% of the
+//     mean, tight enough to catch a 5% error in a lobe's weight);
+//   - a closed box of perfect mirrors around an emitter: every path ends, nothing is NaN;
+//   - refused for report and lt, and a bad name or depth in a scene file.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+#include "integrators/render.h"
+#include "scene/scene_json.h"
+#include "support/emulator.h"
+#include "support/render_variants.h"
+
+namespace cierzo {
+namespace {
+
+using test::image_mean;
+using test::ImageMean;
+using test::pixels_agreeing;
+using test::run;
+using test::Variant;
+using test::variants;
+
+int spp(int native, int lighter) { return test::lighter_settings() ? lighter : native; }
+
+Scene with_roulette(const std::string& json, Estimator e, Roulette r, int depth, int spp) {
+    Scene s = parse_scene(json, "roulette_test.json");
+    s.settings.estimator.kind = e;
+    s.settings.estimator.roulette = r;
+    s.settings.estimator.roulette_depth = depth;
+    s.settings.spp = spp;
+    return s;
+}
+
+// A point light of intensity 1 at the centre of a closed diffuse sphere (R = 2, ρ = 0.5),
+// the camera inside.
+const char* kRoom = R"({"render": {"width": 16, "height": 16, "seed": 5},
+    "camera": {"position": [0, 0, -1.2], "forward": [0, 0, -1], "left": [-2, 0, 0],
+               "up": [0, 2, 0]},
+    "materials": {"wall": {"kd": [0.5, 0.5, 0.5]}},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": "wall"}],
+    "lights": [{"position": [0, 0, 0], "intensity": [1, 1, 1]}]})";
+constexpr double kRoomL = 0.5 / (M_PI * 4.0 * 0.5);  // 0.0796
+
+// A diffuse ball (0.8) inside an emitting sphere (Le 1): every point of the ball sees only
+// the emitter, so each pixel is 0.8 (the camera sees only the ball).
+const char* kBall = R"({"render": {"width": 12, "height": 12, "seed": 9},
+    "camera": {"position": [0, 0, -2], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov": 20},
+    "materials": {"ball": {"kd": [0.8, 0.8, 0.8]}, "L": {"emission": [1, 1, 1]}},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 3, "material": "L"},
+                {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "ball"}]})";
+
+TEST(ThroughputRoulette, AnalyticAnswersAtEveryDepth) {
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        for (Estimator e : {Estimator::kNee, Estimator::kMis}) {
+            for (int depth : {0, 3, 1024}) {
+                SCOPED_TRACE(std::string(estimator_name(e)) + " from vertex " +
+                             std::to_string(depth));
+                const RenderResult room = run(
+                    with_roulette(kRoom, e, Roulette::kThroughput, depth, spp(256, 32)), v);
+                for (int c = 0; c < 3; ++c) {
+                    const ImageMean m = image_mean(room.film, c);
+                    EXPECT_NEAR(m.mean, kRoomL, 3.0 * m.sigma);
+                    EXPECT_LT(m.sigma, 0.015 * kRoomL);
+                }
+                const RenderResult ball =
+                    run(with_roulette(kBall, e, Roulette::kThroughput, depth, spp(256, 32)), v);
+                for (int c = 0; c < 3; ++c) {
+                    const ImageMean m = image_mean(ball.film, c);
+                    EXPECT_NEAR(m.mean, 0.8, 3.0 * m.sigma);
+                    EXPECT_LT(m.sigma, 0.015 * 0.8);
+                }
+            }
+        }
+    }
+}
+
+// A box of every lobe kind: diffuse and glossy walls, a mirror sphere, a glass sphere, lit by
+// an emitting sphere, an emitting square of two triangles and a point light.
+const char* kLobes = R"({"render": {"width": 20, "height": 16, "seed": 11},
+    "camera": {"position": [0, 0, -3.2], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov": 50},
+    "materials": {"white": {"kd": [0.7, 0.7, 0.7]}, "red": {"kd": [0.7, 0.15, 0.1]},
+                  "gloss": {"kd": [0.2, 0.4, 0.6], "ks": [0.3, 0.3, 0.3], "shininess": 20},
+                  "mirror": {"kr": [0.9, 0.9, 0.9]},
+                  "glass": {"kt": [0.95, 0.95, 0.95], "ior": 1.5},
+                  "L": {"emission": [6, 5, 4]}, "Q": {"emission": [3, 3, 5]}},
+    "objects": [
+      {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "white"},
+      {"type": "plane", "normal": [0, -1, 0], "distance": 1, "material": "white"},
+      {"type": "plane", "normal": [1, 0, 0], "distance": 1, "material": "red"},
+      {"type": "plane", "normal": [-1, 0, 0], "distance": 1, "material": "gloss"},
+      {"type": "plane", "normal": [0, 0, -1], "distance": 1, "material": "white"},
+      {"type": "plane", "normal": [0, 0, 1], "distance": 3.5, "material": "white"},
+      {"type": "sphere", "center": [0.45, -0.6, 0.2], "radius": 0.35, "material": "mirror"},
+      {"type": "sphere", "center": [-0.4, -0.6, -0.3], "radius": 0.35, "material": "glass"},
+      {"type": "sphere", "center": [-0.5, 0.6, 0.3], "radius": 0.15, "material": "L"},
+      {"type": "triangle", "vertices": [[0.2, 0.99, -0.2], [0.6, 0.99, -0.2], [0.6, 0.99, 0.2]],
+       "material": "Q"},
+      {"type": "triangle", "vertices": [[0.2, 0.99, -0.2], [0.6, 0.99, 0.2], [0.2, 0.99, 0.2]],
+       "material": "Q"}],
+    "lights": [{"position": [-0.3, 0.2, -0.5], "intensity": [0.3, 0.3, 0.2]}]})";
+
+TEST(ThroughputRoulette, AgreesWithTheLobeRoulettePerPixel) {
+    const int n = spp(1024, 128);
+    for (Estimator e : {Estimator::kNee, Estimator::kMis}) {
+        SCOPED_TRACE(estimator_name(e));
+        const RenderResult lobe =
+            run(with_roulette(kLobes, e, Roulette::kLobe, 3, n), variants().back());
+        for (const Variant& v : variants()) {
+            SCOPED_TRACE(v.integrator + " " + v.isa);
+            Scene s = with_roulette(kLobes, e, Roulette::kThroughput, 3, n);
+            s.settings.seed = 12;  // independent of the lobe roulette's render
+            const RenderResult thr = run(s, v);
+            const double share = pixels_agreeing(thr.film, lobe.film);
+            std::printf("throughput vs lobe roulette, %s, %s %s: %.2f%% of pixels agree\n",
+                        estimator_name(e), v.integrator.c_str(), v.isa.c_str(), 100 * share);
+            EXPECT_GE(share, 0.99);
+            // (nee's image is too noisy here for a tight mean: the small emitter seen in the
+            // mirror and through the glass)
+            for (int c = 0; c < 3 && e == Estimator::kMis; ++c) {
+                const ImageMean a = image_mean(thr.film, c), b = image_mean(lobe.film, c);
+                EXPECT_NEAR(a.mean, b.mean, 3.5 * std::hypot(a.sigma, b.sigma));
+                EXPECT_LT(std::hypot(a.sigma, b.sigma), 0.02 * b.mean);
+            }
+            EXPECT_EQ(thr.film.nonfinite_samples(), 0u);
+        }
+    }
+}
+
+TEST(ThroughputRoulette, EveryPathEndsInABoxOfPerfectMirrors) {
+    // Six mirror planes (kr 1) around an emitting sphere and a diffuse ball: without the
+    // cap a path between the mirrors would keep its throughput and never end
+    const std::string json = R"({"render": {"width": 8, "height": 8, "seed": 2},
+        "camera": {"position": [0, 0, -0.5], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov": 60},
+        "materials": {"m": {"kr": [1, 1, 1]}, "d": {"kd": [0.5, 0.5, 0.5]},
+                      "L": {"emission": [1000000, 1000000, 1000000]}},
+        "objects": [
+          {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "m"},
+          {"type": "plane", "normal": [0, -1, 0], "distance": 1, "material": "m"},
+          {"type": "plane", "normal": [1, 0, 0], "distance": 1, "material": "m"},
+          {"type": "plane", "normal": [-1, 0, 0], "distance": 1, "material": "m"},
+          {"type": "plane", "normal": [0, 0, 1], "distance": 1, "material": "m"},
+          {"type": "plane", "normal": [0, 0, -1], "distance": 1, "material": "m"},
+          {"type": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.01, "material": "L"},
+          {"type": "sphere", "center": [0, -0.5, 0.3], "radius": 0.3, "material": "d"}]})";
+    for (const Variant& v : variants()) {
+        SCOPED_TRACE(v.integrator + " " + v.isa);
+        for (int depth : {0, 1024}) {
+            const RenderResult r = run(with_roulette(json, Estimator::kMis, Roulette::kThroughput,
+                                                     depth, 16), v);
+            EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+            bool finite = true;
+            for (int c = 0; c < 3; ++c) {
+                const ImageMean m = image_mean(r.film, c);
+                finite = finite && std::isfinite(m.mean) && m.mean > 0.0;
+            }
+            EXPECT_TRUE(finite);
+        }
+    }
+}
+
+TEST(ThroughputRoulette, RefusedWhereTheEstimatorKeepsTheLobeRoulette) {
+    for (Estimator e : {Estimator::kReport, Estimator::kLt}) {
+        const Scene s = with_roulette(kRoom, e, Roulette::kThroughput, 3, 1);
+        RenderOptions o;
+        o.progress = false;
+        try {
+            render(s, o);
+            ADD_FAILURE() << estimator_name(e) << " rendered with the throughput roulette";
+        } catch (const InputError& x) {
+            const std::string what = x.what();
+            EXPECT_NE(what.find("roulette_test.json"), std::string::npos) << what;
+            EXPECT_NE(what.find("throughput roulette"), std::string::npos) << what;
+        }
+    }
+    // In a scene file: the names and the depth's range
+    const std::string head = R"({"camera": {"position": [0, 0, -2], "look_at": [0, 0, 0]},
+        "materials": {"w": {"kd": [0.5, 0.5, 0.5]}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"}],
+        "render": {)";
+    EXPECT_THROW(parse_scene(head + R"("roulette": "russian"}})", "r.json"), InputError);
+    EXPECT_THROW(parse_scene(head + R"("roulette_depth": -1}})", "r.json"), InputError);
+    EXPECT_THROW(parse_scene(head + R"("roulette_depth": 1025}})", "r.json"), InputError);
+    const Scene ok = parse_scene(
+        head + R"("estimator": "mis", "roulette": "throughput", "roulette_depth": 5}})", "r.json");
+    EXPECT_EQ(ok.settings.estimator.roulette, Roulette::kThroughput);
+    EXPECT_EQ(ok.settings.estimator.roulette_depth, 5);
+    EXPECT_EQ(parse_scene(head + "}}", "r.json").settings.estimator.roulette, Roulette::kLobe);
+}
+
+}  // namespace
+}  // namespace cierzo
