@@ -366,6 +366,78 @@ Vec3<T> sample_triangle_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>
     return fma(e2, su * u2, fma(e1, su - su * u2, v0));
 }
 
+// v scaled to unit length, or 0 where it has none.
+template <class T>
+Vec3<T> unit_or_zero(const Vec3<T>& v) {
+    const T len = length(v);
+    return v * select(len > T(0.0f), T(1.0f) / len, T(0.0f));
+}
+
+// The solid angle of the spherical triangle with corners at the unit directions a, b, c
+// (Van Oosterom and Strackee 1983): Ω = 2·atan2(|a·(b × c)|, 1 + a·b + b·c + c·a).
+template <class T>
+T spherical_triangle_area(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c) {
+    const T triple = abs(dot(a, cross(b, c)));
+    const T den = T(1.0f) + dot(a, b) + dot(b, c) + dot(c, a);
+    return T(2.0f) * atan2(triple, den);
+}
+
+// A direction uniform by solid angle over the spherical triangle a, b, c (unit directions)
+// of area Ω (Arvo 1995, "Stratified Sampling of Spherical Triangles"): u1 chooses the area
+// Â = u1·Ω of the sub-triangle a, b, ĉ, whose third corner ĉ on the arc from a to c follows
+// from the spherical law of cosines; u2 chooses the point on the arc from b to ĉ so that
+// the area is uniform along it.
+template <class T>
+Vec3<T> sample_spherical_triangle(const Vec3<T>& a, const Vec3<T>& b, const Vec3<T>& c,
+                                  const T& area, const T& u1, const T& u2) {
+    // The angle α at a, between the great arcs to b and to c
+    const T cos_alpha =
+        max(min(dot(unit_or_zero(cross(a, b)), unit_or_zero(cross(a, c))), T(1.0f)), T(-1.0f));
+    const T sin_alpha = sqrt(max(T(1.0f) - cos_alpha * cos_alpha, T(0.0f)));
+    T sin_area, cos_area;
+    sincos_2pi(u1 * area * T(0.5f * kInvPi), sin_area, cos_area);
+    const T s = sin_area * cos_alpha - cos_area * sin_alpha;  // sin(Â - α)
+    const T t = cos_area * cos_alpha + sin_area * sin_alpha;  // cos(Â - α)
+    const T u = t - cos_alpha;
+    const T v = s + sin_alpha * dot(a, b);  // (cos of the arc from a to b)
+    const T den = (v * s + u * t) * sin_alpha;
+    const T q = max(min(select(den != T(0.0f), ((v * t - u * s) * cos_alpha - v) / den, T(1.0f)),
+                        T(1.0f)),
+                    T(-1.0f));
+    const Vec3<T> c_hat =
+        fma(unit_or_zero(c - a * dot(c, a)), sqrt(max(T(1.0f) - q * q, T(0.0f))), a * q);
+    const T z = T(1.0f) - u2 * (T(1.0f) - dot(c_hat, b));
+    // (unit again: where the corners are nearly coplanar with the apex, rounding leaves the
+    // construction a little off the sphere)
+    return unit_or_zero(
+        fma(unit_or_zero(c_hat - b * dot(c_hat, b)), sqrt(max(T(1.0f) - z * z, T(0.0f))), b * z));
+}
+
+// The triangle v0, v0 + e1, v0 + e2 as seen from x: the unit directions to its corners and
+// its solid angle; `spherical` where it is to be sampled by solid angle (`solid_angle`, at
+// least kMinTriangleSolidAngle, and x off the triangle's plane: in it, the formula's 2π is
+// the limit from one side of a triangle seen edge-on).
+template <class T>
+struct TriangleView {
+    Vec3<T> a, b, c;
+    T omega;
+    Mask<T> spherical;
+};
+template <class T>
+TriangleView<T> triangle_view(const Vec3<T>& x, const Vec3<T>& v0, const Vec3<T>& e1,
+                              const Vec3<T>& e2, bool solid_angle) {
+    TriangleView<T> v;
+    const Vec3<T> to0 = v0 - x;
+    v.a = unit_or_zero(to0);
+    v.b = unit_or_zero(to0 + e1);
+    v.c = unit_or_zero(to0 + e2);
+    v.omega = spherical_triangle_area(v.a, v.b, v.c);
+    v.spherical = (v.omega >= T(kMinTriangleSolidAngle)) & (v.omega <= T(2.0f * kPi)) &
+                  (dot(v.a, cross(v.b, v.c)) != T(0.0f));
+    if (!solid_angle) v.spherical = v.spherical & (T(0.0f) > T(1.0f));
+    return v;
+}
+
 // The emitter chosen by power through the alias table (kernels/emitter_table.h): slot
 // ⌊u_pick·count⌋, kept if u_alias < its q, else its alias. Its pmf and kind with it.
 // The one choice rule of every emitter sampler (here and kernels/light_sampling.h).
@@ -388,12 +460,15 @@ EmitterChoice<T> choose_emitter(const EmitterTable& e, const T& u_pick, const T&
 // Chooses an emitter by power (alias table) and samples it from x:
 //   - a sphere seen from outside by the solid angle of its cone, uniformly
 //     (pdf 1 / (2π(1 - cos θmax))); from inside, every direction (pdf 1/4π);
-//   - a triangle by area (pdf d² / (A·|cos θl|) in solid angle).
+//   - a triangle by area (pdf d² / (A·|cos θl|) in solid angle), or with `solid_angle`
+//     uniformly over the spherical triangle it subtends (pdf 1/Ω) where Ω is at least
+//     kMinTriangleSolidAngle.
 // A sphere's sampled distance is the ray's own intersection with it, so a shadow ray that
 // stops just short of t sees the same surface the sample lies on.
 template <class T>
 EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T& u_pick,
-                                const T& u_alias, const T& u1, const T& u2) {
+                                const T& u_alias, const T& u1, const T& u2,
+                                bool solid_angle = false) {
     const EmitterChoice<T> choice = choose_emitter(e, u_pick, u_alias);
     const I32<T>& id = choice.id;
     const T& pmf = choice.pmf;
@@ -441,13 +516,28 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         const Vec3<T> to = p - x;
         const T d2 = dot(to, to);
         const T dist = sqrt(d2);
-        const Vec3<T> wi = to * (T(1.0f) / dist);
-        const T cos_l = abs(dot(nl, wi));
-        const T pdf = pmf * d2 / (size * cos_l);
+        Vec3<T> wi = to * (T(1.0f) / dist);
+        T cos_l = abs(dot(nl, wi));
+        T pdf = pmf * d2 / (size * cos_l);
+        T t = dist;
+        if (solid_angle) {
+            const TriangleView<T> v = triangle_view(x, p0, e1, e2, true);
+            const auto spherical = triangle & v.spherical;
+            if (any(spherical)) {
+                // The direction, and the distance to the triangle's plane along it
+                const Vec3<T> ws = sample_spherical_triangle(v.a, v.b, v.c, v.omega, u1, u2);
+                const T cos_s = dot(nl, ws);
+                wi = select(spherical, ws, wi);
+                t = select(spherical, dot(p0 - x, nl) / cos_s, t);
+                cos_l = select(spherical, abs(cos_s), cos_l);
+                pdf = select(spherical, pmf / v.omega, pdf);
+            }
+        }
         out.wi = select(triangle, wi, out.wi);
-        out.t = select(triangle, dist, out.t);
+        out.t = select(triangle, t, out.t);
         out.pdf = select(triangle, pdf, out.pdf);
-        out.ok = out.ok | (triangle & (cos_l > T(1e-7f)) & (d2 > T(0.0f)) & (pdf < T(kRayFar)));
+        out.ok = out.ok | (triangle & (cos_l > T(1e-7f)) & (t > T(0.0f)) & (t < T(kRayFar)) &
+                           (pdf < T(kRayFar)));
     }
     return out;
 }
@@ -456,7 +546,7 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
 // the point at distance t on emitter id (which the ray x + t·d has hit): the hit side of MIS.
 template <class T>
 T emitter_pdf(const EmitterTable& e, const I32<T>& id, const Vec3<T>& x, const Vec3<T>& d,
-              const T& t) {
+              const T& t, bool solid_angle = false) {
     const auto at = [&](int k) { return emitter_field<T>(e, id, k); };
     const T pmf = emitter_entry<T>(e, e.pmf, id);
     const T size = at(3);
@@ -471,7 +561,14 @@ T emitter_pdf(const EmitterTable& e, const I32<T>& id, const Vec3<T>& x, const V
     }
     if (any(!sphere)) {
         const Vec3<T> nl{at(10), at(11), at(12)};
-        pdf = select(sphere, pdf, t * t / (size * abs(dot(nl, d))));
+        T area_pdf = t * t / (size * abs(dot(nl, d)));
+        if (solid_angle) {
+            const TriangleView<T> v = triangle_view(x, Vec3<T>{at(0), at(1), at(2)},
+                                                    Vec3<T>{at(4), at(5), at(6)},
+                                                    Vec3<T>{at(7), at(8), at(9)}, true);
+            area_pdf = select(v.spherical, T(1.0f) / v.omega, area_pdf);
+        }
+        pdf = select(sphere, pdf, area_pdf);
     }
     return pmf * pdf;
 }
@@ -494,7 +591,7 @@ EmitterShadow<T> emitter_shadow(const EmitterTable& e, const EstimatorSettings& 
     uniform_pair<T>(key, bounce, Purpose::kEmitterPick, u_pick, u_alias);
     const EmitterSample<T> ls =
         sample_emitter(e, origin, u_pick, u_alias, uniform<T>(key, bounce, Purpose::kEmitter1),
-                       uniform<T>(key, bounce, Purpose::kEmitter2));
+                       uniform<T>(key, bounce, Purpose::kEmitter2), est.triangle_solid_angle);
     const T pdf = ls.pdf * T(est.light_pdf_scale);
     const PhongLobes<T> f = phong_lobes(m, d, nf, ls.wi, est.cosine_diffuse);
     Vec3<T> fcos;
@@ -525,13 +622,14 @@ EmitterShadow<T> emitter_shadow(const EmitterTable& e, const EstimatorSettings& 
 // is not sampled.
 template <class T>
 T emitter_hit_weight(const EmitterTable& e, Estimator kind, const I32<T>& id, const T& lobe_pdf,
-                     const Vec3<T>& x, const Vec3<T>& d, const T& t) {
+                     const Vec3<T>& x, const Vec3<T>& d, const T& t, bool solid_angle = false) {
     if (kind == Estimator::kLt)  // light paths bring every sampled emitter's light
         return select(mask_f32(id >= I32<T>(0)), T(0.0f), T(1.0f));
     const auto sampled = mask_f32(id >= I32<T>(0)) & (lobe_pdf > T(0.0f));
     if (kind == Estimator::kReport || none(sampled)) return T(1.0f);
     if (kind == Estimator::kNee) return select(sampled, T(0.0f), T(1.0f));
-    const T light = emitter_pdf(e, select(mask_i32(sampled), id, I32<T>(0)), x, d, t);
+    const T light =
+        emitter_pdf(e, select(mask_i32(sampled), id, I32<T>(0)), x, d, t, solid_angle);
     return select(sampled, power_heuristic(lobe_pdf, light), T(1.0f));
 }
 

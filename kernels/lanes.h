@@ -26,12 +26,14 @@ inline bool none(bool m) { return !m; }
 inline float fma(float a, float b, float c) { return std::fma(a, b, c); }
 
 using std::abs;
+using std::atan2;
 using std::cos;
 using std::max;
 using std::min;
 using std::sin;
 using std::sqrt;
 using xsimd::abs;
+using xsimd::atan2;
 using xsimd::all;
 using xsimd::any;
 using xsimd::cos;

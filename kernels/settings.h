@@ -44,10 +44,18 @@ struct EstimatorSettings {
     // Multiplies the emitter-sampling pdf that next-event estimation divides by. Always 1;
     // the tests set it to 1.05 to show that a 5% error in that pdf is caught.
     float light_pdf_scale = 1.0f;
+    // nee and mis: triangles sampled by solid angle (a spherical triangle, where it subtends
+    // at least kMinTriangleSolidAngle) instead of by area
+    bool triangle_solid_angle = false;
     // The roulette (kThroughput: nee and mis only), and the vertex it starts at
     Roulette roulette = Roulette::kLobe;
-    int32_t roulette_depth = 3;
+    int32_t roulette_depth = 1;
 };
+
+// Below this solid angle (steradians) a triangle is sampled by area even under
+// triangle_solid_angle: the spherical triangle's construction loses precision, and a
+// triangle that small is sampled nearly uniformly in solid angle by area anyway.
+inline constexpr float kMinTriangleSolidAngle = 1e-3f;
 
 // Whether the lobe choice leaves out the path's death (the throughput roulette decides it).
 inline constexpr bool normalised_lobes(const EstimatorSettings& e) {

@@ -70,10 +70,21 @@ def test_render_size_limit_has_the_programs_message(cierzo, tmp_path):
 
 @pytest.mark.parametrize("kw", [dict(integrator="fast"), dict(spp=0), dict(isa="mmx"),
                                 dict(estimator="bdpt"), dict(survival_cap=1.5), dict(width=0),
-                                dict(pool=-16), dict(diffuse_sampling="gaussian")])
+                                dict(pool=-16), dict(diffuse_sampling="gaussian"),
+                                dict(roulette="russian"), dict(roulette_depth=-1),
+                                dict(roulette_depth=1025), dict(triangle_sampling="cone")])
 def test_bad_keywords(cierzo, kw):
     with pytest.raises(ValueError, match=next(iter(kw))):
         cierzo.render(scene_path("cornell"), **kw)
+
+
+def test_throughput_roulette_with_report_has_the_programs_message(cierzo):
+    code, err = run_cli("render", scene_path("cornell"), "--roulette", "throughput",
+                        "--spp", 1, "--quiet")
+    assert code == 1 and "throughput roulette" in err
+    with pytest.raises(cierzo.Error) as e:
+        cierzo.render(scene_path("cornell"), roulette="throughput", spp=1)
+    assert "cierzo: " + str(e.value) + "\n" == err
 
 
 def test_pool_not_a_multiple_of_16(cierzo):

@@ -58,9 +58,13 @@ def test_image_equals_the_programs_exr(cierzo, tmp_path, scene, integrator):
 def test_variance_and_overrides(cierzo, tmp_path):
     exr, _ = cli_render(tmp_path, scene_path("cornell"),
                         extra=("--estimator", "mis", "--diffuse-sampling", "cosine",
-                               "--survival-cap", "0.5", "--variance"))
+                               "--survival-cap", "0.5", "--roulette", "throughput",
+                               "--roulette-depth", "2", "--triangle-sampling", "solid-angle",
+                               "--variance"))
     image, variance, stats = cierzo.render(scene_path("cornell"), estimator="mis",
                                            diffuse_sampling="cosine", survival_cap=0.5,
+                                           roulette="throughput", roulette_depth=2,
+                                           triangle_sampling="solid-angle",
                                            variance=True, **SMALL)
     cli_image, cli_variance = cierzo.read_exr(exr, variance=True)
     assert same_bits(image, cli_image) and same_bits(variance, cli_variance)

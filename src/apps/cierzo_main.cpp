@@ -130,12 +130,17 @@ int run_main(int argc, char** argv) {
                   "Diffuse directions: uniform (the report's) or cosine (overrides "
                   "render.diffuse_sampling)")
         ->check(CLI::IsMember({"uniform", "cosine"}));
+    r->add_option("--triangle-sampling", a.job.triangle_sampling,
+                  "How nee and mis sample emitting triangles: area (uniform on the triangle) or "
+                  "solid-angle (uniform over the spherical triangle it subtends, where that is "
+                  "at least 1e-3 sr; area below) (overrides render.triangle_sampling)")
+        ->check(CLI::IsMember({"area", "solid-angle"}));
     r->add_option("--roulette", a.job.roulette,
                   describe_roulettes() + "; overrides render.roulette")
         ->check(CLI::IsMember(roulette_names()));
     r->add_option("--roulette-depth", a.job.roulette_depth,
                   "The vertex the throughput roulette starts at, the camera's first hit being 0 "
-                  "(overrides render.roulette_depth; default 3)")
+                  "(overrides render.roulette_depth; default 1)")
         ->check(CLI::Range(0, kMaxRouletteDepth));
     r->add_option("--estimator", a.job.estimator,
                   describe_estimators() + "; overrides render.estimator. Sampled emitters: "

@@ -45,6 +45,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     std::vector<int> roulettes;
     for (const std::string& r : a.roulettes) roulettes.push_back(int(*parse_roulette(r)));
     if (roulettes.empty()) roulettes.push_back(-1);
+    std::vector<int> triangles;
+    for (const std::string& t : a.triangle_sampling) triangles.push_back(t == "solid-angle");
+    if (triangles.empty()) triangles.push_back(-1);
     std::vector<ConvergeConfig> out;
     for (const std::string& integrator : a.integrators) {
         const bool scalar = integrator_of(integrator) == Integrator::kScalar;
@@ -56,8 +59,17 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                     for (int d : diffuse)
                         for (int e : estimators)
                             for (int r : roulettes)
-                                out.push_back({integrator, scalar ? "auto" : isa, pool, cap, d, e,
-                                               r, a.roulette_depth.value_or(-1)});
+                                for (int t : triangles)
+                                    out.push_back({.integrator = integrator,
+                                                   .isa = scalar ? "auto" : isa,
+                                                   .pool_size = pool,
+                                                   .survival_cap = cap,
+                                                   .cosine_diffuse = d,
+                                                   .estimator = e,
+                                                   .roulette = r,
+                                                   .triangle_solid_angle = t,
+                                                   .roulette_depth =
+                                                       a.roulette_depth.value_or(-1)});
     }
     return out;
 }
@@ -65,7 +77,8 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
 }  // namespace
 
 std::string converge_csv_header() {
-    return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,roulette,estimator,threads,width,"
+    return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,roulette,triangle_sampling,"
+           "estimator,threads,width,"
            "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
@@ -92,11 +105,11 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
         p.estimator.survival_cap, diffuse_name(p.estimator), roulette_label(p.estimator),
-        estimator_name(p.estimator.kind),
+        triangle_sampling_name(p.estimator), estimator_name(p.estimator.kind),
         p.stats.threads,
         scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
         p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
@@ -167,6 +180,11 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "Diffuse sampling to sweep: uniform, cosine; default: the scene's")
         ->delimiter(',')
         ->check(CLI::IsMember({"uniform", "cosine"}));
+    c->add_option("--triangle-sampling", a.triangle_sampling,
+                  "Triangle sampling of nee and mis to sweep: area, solid-angle; default: the "
+                  "scene's")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"area", "solid-angle"}));
     c->add_option("--roulette", a.roulettes,
                   "Roulettes to sweep, comma-separated: " + describe_roulettes() +
                       "; default: the scene's")

@@ -78,6 +78,7 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
         scene.set_resolution(a.width.value_or(s.width), a.height.value_or(s.height));
     if (a.survival_cap) s.estimator.survival_cap = *a.survival_cap;
     if (a.diffuse_sampling) s.estimator.cosine_diffuse = *a.diffuse_sampling == "cosine";
+    if (a.triangle_sampling) s.estimator.triangle_solid_angle = *a.triangle_sampling == "solid-angle";
     if (a.roulette) s.estimator.roulette = *parse_roulette(*a.roulette);
     if (a.roulette_depth) s.estimator.roulette_depth = *a.roulette_depth;
     if (a.estimator) s.estimator.kind = *parse_estimator(*a.estimator);

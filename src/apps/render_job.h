@@ -26,6 +26,7 @@ struct RenderJob {
     std::optional<int> width, height;
     std::optional<float> survival_cap;
     std::optional<std::string> diffuse_sampling;  // uniform or cosine
+    std::optional<std::string> triangle_sampling;  // area or solid-angle
     std::optional<std::string> roulette;          // lobe or throughput
     std::optional<int> roulette_depth;
     std::optional<std::string> estimator;         // report, nee or mis

@@ -165,6 +165,7 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);
+    id.triangle_sampling = triangle_sampling_name(s.estimator);
     id.integrator = integrator;
     id.isa = integrator == "wavefront" ? isa : "scalar";
     id.pool = integrator == "wavefront" ? pool : 0;
@@ -190,6 +191,7 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
     put("cierzo:survival_cap", id.survival_cap);
     put("cierzo:diffuse_sampling", id.diffuse_sampling);
     put("cierzo:roulette", id.roulette);
+    put("cierzo:triangle_sampling", id.triangle_sampling);
     put("cierzo:integrator", id.integrator);
     put("cierzo:isa", id.isa);
     put("cierzo:pool", std::to_string(id.pool));
@@ -265,6 +267,10 @@ Checkpoint read_checkpoint(const fs::path& path) {
         id.roulette = header.findTypedAttribute<Imf::StringAttribute>("cierzo:roulette")
                           ? get(header, path, "cierzo:roulette")
                           : std::string("lobe");
+        id.triangle_sampling =
+            header.findTypedAttribute<Imf::StringAttribute>("cierzo:triangle_sampling")
+                ? get(header, path, "cierzo:triangle_sampling")
+                : std::string("area");
         id.integrator = get(header, path, "cierzo:integrator");
         id.isa = get(header, path, "cierzo:isa");
         id.pool = int(get_int(header, path, "cierzo:pool"));
@@ -366,6 +372,7 @@ std::vector<std::string> check_resume(const fs::path& path, const Checkpoint& c,
     differ("survival cap", was.survival_cap, now.survival_cap);
     differ("diffuse sampling", was.diffuse_sampling, now.diffuse_sampling);
     differ("roulette", was.roulette, now.roulette);
+    differ("triangle sampling", was.triangle_sampling, now.triangle_sampling);
     differ("integrator", was.integrator, now.integrator);
     if (!diffs.empty()) {
         std::string msg = path.string() + ": cannot resume: the checkpoint was rendered with another ";

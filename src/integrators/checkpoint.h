@@ -29,6 +29,7 @@ struct CheckpointIdentity {
     std::string estimator;         // report, nee, mis
     std::string survival_cap;      // exact, as %a
     std::string roulette;          // "lobe", or "throughput from N" (its depth)
+    std::string triangle_sampling;  // "area" or "solid-angle"
     std::string diffuse_sampling;  // uniform, cosine
     std::string integrator;        // wavefront, scalar
     std::string isa;               // the wavefront's kernels (the order of each pixel's sums)

@@ -48,6 +48,7 @@ EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& 
     if (config.cosine_diffuse >= 0) settings.cosine_diffuse = config.cosine_diffuse;
     if (config.estimator >= 0) settings.kind = Estimator(config.estimator);
     if (config.roulette >= 0) settings.roulette = Roulette(config.roulette);
+    if (config.triangle_solid_angle >= 0) settings.triangle_solid_angle = config.triangle_solid_angle;
     if (config.roulette_depth >= 0) settings.roulette_depth = config.roulette_depth;
     return settings;
 }

@@ -48,6 +48,7 @@ struct ConvergeConfig {
     int cosine_diffuse = -1;      // -1: the scene's; 0 uniform, 1 cosine
     int estimator = -1;           // -1: the scene's; else an Estimator
     int roulette = -1;            // -1: the scene's; else a Roulette
+    int triangle_solid_angle = -1;  // -1: the scene's; 0 area, 1 solid angle
     int roulette_depth = -1;      // -1: the scene's
 };
 

@@ -60,6 +60,12 @@ inline constexpr RouletteEntry kRoulettes[] = {
      "nee and mis: the lobe chosen among the lobes alone, and from vertex --roulette-depth on "
      "the path goes on with probability min(max RGB of its throughput, cap)"},
 };
+// How nee and mis sample emitting triangles (render.triangle_sampling, --triangle-sampling):
+// by area, or by the solid angle they subtend.
+inline constexpr const char* kTriangleSamplingNames[] = {"area", "solid-angle"};
+inline const char* triangle_sampling_name(const EstimatorSettings& e) {
+    return kTriangleSamplingNames[e.triangle_solid_angle ? 1 : 0];
+}
 // The largest render.roulette_depth / --roulette-depth.
 inline constexpr int kMaxRouletteDepth = 1024;
 

@@ -50,7 +50,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
             if (weighs_emitter_hits(c))
                 le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind,
                                                 scene.emitter_id(hit), lobe_pdf, ray.o, ray.d,
-                                                hit.t);
+                                                hit.t, c.estimator.triangle_solid_angle);
             radiance += throughput * le;
             break;
         }

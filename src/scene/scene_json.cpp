@@ -639,6 +639,10 @@ struct Loader {
         if (sampling != "uniform" && sampling != "cosine")
             r.fail("'diffuse_sampling' must be \"uniform\" or \"cosine\"");
         s.estimator.cosine_diffuse = sampling == "cosine";
+        const std::string triangles = r.string("triangle_sampling", "area");
+        if (triangles != "area" && triangles != "solid-angle")
+            r.fail("'triangle_sampling' must be \"area\" or \"solid-angle\"");
+        s.estimator.triangle_solid_angle = triangles == "solid-angle";
         const std::string roulette = r.string("roulette", "lobe");
         const std::optional<Roulette> rule = parse_roulette(roulette);
         if (!rule) r.fail("'roulette' must be \"lobe\" or \"throughput\"");

@@ -134,17 +134,23 @@ TEST(Estimators, IrradianceUnderAnEmittingSphere) {
 }
 
 TEST(Estimators, IrradianceUnderASquareOfTwoTriangles) {
-    const Scene scene = parse_scene(plane_scene(kSquareEmitter, 1024, 1.6f), "/tmp/under.json");
+    Scene scene = parse_scene(plane_scene(kSquareEmitter, 1024, 1.6f), "/tmp/under.json");
     EXPECT_EQ(scene.emitters.count(), 2u);
+    expect_answer_everywhere(scene, square_answer);
+    // The triangles sampled by solid angle
+    scene.settings.estimator.triangle_solid_angle = true;
     expect_answer_everywhere(scene, square_answer);
 }
 
 TEST(Estimators, AFivePercentErrorInTheEmitterPdfIsCaught) {
     // The test above, with the pdf that next-event estimation divides by 5% too large: the
     // image falls outside 3σ of the answer in every channel
-    for (const char* emitter : {kSphereEmitter, kSquareEmitter}) {
+    for (const char* emitter : {kSphereEmitter, kSquareEmitter, kSquareEmitter}) {
         Scene scene = parse_scene(plane_scene(emitter, 512, 1.6f), "/tmp/under.json");
         scene.settings.estimator.light_pdf_scale = 1.05f;
+        // (the square twice: by area, then by solid angle)
+        static int square = 0;
+        if (emitter == kSquareEmitter) scene.settings.estimator.triangle_solid_angle = square++ > 0;
         const auto answer = emitter == kSphereEmitter ? sphere_answer : square_answer;
         for (const Variant& v : variants())
             for (Estimator e : {Estimator::kNee, Estimator::kMis}) {

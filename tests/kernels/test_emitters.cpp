@@ -2,7 +2,9 @@
 // stated densities: chi-square of the directions a sphere's cone sampler and an inside
 // sampler produce, of the points a triangle's area sampler produces, and of the emitters
 // the alias table chooses (against powers computed here, and the same emitter chosen by
-// the position sampler of kernels/light_sampling.h); the hit-side density equals the
+// the position sampler of kernels/light_sampling.h); a triangle sampled by solid angle
+// (against the solid angle of each of 64 cells, computed in double here), its fallback to
+// area sampling and its extremes; the hit-side density equals the
 // sampling side's and integrates to 1 over the emitter; and the two MIS weights of one
 // direction sum to 1 for random vertices, materials and emitters.
 #include <gtest/gtest.h>
@@ -99,6 +101,76 @@ TEST(EmitterSampling, TriangleIsUniformInAreaWithTheSolidAngleDensity) {
     }
     const auto [stat, critical] = h.chi_square_test();
     EXPECT_LT(stat, critical);
+}
+
+TEST(EmitterSampling, TriangleBySolidAngleIsUniformInSolidAngle) {
+    // Bins: the 64 sub-triangles, each expected in proportion to the solid angle it
+    // subtends (computed in double here); from far, near, close to the plane and near a
+    // corner. The density is 1/Ω, the hit side's the same, and every point on the triangle.
+    const Scene scene = test::emitter_scene(test::TriangleHistogram::object("L"));
+    const EmitterTable e = scene.emitters.table();
+    for (const Vec3f x : {Vec3f{0.2f, -0.5f, -1.0f}, Vec3f{0.3f, 1.1f, 1.5f},
+                          Vec3f{2.5f, 0.0f, 2.4f}, Vec3f{-0.9f, 0.55f, 1.9f}}) {
+        SCOPED_TRACE(::testing::Message() << x.x << " " << x.y << " " << x.z);
+        test::TriangleHistogram h;
+        std::vector<double> p = h.cell_solid_angles(x);
+        double omega = 0.0;
+        for (double w : p) omega += w;
+        ASSERT_GT(omega, double(kMinTriangleSolidAngle));
+        for (double& w : p) w /= omega;
+        Uniforms u;
+        for (int s_i = 0; s_i < 64 * 800; ++s_i) {
+            const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u(), true);
+            ASSERT_TRUE(s.ok);
+            ASSERT_NEAR(double(s.pdf) * omega, 1.0, 2e-4);
+            ASSERT_NEAR(emitter_pdf<float>(e, 0, x, s.wi, s.t, true) / s.pdf, 1.0, 1e-5);
+            ASSERT_TRUE(h.add(x + s.wi * s.t)) << "off the triangle";
+        }
+        const auto [stat, critical] = h.chi_square_test(p);
+        EXPECT_LT(stat, critical);
+        // Near the triangle, points sampled by area fail the same test: it tells the two
+        // densities apart
+        if (omega > 0.5) {
+            test::TriangleHistogram by_area;
+            for (int s_i = 0; s_i < 64 * 800; ++s_i) {
+                const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u(), false);
+                if (s.ok) by_area.add(x + s.wi * s.t);
+            }
+            EXPECT_GT(by_area.chi_square_test(p).first, critical);
+        }
+    }
+}
+
+TEST(EmitterSampling, TriangleBySolidAngleFallsBackToAreaAndStaysFinite) {
+    const Scene scene = test::emitter_scene(test::TriangleHistogram::object("L"));
+    const EmitterTable e = scene.emitters.table();
+    test::TriangleHistogram h;
+    const Vec3f centroid = (h.v0 + h.v1 + h.v2) * (1.0f / 3.0f);
+    Uniforms u;
+    // Far (Ω ≈ 1e-7 sr): sampled by area, with the area density on both sides
+    const Vec3f far = centroid + h.normal() * 3000.0f;
+    for (int k = 0; k < 1000; ++k) {
+        const EmitterSample<float> s = sample_emitter(e, far, 0.3f, 0.5f, u(), u(), true);
+        ASSERT_TRUE(s.ok);
+        const double cos_l = std::abs(double(dot(h.normal(), s.wi)));
+        ASSERT_NEAR(double(s.pdf) * h.area() * cos_l / (double(s.t) * s.t), 1.0, 1e-3);
+        ASSERT_NEAR(emitter_pdf<float>(e, 0, far, s.wi, s.t, true) / s.pdf, 1.0, 1e-4);
+    }
+    // In the triangle's plane, at a corner, on the triangle, at 1e6 and 1e-6 scales: no NaN
+    // or Inf in a usable sample
+    const Vec3f in_plane = h.v0 + (h.v1 - h.v0) * 2.0f;
+    for (const Vec3f x : {in_plane, h.v0, centroid, centroid + h.normal() * 1e-6f,
+                          centroid + h.normal() * 1e6f, centroid - h.normal() * 0.01f}) {
+        SCOPED_TRACE(::testing::Message() << x.x << " " << x.y << " " << x.z);
+        for (int k = 0; k < 2000; ++k) {
+            const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u(), true);
+            if (!s.ok) continue;
+            ASSERT_TRUE(std::isfinite(s.pdf) && s.pdf > 0.0f);
+            ASSERT_TRUE(std::isfinite(s.t) && s.t > 0.0f);
+            ASSERT_TRUE(std::isfinite(s.wi.x) && std::isfinite(s.wi.y) && std::isfinite(s.wi.z));
+            ASSERT_NEAR(length(s.wi), 1.0f, 1e-4f);
+        }
+    }
 }
 
 TEST(EmitterSampling, DensityIntegratesToOneOverTheEmitter) {

@@ -563,7 +563,7 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
     json j = base_scene();
     j["render"] = {{"width", 640},         {"height", 480},   {"spp", 4294967295LL},
                    {"seed", 4294967295LL}, {"survival_cap", 0.5}, {"diffuse_sampling", "cosine"},
-                   {"output", "out/img.pfm"}};
+                   {"triangle_sampling", "solid-angle"}, {"output", "out/img.pfm"}};
     j["scene_ior"] = 1.25;
     const Scene s = parse(j);
     EXPECT_EQ(s.settings.width, 640);
@@ -572,6 +572,7 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
     EXPECT_EQ(s.settings.seed, 4294967295u);
     EXPECT_EQ(s.settings.estimator.survival_cap, 0.5f);
     EXPECT_TRUE(s.settings.estimator.cosine_diffuse);
+    EXPECT_TRUE(s.settings.estimator.triangle_solid_angle);
     EXPECT_EQ(s.scene_ior, 1.25f);
     // Output relative to the scene's folder, not the working directory
     EXPECT_EQ(s.settings.output, fs::path("/nonexistent-cierzo-folder/x/out/img.pfm"));
@@ -580,6 +581,7 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
     const Scene a = parse(j);
     EXPECT_EQ(a.settings.output, fs::path("/abs/elsewhere.exr"));
     EXPECT_FALSE(a.settings.estimator.cosine_diffuse);
+    EXPECT_FALSE(a.settings.estimator.triangle_solid_angle);
     EXPECT_EQ(a.settings.width, 10);
 }
 
@@ -1200,6 +1202,8 @@ TEST(scene_json_errors, ImageSizeLimits) {
     EXPECT_TRUE(fails_with(j, "'seed' must be in"));
     j["render"] = {{"diffuse_sampling", "importance"}};
     EXPECT_TRUE(fails_with(j, "'diffuse_sampling' must be"));
+    j["render"] = {{"triangle_sampling", "solid_angle"}};
+    EXPECT_TRUE(fails_with(j, "'triangle_sampling' must be"));
 }
 
 TEST(scene_json_errors, DegenerateQuadrics) {

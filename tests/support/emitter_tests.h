@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 #include <string>
@@ -111,11 +112,45 @@ struct TriangleHistogram {
     }
     // Pearson's statistic against equal counts, and its critical value
     std::pair<double, double> chi_square_test() const {
+        return chi_square_test(std::vector<double>(observed.size(), 1.0 / (k * k)));
+    }
+    // The same against the probabilities p of the cells
+    std::pair<double, double> chi_square_test(const std::vector<double>& p) const {
         double n = 0.0;
         for (const double o : observed) n += o;
-        const std::vector<double> expected(observed.size(), n / (k * k));
+        std::vector<double> expected(p.size());
+        for (size_t i = 0; i < p.size(); ++i) expected[i] = n * p[i];
         const auto [stat, dof] = chi_square(observed, expected);
         return {stat, chi_square_critical(dof)};
+    }
+    // The solid angle each cell subtends at x, in double (Van Oosterom and Strackee's
+    // formula, computed here), cell by cell in triangle_cell's numbering
+    std::vector<double> cell_solid_angles(const Vec3f& x) const {
+        const auto point = [&](double b, double g) {
+            const double p[3] = {v0.x + b * (v1.x - v0.x) + g * (v2.x - v0.x),
+                                 v0.y + b * (v1.y - v0.y) + g * (v2.y - v0.y),
+                                 v0.z + b * (v1.z - v0.z) + g * (v2.z - v0.z)};
+            std::array<double, 3> d{p[0] - x.x, p[1] - x.y, p[2] - x.z};
+            const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            for (double& c : d) c /= len;
+            return d;
+        };
+        const auto dotd = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+            return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        };
+        const auto omega = [&](double b0, double g0, double b1, double g1, double b2, double g2) {
+            const auto a = point(b0 / k, g0 / k), b = point(b1 / k, g1 / k), c = point(b2 / k, g2 / k);
+            const std::array<double, 3> bc{b[1] * c[2] - b[2] * c[1], b[2] * c[0] - b[0] * c[2],
+                                           b[0] * c[1] - b[1] * c[0]};
+            return 2.0 * std::atan2(std::abs(dotd(a, bc)), 1.0 + dotd(a, b) + dotd(b, c) + dotd(c, a));
+        };
+        std::vector<double> out;
+        for (int i = 0; i < k; ++i)
+            for (int j = 0; j < k - i; ++j) {
+                out.push_back(omega(i, j, i + 1, j, i, j + 1));  // lower half of the square
+                if (j < k - 1 - i) out.push_back(omega(i + 1, j, i + 1, j + 1, i, j + 1));
+            }
+        return out;
     }
 };
 

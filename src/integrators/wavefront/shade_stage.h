@@ -103,7 +103,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             const F lobe_pdf = F::load_aligned(p.lobe_pdf + i);
             le = le * emitter_hit_weight<F>(c.emitters, c.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), lobe_pdf,
-                                            ray.o, d, length(pos - ray.o));
+                                            ray.o, d, length(pos - ray.o),
+                                            c.estimator.triangle_solid_angle);
         } else if (c.lt && any(em)) {
             le = le * emitter_hit_weight<F>(c.emitters, c.estimator.kind,
                                             select(mask_i32(em), sf.emitter, I(-1)), F(0.0f),

@@ -1,0 +1,98 @@
+#!/usr/bin/python3
+"""Efficiency at equal error of the sampling knobs of nee and mis against their defaults.
+
+For each scene: one reference (`converge --save-reference`, mis, REF_SPP paths per pixel),
+then `cierzo converge` with --estimator mis (or --estimator) for each configuration below,
+1 thread, wavefront, at --spp, --repeats renders per point (median time, mean error). The
+efficiency is 1 / (relMSE x seconds) (the reference's noise removed); the table gives each
+configuration's efficiency over the lobe roulette's (uniform diffuse) at the same spp.
+
+  lobe          the defaults: the report's lobe roulette, uniform diffuse, area triangles
+  thr1/3/5      --roulette throughput --roulette-depth 1, 3, 5
+  tri           --triangle-sampling solid-angle
+  cos           --diffuse-sampling cosine
+  all           thr1 + tri + cos
+
+Usage: /usr/bin/python3 bench/efficiency.py [--scenes box,cornell,...] [--size 128]
+       [--spp 64,256] [--repeats 3] [--reference-spp 8192] [--estimator mis] [--out FILE.json]
+"""
+import argparse
+import csv
+import json
+import pathlib
+import subprocess
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+CIERZO = ROOT / "build" / "cierzo"
+THR1 = ["--roulette", "throughput", "--roulette-depth", "1"]
+TRI = ["--triangle-sampling", "solid-angle"]
+COS = ["--diffuse-sampling", "cosine"]
+CONFIGS = {
+    "lobe": [],
+    "thr1": THR1,
+    "thr3": ["--roulette", "throughput", "--roulette-depth", "3"],
+    "thr5": ["--roulette", "throughput", "--roulette-depth", "5"],
+    "tri": TRI,
+    "cos": COS,
+    "all": THR1 + TRI + COS,
+}
+
+
+def converge(scene, args, extra, tmp, reference=None, save=None):
+    out = pathlib.Path(tmp) / "run.csv"
+    cmd = [str(CIERZO), "converge", str(scene), "--integrator", "wavefront", "--threads", "1",
+           "--estimator", args.estimator, "--width", str(args.size), "--height", str(args.size),
+           "--spp", args.spp, "--repeats", str(args.repeats), "--out", str(out), "--quiet"]
+    if reference:
+        cmd += ["--reference", str(reference)]
+    else:
+        cmd += ["--reference-spp", str(args.reference_spp), "--reference-estimator", "mis",
+                "--save-reference", str(save)]
+    subprocess.run(cmd + extra, check=True, capture_output=True)
+    with open(out) as f:
+        return list(csv.DictReader(f))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenes", default="box,cornell,soft_shadow,small_emitter,four_lobes,"
+                    "glass_spheres,phong_spheres,quad_light")
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--spp", default="64,256")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--reference-spp", type=int, default=8192)
+    ap.add_argument("--estimator", default="mis")
+    ap.add_argument("--out", default=None)
+    a = ap.parse_args()
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in a.scenes.split(","):
+            scene = ROOT / "scenes" / f"{name}.json"
+            ref = pathlib.Path(tmp) / f"{name}_ref.exr"
+            rows = {}
+            for label, extra in CONFIGS.items():
+                rows[label] = converge(scene, a, extra, tmp,
+                                       reference=ref if ref.exists() else None, save=ref)
+            for i, base in enumerate(rows["lobe"]):
+                entry = {"scene": name, "spp": int(base["spp"])}
+                for label, r in rows.items():
+                    entry[label] = {"seconds": float(r[i]["seconds"]),
+                                    "rel_mse": float(r[i]["rel_mse_corrected"]),
+                                    "efficiency": float(r[i]["efficiency"])}
+                results.append(entry)
+                print(json.dumps(entry), flush=True)
+    labels = list(CONFIGS)
+    print("\n| scene | spp | " + " | ".join(f"{l} / lobe" for l in labels[1:]) + " |")
+    print("|---|---|" + "---|" * (len(labels) - 1))
+    for e in results:
+        base = e["lobe"]["efficiency"]
+        print(f"| {e['scene']} | {e['spp']} | " +
+              " | ".join(f"{e[l]['efficiency'] / base:.2f}" for l in labels[1:]) + " |")
+    if a.out:
+        pathlib.Path(a.out).write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
