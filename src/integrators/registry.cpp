@@ -34,43 +34,29 @@ std::string joined(const std::vector<std::string>& names) {
     return text;
 }
 
+// The name of entry `id`, and the entry named `name`.
+template <class Entries, class Id>
+const char* name_in(const Entries& entries, Id id) {
+    for (const auto& e : entries)
+        if (e.id == id) return e.name;
+    return "unknown";
+}
+template <class Entries>
+auto parse_in(const Entries& entries, std::string_view name)
+    -> std::optional<decltype(entries[0].id)> {
+    for (const auto& e : entries)
+        if (name == e.name) return e.id;
+    return std::nullopt;
+}
+
 }  // namespace
 
-const char* integrator_name(Integrator i) {
-    for (const IntegratorEntry& e : kIntegrators)
-        if (e.id == i) return e.name;
-    return "unknown";
-}
-
-const char* estimator_name(Estimator id) {
-    for (const EstimatorEntry& e : kEstimators)
-        if (e.id == id) return e.name;
-    return "unknown";
-}
-
-std::optional<Integrator> parse_integrator(std::string_view name) {
-    for (const IntegratorEntry& e : kIntegrators)
-        if (name == e.name) return e.id;
-    return std::nullopt;
-}
-
-std::optional<Estimator> parse_estimator(std::string_view name) {
-    for (const EstimatorEntry& e : kEstimators)
-        if (name == e.name) return e.id;
-    return std::nullopt;
-}
-
-const char* roulette_name(Roulette id) {
-    for (const RouletteEntry& e : kRoulettes)
-        if (e.id == id) return e.name;
-    return "unknown";
-}
-
-std::optional<Roulette> parse_roulette(std::string_view name) {
-    for (const RouletteEntry& e : kRoulettes)
-        if (name == e.name) return e.id;
-    return std::nullopt;
-}
+const char* integrator_name(Integrator i) { return name_in(kIntegrators, i); }
+const char* estimator_name(Estimator e) { return name_in(kEstimators, e); }
+const char* roulette_name(Roulette r) { return name_in(kRoulettes, r); }
+std::optional<Integrator> parse_integrator(std::string_view n) { return parse_in(kIntegrators, n); }
+std::optional<Estimator> parse_estimator(std::string_view n) { return parse_in(kEstimators, n); }
+std::optional<Roulette> parse_roulette(std::string_view n) { return parse_in(kRoulettes, n); }
 
 void check_roulette(const EstimatorSettings& e, const std::string& source) {
     if (e.roulette == Roulette::kThroughput && e.kind != Estimator::kNee &&
