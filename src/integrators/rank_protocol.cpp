@@ -106,7 +106,8 @@ UnitResult decode_result(const std::vector<char>& msg, size_t& at, const std::ve
     auto& px = r.sums.pixels();
     const size_t bytes = px.size() * sizeof(PixelSums);
     if (at + bytes > msg.size()) throw std::runtime_error("truncated unit from a rank");
-    std::memcpy(px.data(), msg.data() + at, bytes);
+    // (a batch of light paths has no pixels: memcpy may not be given an empty vector's null data)
+    if (bytes > 0) std::memcpy(px.data(), msg.data() + at, bytes);
     at += bytes;
     if (rh.splats > (msg.size() - at) / sizeof(Splat))
         throw std::runtime_error("truncated unit from a rank");

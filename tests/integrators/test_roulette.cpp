@@ -3,7 +3,8 @@
 //   - unbiased against analytic answers: a point light of intensity I at the centre of a
 //     closed diffuse sphere (radius R, albedo ρ: L = ρI/(πR²(1-ρ)) everywhere inside), and a
 //     diffuse ball inside an emitting sphere (ρ·Le on the ball), each image mean within 3σ
-//     (σ < 1.5%), with the roulette from vertex 0, 3 and 1024;
+//     (σ < 1.5%; 4.5% at the lighter settings of the sanitizer and emulator jobs), with
+//     the roulette from vertex 0, 3 and 1024;
 //   - per pixel against the lobe roulette on a box with every lobe kind (diffuse, glossy,
 //     mirror, glass), sampled emitters and a point light (a z-test at Šidák-corrected
 //     α = 0.01 passes on ≥ 99% of pixels; with mis, means within 3.5σ and σ < 2% of the
@@ -32,6 +33,9 @@ using test::Variant;
 using test::variants;
 
 int spp(int native, int lighter) { return test::lighter_settings() ? lighter : native; }
+// The largest relative σ of an analytic case's image mean: 1.5% at 256 paths per pixel, and
+// √8 times that at the lighter settings' 32
+double sigma_bound() { return test::lighter_settings() ? 0.045 : 0.015; }
 
 Scene with_roulette(const std::string& json, Estimator e, Roulette r, int depth, int spp) {
     Scene s = parse_scene(json, "roulette_test.json");
@@ -72,14 +76,14 @@ TEST(ThroughputRoulette, AnalyticAnswersAtEveryDepth) {
                 for (int c = 0; c < 3; ++c) {
                     const ImageMean m = image_mean(room.film, c);
                     EXPECT_NEAR(m.mean, kRoomL, 3.0 * m.sigma);
-                    EXPECT_LT(m.sigma, 0.015 * kRoomL);
+                    EXPECT_LT(m.sigma, sigma_bound() * kRoomL);
                 }
                 const RenderResult ball =
                     run(with_roulette(kBall, e, Roulette::kThroughput, depth, spp(256, 32)), v);
                 for (int c = 0; c < 3; ++c) {
                     const ImageMean m = image_mean(ball.film, c);
                     EXPECT_NEAR(m.mean, 0.8, 3.0 * m.sigma);
-                    EXPECT_LT(m.sigma, 0.015 * 0.8);
+                    EXPECT_LT(m.sigma, sigma_bound() * 0.8);
                 }
             }
         }
@@ -131,7 +135,8 @@ TEST(ThroughputRoulette, AgreesWithTheLobeRoulettePerPixel) {
             for (int c = 0; c < 3 && e == Estimator::kMis; ++c) {
                 const ImageMean a = image_mean(thr.film, c), b = image_mean(lobe.film, c);
                 EXPECT_NEAR(a.mean, b.mean, 3.5 * std::hypot(a.sigma, b.sigma));
-                EXPECT_LT(std::hypot(a.sigma, b.sigma), 0.02 * b.mean);
+                const double bound = test::lighter_settings() ? 0.06 : 0.02;
+                EXPECT_LT(std::hypot(a.sigma, b.sigma), bound * b.mean);
             }
             EXPECT_EQ(thr.film.nonfinite_samples(), 0u);
         }
