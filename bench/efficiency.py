@@ -13,7 +13,7 @@ configuration's efficiency over the lobe roulette's (uniform diffuse) at the sam
   cos           --diffuse-sampling cosine
   all           thr1 + tri + cos
 
-Usage: /usr/bin/python3 bench/efficiency.py [--scenes box,cornell,...] [--size 128]
+Usage: /usr/bin/python3 bench/efficiency.py [--scenes box,cornell,PATH.json,...] [--size 128]
        [--spp 64,256] [--repeats 3] [--reference-spp 8192] [--estimator mis] [--out FILE.json]
 """
 import argparse
@@ -69,7 +69,9 @@ def main():
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         for name in a.scenes.split(","):
-            scene = ROOT / "scenes" / f"{name}.json"
+            # (a name of scenes/, or a path such as build/scenes-generated/mesh_200k.json)
+            scene = pathlib.Path(name) if name.endswith(".json") else ROOT / "scenes" / f"{name}.json"
+            name = scene.stem
             ref = pathlib.Path(tmp) / f"{name}_ref.exr"
             rows = {}
             for label, extra in CONFIGS.items():
