@@ -123,7 +123,8 @@ int run_main(int argc, char** argv) {
     r->add_option("--height", a.job.height, "Image height in pixels (overrides render.height)")
         ->check(CLI::Range(1, 1 << 16));
     r->add_option("--survival-cap", a.job.survival_cap,
-                  "Largest total survival probability of the lobe roulette, in (0, 1) "
+                  "Largest total survival probability of the lobe roulette (and the largest q "
+                  "of the throughput roulette), in (0, 1) "
                   "(overrides render.survival_cap; default 0.9)")
         ->check(CLI::Range(1e-6f, 0.999999f));
     r->add_option("--diffuse-sampling", a.job.diffuse_sampling,
