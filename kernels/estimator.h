@@ -414,7 +414,7 @@ Vec3<T> sample_spherical_triangle(const Vec3<T>& a, const Vec3<T>& b, const Vec3
 }
 
 // The triangle v0, v0 + e1, v0 + e2 as seen from x: the unit directions to its corners and
-// its solid angle; `spherical` where it is to be sampled by solid angle (`solid_angle`, at
+// its solid angle; `spherical` where triangle_solid_angle samples it by solid angle (at
 // least kMinTriangleSolidAngle, and x off the triangle's plane: in it, the formula's 2π is
 // the limit from one side of a triangle seen edge-on).
 template <class T>
@@ -425,7 +425,7 @@ struct TriangleView {
 };
 template <class T>
 TriangleView<T> triangle_view(const Vec3<T>& x, const Vec3<T>& v0, const Vec3<T>& e1,
-                              const Vec3<T>& e2, bool solid_angle) {
+                              const Vec3<T>& e2) {
     TriangleView<T> v;
     const Vec3<T> to0 = v0 - x;
     v.a = unit_or_zero(to0);
@@ -434,7 +434,6 @@ TriangleView<T> triangle_view(const Vec3<T>& x, const Vec3<T>& v0, const Vec3<T>
     v.omega = spherical_triangle_area(v.a, v.b, v.c);
     v.spherical = (v.omega >= T(kMinTriangleSolidAngle)) & (v.omega <= T(2.0f * kPi)) &
                   (dot(v.a, cross(v.b, v.c)) != T(0.0f));
-    if (!solid_angle) v.spherical = v.spherical & (T(0.0f) > T(1.0f));
     return v;
 }
 
@@ -521,7 +520,7 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         T pdf = pmf * d2 / (size * cos_l);
         T t = dist;
         if (solid_angle) {
-            const TriangleView<T> v = triangle_view(x, p0, e1, e2, true);
+            const TriangleView<T> v = triangle_view(x, p0, e1, e2);
             const auto spherical = triangle & v.spherical;
             if (any(spherical)) {
                 // The direction, and the distance to the triangle's plane along it
@@ -565,7 +564,7 @@ T emitter_pdf(const EmitterTable& e, const I32<T>& id, const Vec3<T>& x, const V
         if (solid_angle) {
             const TriangleView<T> v = triangle_view(x, Vec3<T>{at(0), at(1), at(2)},
                                                     Vec3<T>{at(4), at(5), at(6)},
-                                                    Vec3<T>{at(7), at(8), at(9)}, true);
+                                                    Vec3<T>{at(7), at(8), at(9)});
             area_pdf = select(v.spherical, T(1.0f) / v.omega, area_pdf);
         }
         pdf = select(sphere, pdf, area_pdf);

@@ -46,13 +46,18 @@ inline U light_path_key(const U& key) {
     return hash32(key ^ splat<U, 0x2545f491u>());
 }
 
+// The 32 random bits of (path, bounce, purpose), which every uniform below derives from.
+template <class T>
+inline U32<T> purpose_bits(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
+    using U = U32<T>;
+    const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
+    return hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
+}
+
 // A uniform number in [0, 1) with 24 random bits for (path, bounce, purpose).
 template <class T>
 inline T uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
-    using U = U32<T>;
-    const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
-    const U bits = hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
-    return to_float(bits >> 8) * T(0x1.0p-24f);
+    return to_float(purpose_bits<T>(key, bounce, purpose) >> 8) * T(0x1.0p-24f);
 }
 
 // Two independent uniforms for one (path, bounce, purpose): the second is the first's hash
@@ -62,8 +67,7 @@ template <class T>
 inline void uniform_pair(const U32<T>& key, const U32<T>& bounce, Purpose purpose, T& u,
                          T& v) {
     using U = U32<T>;
-    const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
-    const U bits = hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
+    const U bits = purpose_bits<T>(key, bounce, purpose);
     u = to_float(bits >> 8) * T(0x1.0p-24f);
     v = to_float(hash32(bits ^ splat<U, 0x3c6ef372u>()) >> 8) * T(0x1.0p-24f);
 }
@@ -74,8 +78,7 @@ inline void uniform_pair(const U32<T>& key, const U32<T>& bounce, Purpose purpos
 template <class T>
 inline T second_uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
     using U = U32<T>;
-    const U counter = bounce * U(kPurposesPerBounce) + U(uint32_t(purpose) + 1u);
-    const U bits = hash32(key ^ hash32(counter * splat<U, 0x85ebca6bu>()));
+    const U bits = purpose_bits<T>(key, bounce, purpose);
     return to_float(hash32(bits ^ splat<U, 0x510e527fu>()) >> 8) * T(0x1.0p-24f);
 }
 

@@ -166,10 +166,8 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
             }
         return;
     }
-    // Light tracing traces the camera's own paths only where some emitter is not sampled
-    // (they bring nothing else); its tiles count their samples all the same
-    const bool camera_paths =
-        !splats(rs.estimator.kind) || scene.emitters.unsampled_objects > 0;
+    // (light tracing's tiles count their samples all the same)
+    const bool camera_paths = scene.traces_camera_paths();
     for (int y = tile.y0; y < tile.y1; ++y) {
         for (int x = tile.x0; x < tile.x1; ++x) {
             PixelSums& px = film.at(x, y);

@@ -104,11 +104,12 @@ struct FlatScene {
     // What a path vertex needs (kernels/path_vertex.h): the emitters, the estimator's
     // settings, the point lights, the scene's index, as the scalar reference has them
     PathContext path;
-    // Light tracing: where light paths start, the pinhole they connect to, and whether the
-    // camera's paths are traced too (some emitter cannot be sampled)
+    // Light tracing: where light paths start and the pinhole they connect to; and whether
+    // camera tiles trace camera paths (always, but under light tracing only where some
+    // emitter cannot be sampled)
     LightStartTable light_starts;
     PinholeFrame pinhole;
-    bool lt_camera_paths;
+    bool camera_paths;  // Scene::traces_camera_paths
     FlatFeatures features;
 };
 

@@ -179,7 +179,7 @@ FlatView flat_view(const Scene& scene) {
     f.path = scene.path_context();
     f.light_starts = scene.light_starts.table();
     f.pinhole = scene.pinhole();
-    f.lt_camera_paths = scene.emitters.unsampled_objects > 0;
+    f.camera_paths = scene.traces_camera_paths();
     const Camera& c = scene.camera;
     for (int k = 0; k < 3; ++k) {
         f.cam_origin[k] = c.origin[k], f.cam_forward[k] = c.forward[k];

@@ -215,6 +215,12 @@ public:
         return first < 0 ? -1 : first + int32_t(hit.triangle);
     }
 
+    // Whether the camera tiles trace camera paths: always, but with light tracing only where
+    // some emitter cannot be sampled (the light paths bring every other light).
+    bool traces_camera_paths() const {
+        return !splats(settings.estimator.kind) || emitters.unsampled_objects > 0;
+    }
+
     // What a path vertex needs of the scene (kernels/path_vertex.h), for both integrators.
     PathContext path_context() const;
 

@@ -112,7 +112,7 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
         render_light_paths(w, job);
         return;
     }
-    if (scene.path.lt && !scene.lt_camera_paths) return;
+    if (!scene.camera_paths) return;
     if (f.lobe_kinds != 1) run(std::integral_constant<int, kLobeCount>{});
     else if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
     else if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
