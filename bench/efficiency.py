@@ -7,14 +7,18 @@ then `cierzo converge` with --estimator mis (or --estimator) for each configurat
 efficiency is 1 / (relMSE x seconds) (the reference's noise removed); the table gives each
 configuration's efficiency over the lobe roulette's (uniform diffuse) at the same spp.
 
-  lobe          the defaults: the report's lobe roulette, uniform diffuse, area triangles
+  lobe          the report's settings: the lobe roulette, uniform diffuse, area triangles,
+                the independent sampler (nee and mis default to all+sobol)
   thr1/3/5      --roulette throughput --roulette-depth 1, 3, 5
   tri           --triangle-sampling solid-angle
   cos           --diffuse-sampling cosine
   all           thr1 + tri + cos
+  sobol, zsobol, pmj02   --sampler sobol, zsobol, pmj02
+  all+sobol, all+zsobol, all+pmj02   all three knobs with that sampler
 
 Usage: /usr/bin/python3 bench/efficiency.py [--scenes box,cornell,PATH.json,...] [--size 128]
-       [--spp 64,256] [--repeats 3] [--reference-spp 8192] [--estimator mis] [--out FILE.json]
+       [--spp 64,256] [--repeats 3] [--reference-spp 8192] [--estimator mis]
+       [--configs lobe,all,all+sobol,...] [--out FILE.json]
 """
 import argparse
 import csv
@@ -25,18 +29,34 @@ import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 CIERZO = ROOT / "build" / "cierzo"
-THR1 = ["--roulette", "throughput", "--roulette-depth", "1"]
-TRI = ["--triangle-sampling", "solid-angle"]
-COS = ["--diffuse-sampling", "cosine"]
+# nee and mis default to the four knobs' best settings; every configuration below names all
+# four, so that "lobe" is the report's settings whatever the defaults are
+BASE = {"--roulette": "lobe", "--diffuse-sampling": "uniform", "--triangle-sampling": "area",
+        "--sampler": "independent"}
+THR1 = {"--roulette": "throughput", "--roulette-depth": "1"}
+TRI = {"--triangle-sampling": "solid-angle"}
+COS = {"--diffuse-sampling": "cosine"}
+ALL = {**THR1, **TRI, **COS}
 CONFIGS = {
-    "lobe": [],
+    "lobe": {},
     "thr1": THR1,
-    "thr3": ["--roulette", "throughput", "--roulette-depth", "3"],
-    "thr5": ["--roulette", "throughput", "--roulette-depth", "5"],
+    "thr3": {"--roulette": "throughput", "--roulette-depth": "3"},
+    "thr5": {"--roulette": "throughput", "--roulette-depth": "5"},
     "tri": TRI,
     "cos": COS,
-    "all": THR1 + TRI + COS,
+    "all": ALL,
+    "sobol": {"--sampler": "sobol"},
+    "zsobol": {"--sampler": "zsobol"},
+    "pmj02": {"--sampler": "pmj02"},
+    "all+sobol": {**ALL, "--sampler": "sobol"},
+    "all+zsobol": {**ALL, "--sampler": "zsobol"},
+    "all+pmj02": {**ALL, "--sampler": "pmj02"},
 }
+
+
+def options(config):
+    merged = {**BASE, **config}
+    return [x for kv in merged.items() for x in kv]
 
 
 def converge(scene, args, extra, tmp, reference=None, save=None):
@@ -64,6 +84,8 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--reference-spp", type=int, default=8192)
     ap.add_argument("--estimator", default="mis")
+    ap.add_argument("--configs", default=",".join(CONFIGS),
+                    help="configurations to run, comma-separated (lobe, the base, always runs)")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     results = []
@@ -74,7 +96,9 @@ def main():
             name = scene.stem
             ref = pathlib.Path(tmp) / f"{name}_ref.exr"
             rows = {}
-            for label, extra in CONFIGS.items():
+            chosen = ["lobe"] + [c for c in a.configs.split(",") if c != "lobe"]
+            for label in chosen:
+                extra = options(CONFIGS[label])
                 rows[label] = converge(scene, a, extra, tmp,
                                        reference=ref if ref.exists() else None, save=ref)
             for i, base in enumerate(rows["lobe"]):
@@ -85,7 +109,7 @@ def main():
                                     "efficiency": float(r[i]["efficiency"])}
                 results.append(entry)
                 print(json.dumps(entry), flush=True)
-    labels = list(CONFIGS)
+    labels = ["lobe"] + [c for c in a.configs.split(",") if c != "lobe"]
     print("\n| scene | spp | " + " | ".join(f"{l} / lobe" for l in labels[1:]) + " |")
     print("|---|---|" + "---|" * (len(labels) - 1))
     for e in results:

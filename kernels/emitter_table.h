@@ -58,6 +58,7 @@ struct PinholeFrame {
 struct PathContext {
     EmitterTable emitters;
     EstimatorSettings estimator;
+    SamplerSetup sampler;
     const float* lights = nullptr;  // 6 floats each: position, intensity
     int32_t light_count = 0;        // 0 under lt (its light paths bring point lights)
     float scene_ior = 1.0f;

@@ -19,7 +19,7 @@
 
 #include "emitter_table.h"
 #include "intersect.h"
-#include "rng.h"
+#include "sampler.h"
 #include "sampling.h"
 #include "settings.h"
 #include "texture.h"
@@ -585,12 +585,14 @@ struct EmitterShadow {
 template <class T>
 EmitterShadow<T> emitter_shadow(const EmitterTable& e, const EstimatorSettings& est,
                                 const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
-                                const Vec3<T>& origin, const U32<T>& key, const U32<T>& bounce) {
-    T u_pick, u_alias;
-    uniform_pair<T>(key, bounce, Purpose::kEmitterPick, u_pick, u_alias);
+                                const Vec3<T>& origin, const SampleStream<T>& rng,
+                                const U32<T>& bounce) {
+    // (one emitter: nothing to choose, and no numbers drawn for it)
+    T u_pick(0.0f), u_alias(0.0f), u1, u2;
+    if (e.count > 1) uniform_pair<T>(rng, bounce, Purpose::kEmitterPick, u_pick, u_alias);
+    uniform2<T>(rng, bounce, Purpose::kEmitter1, u1, u2);
     const EmitterSample<T> ls =
-        sample_emitter(e, origin, u_pick, u_alias, uniform<T>(key, bounce, Purpose::kEmitter1),
-                       uniform<T>(key, bounce, Purpose::kEmitter2), est.triangle_solid_angle);
+        sample_emitter(e, origin, u_pick, u_alias, u1, u2, est.triangle_solid_angle);
     const T pdf = ls.pdf * T(est.light_pdf_scale);
     const PhongLobes<T> f = phong_lobes(m, d, nf, ls.wi, est.cosine_diffuse);
     Vec3<T> fcos;

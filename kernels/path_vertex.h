@@ -72,10 +72,10 @@ Vec3<T> shadow_origin(const VertexFrame<T>& v, const Vec3<T>& pos, const T& magn
 template <class T>
 ShadowRequest<T> emitter_request(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
                                  const VertexFrame<T>& v, const Vec3<T>& origin,
-                                 const Vec3<T>& beta, const Mask<T>& phong, const U32<T>& key,
-                                 const U32<T>& bounce) {
+                                 const Vec3<T>& beta, const Mask<T>& phong,
+                                 const SampleStream<T>& rng, const U32<T>& bounce) {
     const EmitterShadow<T> es =
-        emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, key, bounce);
+        emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, rng, bounce);
     const Vec3<T> value = beta * es.value;
     Mask<T> want = phong & es.ok & (max_component(value) > T(0.0f));
     if (c.smooth) want = want & on_arriving_side(es.wi, v.nf);
@@ -111,10 +111,11 @@ ShadowRequest<T> point_light_request(const PathContext& c, int32_t j, const Bsdf
 template <int kLobe, Transport kMode = Transport::kRadiance, class T>
 Scatter<T> continue_path(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
                          const VertexFrame<T>& v, const Vec3<T>& n, const Vec3<T>& ns,
-                         const T& probability, const U32<T>& key, const U32<T>& bounce) {
+                         const T& probability, const SampleStream<T>& rng,
+                         const U32<T>& bounce) {
     const bool smooth = c.smooth;
-    const T u1 = uniform<T>(key, bounce, Purpose::kDirection1);
-    const T u2 = uniform<T>(key, bounce, Purpose::kDirection2);
+    T u1, u2;
+    uniform2<T>(rng, bounce, Purpose::kDirection1, u1, u2);
     Scatter<T> sc;
     if constexpr (kLobe == kLobeDiffuse) {
         sc = sample_diffuse(m, v.nsf, u1, u2, probability, c.estimator.cosine_diffuse);
@@ -151,14 +152,28 @@ void continuation_pdf(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
 // report's roulette it returns beta unchanged.
 template <class T>
 Vec3<T> throughput_roulette(const EstimatorSettings& est, const Vec3<T>& beta,
-                            const U32<T>& key, const U32<T>& bounce) {
+                            const SampleStream<T>& rng, const U32<T>& bounce) {
     if (!normalised_lobes(est)) return beta;
     const auto due = to_float(bounce) >= T(float(est.roulette_depth));
     if (!any(due)) return beta;
     const T q = min(max_component(beta), T(est.survival_cap));
-    const auto survives = second_uniform<T>(key, bounce, Purpose::kLobe) < q;
+    const auto survives = second_uniform<T>(rng, bounce, Purpose::kLobe) < q;
     const Vec3<T> kept = select(survives, beta * (T(1.0f) / q), Vec3<T>(T(0.0f)));
     return select(due, kept, beta);
+}
+
+// Whether light that reaches the camera along `length` segments counts (render.min_length,
+// render.max_length), and whether a path whose last vertex is `bounce` (the camera's first hit
+// is 0) may go on: its next vertex's light would be at least bounce + 2 segments long. The
+// callers ask only where limits_length(est).
+template <class T>
+Mask<T> length_counts(const EstimatorSettings& est, const U32<T>& length) {
+    const T l = to_float(length);
+    return (l >= T(float(est.min_length))) & (l <= T(float(est.max_length)));
+}
+template <class T>
+Mask<T> may_extend(const EstimatorSettings& est, const U32<T>& bounce) {
+    return to_float(bounce) + T(2.0f) <= T(float(est.max_length));
 }
 
 template <class T>
@@ -176,11 +191,12 @@ template <Transport kMode = Transport::kRadiance>
 ScalarContinuation continue_path(int32_t lobe, const PathContext& c, const Bsdf<float>& m,
                                  const Vec3f& d, const VertexFrame<float>& v, const Vec3f& pos,
                                  const Vec3f& n, const Vec3f& ns, float magnitude,
-                                 float probability, uint32_t key, uint32_t bounce) {
+                                 float probability, const SampleStream<float>& rng,
+                                 uint32_t bounce) {
     const auto run = [&](auto kind) {
         constexpr int kLobe = decltype(kind)::value;
         const Scatter<float> sc =
-            continue_path<kLobe, kMode>(c, m, d, v, n, ns, probability, key, bounce);
+            continue_path<kLobe, kMode>(c, m, d, v, n, ns, probability, rng, bounce);
         ScalarContinuation out{leaving_origin(pos, n, sc.dir, magnitude), sc.dir, sc.weight, 0.0f};
         continuation_pdf<kLobe>(c, m, d, v, sc.dir, probability, out.pdf);
         return out;

@@ -33,6 +33,34 @@ enum class Roulette : int32_t {
     kThroughput = 1,
 };
 
+// How a path's random numbers are drawn (render.sampler, --sampler; kernels/sampler.h and
+// docs/estimators.md, "samplers").
+enum class Sampler : int32_t {
+    kIndependent = 0,  // a hash of (seed, pixel, sample, bounce, purpose): the report's
+    kSobol = 1,        // Owen-scrambled Sobol (0,2) points, padded and shuffled per pixel
+    kZSobol = 2,       // the same points spread over the image in Morton order
+    kPmj02 = 3,        // progressive multi-jittered (0,2) tables, shuffled and scrambled
+};
+
+// pmj02: tables of points made once per process (src/scene/pmj02.cpp), each x | y << 16 in
+// 16-bit fixed point.
+inline constexpr uint32_t kPmj02Tables = 16;
+inline constexpr uint32_t kPmj02Points = 4096;
+
+// What a sampler needs beyond a path's numbers (built with the path context).
+struct SamplerSetup {
+    Sampler kind = Sampler::kIndependent;
+    // zsobol: log2 of the render's paths per pixel, rounded up (a pixel's block of indices)
+    uint32_t log2_spp = 0;
+    // pmj02: kPmj02Tables × kPmj02Points points
+    const uint32_t* pmj02 = nullptr;
+};
+
+// EstimatorSettings::max_length when paths have no limit, and the largest limit that may be
+// set (render.min_length, render.max_length, --min-length, --max-length).
+inline constexpr int32_t kNoLengthLimit = INT32_MAX;
+inline constexpr int32_t kMaxLengthLimit = 1 << 20;
+
 // Settings of the estimator that a scene or the command line may change.
 struct EstimatorSettings {
     // The roulette's total survival probability never exceeds this, so every path ends.
@@ -50,12 +78,29 @@ struct EstimatorSettings {
     // The roulette (kThroughput: nee and mis only), and the vertex it starts at
     Roulette roulette = Roulette::kLobe;
     int32_t roulette_depth = 1;
+    // Where the uniform numbers come from (every estimator)
+    Sampler sampler = Sampler::kIndependent;
+    // Only light carried by paths of min_length..max_length segments counts (the camera
+    // seeing an emitter is 1 segment, direct light at the first hit 2): to isolate a length
+    int32_t min_length = 1;
+    int32_t max_length = kNoLengthLimit;
+    // Which of the four knobs whose default depends on the estimator (diffuse sampling,
+    // roulette, triangle sampling, sampler) a scene, the command line or a sweep chose;
+    // use_estimator (src/integrators/registry.h) gives the others the estimator's defaults
+    uint32_t chosen = 0;
 };
+inline constexpr uint32_t kChoseDiffuse = 1, kChoseRoulette = 2, kChoseTriangles = 4,
+                          kChoseSampler = 8;
 
 // Below this solid angle (steradians) a triangle is sampled by area even under
 // triangle_solid_angle: the spherical triangle's construction loses precision, and a
 // triangle that small is sampled nearly uniformly in solid angle by area anyway.
 inline constexpr float kMinTriangleSolidAngle = 1e-3f;
+
+// Whether the path length limits leave anything out.
+inline constexpr bool limits_length(const EstimatorSettings& e) {
+    return e.min_length > 1 || e.max_length != kNoLengthLimit;
+}
 
 // Whether the lobe choice leaves out the path's death (the throughput roulette decides it).
 inline constexpr bool normalised_lobes(const EstimatorSettings& e) {

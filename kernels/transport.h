@@ -18,6 +18,7 @@
 
 #include "camera.h"
 #include "light_sampling.h"
+#include "sampler.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -86,22 +87,21 @@ struct LightStart {
 // kEmitter1/2 the point, kDirection1/2 the direction.
 template <class T>
 LightStart<T> sample_light_start(const EmitterTable& e, const LightStartTable& lights,
-                                 const U32<T>& key) {
+                                 const SampleStream<T>& rng) {
     using I = I32<T>;
     const U32<T> b0(0u);
     LightStart<T> out;
-    const T u_kind = uniform<T>(key, b0, Purpose::kLobe);
+    const T u_kind = uniform<T>(rng, b0, Purpose::kLobe);
     out.on_surface = u_kind < T(lights.emitter_probability);
-    const T u1 = uniform<T>(key, b0, Purpose::kDirection1);
-    const T u2 = uniform<T>(key, b0, Purpose::kDirection2);
+    T u1, u2;
+    uniform2<T>(rng, b0, Purpose::kDirection1, u1, u2);
     out.p = out.n = out.le = out.dir = out.beta = Vec3<T>(T(0.0f));
     out.ok = out.on_surface & !out.on_surface;
     if (e.count > 0 && any(out.on_surface)) {
-        T u_pick, u_alias;
-        uniform_pair<T>(key, b0, Purpose::kEmitterPick, u_pick, u_alias);
-        const EmitterPosition<T> ep =
-            sample_emitter_position(e, u_pick, u_alias, uniform<T>(key, b0, Purpose::kEmitter1),
-                                    uniform<T>(key, b0, Purpose::kEmitter2));
+        T u_pick(0.0f), u_alias(0.0f), u3, u4;
+        if (e.count > 1) uniform_pair<T>(rng, b0, Purpose::kEmitterPick, u_pick, u_alias);
+        uniform2<T>(rng, b0, Purpose::kEmitter1, u3, u4);
+        const EmitterPosition<T> ep = sample_emitter_position(e, u_pick, u_alias, u3, u4);
         const EmittedDirection<T> ed = sample_emitted_direction(ep.n, u1, u2);
         const T inv = T(1.0f) / (ep.pdf * T(lights.emitter_probability));
         const auto ok = out.on_surface & ep.ok & (ed.cos_theta > T(0.0f)) & (inv < T(kRayFar));

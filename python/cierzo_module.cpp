@@ -160,6 +160,7 @@ const std::vector<std::string> kEstimatorNames = estimator_names();
 const std::vector<std::string> kDiffuse = {"uniform", "cosine"};
 const std::vector<std::string> kRouletteNames = roulette_names();
 const std::vector<std::string> kTriangleSampling = {"area", "solid-angle"};
+const std::vector<std::string> kSamplerNames = sampler_names();
 
 // ---- Render ----------------------------------------------------------------------------
 
@@ -169,7 +170,9 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
                  std::optional<int64_t> seed, std::optional<std::string> estimator,
                  std::optional<float> survival_cap, std::optional<std::string> diffuse_sampling,
                  std::optional<std::string> roulette, std::optional<int> roulette_depth,
-                 std::optional<std::string> triangle_sampling, int pool, bool variance, double time_budget, double target_error,
+                 std::optional<std::string> triangle_sampling, std::optional<std::string> sampler,
+                 std::optional<int> min_length, std::optional<int> max_length,
+                 int pool, bool variance, double time_budget, double target_error,
                  bool progress, const py::object& cancel,
                  const std::optional<fs::path>& checkpoint,
                  std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
@@ -190,6 +193,9 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     check_member("roulette", roulette, kRouletteNames);
     check_range<int>("roulette_depth", roulette_depth, 0, kMaxRouletteDepth);
     check_member("triangle_sampling", triangle_sampling, kTriangleSampling);
+    check_member("sampler", sampler, kSamplerNames);
+    check_range<int>("min_length", min_length, 1, kMaxLengthLimit);
+    check_range<int>("max_length", max_length, 1, kMaxLengthLimit);
     check_range<double>("checkpoint_every", checkpoint_every, 0.01, 1e9);
     if (resume && !fs::is_regular_file(*resume))
         throw InputError(resume->string() + ": no such checkpoint file");
@@ -203,6 +209,8 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     job.roulette = roulette;
     job.roulette_depth = roulette_depth;
     job.triangle_sampling = triangle_sampling;
+    job.sampler = sampler;
+    job.min_length = min_length, job.max_length = max_length;
     job.estimator = estimator;
     job.threads = threads;
     job.integrator = integrator;
@@ -265,6 +273,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
                   const std::vector<std::string>& diffuse_sampling,
                   const std::vector<std::string>& roulette, std::optional<int> roulette_depth,
                   const std::vector<std::string>& triangle_sampling,
+                  const std::vector<std::string>& sampler,
                   const std::vector<std::string>& estimator,
                   std::optional<std::string> reference_estimator, std::optional<int> width,
                   std::optional<int> height, int threads, int repeats,
@@ -281,6 +290,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
     check_range<int>("roulette_depth", roulette_depth, 0, kMaxRouletteDepth);
     for (const std::string& v : triangle_sampling)
         check_member("triangle_sampling", v, kTriangleSampling);
+    for (const std::string& v : sampler) check_member("sampler", v, kSamplerNames);
     for (const std::string& v : estimator) check_member("estimator", v, kEstimatorNames);
     check_member("reference_estimator", reference_estimator, kEstimatorNames);
     check_range<int>("width", width, 1, 1 << 16);
@@ -307,6 +317,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
     a.roulettes = roulette;
     a.roulette_depth = roulette_depth;
     a.triangle_sampling = triangle_sampling;
+    a.samplers = sampler;
     a.estimators = estimator;
     a.reference_estimator = reference_estimator;
     a.width = width, a.height = height;
@@ -427,7 +438,9 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
           py::arg("seed") = py::none(), py::arg("estimator") = py::none(),
           py::arg("survival_cap") = py::none(), py::arg("diffuse_sampling") = py::none(),
           py::arg("roulette") = py::none(), py::arg("roulette_depth") = py::none(),
-          py::arg("triangle_sampling") = py::none(), py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
+          py::arg("triangle_sampling") = py::none(), py::arg("sampler") = py::none(),
+          py::arg("min_length") = py::none(), py::arg("max_length") = py::none(),
+          py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
           py::arg("target_error") = 0.0, py::arg("progress") = false,
           py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
           py::arg("checkpoint_every") = py::none(), py::arg("resume") = py::none(),
@@ -439,7 +452,10 @@ shape (height, width, 3), the mean and the variance of each pixel's mean, and th
   spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt'), survival_cap (0..1),
   diffuse_sampling ('uniform', 'cosine'), roulette ('lobe', or 'throughput' for nee and
   mis), roulette_depth (the vertex the throughput roulette starts at, 0..1024),
-  triangle_sampling ('area', 'solid-angle': how nee and mis sample emitting triangles);
+  triangle_sampling ('area', 'solid-angle': how nee and mis sample emitting triangles),
+  sampler ('independent', 'sobol', 'zsobol', 'pmj02': where the random numbers come from),
+  min_length, max_length (only paths of that many segments count: 1 is the camera seeing an
+  emitter, 2 direct light; 1..1048576);
 and as the command line's options: integrator 'wavefront' or 'scalar', isa 'auto', 'avx512',
 'avx2', 'sse4.2' or 'neon', threads (0 = every CPU), pool (wavefront paths per thread, a
 multiple of 16; 0 = 512), time_budget (seconds, 0 = none) and target_error (mean relative
@@ -468,6 +484,7 @@ seed, estimator or integrator is refused).)");
           py::arg("diffuse_sampling") = std::vector<std::string>{},
           py::arg("roulette") = std::vector<std::string>{}, py::arg("roulette_depth") = py::none(),
           py::arg("triangle_sampling") = std::vector<std::string>{},
+          py::arg("sampler") = std::vector<std::string>{},
           py::arg("estimator") = std::vector<std::string>{},
           py::arg("reference_estimator") = py::none(), py::arg("width") = py::none(),
           py::arg("height") = py::none(), py::arg("threads") = 0, py::arg("repeats") = 1,
@@ -476,10 +493,10 @@ seed, estimator or integrator is refused).)");
 
 Renders (or reads, reference=PATH to an .exr or .pfm) a reference, then the scene at each
 paths-per-pixel count of spp for every combination of integrator, isa, pool, survival_cap,
-diffuse_sampling, roulette, triangle_sampling and estimator (lists; an empty list keeps the
+diffuse_sampling, roulette, triangle_sampling, sampler and estimator (lists; an empty list keeps the
 scene's value; roulette_depth one value or None). Returns one dict per render, keyed by the
 CSV's columns (scene, integrator, isa, pool, survival_cap, diffuse_sampling, roulette
-('lobe', or e.g. 'throughput3': from vertex 3), triangle_sampling, estimator, threads, width, height, spp, repeats, seconds, rays,
+('lobe', or e.g. 'throughput3': from vertex 3), triangle_sampling, sampler, estimator, threads, width, height, spp, repeats, seconds, rays,
 rays_per_second, mse, rmse, rel_mse, reference_mse, reference_rel_mse, mse_corrected,
 rmse_corrected, rel_mse_corrected, estimated_relative_error, efficiency). out writes the
 same rows as CSV, save_reference the rendered reference (.exr); verbose prints the table and

@@ -129,12 +129,14 @@ int run_main(int argc, char** argv) {
         ->check(CLI::Range(1e-6f, 0.999999f));
     r->add_option("--diffuse-sampling", a.job.diffuse_sampling,
                   "Diffuse directions: uniform (the report's) or cosine (overrides "
-                  "render.diffuse_sampling)")
+                  "render.diffuse_sampling; default cosine for nee and mis, uniform for report "
+                  "and lt)")
         ->check(CLI::IsMember({"uniform", "cosine"}));
     r->add_option("--triangle-sampling", a.job.triangle_sampling,
                   "How nee and mis sample emitting triangles: area (uniform on the triangle) or "
                   "solid-angle (uniform over the spherical triangle it subtends, where that is "
-                  "at least 1e-3 sr; area below) (overrides render.triangle_sampling)")
+                  "at least 1e-3 sr; area below) (overrides render.triangle_sampling; default "
+                  "solid-angle for nee and mis)")
         ->check(CLI::IsMember({"area", "solid-angle"}));
     r->add_option("--roulette", a.job.roulette,
                   describe_roulettes() + "; overrides render.roulette")
@@ -143,9 +145,25 @@ int run_main(int argc, char** argv) {
                   "The vertex the throughput roulette starts at, the camera's first hit being 0 "
                   "(overrides render.roulette_depth; default 1)")
         ->check(CLI::Range(0, kMaxRouletteDepth));
+    r->add_option("--sampler", a.job.sampler,
+                  "Where the random numbers come from: " + describe_samplers() +
+                  "; every estimator (overrides render.sampler; docs/estimators.md, \"samplers\")")
+        ->check(CLI::IsMember(sampler_names()));
+    r->add_option("--min-length", a.job.min_length,
+                  "Count only light carried by paths of at least this many segments (the camera "
+                  "seeing an emitter is 1, direct light 2, the first indirect bounce 3; "
+                  "overrides render.min_length; default 1)")
+        ->check(CLI::Range(1, kMaxLengthLimit));
+    r->add_option("--max-length", a.job.max_length,
+                  "Count only light carried by paths of at most this many segments, and end "
+                  "paths there (overrides render.max_length; default: no limit)")
+        ->check(CLI::Range(1, kMaxLengthLimit));
     r->add_option("--estimator", a.job.estimator,
                   describe_estimators() + "; overrides render.estimator. Sampled emitters: "
-                  "spheres and triangles of solid emission")
+                  "spheres and triangles of solid emission. nee and mis default to cosine "
+                  "diffuse sampling, the throughput roulette, triangles by solid angle and the "
+                  "sobol sampler (chosen by measured efficiency; docs/estimators.md), report "
+                  "and lt to the report's settings; an option or scene key given keeps its value")
         ->check(CLI::IsMember(estimator_names()));
     r->add_option("--integrator", a.job.integrator, describe_integrators())
         ->check(CLI::IsMember(integrator_names()))

@@ -48,6 +48,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     std::vector<int> triangles;
     for (const std::string& t : a.triangle_sampling) triangles.push_back(t == "solid-angle");
     if (triangles.empty()) triangles.push_back(-1);
+    std::vector<int> samplers;
+    for (const std::string& s : a.samplers) samplers.push_back(int(*parse_sampler(s)));
+    if (samplers.empty()) samplers.push_back(-1);
     std::vector<ConvergeConfig> out;
     for (const std::string& integrator : a.integrators) {
         const bool scalar = integrator_of(integrator) == Integrator::kScalar;
@@ -60,16 +63,18 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                         for (int e : estimators)
                             for (int r : roulettes)
                                 for (int t : triangles)
-                                    out.push_back({.integrator = integrator,
-                                                   .isa = scalar ? "auto" : isa,
-                                                   .pool_size = pool,
-                                                   .survival_cap = cap,
-                                                   .cosine_diffuse = d,
-                                                   .estimator = e,
-                                                   .roulette = r,
-                                                   .triangle_solid_angle = t,
-                                                   .roulette_depth =
-                                                       a.roulette_depth.value_or(-1)});
+                                    for (int smp : samplers)
+                                        out.push_back({.integrator = integrator,
+                                                       .isa = scalar ? "auto" : isa,
+                                                       .pool_size = pool,
+                                                       .survival_cap = cap,
+                                                       .cosine_diffuse = d,
+                                                       .estimator = e,
+                                                       .roulette = r,
+                                                       .triangle_solid_angle = t,
+                                                       .roulette_depth =
+                                                           a.roulette_depth.value_or(-1),
+                                                       .sampler = smp});
     }
     return out;
 }
@@ -78,7 +83,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
 
 std::string converge_csv_header() {
     return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,roulette,triangle_sampling,"
-           "estimator,threads,width,"
+           "sampler,estimator,threads,width,"
            "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
@@ -105,11 +110,12 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
         p.estimator.survival_cap, diffuse_name(p.estimator), roulette_label(p.estimator),
-        triangle_sampling_name(p.estimator), estimator_name(p.estimator.kind),
+        triangle_sampling_name(p.estimator), sampler_name(p.estimator.sampler),
+        estimator_name(p.estimator.kind),
         p.stats.threads,
         scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
         p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
@@ -185,6 +191,11 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "scene's")
         ->delimiter(',')
         ->check(CLI::IsMember({"area", "solid-angle"}));
+    c->add_option("--sampler", a.samplers,
+                  "Samplers to sweep, comma-separated: " + describe_samplers() +
+                      "; default: the scene's")
+        ->delimiter(',')
+        ->check(CLI::IsMember(sampler_names()));
     c->add_option("--roulette", a.roulettes,
                   "Roulettes to sweep, comma-separated: " + describe_roulettes() +
                       "; default: the scene's")
@@ -287,7 +298,8 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
     } else {
         Scene s = scene;
         s.settings.spp = a.reference_spp;
-        if (a.reference_estimator) s.settings.estimator.kind = *parse_estimator(*a.reference_estimator);
+        if (a.reference_estimator)
+            use_estimator(s.settings.estimator, *parse_estimator(*a.reference_estimator));
         // (the scene's throughput roulette, where the reference's estimator cannot take it,
         // gives way to the lobe roulette: either is unbiased)
         EstimatorSettings& e = s.settings.estimator;
@@ -336,8 +348,8 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         });
     };
     if (!a.quiet)
-        std::fprintf(table, "%-9s %-7s %5s %5s %-7s %-11s %-6s %7s %10s %12s %12s %12s\n",
-                     "integr.", "isa", "pool", "cap", "diffuse", "roulette", "est.", "spp",
+        std::fprintf(table, "%-9s %-7s %5s %5s %-7s %-11s %-11s %-6s %7s %10s %12s %12s %12s\n",
+                     "integr.", "isa", "pool", "cap", "diffuse", "roulette", "sampler", "est.", "spp",
                      "seconds", "Mrays/s", "RMSE", "relMSE");
     const std::vector<ConvergePoint> points = run_converge(
         scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
@@ -345,10 +357,12 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
             write_csv();
             if (a.quiet) return;
             std::fprintf(table,
-                         "%-9s %-7s %5d %5.2f %-7s %-11s %-6s %7lld %10.4f %12.2f %12.4g %12.4g\n",
+                         "%-9s %-7s %5d %5.2f %-7s %-11s %-11s %-6s %7lld %10.4f %12.2f %12.4g "
+                         "%12.4g\n",
                         p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
                         p.estimator.survival_cap, diffuse_name(p.estimator),
-                        roulette_label(p.estimator).c_str(), estimator_name(p.estimator.kind),
+                        roulette_label(p.estimator).c_str(), sampler_name(p.estimator.sampler),
+                        estimator_name(p.estimator.kind),
                         static_cast<long long>(p.spp), p.seconds,
                         p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
                         std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
@@ -366,10 +380,12 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         }
         const ConvergePoint* last = &points[first + n - 1];
         std::fprintf(stderr,
-                     "%s %s pool %d cap %.2f %s %s %s: MSE ~ spp^%.2f, %.3g s per path per pixel\n",
+                     "%s %s pool %d cap %.2f %s %s %s %s: MSE ~ spp^%.2f, %.3g s per path per "
+                     "pixel\n",
                      last->config.integrator.c_str(), last->stats.isa.c_str(),
                      last->stats.pool_size, last->estimator.survival_cap,
                      diffuse_name(last->estimator), roulette_label(last->estimator).c_str(),
+                     sampler_name(last->estimator.sampler),
                      estimator_name(last->estimator.kind),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }

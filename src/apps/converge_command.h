@@ -34,6 +34,7 @@ struct ConvergeArgs {
     std::vector<std::string> estimators;
     std::vector<std::string> roulettes;
     std::vector<std::string> triangle_sampling;
+    std::vector<std::string> samplers;
     std::optional<int> roulette_depth;
     std::optional<std::string> reference_estimator;
     std::optional<int> width, height;

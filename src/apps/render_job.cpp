@@ -77,11 +77,21 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
     if (a.width || a.height)
         scene.set_resolution(a.width.value_or(s.width), a.height.value_or(s.height));
     if (a.survival_cap) s.estimator.survival_cap = *a.survival_cap;
-    if (a.diffuse_sampling) s.estimator.cosine_diffuse = *a.diffuse_sampling == "cosine";
-    if (a.triangle_sampling) s.estimator.triangle_solid_angle = *a.triangle_sampling == "solid-angle";
-    if (a.roulette) s.estimator.roulette = *parse_roulette(*a.roulette);
-    if (a.roulette_depth) s.estimator.roulette_depth = *a.roulette_depth;
-    if (a.estimator) s.estimator.kind = *parse_estimator(*a.estimator);
+    EstimatorSettings& e = s.estimator;
+    if (a.diffuse_sampling)
+        e.cosine_diffuse = *a.diffuse_sampling == "cosine", e.chosen |= kChoseDiffuse;
+    if (a.triangle_sampling)
+        e.triangle_solid_angle = *a.triangle_sampling == "solid-angle", e.chosen |= kChoseTriangles;
+    if (a.roulette) e.roulette = *parse_roulette(*a.roulette), e.chosen |= kChoseRoulette;
+    if (a.roulette_depth) e.roulette_depth = *a.roulette_depth;
+    if (a.sampler) e.sampler = *parse_sampler(*a.sampler), e.chosen |= kChoseSampler;
+    if (a.min_length) s.estimator.min_length = *a.min_length;
+    if (a.max_length) s.estimator.max_length = *a.max_length;
+    if (s.estimator.max_length < s.estimator.min_length)
+        throw InputError("--max-length " + std::to_string(s.estimator.max_length) +
+                         " is below --min-length " + std::to_string(s.estimator.min_length) +
+                         " (with the scene's values): no path would count");
+    use_estimator(e, a.estimator ? *parse_estimator(*a.estimator) : e.kind);
     if (!a.out.empty()) s.output = a.out;
     check_render_size(scene, scene.source);
 }

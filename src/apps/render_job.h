@@ -29,6 +29,8 @@ struct RenderJob {
     std::optional<std::string> triangle_sampling;  // area or solid-angle
     std::optional<std::string> roulette;          // lobe or throughput
     std::optional<int> roulette_depth;
+    std::optional<std::string> sampler;           // independent, sobol, zsobol or pmj02
+    std::optional<int> min_length, max_length;    // path lengths that count
     std::optional<std::string> estimator;         // report, nee or mis
     // How to render
     int threads = 0;

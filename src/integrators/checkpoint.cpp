@@ -1,6 +1,7 @@
 // Checkpoint files: the exact render state in UINT channels of an OpenEXR file.
 #include "integrators/checkpoint.h"
 
+#include <algorithm>
 #include <bit>
 #include <cinttypes>
 #include <cstring>
@@ -151,6 +152,13 @@ std::string roulette_identity(const EstimatorSettings& e) {
                ? std::string(roulette_name(e.roulette))
                : fmt::format("{} from {}", roulette_name(e.roulette), e.roulette_depth);
 }
+// zsobol's points depend on the paths per pixel rounded up to a power of two: a render
+// resumed to another power would not be the one it continues
+std::string sampler_identity(const RenderSettings& s) {
+    if (s.estimator.sampler != Sampler::kZSobol) return sampler_name(s.estimator.sampler);
+    const int l = int(std::bit_width(uint64_t(std::max<int64_t>(s.spp, 1) - 1)));
+    return fmt::format("{} in blocks of 2^{} paths", sampler_name(s.estimator.sampler), l);
+}
 }  // namespace
 
 CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& integrator,
@@ -166,6 +174,10 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);
     id.triangle_sampling = triangle_sampling_name(s.estimator);
+    id.sampler = sampler_identity(s);
+    id.lengths = s.estimator.max_length == kNoLengthLimit
+                     ? fmt::format("{}..", s.estimator.min_length)
+                     : fmt::format("{}..{}", s.estimator.min_length, s.estimator.max_length);
     id.integrator = integrator;
     id.isa = integrator == "wavefront" ? isa : "scalar";
     id.pool = integrator == "wavefront" ? pool : 0;
@@ -192,6 +204,8 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
     put("cierzo:diffuse_sampling", id.diffuse_sampling);
     put("cierzo:roulette", id.roulette);
     put("cierzo:triangle_sampling", id.triangle_sampling);
+    put("cierzo:sampler", id.sampler);
+    put("cierzo:path_lengths", id.lengths);
     put("cierzo:integrator", id.integrator);
     put("cierzo:isa", id.isa);
     put("cierzo:pool", std::to_string(id.pool));
@@ -271,6 +285,12 @@ Checkpoint read_checkpoint(const fs::path& path) {
             header.findTypedAttribute<Imf::StringAttribute>("cierzo:triangle_sampling")
                 ? get(header, path, "cierzo:triangle_sampling")
                 : std::string("area");
+        id.sampler = header.findTypedAttribute<Imf::StringAttribute>("cierzo:sampler")
+                         ? get(header, path, "cierzo:sampler")
+                         : std::string("independent");
+        id.lengths = header.findTypedAttribute<Imf::StringAttribute>("cierzo:path_lengths")
+                         ? get(header, path, "cierzo:path_lengths")
+                         : std::string("1..");
         id.integrator = get(header, path, "cierzo:integrator");
         id.isa = get(header, path, "cierzo:isa");
         id.pool = int(get_int(header, path, "cierzo:pool"));
@@ -373,6 +393,8 @@ std::vector<std::string> check_resume(const fs::path& path, const Checkpoint& c,
     differ("diffuse sampling", was.diffuse_sampling, now.diffuse_sampling);
     differ("roulette", was.roulette, now.roulette);
     differ("triangle sampling", was.triangle_sampling, now.triangle_sampling);
+    differ("sampler", was.sampler, now.sampler);
+    differ("path lengths", was.lengths, now.lengths);
     differ("integrator", was.integrator, now.integrator);
     if (!diffs.empty()) {
         std::string msg = path.string() + ": cannot resume: the checkpoint was rendered with another ";

@@ -29,6 +29,8 @@ struct CheckpointIdentity {
     std::string estimator;         // report, nee, mis
     std::string survival_cap;      // exact, as %a
     std::string roulette;          // "lobe", or "throughput from N" (its depth)
+    std::string sampler;           // its name; zsobol with its block of 2^L paths per pixel
+    std::string lengths;           // the path lengths that count: "1..", "2..3"
     std::string triangle_sampling;  // "area" or "solid-angle"
     std::string diffuse_sampling;  // uniform, cosine
     std::string integrator;        // wavefront, scalar

@@ -1,5 +1,6 @@
 // Error metrics and convergence sweeps (see convergence.h).
 #include "integrators/convergence.h"
+#include "integrators/registry.h"
 
 #include <algorithm>
 #include <cmath>
@@ -45,11 +46,16 @@ namespace {
 // The estimator settings with a config's knobs applied.
 EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& config) {
     if (config.survival_cap >= 0.0f) settings.survival_cap = config.survival_cap;
-    if (config.cosine_diffuse >= 0) settings.cosine_diffuse = config.cosine_diffuse;
-    if (config.estimator >= 0) settings.kind = Estimator(config.estimator);
-    if (config.roulette >= 0) settings.roulette = Roulette(config.roulette);
-    if (config.triangle_solid_angle >= 0) settings.triangle_solid_angle = config.triangle_solid_angle;
+    if (config.cosine_diffuse >= 0)
+        settings.cosine_diffuse = config.cosine_diffuse, settings.chosen |= kChoseDiffuse;
+    if (config.roulette >= 0)
+        settings.roulette = Roulette(config.roulette), settings.chosen |= kChoseRoulette;
+    if (config.triangle_solid_angle >= 0)
+        settings.triangle_solid_angle = config.triangle_solid_angle,
+        settings.chosen |= kChoseTriangles;
     if (config.roulette_depth >= 0) settings.roulette_depth = config.roulette_depth;
+    if (config.sampler >= 0) settings.sampler = Sampler(config.sampler), settings.chosen |= kChoseSampler;
+    use_estimator(settings, config.estimator >= 0 ? Estimator(config.estimator) : settings.kind);
     return settings;
 }
 

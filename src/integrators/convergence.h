@@ -50,6 +50,7 @@ struct ConvergeConfig {
     int roulette = -1;            // -1: the scene's; else a Roulette
     int triangle_solid_angle = -1;  // -1: the scene's; 0 area, 1 solid angle
     int roulette_depth = -1;      // -1: the scene's
+    int sampler = -1;             // -1: the scene's; else a Sampler
 };
 
 struct ConvergePoint {

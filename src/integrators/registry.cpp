@@ -57,6 +57,19 @@ const char* roulette_name(Roulette r) { return name_in(kRoulettes, r); }
 std::optional<Integrator> parse_integrator(std::string_view n) { return parse_in(kIntegrators, n); }
 std::optional<Estimator> parse_estimator(std::string_view n) { return parse_in(kEstimators, n); }
 std::optional<Roulette> parse_roulette(std::string_view n) { return parse_in(kRoulettes, n); }
+const char* sampler_name(Sampler s) { return name_in(kSamplers, s); }
+std::optional<Sampler> parse_sampler(std::string_view n) { return parse_in(kSamplers, n); }
+
+void use_estimator(EstimatorSettings& e, Estimator kind) {
+    e.kind = kind;
+    const bool camera_sampling = kind == Estimator::kNee || kind == Estimator::kMis;
+    if (!(e.chosen & kChoseDiffuse)) e.cosine_diffuse = camera_sampling;
+    if (!(e.chosen & kChoseRoulette))
+        e.roulette = camera_sampling ? Roulette::kThroughput : Roulette::kLobe;
+    if (!(e.chosen & kChoseTriangles)) e.triangle_solid_angle = camera_sampling;
+    if (!(e.chosen & kChoseSampler))
+        e.sampler = camera_sampling ? Sampler::kSobol : Sampler::kIndependent;
+}
 
 void check_roulette(const EstimatorSettings& e, const std::string& source) {
     if (e.roulette == Roulette::kThroughput && e.kind != Estimator::kNee &&
@@ -73,6 +86,7 @@ void check_roulette(const EstimatorSettings& e, const std::string& source) {
 std::vector<std::string> integrator_names() { return names_of(kIntegrators); }
 std::vector<std::string> estimator_names() { return names_of(kEstimators); }
 std::vector<std::string> roulette_names() { return names_of(kRoulettes); }
+std::vector<std::string> sampler_names() { return names_of(kSamplers); }
 
 Integrator integrator_of(std::string_view name, std::string_view option) {
     if (const std::optional<Integrator> i = parse_integrator(name)) return *i;
@@ -83,5 +97,6 @@ Integrator integrator_of(std::string_view name, std::string_view option) {
 std::string describe_integrators() { return describe(kIntegrators); }
 std::string describe_estimators() { return describe(kEstimators); }
 std::string describe_roulettes() { return describe(kRoulettes); }
+std::string describe_samplers() { return describe(kSamplers); }
 
 }  // namespace cierzo

@@ -55,11 +55,31 @@ struct RouletteEntry {
 inline constexpr RouletteEntry kRoulettes[] = {
     {Roulette::kLobe, "lobe",
      "the report's: one draw picks a lobe by its max RGB or the path's death, survival at "
-     "most the cap; the default, and the only one of report and lt"},
+     "most the cap; the only one of report and lt, and their default"},
     {Roulette::kThroughput, "throughput",
      "nee and mis: the lobe chosen among the lobes alone, and from vertex --roulette-depth on "
-     "the path goes on with probability min(max RGB of its throughput, cap)"},
+     "the path goes on with probability min(max RGB of its throughput, cap); the default of "
+     "nee and mis"},
 };
+struct SamplerEntry {
+    Sampler id;
+    const char* name;
+    const char* summary;  // for --help
+};
+
+inline constexpr SamplerEntry kSamplers[] = {
+    {Sampler::kIndependent, "independent",
+     "a hash of (seed, pixel, sample, bounce, decision), as the report draws them; the "
+     "default of report and lt"},
+    {Sampler::kSobol, "sobol",
+     "Owen-scrambled Sobol (0,2) points, one shuffled pair per decision, per pixel; the "
+     "default of nee and mis"},
+    {Sampler::kZSobol, "zsobol",
+     "Sobol points spread over the image in Morton order (error as blue noise; the points "
+     "depend on --spp)"},
+    {Sampler::kPmj02, "pmj02", "progressive multi-jittered (0,2) tables, scrambled per pixel"},
+};
+
 // How nee and mis sample emitting triangles (render.triangle_sampling, --triangle-sampling):
 // by area, or by the solid angle they subtend.
 inline constexpr const char* kTriangleSamplingNames[] = {"area", "solid-angle"};
@@ -75,11 +95,14 @@ std::optional<Integrator> parse_integrator(std::string_view name);
 std::optional<Estimator> parse_estimator(std::string_view name);
 const char* roulette_name(Roulette r);
 std::optional<Roulette> parse_roulette(std::string_view name);
+const char* sampler_name(Sampler s);
+std::optional<Sampler> parse_sampler(std::string_view name);
 
 // Every name, in the order above (the valid values of an option).
 std::vector<std::string> integrator_names();
 std::vector<std::string> estimator_names();
 std::vector<std::string> roulette_names();
+std::vector<std::string> sampler_names();
 
 // The integrator named by `name`, or InputError "<option>: unknown integrator 'x' (valid:
 // wavefront, scalar)".
@@ -89,6 +112,14 @@ Integrator integrator_of(std::string_view name, std::string_view option = "--int
 std::string describe_integrators();
 std::string describe_estimators();
 std::string describe_roulettes();
+std::string describe_samplers();
+
+// Sets the estimator and gives the knobs not in e.chosen the estimator's defaults, chosen by
+// measurement (docs/estimators.md, "Defaults"): for nee and mis cosine diffuse sampling, the
+// throughput roulette, triangles by solid angle and the sobol sampler; for report (exactly
+// the report's) and lt, uniform diffuse, the lobe roulette, area triangles and the
+// independent sampler.
+void use_estimator(EstimatorSettings& e, Estimator kind);
 
 // Refuses (InputError naming `source`) a roulette the estimator does not take: the
 // throughput roulette is for nee and mis only.

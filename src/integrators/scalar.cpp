@@ -29,16 +29,19 @@ Vec3f trace_request(const Scene& scene, const ShadowRequest<float>& r, RayCounts
 
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
                  RayCounts& rays) {
-    return trace_path(scene, scene.path_context(), camera_ray, key, rays);
+    const PathContext c = scene.path_context();
+    return trace_path(scene, c, camera_ray, independent_stream<float>(key), rays);
 }
 
 CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
-                                  const Ray<float>& camera_ray, uint32_t key, RayCounts& rays) {
+                                  const Ray<float>& camera_ray, const SampleStream<float>& rng,
+                                  RayCounts& rays) {
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
     float lobe_pdf = 0.0f;  // the density of the last Phong lobe's direction; 0 after the
                             // camera, a mirror or a refraction
+    const bool limited = limits_length(c.estimator);
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) break;
@@ -51,7 +54,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                 le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind,
                                                 scene.emitter_id(hit), lobe_pdf, ray.o, ray.d,
                                                 hit.t, c.estimator.triangle_solid_angle);
-            radiance += throughput * le;
+            if (!limited || length_counts<float>(c.estimator, bounce + 1)) radiance += throughput * le;
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
@@ -59,7 +62,8 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
-        if (material.has_phong() && (c.light_count > 0 || c.nee)) {
+        if (material.has_phong() && (c.light_count > 0 || c.nee) &&
+            (!limited || length_counts<float>(c.estimator, bounce + 2))) {
             const Vec3f origin = shadow_origin(v, hit.p, magnitude);
             Vec3f lights(0.0f);
             for (int32_t j = 0; j < c.light_count; ++j)
@@ -69,19 +73,19 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
             if (c.nee)
                 radiance += throughput * trace_request(scene,
                                                        emitter_request(c, m, ray.d, v, origin,
-                                                                       Vec3f(1.0f), true, key, bounce),
+                                                                       Vec3f(1.0f), true, rng, bounce),
                                                        rays);
         }
 
         // Russian roulette picks one lobe, or the path's death; the lobe continues it
         float p = 0.0f;
-        const int32_t lobe = choose_lobe(m, uniform<float>(key, bounce, Purpose::kLobe),
+        const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe),
                                          c.estimator.survival_cap, p, normalised_lobes(c.estimator));
-        if (lobe == kLobeAbsorbed) break;
+        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
         const ScalarContinuation next =
-            continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, key, bounce);
+            continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
         lobe_pdf = next.pdf;
-        throughput = throughput_roulette(c.estimator, throughput * next.weight, key, bounce);
+        throughput = throughput_roulette(c.estimator, throughput * next.weight, rng, bounce);
         if (!(max_component(throughput) > 0.0f)) break;
         ray = {next.o, next.d};
         ++rays.extension;
@@ -90,11 +94,12 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
 }
 
 CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
-                                       const PinholeFrame& pinhole, uint32_t camera_key,
-                                       FilmTile& film, RayCounts& rays) {
-    const uint32_t key = light_path_key(camera_key);
+                                       const PinholeFrame& pinhole,
+                                       const SampleStream<float>& camera_rng, FilmTile& film,
+                                       RayCounts& rays) {
+    const SampleStream<float> rng = light_stream(camera_rng);
     const LightStart<float> start =
-        sample_light_start<float>(scene.emitters.table(), scene.light_starts.table(), key);
+        sample_light_start<float>(scene.emitters.table(), scene.light_starts.table(), rng);
     if (!start.ok) return;
     // A connection to the pinhole from `origin`: `value` lands in its pixel if nothing is in
     // the way
@@ -106,13 +111,15 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
             film.splat(uint32_t(cc.pixel), value);
     };
     // The emitter's point itself, as the pinhole sees it (a point light is never seen)
-    if (start.on_surface) {
+    const bool limited = limits_length(c.estimator);
+    if (start.on_surface && (!limited || length_counts<float>(c.estimator, 1u))) {
         const CameraConnection<float> cc = connect_camera(pinhole, start.p);
         const float cos_l = dot(cc.wc, start.n);
         connect(cc, offset_ray_origin(start.p, cos_l > 0.0f ? start.n : -start.n, max_abs(start.p)),
                 start.le * (std::abs(cos_l) * cc.factor));
     }
     ++rays.light;
+    if (limited && !may_extend<float>(c.estimator, 0u)) return;
     Ray<float> ray{start.on_surface
                        ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
                                            max_abs(start.p))
@@ -129,7 +136,7 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
         const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
 
         // Every Phong vertex is seen from the pinhole
-        if (material.has_phong()) {
+        if (material.has_phong() && (!limited || length_counts<float>(c.estimator, bounce + 1))) {
             const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
             if (on_arriving_side(cc.wc, v.nf))
                 connect(cc, offset_ray_origin(hit.p, v.nf, magnitude),
@@ -138,11 +145,11 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
 
         // The roulette and the chosen lobe, in importance mode
         float p = 0.0f;
-        const int32_t lobe = choose_lobe(m, uniform<float>(key, bounce, Purpose::kLobe),
+        const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe),
                                          c.estimator.survival_cap, p);
-        if (lobe == kLobeAbsorbed) break;
+        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
         const ScalarContinuation next = continue_path<Transport::kImportance>(
-            lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, key, bounce);
+            lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
         beta *= next.weight;
         if (!(max_component(beta) > 0.0f)) break;
         ray = {next.o, next.d};
@@ -161,7 +168,9 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
             for (int x = tile.x0; x < tile.x1; ++x) {
                 const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
                 for (int64_t s = tile.s0; s < tile.s1; ++s)
-                    trace_light_path(scene, context, pinhole, path_key(rs.seed, pixel, uint32_t(s)),
+                    trace_light_path(scene, context, pinhole,
+                                     camera_stream<float>(context.sampler, rs.seed, pixel,
+                                                          uint32_t(x), uint32_t(y), uint32_t(s)),
                                      film, rays);
             }
         return;
@@ -178,12 +187,14 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
             const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
             for (int64_t s = tile.s0; s < tile.s1; ++s) {
                 // A uniformly random point inside the pixel
-                const uint32_t key = path_key(rs.seed, pixel, uint32_t(s));
-                const float sx = float(x) + uniform<float>(key, 0u, Purpose::kPixelX);
-                const float sy = float(y) + uniform<float>(key, 0u, Purpose::kPixelY);
+                const SampleStream<float> rng = camera_stream<float>(
+                    context.sampler, rs.seed, pixel, uint32_t(x), uint32_t(y), uint32_t(s));
+                float jx, jy;
+                uniform2<float>(rng, 0u, Purpose::kPixelX, jx, jy);
                 ++rays.camera;
-                px.add(trace_path(scene, context, scene.camera.generate(sx, sy, inv_w, inv_h), key,
-                                  rays));
+                px.add(trace_path(scene, context,
+                                  scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h),
+                                  rng, rays));
             }
         }
     }

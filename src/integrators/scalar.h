@@ -7,19 +7,22 @@
 
 namespace cierzo {
 
-// The radiance carried back along one camera path, keyed by (seed, pixel, sample).
+// The radiance carried back along one camera path whose numbers are the independent
+// sampler's for path key `key` (kernels/rng.h).
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
                  RayCounts& rays);
-// The same with the scene's path context (Scene::path_context) computed once by the caller.
+// The same with the scene's path context (Scene::path_context) computed once by the caller,
+// and the path's numbers from the sampler's stream of its (seed, pixel, sample)
+// (kernels/sampler.h, camera_stream).
 Vec3f trace_path(const Scene& scene, const PathContext& context, const Ray<float>& camera_ray,
-                 uint32_t key, RayCounts& rays);
+                 const SampleStream<float>& rng, RayCounts& rays);
 
-// One path from the lights (light tracing), keyed by the camera sample whose key it takes
-// (light_path_key): every connection to the pinhole that nothing blocks is splatted into
-// `film`.
+// One path from the lights (light tracing), with the numbers of the camera sample whose
+// stream it takes (light_stream): every connection to the pinhole that nothing blocks is
+// splatted into `film`.
 void trace_light_path(const Scene& scene, const PathContext& context,
-                      const PinholeFrame& pinhole, uint32_t camera_key, FilmTile& film,
-                      RayCounts& rays);
+                      const PinholeFrame& pinhole, const SampleStream<float>& camera_rng,
+                      FilmTile& film, RayCounts& rays);
 
 // Samples [tile.s0, tile.s1) of the tile's pixels, added to the tile's sums; for a batch of
 // light paths (tile.light), one path from the lights per key of those pixels and samples,

@@ -4,6 +4,7 @@
 #include "scene/scene.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 
@@ -12,6 +13,7 @@
 #include "kernels/shading.h"
 #include "kernels/traverse.h"
 #include "scene/flat_tables.h"
+#include "scene/pmj02.h"
 
 namespace cierzo {
 
@@ -140,6 +142,9 @@ PathContext Scene::path_context() const {
     const Estimator e = settings.estimator.kind;
     c.emitters = emitters.table();
     c.estimator = settings.estimator;
+    c.sampler.kind = settings.estimator.sampler;
+    c.sampler.log2_spp = uint32_t(std::bit_width(uint64_t(std::max<int64_t>(settings.spp, 1) - 1)));
+    if (c.sampler.kind == Sampler::kPmj02) c.sampler.pmj02 = pmj02_tables();
     c.lt = e == Estimator::kLt;
     c.nee = (e == Estimator::kNee || e == Estimator::kMis) && emitters.count() > 0;
     c.lights = light_data.data();

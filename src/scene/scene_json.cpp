@@ -635,24 +635,45 @@ struct Loader {
         s.estimator.survival_cap = float(r.number("survival_cap", s.estimator.survival_cap));
         if (!(s.estimator.survival_cap > 0.0f && s.estimator.survival_cap < 1.0f))
             r.fail("'survival_cap' must be in (0, 1): every path needs a chance to die");
-        const std::string sampling = r.string("diffuse_sampling", "uniform");
-        if (sampling != "uniform" && sampling != "cosine")
-            r.fail("'diffuse_sampling' must be \"uniform\" or \"cosine\"");
-        s.estimator.cosine_diffuse = sampling == "cosine";
-        const std::string triangles = r.string("triangle_sampling", "area");
-        if (triangles != "area" && triangles != "solid-angle")
-            r.fail("'triangle_sampling' must be \"area\" or \"solid-angle\"");
-        s.estimator.triangle_solid_angle = triangles == "solid-angle";
-        const std::string roulette = r.string("roulette", "lobe");
-        const std::optional<Roulette> rule = parse_roulette(roulette);
-        if (!rule) r.fail("'roulette' must be \"lobe\" or \"throughput\"");
-        s.estimator.roulette = *rule;
-        s.estimator.roulette_depth =
-            int32_t(r.integer("roulette_depth", s.estimator.roulette_depth, 0, kMaxRouletteDepth));
-        const std::string estimator = r.string("estimator", "report");
-        const std::optional<Estimator> kind = parse_estimator(estimator);
-        if (!kind) r.fail("'estimator' must be \"report\", \"nee\" or \"mis\"");
-        s.estimator.kind = *kind;
+        // (the four knobs whose defaults depend on the estimator: use_estimator below)
+        EstimatorSettings& e = s.estimator;
+        if (r.has("diffuse_sampling")) {
+            const std::string sampling = r.string("diffuse_sampling", "uniform");
+            if (sampling != "uniform" && sampling != "cosine")
+                r.fail("'diffuse_sampling' must be \"uniform\" or \"cosine\"");
+            e.cosine_diffuse = sampling == "cosine";
+            e.chosen |= kChoseDiffuse;
+        }
+        if (r.has("triangle_sampling")) {
+            const std::string triangles = r.string("triangle_sampling", "area");
+            if (triangles != "area" && triangles != "solid-angle")
+                r.fail("'triangle_sampling' must be \"area\" or \"solid-angle\"");
+            e.triangle_solid_angle = triangles == "solid-angle";
+            e.chosen |= kChoseTriangles;
+        }
+        if (r.has("roulette")) {
+            const std::optional<Roulette> rule = parse_roulette(r.string("roulette", "lobe"));
+            if (!rule) r.fail("'roulette' must be \"lobe\" or \"throughput\"");
+            e.roulette = *rule;
+            e.chosen |= kChoseRoulette;
+        }
+        e.roulette_depth = int32_t(r.integer("roulette_depth", e.roulette_depth, 0, kMaxRouletteDepth));
+        if (r.has("sampler")) {
+            const std::optional<Sampler> source = parse_sampler(r.string("sampler", "independent"));
+            if (!source)
+                r.fail("'sampler' must be \"independent\", \"sobol\", \"zsobol\" or \"pmj02\"");
+            e.sampler = *source;
+            e.chosen |= kChoseSampler;
+        }
+        e.min_length = int32_t(r.integer("min_length", 1, 1, kMaxLengthLimit));
+        e.max_length = r.has("max_length") ? int32_t(r.integer("max_length", 1, 1, kMaxLengthLimit))
+                                           : kNoLengthLimit;
+        if (e.max_length < e.min_length)
+            r.fail("'max_length' (" + std::to_string(e.max_length) + ") is below 'min_length' (" +
+                   std::to_string(e.min_length) + "): no path would count");
+        const std::optional<Estimator> kind = parse_estimator(r.string("estimator", "report"));
+        if (!kind) r.fail("'estimator' must be \"report\", \"nee\", \"mis\" or \"lt\"");
+        use_estimator(e, *kind);
         if (r.has("output")) s.output = file.parent_path() / r.string("output");
         else r.allow({"output"});
         r.finish();

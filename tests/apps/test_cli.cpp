@@ -336,7 +336,7 @@ TEST_F(cli, TheEstimatorIsChosenRecordedAndChecked) {
     const Outcome b = run(quote(bad) + kQuiet);
     EXPECT_EQ(b.exit_code, 1);
     EXPECT_NE(b.err.find("bad.json"), std::string::npos) << b.err;
-    EXPECT_NE(b.err.find("'estimator' must be \"report\", \"nee\" or \"mis\""),
+    EXPECT_NE(b.err.find("'estimator' must be \"report\", \"nee\", \"mis\" or \"lt\""),
               std::string::npos)
         << b.err;
     const Outcome o = run(quote(scene) + kQuiet + " --estimator bdpt");

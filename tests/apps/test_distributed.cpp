@@ -154,6 +154,10 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         // (light tracing: splats of any unit land anywhere in the image)
         {"emitting_spheres.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "lt"}},
         {"point_lights.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt"}},
+        // (the samplers other than the independent one: their streams too are keyed by the
+        // pixel and sample, not by the rank)
+        {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis", "--sampler", "zsobol"}},
+        {"emitting_spheres.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt", "--sampler", "pmj02"}},
     };
     int k = 0;
     for (const Case& c : cases) {
@@ -337,6 +341,10 @@ TEST(Checkpoints, KilledUnderMpiAndResumedInOneProcessGivesTheSameImage) {
 // Light tracing's checkpoints keep whole passes (the splats of a pass in progress are redone)
 TEST(Checkpoints, KilledAndResumedLightTracingGivesTheUninterruptedImage) {
     kill_and_resume(0, "emitting_spheres.json", {"--estimator", "lt"});
+}
+
+TEST(Checkpoints, KilledAndResumedWithTheSobolSamplerGivesTheUninterruptedImage) {
+    kill_and_resume(0, "cornell.json", {"--estimator", "mis", "--sampler", "sobol"});
 }
 
 TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {

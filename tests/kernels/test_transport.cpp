@@ -94,7 +94,8 @@ TEST(Transport, LightStartsFollowPower) {
     std::vector<double> observed(4, 0.0), expected(4, 0.0);
     const int n = 200000;
     for (int k = 0; k < n; ++k) {
-        const LightStart<float> s = sample_light_start<float>(e, lights, hash32(uint32_t(k) * 7919u));
+        const LightStart<float> s = sample_light_start<float>(
+            e, lights, independent_stream<float>(hash32(uint32_t(k) * 7919u)));
         ASSERT_TRUE(s.ok);
         int which;
         if (s.on_surface) {

@@ -105,11 +105,16 @@ CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
         const U pixel = to_u(py) * U(uint32_t(s.width)) + to_u(px);
         const U sample = U(sample0) + to_u(wraps);
         keep_u(pixel, p.pixel).store_aligned(p.pixel + i);
-        const U key = keep_u(path_key(s.seed, pixel, sample), p.key);
-        key.store_aligned(p.key + i);
+        const SampleStream<F> rng =
+            camera_stream<F>(s.path.sampler, s.seed, pixel, to_u(px), to_u(py), sample);
+        keep_u(rng.key, p.key).store_aligned(p.key + i);
+        if (s.path.sampler.kind != Sampler::kIndependent)
+            keep_u(rng.index, p.index).store_aligned(p.index + i);
         keep_u(U(0u), p.bounce).store_aligned(p.bounce + i);
-        const F sx = px + uniform<F>(key, U(0u), Purpose::kPixelX);
-        const F sy = py + uniform<F>(key, U(0u), Purpose::kPixelY);
+        F jx, jy;
+        uniform2<F>(rng, U(0u), Purpose::kPixelX, jx, jy);
+        const F sx = px + jx;
+        const F sy = py + jy;
         const Ray<F> ray = pinhole_ray(origin, forward, left, up, sx, sy, inv_w, inv_h);
         keep3(ray.o, p.ox, p.oy, p.oz);
         keep3(ray.d, p.dx, p.dy, p.dz);

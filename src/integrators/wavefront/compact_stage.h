@@ -34,6 +34,8 @@ void compact_paths(Wave<A>& w, const TileJob& job) {
             compress<A>(F::load_aligned(p.lobe_pdf + i), m).store_unaligned(p.lobe_pdf + kept);
         for (uint32_t* a : {p.key, p.pixel})
             compress<A>(U::load_aligned(a + i), m).store_unaligned(a + kept);
+        if (w.scene.path.sampler.kind != Sampler::kIndependent)
+            compress<A>(U::load_aligned(p.index + i), m).store_unaligned(p.index + kept);
         compress<A>(U::load_aligned(p.bounce + i) + U(1u), m).store_unaligned(p.bounce + kept);
         kept += std::popcount(m);
     }

@@ -116,10 +116,15 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor,
     for (int32_t i = first / K * K; i < end; i += K) {
         const F lane = Wave<A>::lane_index();
         const auto fresh = (lane >= F(float(first - i))) & (lane < F(float(end - i)));
-        const U key = light_path_key(U::load_aligned(p.key + i));
-        const LightStart<F> ls = sample_light_start<F>(s.path.emitters, s.light_starts, key);
+        const SampleStream<F> rng = light_stream(stream_at<A>(s, p, i));
+        const U key = rng.key;
+        const LightStart<F> ls = sample_light_start<F>(s.path.emitters, s.light_starts, rng);
         // The emitter's point itself, seen by the pinhole
-        const auto surface = fresh & ls.ok & ls.on_surface;
+        const EstimatorSettings& est = s.path.estimator;
+        const bool limited = limits_length(est);
+        const auto surface = limited && !length_counts<float>(est, 1u)
+                                 ? fresh & !fresh
+                                 : fresh & ls.ok & ls.on_surface;
         if (any(surface)) {
             const CameraConnection<F> c = connect_camera(s.pinhole, ls.p);
             const F cos_l = dot(c.wc, ls.n);
@@ -135,7 +140,10 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor,
         const auto keep = [&](const F& v, float* a) {
             select(fresh, v, F::load_aligned(a + i)).store_aligned(a + i);
         };
-        const Vec3<F> beta = select(ls.ok, ls.beta, Vec3<F>(F(0.0f)));
+        // (a path that may not go on past its start: throughput 0, so its first hit ends it)
+        const bool extends = !limited || may_extend<float>(est, 0u);
+        const Vec3<F> beta = select(ls.ok & F(extends ? 1.0f : 0.0f) > F(0.0f), ls.beta,
+                                    Vec3<F>(F(0.0f)));
         keep(o.x, p.ox), keep(o.y, p.oy), keep(o.z, p.oz);
         keep(ls.dir.x, p.dx), keep(ls.dir.y, p.dy), keep(ls.dir.z, p.dz);
         keep(beta.x, p.beta_r), keep(beta.y, p.beta_g), keep(beta.z, p.beta_b);
@@ -163,13 +171,15 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     if (f.emitters) alive = alive & !mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0));
     const Bsdf<F> m = hit_bsdf<kLobeCount, A>(s, mat, evaluated);
     const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
-    const U key = U::load_aligned(p.key + i);
+    const SampleStream<F> rng = stream_at<A>(s, p, i);
     const U bounce = U::load_aligned(p.bounce + i);
     const Vec3<F>& d = ray.d;
     const VertexFrame<F> v = vertex_frame(s.path.smooth, d, sf.n, sf.ns);
 
     // Every Phong vertex is seen from the pinhole
-    const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+    const EstimatorSettings& est = s.path.estimator;
+    auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+    if (limits_length(est)) phong = phong & length_counts<F>(est, bounce + U(1u));
     if (any(phong)) {
         const CameraConnection<F> c = connect_camera(s.pinhole, sf.pos);
         queue_connections(w, phong & on_arriving_side(c.wc, v.nf),
@@ -180,16 +190,17 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
 
     // The roulette and the chosen lobe, in importance mode (each lobe some lane chose)
     F probability;
-    const I lobe = choose_lobe(m, uniform<F>(key, bounce, Purpose::kLobe),
+    const I lobe = choose_lobe(m, uniform<F>(rng, bounce, Purpose::kLobe),
                                s.path.estimator.survival_cap, probability);
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
+    if (limits_length(est)) alive = alive & may_extend<F>(est, bounce);
     Vec3<F> dir(F(0.0f)), weight(F(0.0f));
     const auto run = [&](auto kind) {
         constexpr int kLobe = decltype(kind)::value;
         const auto chosen = alive & mask_f32(lobe == I(kLobe));
         if (!any(chosen)) return;
         const Scatter<F> sc = continue_path<kLobe, Transport::kImportance>(
-            s.path, m, d, v, sf.n, sf.ns, probability, key, bounce);
+            s.path, m, d, v, sf.n, sf.ns, probability, rng, bounce);
         dir = select(chosen, sc.dir, dir);
         weight = select(chosen, sc.weight, weight);
     };
@@ -209,7 +220,9 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
         compress<A>(out[k]->y, bits).store_unaligned(dst[k][1] + kept);
         compress<A>(out[k]->z, bits).store_unaligned(dst[k][2] + kept);
     }
-    compress<A>(key, bits).store_unaligned(p.key + kept);
+    compress<A>(rng.key, bits).store_unaligned(p.key + kept);
+    if (s.path.sampler.kind != Sampler::kIndependent)
+        compress<A>(rng.index, bits).store_unaligned(p.index + kept);
     compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + kept);
     kept += std::popcount(bits);
     w.counters.extension += uint64_t(std::popcount(bits));

@@ -37,7 +37,7 @@ PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, 
         *a = c.take<float>(n);
     for (auto& channel : p.col)
         for (float*& a : channel) a = c.take<float>(n);
-    for (uint32_t** a : {&p.key, &p.pixel, &p.bounce, &p.mesh_tri, &p.done_pixel})
+    for (uint32_t** a : {&p.key, &p.pixel, &p.bounce, &p.index, &p.mesh_tri, &p.done_pixel})
         *a = c.take<uint32_t>(n);
     for (int32_t** a : {&p.prim, &p.mesh_id, &p.material, &p.emitter, &p.alive, &p.lobe, &p.order})
         *a = c.take<int32_t>(n);

@@ -18,6 +18,7 @@ struct PathPool {
     float *beta_r, *beta_g, *beta_b;     // throughput
     float *rad_r, *rad_g, *rad_b;        // radiance gathered so far
     uint32_t *key, *pixel, *bounce;
+    uint32_t* index;  // the sample's index in its sequence (samplers other than independent)
     float* lobe_pdf;  // nee/mis: the density of the last Phong lobe's direction (0: none)
 
     // Per-bounce scratch: the hit, the surface and its material

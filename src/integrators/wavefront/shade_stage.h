@@ -33,10 +33,10 @@ struct LobeStep {
     // c: the scene's path context, or a copy whose switches the caller knows at compile time
     LobeStep(const PathContext& c, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
-             const F& probability, const U& key, const U& bounce) {
+             const F& probability, const SampleStream<F>& rng, const U& bounce) {
         const VertexFrame<F> v = vertex_frame(c.smooth, d0, n, ns);
-        const Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, key, bounce);
-        beta = throughput_roulette(c.estimator, beta0 * sc.weight, key, bounce);
+        const Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, rng, bounce);
+        beta = throughput_roulette(c.estimator, beta0 * sc.weight, rng, bounce);
         continuation_pdf<kLobe>(c, m, d0, v, sc.dir, probability, pdf);
         alive = max_component(beta) > F(0.0f);
         o = leaving_origin(pos, n, sc.dir, magnitude);
@@ -89,7 +89,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
     Vec3<F> rad = kCarried ? load3<F>(p.rad_r, p.rad_g, p.rad_b, i) : Vec3<F>(F(0.0f));
 
-    const U key = U::load_aligned(p.key + i);
+    const SampleStream<F> rng = stream_at<A>(s, p, i);
     const U bounce = U::load_aligned(p.bounce + i);
     const Vec3<F>& d = ray.d;
     const Vec3<F>& n = sf.n;
@@ -110,7 +110,9 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                                             select(mask_i32(em), sf.emitter, I(-1)), F(0.0f),
                                             ray.o, d, length(pos - ray.o));
         }
-        rad = select(em, rad + beta * le, rad);
+        const auto counted =
+            limits_length(c.estimator) ? em & length_counts<F>(c.estimator, bounce + U(1u)) : em;
+        rad = select(counted, rad + beta * le, rad);
         alive = alive & !em;
         if constexpr (kCompact && !kInlineNee)
             compaction->done = queue_radiant<A>(p, i, mask_bits(em), rad, compaction->done);
@@ -137,13 +139,14 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     // time there)
     const bool nee = c.nee;
     if (f.lights || nee) {
-        const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+        auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+        if (limits_length(c.estimator)) phong = phong & length_counts<F>(c.estimator, bounce + U(2u));
         if (any(phong)) {
             const VertexFrame<F> v = vertex_frame(c.smooth, d, n, sf.ns);
             const Vec3<F> origin = shadow_origin(v, pos, sf.magnitude);
             if (nee) {
                 const ShadowRequest<F> r =
-                    emitter_request(s.path, m, d, v, origin, beta, phong, key, bounce);
+                    emitter_request(s.path, m, d, v, origin, beta, phong, rng, bounce);
                 const uint32_t bits = mask_bits(r.want);
                 if constexpr (kInlineNee) {
                     if (bits) {
@@ -168,9 +171,10 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
 
     // Russian roulette over the lobes
     F probability;
-    I lobe = choose_lobe<kFused>(m, uniform<F>(key, bounce, Purpose::kLobe),
+    I lobe = choose_lobe<kFused>(m, uniform<F>(rng, bounce, Purpose::kLobe),
                                  c.estimator.survival_cap, probability,
                                  normalised_lobes(c.estimator));
+    if (limits_length(c.estimator)) alive = alive & may_extend<F>(c.estimator, bounce);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kFused == kLobeCount) {
@@ -180,7 +184,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
         const LobeStep<kFused, A> step(c, m, sf.magnitude, d, pos, n, sf.ns, beta, probability,
-                                       key, bounce);
+                                       rng, bounce);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
         if constexpr (kCompact) {
@@ -202,7 +206,9 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                 compress<A>(v[k]->y, bits).store_unaligned(dst[k][1] + at);
                 compress<A>(v[k]->z, bits).store_unaligned(dst[k][2] + at);
             }
-            compress<A>(key, bits).store_unaligned(p.key + at);
+            compress<A>(rng.key, bits).store_unaligned(p.key + at);
+            if (s.path.sampler.kind != Sampler::kIndependent)
+                compress<A>(rng.index, bits).store_unaligned(p.index + at);
             compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.pixel + at);
             compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + at);
             if constexpr (kInlineNee) {
@@ -265,7 +271,12 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
             w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
             w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
             gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
-            gather_lanes<A>(p.probability, j), gather_lanes<A>(p.key, j),
+            gather_lanes<A>(p.probability, j),
+            SampleStream<F>{gather_lanes<A>(p.key, j),
+                            w.scene.path.sampler.kind == Sampler::kIndependent
+                                ? typename Wave<A>::U(0u)
+                                : gather_lanes<A>(p.index, j),
+                            w.scene.path.sampler},
             gather_lanes<A>(p.bounce, j));
         scatter3(step.o, p.ox, p.oy, p.oz, j);
         scatter3(step.d, p.dx, p.dy, p.dz, j);

@@ -13,6 +13,7 @@
 #include "kernels/estimator.h"
 #include "kernels/intersect.h"
 #include "kernels/rng.h"
+#include "kernels/sampler.h"
 
 // Stage loops inline every kernel they call, so a batch's values stay in registers instead
 // of going through memory around calls that pass Bsdf and Vec3 lanes. Sanitizer builds skip
@@ -57,6 +58,16 @@ private:
 };
 
 // ---- Loads, stores, gathers of vectors of lanes -----------------------------------------
+// The random-number stream of batch i's paths (the index is read only by the samplers that
+// use it).
+template <class A>
+SampleStream<xsimd::batch<float, A>> stream_at(const FlatScene& s, const PathPool& p, int32_t i) {
+    using U = xsimd::batch<uint32_t, A>;
+    return {U::load_aligned(p.key + i),
+            s.path.sampler.kind == Sampler::kIndependent ? U(0u) : U::load_aligned(p.index + i),
+            s.path.sampler};
+}
+
 template <class F>
 Vec3<F> load3(const float* x, const float* y, const float* z, int32_t i) {
     return {F::load_aligned(x + i), F::load_aligned(y + i), F::load_aligned(z + i)};
