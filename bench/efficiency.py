@@ -105,6 +105,7 @@ def main():
                 entry = {"scene": name, "spp": int(base["spp"])}
                 for label, r in rows.items():
                     entry[label] = {"seconds": float(r[i]["seconds"]),
+                                    "rays_per_second": float(r[i]["rays_per_second"]),
                                     "rel_mse": float(r[i]["rel_mse_corrected"]),
                                     "efficiency": float(r[i]["efficiency"])}
                 results.append(entry)

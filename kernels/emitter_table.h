@@ -9,13 +9,18 @@
 
 namespace cierzo {
 
-// The kinds of emitter that can be sampled.
-enum EmitterKind : int32_t { kEmitterSphere = 0, kEmitterTriangle = 1 };
+// The kinds of emitter that can be sampled. A rectangle is two triangles of one mesh that
+// make one (Scene::finalize finds them): both triangles' entries hold the rectangle, the
+// first with its power, the second with none (never chosen, but a hit on it has the
+// rectangle's pmf and density).
+enum EmitterKind : int32_t { kEmitterSphere = 0, kEmitterTriangle = 1, kEmitterRectangle = 2 };
 
 // Floats per emitter record in EmitterTable::data:
-//   [0, 3)   sphere centre, or the triangle's first vertex v0 (world space)
-//   3        sphere radius, or the triangle's area
-//   [4, 7)   triangle edge v1 - v0     [7, 10) edge v2 - v0     [10, 13) unit normal
+//   [0, 3)   sphere centre, or the triangle's first vertex v0 (world space), or the
+//            rectangle's corner
+//   3        sphere radius, or the triangle's or rectangle's area
+//   [4, 7)   triangle edge v1 - v0 (a rectangle's first side)     [7, 10) edge v2 - v0 (its
+//            second side, at a right angle to the first)     [10, 13) unit normal
 //   [13, 16) emitted radiance Le (RGB)
 inline constexpr int32_t kEmitterStride = 16;
 

@@ -351,10 +351,27 @@ auto emitter_entry(const EmitterTable& e, const E* table, const I32<T>& id) {
     return Lanes(gather_table(table, id));
 }
 
-// Whether emitter id is a sphere (else a triangle).
+// Whether emitter id is a sphere (else a triangle or a rectangle), and a rectangle.
 template <class T>
 Mask<T> emitter_is_sphere(const EmitterTable& e, const I32<T>& id) {
     return mask_f32(emitter_entry<T>(e, e.kind, id) == I32<T>(kEmitterSphere));
+}
+template <class T>
+Mask<T> emitter_is_rectangle(const EmitterTable& e, const I32<T>& id) {
+    return mask_f32(emitter_entry<T>(e, e.kind, id) == I32<T>(kEmitterRectangle));
+}
+
+// A point uniform by area on the triangle v0, v0 + e1, v0 + e2 (below), or on the
+// rectangle v0 + [0, 1]·e1 + [0, 1]·e2 where `rectangle`.
+template <class T>
+Vec3<T> sample_triangle_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2,
+                             const T& u1, const T& u2);
+template <class T>
+Vec3<T> sample_planar_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2,
+                           const T& u1, const T& u2, const Mask<T>& rectangle) {
+    const Vec3<T> on_triangle = sample_triangle_area(v0, e1, e2, u1, u2);
+    if (!any(rectangle)) return on_triangle;
+    return select(rectangle, fma(e2, u2, fma(e1, u1, v0)), on_triangle);
 }
 
 // A point uniform by area on the triangle v0, v0 + e1, v0 + e2: barycentrics
@@ -437,6 +454,75 @@ TriangleView<T> triangle_view(const Vec3<T>& x, const Vec3<T>& v0, const Vec3<T>
     return v;
 }
 
+// The rectangle corner + [0, 1]·e1 + [0, 1]·e2 (e1 ⊥ e2) as seen from x, in the frame of
+// Ureña, Fajardo and King ("An Area-Preserving Parametrization for Spherical Rectangles",
+// 2013): x at the origin, the rectangle in the plane z = z0 < 0 spanning [x0, x1] × [y0, y1];
+// its solid angle Ω and what sampling it needs; `spherical` where it is sampled by solid
+// angle (Ω at least kMinTriangleSolidAngle, x off its plane).
+template <class T>
+struct RectangleView {
+    Vec3<T> ex, ey, ez;
+    T x0, x1, y0, y1, z0;
+    T b0, b1, k, omega;
+    Mask<T> spherical;
+};
+template <class T>
+RectangleView<T> rectangle_view(const Vec3<T>& x, const Vec3<T>& corner, const Vec3<T>& e1,
+                                const Vec3<T>& e2) {
+    RectangleView<T> r;
+    const T l1 = length(e1), l2 = length(e2);
+    r.ex = e1 * (T(1.0f) / l1);
+    r.ey = e2 * (T(1.0f) / l2);
+    r.ez = cross(r.ex, r.ey);
+    const Vec3<T> d = corner - x;
+    r.x0 = dot(d, r.ex), r.y0 = dot(d, r.ey);
+    const T z = dot(d, r.ez);
+    r.ez = select(z > T(0.0f), -r.ez, r.ez);
+    r.z0 = -abs(z);
+    r.x1 = r.x0 + l1, r.y1 = r.y0 + l2;
+    // The unit normals of the planes through x and each side, and the angles between them
+    const T z2 = r.z0 * r.z0;
+    const T i0 = T(1.0f) / sqrt(z2 + r.y0 * r.y0), i1 = T(1.0f) / sqrt(z2 + r.x1 * r.x1);
+    const T i2 = T(1.0f) / sqrt(z2 + r.y1 * r.y1), i3 = T(1.0f) / sqrt(z2 + r.x0 * r.x0);
+    const auto angle = [](const T& c) { return acos(max(min(c, T(1.0f)), T(-1.0f))); };
+    // n0 = (0, z0, -y0)·i0, n1 = (-z0, 0, x1)·i1, n2 = (0, -z0, y1)·i2, n3 = (z0, 0, -x0)·i3
+    const T g0 = angle(r.y0 * r.x1 * i0 * i1);
+    const T g1 = angle(-r.x1 * r.y1 * i1 * i2);
+    const T g2 = angle(r.y1 * r.x0 * i2 * i3);
+    const T g3 = angle(-r.x0 * r.y0 * i3 * i0);
+    r.b0 = -r.y0 * i0;
+    r.b1 = r.y1 * i2;
+    r.k = T(2.0f * kPi) - g2 - g3;
+    r.omega = g0 + g1 - r.k;  // g0 + g1 + g2 + g3 - 2π
+    r.spherical = (r.omega >= T(kMinTriangleSolidAngle)) & (r.omega <= T(2.0f * kPi)) &
+                  (r.z0 < T(0.0f));
+    return r;
+}
+
+// A point of the rectangle whose direction from x is uniform by solid angle over it (Ureña
+// et al.): u1 chooses the x of the point through the area of the spherical rectangle left of
+// it, u2 the y uniformly in the solid angle's measure along that column.
+template <class T>
+Vec3<T> sample_spherical_rectangle(const RectangleView<T>& r, const Vec3<T>& x, const T& u1,
+                                   const T& u2) {
+    const T au = fma(u1, r.omega, r.k);
+    T s, c;
+    sincos_2pi(au * T(0.5f * kInvPi), s, c);
+    const T fu = (c * r.b0 - r.b1) / s;
+    const T cu = max(min(select(fu >= T(0.0f), T(1.0f), T(-1.0f)) /
+                             sqrt(fma(fu, fu, r.b0 * r.b0)),
+                         T(1.0f)),
+                     T(-1.0f));
+    const T xu = max(min(-(cu * r.z0) / sqrt(max(T(1.0f) - cu * cu, T(1e-12f))), r.x1), r.x0);
+    const T d2 = fma(xu, xu, r.z0 * r.z0);
+    const T h0 = r.y0 / sqrt(d2 + r.y0 * r.y0), h1 = r.y1 / sqrt(d2 + r.y1 * r.y1);
+    const T hv = fma(u2, h1 - h0, h0);
+    const T hv2 = hv * hv;
+    const T yv = select(hv2 < T(1.0f - 1e-6f), hv * sqrt(d2) / sqrt(max(T(1.0f) - hv2, T(1e-12f))),
+                        r.y1);
+    return fma(r.ez, r.z0, fma(r.ey, min(max(yv, r.y0), r.y1), fma(r.ex, xu, x)));
+}
+
 // The emitter chosen by power through the alias table (kernels/emitter_table.h): slot
 // ⌊u_pick·count⌋, kept if u_alias < its q, else its alias. Its pmf and kind with it.
 // The one choice rule of every emitter sampler (here and kernels/light_sampling.h).
@@ -444,7 +530,7 @@ template <class T>
 struct EmitterChoice {
     I32<T> id;
     T pmf;
-    Mask<T> sphere;
+    Mask<T> sphere, rectangle;
 };
 template <class T>
 EmitterChoice<T> choose_emitter(const EmitterTable& e, const T& u_pick, const T& u_alias) {
@@ -453,15 +539,17 @@ EmitterChoice<T> choose_emitter(const EmitterTable& e, const T& u_pick, const T&
     const I id = e.count == 1 ? I(0)
                               : select(mask_i32(u_alias < gather_table(e.alias_q, slot)), slot,
                                        gather_table(e.alias, slot));
-    return {id, emitter_entry<T>(e, e.pmf, id), emitter_is_sphere<T>(e, id)};
+    const I32<T> kind = emitter_entry<T>(e, e.kind, id);
+    return {id, emitter_entry<T>(e, e.pmf, id), mask_f32(kind == I32<T>(kEmitterSphere)),
+            mask_f32(kind == I32<T>(kEmitterRectangle))};
 }
 
 // Chooses an emitter by power (alias table) and samples it from x:
 //   - a sphere seen from outside by the solid angle of its cone, uniformly
 //     (pdf 1 / (2π(1 - cos θmax))); from inside, every direction (pdf 1/4π);
-//   - a triangle by area (pdf d² / (A·|cos θl|) in solid angle), or with `solid_angle`
-//     uniformly over the spherical triangle it subtends (pdf 1/Ω) where Ω is at least
-//     kMinTriangleSolidAngle.
+//   - a triangle or a rectangle by area (pdf d² / (A·|cos θl|) in solid angle), or with
+//     `solid_angle` uniformly over the spherical triangle or rectangle it subtends (pdf 1/Ω)
+//     where Ω is at least kMinTriangleSolidAngle.
 // A sphere's sampled distance is the ray's own intersection with it, so a shadow ray that
 // stops just short of t sees the same surface the sample lies on.
 template <class T>
@@ -508,10 +596,11 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         out.pdf = select(sphere, pdf, out.pdf);
         out.ok = sphere & (inside | ((one_minus > T(0.0f)) & (t > T(0.0f))));
     }
-    const auto triangle = !sphere;
+    const auto triangle = !sphere;  // (or a rectangle)
     if (any(triangle)) {
+        const Mask<T>& rectangle = choice.rectangle;
         const Vec3<T> e1{at(4), at(5), at(6)}, e2{at(7), at(8), at(9)}, nl{at(10), at(11), at(12)};
-        const Vec3<T> p = sample_triangle_area(p0, e1, e2, u1, u2);
+        const Vec3<T> p = sample_planar_area(p0, e1, e2, u1, u2, rectangle);
         const Vec3<T> to = p - x;
         const T d2 = dot(to, to);
         const T dist = sqrt(d2);
@@ -519,9 +608,22 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         T cos_l = abs(dot(nl, wi));
         T pdf = pmf * d2 / (size * cos_l);
         T t = dist;
-        if (solid_angle) {
+        if (solid_angle && any(rectangle)) {
+            const RectangleView<T> r = rectangle_view(x, p0, e1, e2);
+            const auto spherical = rectangle & r.spherical;
+            if (any(spherical)) {
+                const Vec3<T> to_s = sample_spherical_rectangle(r, x, u1, u2) - x;
+                const T ts = length(to_s);
+                const Vec3<T> ws = to_s * (T(1.0f) / ts);
+                wi = select(spherical, ws, wi);
+                t = select(spherical, ts, t);
+                cos_l = select(spherical, abs(dot(nl, ws)), cos_l);
+                pdf = select(spherical, pmf / r.omega, pdf);
+            }
+        }
+        if (solid_angle && !all(rectangle)) {
             const TriangleView<T> v = triangle_view(x, p0, e1, e2);
-            const auto spherical = triangle & v.spherical;
+            const auto spherical = triangle & !rectangle & v.spherical;
             if (any(spherical)) {
                 // The direction, and the distance to the triangle's plane along it
                 const Vec3<T> ws = sample_spherical_triangle(v.a, v.b, v.c, v.omega, u1, u2);
@@ -562,10 +664,16 @@ T emitter_pdf(const EmitterTable& e, const I32<T>& id, const Vec3<T>& x, const V
         const Vec3<T> nl{at(10), at(11), at(12)};
         T area_pdf = t * t / (size * abs(dot(nl, d)));
         if (solid_angle) {
-            const TriangleView<T> v = triangle_view(x, Vec3<T>{at(0), at(1), at(2)},
-                                                    Vec3<T>{at(4), at(5), at(6)},
-                                                    Vec3<T>{at(7), at(8), at(9)});
-            area_pdf = select(v.spherical, T(1.0f) / v.omega, area_pdf);
+            const Vec3<T> p0{at(0), at(1), at(2)}, e1{at(4), at(5), at(6)}, e2{at(7), at(8), at(9)};
+            const auto rectangle = emitter_is_rectangle<T>(e, id);
+            if (any(rectangle)) {
+                const RectangleView<T> r = rectangle_view(x, p0, e1, e2);
+                area_pdf = select(rectangle & r.spherical, T(1.0f) / r.omega, area_pdf);
+            }
+            if (!all(rectangle)) {
+                const TriangleView<T> v = triangle_view(x, p0, e1, e2);
+                area_pdf = select((!rectangle) & v.spherical, T(1.0f) / v.omega, area_pdf);
+            }
         }
         pdf = select(sphere, pdf, area_pdf);
     }

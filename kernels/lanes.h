@@ -26,6 +26,7 @@ inline bool none(bool m) { return !m; }
 inline float fma(float a, float b, float c) { return std::fma(a, b, c); }
 
 using std::abs;
+using std::acos;
 using std::atan2;
 using std::cos;
 using std::max;
@@ -33,6 +34,7 @@ using std::min;
 using std::sin;
 using std::sqrt;
 using xsimd::abs;
+using xsimd::acos;
 using xsimd::atan2;
 using xsimd::all;
 using xsimd::any;

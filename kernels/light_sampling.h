@@ -54,11 +54,11 @@ EmitterPosition<T> sample_emitter_position(const EmitterTable& e, const T& u_pic
         out.p = select(choice.sphere, fma(n, size, p0), out.p);
         out.n = select(choice.sphere, n, out.n);
     }
-    // A triangle: the same area warp as next-event estimation's
+    // A triangle or a rectangle: the same area warp as next-event estimation's
     const auto triangle = !choice.sphere;
     if (any(triangle)) {
         const Vec3<T> e1{at(4), at(5), at(6)}, e2{at(7), at(8), at(9)};
-        out.p = select(triangle, sample_triangle_area(p0, e1, e2, u1, u2), out.p);
+        out.p = select(triangle, sample_planar_area(p0, e1, e2, u1, u2, choice.rectangle), out.p);
         out.n = select(triangle, Vec3<T>{at(10), at(11), at(12)}, out.n);
     }
     return out;

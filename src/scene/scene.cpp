@@ -242,12 +242,43 @@ void build_alias(const std::vector<double>& w, std::vector<float>& q,
     // (what is left is 1 up to rounding: kept with probability 1)
 }
 
+// Two triangles (corners c[0..2] and c[3..5]) that are the halves of one rectangle: they share
+// two corners (a diagonal), and the corners a and b they do not share make a parallelogram
+// with it (a + b = the diagonal's ends' sum) with a right angle at a; within 10^-5 of the
+// rectangle's size.
+struct RectangleEmitter {
+    Vec3f corner, e1, e2;
+};
+bool find_rectangle(const Vec3f (&c)[6], RectangleEmitter& r) {
+    int shared_a[2], shared_b[2], n = 0;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 3; j < 6; ++j)
+            if (c[i].x == c[j].x && c[i].y == c[j].y && c[i].z == c[j].z) {
+                if (n == 2) return false;
+                shared_a[n] = i, shared_b[n] = j, ++n;
+            }
+    if (n != 2) return false;
+    const int a = 3 - shared_a[0] - shared_a[1];
+    int b = 3;
+    while (b == shared_b[0] || b == shared_b[1]) ++b;
+    const Vec3f s1 = c[shared_a[0]], s2 = c[shared_a[1]];
+    const Vec3f e1 = s1 - c[a], e2 = s2 - c[a];
+    const float l1 = length(e1), l2 = length(e2);
+    if (!(l1 > 0.0f && l2 > 0.0f) || !std::isfinite(l1 * l2)) return false;
+    const float size = std::max(l1, l2);
+    if (length(c[a] + c[b] - s1 - s2) > 1e-5f * size) return false;
+    if (std::abs(dot(e1, e2)) > 1e-5f * l1 * l2) return false;
+    r = {c[a], e1, e2};
+    return true;
+}
+
 }  // namespace
 
 void Scene::build_emitters() {
     Emitters& e = emitters;
     e = Emitters{};
     std::vector<double> power;
+    std::vector<size_t> rectangles;  // the first entry of each
     const auto add = [&](EmitterKind kind, const float (&record)[kEmitterStride], double p) {
         e.kind.push_back(kind);
         e.data.insert(e.data.end(), record, record + kEmitterStride);
@@ -308,6 +339,29 @@ void Scene::build_emitters() {
             add(kEmitterTriangle, record,
                 std::isfinite(area) ? area * double(max_component(le)) : 0.0);
         }
+        // Consecutive triangles that make a rectangle (the two halves of a quad) become one
+        // rectangle, sampled as a whole (kernels/emitter_table.h)
+        const size_t first = size_t(e.mesh_first[i]);
+        for (size_t t = 0; t + 1 < g.triangle_count(); ++t) {
+            Vec3f c[6];
+            for (int k = 0; k < 6; ++k) c[k] = world(g.positions[g.indices[3 * t + size_t(k)]]);
+            RectangleEmitter r;
+            if (!find_rectangle(c, r)) continue;
+            const Vec3f n = normalize(cross(r.e1, r.e2));
+            const float area = length(cross(r.e1, r.e2));
+            const float record[kEmitterStride] = {r.corner.x, r.corner.y, r.corner.z, area,
+                                                  r.e1.x,     r.e1.y,     r.e1.z,     r.e2.x,
+                                                  r.e2.y,     r.e2.z,     n.x,        n.y,
+                                                  n.z,        le.x,       le.y,       le.z};
+            for (size_t k : {first + t, first + t + 1}) {
+                e.kind[k] = kEmitterRectangle;
+                std::copy(record, record + kEmitterStride, e.data.begin() + ptrdiff_t(k * kEmitterStride));
+            }
+            power[first + t] = std::isfinite(area) ? double(area) * double(max_component(le)) : 0.0;
+            power[first + t + 1] = 0.0;
+            rectangles.push_back(first + t);
+            ++t;
+        }
         ++e.sampled_objects;
     }
     for (size_t i = 0; i < planes.size(); ++i) e.unsampled_objects += emits(planes.material[i]);
@@ -326,6 +380,8 @@ void Scene::build_emitters() {
     }
     e.pmf.resize(power.size());
     for (size_t i = 0; i < power.size(); ++i) e.pmf[i] = float(power[i] / e.total_power);
+    // (a hit on a rectangle's second triangle has the rectangle's probability)
+    for (size_t k : rectangles) e.pmf[k + 1] = e.pmf[k];
     build_alias(power, e.alias_q, e.alias);
 }
 

@@ -4,7 +4,8 @@
 // the alias table chooses (against powers computed here, and the same emitter chosen by
 // the position sampler of kernels/light_sampling.h); a triangle sampled by solid angle
 // (against the solid angle of each of 64 cells, computed in double here), its fallback to
-// area sampling and its extremes; the hit-side density equals the
+// area sampling and its extremes; a rectangle of two triangles sampled as one by solid angle
+// (against 64 cells' solid angles), its fallback and extremes; the hit-side density equals the
 // sampling side's and integrates to 1 over the emitter; and the two MIS weights of one
 // direction sum to 1 for random vertices, materials and emitters.
 #include <gtest/gtest.h>
@@ -171,6 +172,148 @@ TEST(EmitterSampling, TriangleBySolidAngleFallsBackToAreaAndStaysFinite) {
             ASSERT_NEAR(length(s.wi), 1.0f, 1e-4f);
         }
     }
+}
+
+// A tilted rectangle light of two triangles, and the solid angle of cell (i, j) of its
+// n × n grid from x, in double (each cell two spherical triangles, Van Oosterom–Strackee).
+struct TiltedRectangle {
+    Vec3f p{-0.5f, -0.3f, 1.2f}, e1{1.2f, 0.3f, 0.4f}, e2;
+    TiltedRectangle() {
+        const Vec3f n0{0.1f, -0.2f, 1.0f};
+        e2 = normalize(cross(n0, e1)) * 0.9f;
+    }
+    Vec3f corner(int k) const {
+        return k == 0 ? p : k == 1 ? p + e1 : k == 2 ? p + e1 + e2 : p + e2;
+    }
+    std::string objects() const {
+        const auto v = [&](int k) {
+            const Vec3f c = corner(k);
+            return "[" + std::to_string(c.x) + ", " + std::to_string(c.y) + ", " +
+                   std::to_string(c.z) + "]";
+        };
+        return R"({"type": "triangle", "material": "L", "vertices": [)" + v(0) + ", " + v(1) +
+               ", " + v(2) + R"(]}, {"type": "triangle", "material": "L", "vertices": [)" +
+               v(0) + ", " + v(2) + ", " + v(3) + "]}";
+    }
+    static double triangle_omega(const double a[3], const double b[3], const double c[3]) {
+        const auto unit = [](const double v[3], double o[3]) {
+            const double l = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            for (int k = 0; k < 3; ++k) o[k] = v[k] / l;
+        };
+        double u[3], w[3], z[3];
+        unit(a, u), unit(b, w), unit(c, z);
+        const double triple = u[0] * (w[1] * z[2] - w[2] * z[1]) -
+                              u[1] * (w[0] * z[2] - w[2] * z[0]) +
+                              u[2] * (w[0] * z[1] - w[1] * z[0]);
+        const auto d = [](const double* x, const double* y) {
+            return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+        };
+        return 2.0 * std::atan2(std::abs(triple), 1.0 + d(u, w) + d(w, z) + d(z, u));
+    }
+    std::vector<double> cell_solid_angles(const Vec3f& x, int n) const {
+        std::vector<double> out;
+        const auto at = [&](double s, double t, double o[3]) {
+            o[0] = double(p.x) + s * e1.x + t * e2.x - x.x;
+            o[1] = double(p.y) + s * e1.y + t * e2.y - x.y;
+            o[2] = double(p.z) + s * e1.z + t * e2.z - x.z;
+        };
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+                double a[3], b[3], c[3], d[3];
+                at(double(i) / n, double(j) / n, a), at(double(i + 1) / n, double(j) / n, b);
+                at(double(i + 1) / n, double(j + 1) / n, c), at(double(i) / n, double(j + 1) / n, d);
+                out.push_back(triangle_omega(a, b, c) + triangle_omega(a, c, d));
+            }
+        return out;
+    }
+    // The cell of a point on the rectangle, or -1 off it (by more than tol)
+    int cell(const Vec3f& q, int n, float tol = 1e-4f) const {
+        const Vec3f d = q - p;
+        const float s = dot(d, e1) / dot(e1, e1), t = dot(d, e2) / dot(e2, e2);
+        const float off = std::abs(dot(d, normalize(cross(e1, e2))));
+        if (s < -tol || s > 1.0f + tol || t < -tol || t > 1.0f + tol || off > tol) return -1;
+        const int i = std::min(std::max(int(s * n), 0), n - 1);
+        const int j = std::min(std::max(int(t * n), 0), n - 1);
+        return j * n + i;
+    }
+};
+
+TEST(EmitterSampling, RectangleOfTwoTrianglesIsOneEmitterUniformInSolidAngle) {
+    const TiltedRectangle r;
+    const Scene scene = test::emitter_scene(r.objects());
+    const EmitterTable e = scene.emitters.table();
+    ASSERT_EQ(e.count, 2);
+    EXPECT_EQ(e.kind[0], kEmitterRectangle);
+    EXPECT_EQ(e.kind[1], kEmitterRectangle);
+    EXPECT_EQ(e.pmf[0], e.pmf[1]);  // a hit on either half has the rectangle's density
+    EXPECT_NEAR(double(e.data[3]), double(length(cross(r.e1, r.e2))), 1e-5);
+    constexpr int n = 8;
+    for (const Vec3f x : {Vec3f{0.1f, 0.0f, -1.0f}, Vec3f{0.3f, 0.2f, 0.9f},
+                          Vec3f{-0.45f, -0.25f, 1.1f}, Vec3f{2.5f, 0.4f, 1.3f},
+                          Vec3f{0.1f, 0.1f, 4.0f}}) {
+        SCOPED_TRACE(::testing::Message() << x.x << " " << x.y << " " << x.z);
+        std::vector<double> p = r.cell_solid_angles(x, n);
+        double omega = 0.0;
+        for (double w : p) omega += w;
+        ASSERT_GT(omega, double(kMinTriangleSolidAngle));
+        std::vector<double> observed(n * n, 0.0), expected(n * n);
+        Uniforms u;
+        const int samples = n * n * 600;
+        for (int k = 0; k < samples; ++k) {
+            const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u(), true);
+            ASSERT_TRUE(s.ok);
+            ASSERT_NEAR(double(s.pdf) * omega, 1.0, 5e-4);
+            for (int32_t id : {0, 1})
+                ASSERT_NEAR(emitter_pdf<float>(e, id, x, s.wi, s.t, true) / s.pdf, 1.0, 1e-5);
+            const int c = r.cell(x + s.wi * s.t, n);
+            ASSERT_GE(c, 0) << "off the rectangle";
+            observed[size_t(c)] += 1.0;
+        }
+        for (int c = 0; c < n * n; ++c) expected[size_t(c)] = p[size_t(c)] / omega * samples;
+        const auto [stat, dof] = test::chi_square(observed, expected);
+        EXPECT_LT(stat, test::chi_square_critical(dof));
+        // Near the rectangle, points sampled by area fail the same test
+        if (omega > 0.5) {
+            std::vector<double> by_area(n * n, 0.0);
+            for (int k = 0; k < samples; ++k) {
+                const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u(), false);
+                const int c = s.ok ? r.cell(x + s.wi * s.t, n) : -1;
+                if (c >= 0) by_area[size_t(c)] += 1.0;
+            }
+            EXPECT_GT(test::chi_square(by_area, expected).first, test::chi_square_critical(dof));
+        }
+    }
+    // Far (sampled by area: the area density on both sides), and extremes that give nothing
+    // NaN or infinite: in the plane, at a corner, on it, 1e-6 and 1e6 away
+    const Vec3f normal = normalize(cross(r.e1, r.e2));
+    const Vec3f centre = r.p + (r.e1 + r.e2) * 0.5f;
+    Uniforms u;
+    const Vec3f far = centre + normal * 3000.0f;
+    for (int k = 0; k < 1000; ++k) {
+        const EmitterSample<float> s = sample_emitter(e, far, 0.3f, 0.5f, u(), u(), true);
+        ASSERT_TRUE(s.ok);
+        const double cos_l = std::abs(double(dot(normal, s.wi)));
+        ASSERT_NEAR(double(s.pdf) * double(e.data[3]) * cos_l / (double(s.t) * s.t), 1.0, 1e-3);
+        ASSERT_GE(r.cell(far + s.wi * s.t, n, 3e-3f), 0);  // (3000 away: float's 1e-7 × 3000)
+    }
+    for (const Vec3f x : {r.p + r.e1 * 2.0f, r.p, centre, centre + normal * 1e-6f,
+                          centre + normal * 1e6f, centre - normal * 0.01f,
+                          r.p - normal * 1e-3f + r.e1 * 0.001f}) {
+        SCOPED_TRACE(::testing::Message() << x.x << " " << x.y << " " << x.z);
+        for (int k = 0; k < 2000; ++k) {
+            const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u(), true);
+            if (!s.ok) continue;
+            ASSERT_TRUE(std::isfinite(s.pdf) && s.pdf > 0.0f);
+            ASSERT_TRUE(std::isfinite(s.t) && s.t > 0.0f);
+            ASSERT_NEAR(length(s.wi), 1.0f, 1e-4f);
+        }
+    }
+    // Two triangles that share an edge but make no rectangle stay two triangles
+    const Scene kite = test::emitter_scene(
+        R"({"type": "triangle", "material": "L", "vertices": [[0, 0, 1], [1, 0, 1], [1, 1, 1]]},
+           {"type": "triangle", "material": "L", "vertices": [[0, 0, 1], [1, 1, 1], [0, 1.3, 1]]})");
+    EXPECT_EQ(kite.emitters.table().kind[0], kEmitterTriangle);
+    EXPECT_EQ(kite.emitters.table().kind[1], kEmitterTriangle);
 }
 
 TEST(EmitterSampling, DensityIntegratesToOneOverTheEmitter) {

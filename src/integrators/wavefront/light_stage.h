@@ -142,8 +142,8 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor,
         };
         // (a path that may not go on past its start: throughput 0, so its first hit ends it)
         const bool extends = !limited || may_extend<float>(est, 0u);
-        const Vec3<F> beta = select(ls.ok & F(extends ? 1.0f : 0.0f) > F(0.0f), ls.beta,
-                                    Vec3<F>(F(0.0f)));
+        const auto starts = extends ? ls.ok : (ls.ok & !ls.ok);
+        const Vec3<F> beta = select(starts, ls.beta, Vec3<F>(F(0.0f)));
         keep(o.x, p.ox), keep(o.y, p.oy), keep(o.z, p.oz);
         keep(ls.dir.x, p.dx), keep(ls.dir.y, p.dy), keep(ls.dir.z, p.dz);
         keep(beta.x, p.beta_r), keep(beta.y, p.beta_g), keep(beta.z, p.beta_b);
