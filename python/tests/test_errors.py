@@ -72,7 +72,9 @@ def test_render_size_limit_has_the_programs_message(cierzo, tmp_path):
                                 dict(estimator="bdpt"), dict(survival_cap=1.5), dict(width=0),
                                 dict(pool=-16), dict(diffuse_sampling="gaussian"),
                                 dict(roulette="russian"), dict(roulette_depth=-1),
-                                dict(roulette_depth=1025), dict(triangle_sampling="cone")])
+                                dict(roulette_depth=1025), dict(triangle_sampling="cone"),
+                                dict(sampler="halton"), dict(min_length=0),
+                                dict(max_length=2000000)])
 def test_bad_keywords(cierzo, kw):
     with pytest.raises(ValueError, match=next(iter(kw))):
         cierzo.render(scene_path("cornell"), **kw)

@@ -74,6 +74,27 @@ def test_variance_and_overrides(cierzo, tmp_path):
     assert meta["cierzo:estimator"] == "mis" and meta["cierzo:spp"] == "4"
 
 
+@pytest.mark.parametrize("sampler", ["sobol", "zsobol", "pmj02"])
+def test_sampler_and_lengths_as_the_program(cierzo, tmp_path, sampler):
+    exr, _ = cli_render(tmp_path, scene_path("box"),
+                        extra=("--estimator", "lt", "--sampler", sampler, "--min-length", "2",
+                               "--max-length", "3"))
+    image, _ = cierzo.render(scene_path("box"), estimator="lt", sampler=sampler,
+                             min_length=2, max_length=3, **SMALL)
+    assert same_bits(image, cierzo.read_exr(exr))
+    _, meta = cierzo.read_exr(exr, metadata=True)
+    assert meta["cierzo:estimator"] == "lt"
+    # the lengths split the image: 1..1 + 2..3 + 4.. is the whole, up to the film's rounding
+    whole, _ = cierzo.render(scene_path("box"), estimator="lt", sampler=sampler, **SMALL)
+    first, _ = cierzo.render(scene_path("box"), estimator="lt", sampler=sampler,
+                             max_length=1, **SMALL)
+    rest, _ = cierzo.render(scene_path("box"), estimator="lt", sampler=sampler,
+                            min_length=4, **SMALL)
+    total = first.astype("float64") + image + rest
+    assert abs(total - whole).max() <= 1e-5 * whole.max() + 1e-6
+    assert image.max() > 0 and rest.max() > 0
+
+
 def test_isa_this_cpu_lacks_has_the_programs_message(cierzo):
     lacking = [i["name"] for i in cierzo.isas() if not i["supported"]]
     if not lacking:
