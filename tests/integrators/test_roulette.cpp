@@ -58,20 +58,12 @@ TEST(ThroughputRoulette, AnalyticAnswersAtEveryDepth) {
             for (int depth : {0, 3, 1024}) {
                 SCOPED_TRACE(std::string(estimator_name(e)) + " from vertex " +
                              std::to_string(depth));
-                const RenderResult room = run(
-                    with_roulette(kRoom, e, Roulette::kThroughput, depth, spp(256, 32)), v);
-                for (int c = 0; c < 3; ++c) {
-                    const ImageMean m = image_mean(room.film, c);
-                    EXPECT_NEAR(m.mean, kRoomL, 3.0 * m.sigma);
-                    EXPECT_LT(m.sigma, sigma_bound() * kRoomL);
-                }
-                const RenderResult ball =
-                    run(with_roulette(kBall, e, Roulette::kThroughput, depth, spp(256, 32)), v);
-                for (int c = 0; c < 3; ++c) {
-                    const ImageMean m = image_mean(ball.film, c);
-                    EXPECT_NEAR(m.mean, 0.8, 3.0 * m.sigma);
-                    EXPECT_LT(m.sigma, sigma_bound() * 0.8);
-                }
+                test::expect_answer(
+                    run(with_roulette(kRoom, e, Roulette::kThroughput, depth, spp(256, 32)), v),
+                    kRoomL, sigma_bound());
+                test::expect_answer(
+                    run(with_roulette(kBall, e, Roulette::kThroughput, depth, spp(256, 32)), v),
+                    0.8, sigma_bound());
             }
         }
     }

@@ -59,19 +59,11 @@ TEST(Samplers, AnalyticAnswersWithEveryEstimator) {
             for (Estimator e : {Estimator::kReport, Estimator::kNee, Estimator::kMis,
                                 Estimator::kLt}) {
                 SCOPED_TRACE(std::string(sampler_name(s)) + " " + estimator_name(e));
-                const RenderResult room = run(with_sampler(test::kRoom, e, s, spp(256, 32)), v);
-                for (int c = 0; c < 3; ++c) {
-                    const ImageMean m = image_mean(room.film, c);
-                    EXPECT_NEAR(m.mean, test::kRoomL, 3.0 * m.sigma);
-                    EXPECT_LT(m.sigma, sigma_bound() * test::kRoomL);
-                }
+                test::expect_answer(run(with_sampler(test::kRoom, e, s, spp(256, 32)), v),
+                                    test::kRoomL, sigma_bound());
                 if (e == Estimator::kLt) continue;  // (the ball: camera paths' answer)
-                const RenderResult ball = run(with_sampler(test::kBall, e, s, spp(256, 32)), v);
-                for (int c = 0; c < 3; ++c) {
-                    const ImageMean m = image_mean(ball.film, c);
-                    EXPECT_NEAR(m.mean, 0.8, 3.0 * m.sigma);
-                    EXPECT_LT(m.sigma, sigma_bound() * 0.8);
-                }
+                test::expect_answer(run(with_sampler(test::kBall, e, s, spp(256, 32)), v), 0.8,
+                                    sigma_bound());
             }
         }
     }

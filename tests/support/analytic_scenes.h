@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include "support/render_variants.h"
+
 namespace cierzo::test {
 
 // A point light of intensity 1 at the centre of a closed diffuse sphere (R = 2, ρ = 0.5),
@@ -47,5 +49,15 @@ inline const char* kLobes = R"({"render": {"width": 20, "height": 16, "seed": 11
       {"type": "triangle", "vertices": [[0.2, 0.99, -0.2], [0.6, 0.99, 0.2], [0.2, 0.99, 0.2]],
        "material": "Q"}],
     "lights": [{"position": [-0.3, 0.2, -0.5], "intensity": [0.3, 0.3, 0.2]}]})";
+
+// Every pixel's mean of a render of a scene whose pixels share one answer: the image mean
+// within 3σ of `expected`, and σ below `sigma_bound` of it.
+inline void expect_answer(const RenderResult& r, double expected, double sigma_bound) {
+    for (int c = 0; c < 3; ++c) {
+        const ImageMean m = image_mean(r.film, c);
+        EXPECT_NEAR(m.mean, expected, 3.0 * m.sigma);
+        EXPECT_LT(m.sigma, sigma_bound * expected);
+    }
+}
 
 }  // namespace cierzo::test
