@@ -149,15 +149,16 @@ void continuation_pdf(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
 // from vertex roulette_depth on, the path goes on with probability
 // q = min(max RGB of beta, survival cap), its throughput divided by q; else it ends
 // (throughput 0). The cap makes every path end, mirrors and glass included. Under the
-// report's roulette it returns beta unchanged.
+// report's roulette it returns beta unchanged. u_roulette: the roulette's draw (slot 1's
+// second number, lobe_uniforms in kernels/sampler.h).
 template <class T>
 Vec3<T> throughput_roulette(const EstimatorSettings& est, const Vec3<T>& beta,
-                            const SampleStream<T>& rng, const U32<T>& bounce) {
+                            const T& u_roulette, const U32<T>& bounce) {
     if (!normalised_lobes(est)) return beta;
     const auto due = to_float(bounce) >= T(float(est.roulette_depth));
     if (!any(due)) return beta;
     const T q = min(max_component(beta), T(est.survival_cap));
-    const auto survives = second_uniform<T>(rng, bounce, Purpose::kLobe) < q;
+    const auto survives = u_roulette < q;
     const Vec3<T> kept = select(survives, beta * (T(1.0f) / q), Vec3<T>(T(0.0f)));
     return select(due, kept, beta);
 }

@@ -333,7 +333,23 @@ inline void uniform_pair(const SampleStream<T>& s, const U32<T>& bounce, Purpose
     v = unit_float<T>(y);
 }
 
-// The throughput roulette's draw: the lobe slot's second number.
+// The lobe choice's number and, where `roulette` (the throughput roulette), the roulette's
+// draw: slot 1's pair, drawn once.
+template <class T>
+inline void lobe_uniforms(const SampleStream<T>& s, const U32<T>& bounce, bool roulette,
+                          T& u_lobe, T& u_roulette) {
+    if (s.sampler.kind == Sampler::kIndependent) {
+        u_lobe = uniform<T>(s.key, bounce, Purpose::kLobe);
+        u_roulette = roulette ? second_uniform<T>(s.key, bounce, Purpose::kLobe) : T(0.0f);
+        return;
+    }
+    U32<T> x, y;
+    sample_point(s, bounce, slot_of(Purpose::kLobe), x, y);
+    u_lobe = unit_float<T>(x);
+    u_roulette = unit_float<T>(y);
+}
+
+// The throughput roulette's draw alone: the lobe slot's second number.
 template <class T>
 inline T second_uniform(const SampleStream<T>& s, const U32<T>& bounce, Purpose purpose) {
     if (s.sampler.kind == Sampler::kIndependent) return second_uniform<T>(s.key, bounce, purpose);

@@ -79,13 +79,15 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
 
         // Russian roulette picks one lobe, or the path's death; the lobe continues it
         float p = 0.0f;
-        const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe),
-                                         c.estimator.survival_cap, p, normalised_lobes(c.estimator));
+        float u_lobe, u_roulette;
+        lobe_uniforms<float>(rng, bounce, normalised_lobes(c.estimator), u_lobe, u_roulette);
+        const int32_t lobe = choose_lobe(m, u_lobe, c.estimator.survival_cap, p,
+                                         normalised_lobes(c.estimator));
         if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
         const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
         lobe_pdf = next.pdf;
-        throughput = throughput_roulette(c.estimator, throughput * next.weight, rng, bounce);
+        throughput = throughput_roulette(c.estimator, throughput * next.weight, u_roulette, bounce);
         if (!(max_component(throughput) > 0.0f)) break;
         ray = {next.o, next.d};
         ++rays.extension;

@@ -224,6 +224,23 @@ TEST(Samplers, EveryUniformIsUniform) {
     }
 }
 
+TEST(Samplers, TheLobesPairIsTheLobeChoiceAndTheRoulettesDraw) {
+    // lobe_uniforms draws slot 1 once: the same two numbers as uniform(kLobe) and
+    // second_uniform(kLobe), with every sampler, at every bounce
+    for (Sampler kind : {Sampler::kIndependent, Sampler::kSobol, Sampler::kZSobol, Sampler::kPmj02}) {
+        const SamplerSetup setup = setup_of(kind, 3);
+        for (uint32_t pixel = 0; pixel < 64; ++pixel)
+            for (uint32_t bounce : {0u, 1u, 9u}) {
+                const SampleStream<float> rng =
+                    camera_stream<float>(setup, 2u, pixel, pixel % 8, pixel / 8, pixel % 5);
+                float u, v;
+                lobe_uniforms<float>(rng, bounce, true, u, v);
+                ASSERT_EQ(u, uniform<float>(rng, bounce, Purpose::kLobe));
+                ASSERT_EQ(v, second_uniform<float>(rng, bounce, Purpose::kLobe));
+            }
+    }
+}
+
 TEST(Samplers, LanesDrawTheScalarNumbers) {
     using F = xsimd::batch<float>;
     using U = xsimd::batch<uint32_t>;

@@ -33,10 +33,11 @@ struct LobeStep {
     // c: the scene's path context, or a copy whose switches the caller knows at compile time
     LobeStep(const PathContext& c, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
-             const F& probability, const SampleStream<F>& rng, const U& bounce) {
+             const F& probability, const SampleStream<F>& rng, const F& u_roulette,
+             const U& bounce) {
         const VertexFrame<F> v = vertex_frame(c.smooth, d0, n, ns);
         const Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, rng, bounce);
-        beta = throughput_roulette(c.estimator, beta0 * sc.weight, rng, bounce);
+        beta = throughput_roulette(c.estimator, beta0 * sc.weight, u_roulette, bounce);
         continuation_pdf<kLobe>(c, m, d0, v, sc.dir, probability, pdf);
         alive = max_component(beta) > F(0.0f);
         o = leaving_origin(pos, n, sc.dir, magnitude);
@@ -171,7 +172,11 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
 
     // Russian roulette over the lobes
     F probability;
-    I lobe = choose_lobe<kFused>(m, uniform<F>(rng, bounce, Purpose::kLobe),
+    // (the roulette's draw with the lobe's: one 2D point; the lobe buckets draw theirs)
+    F u_lobe, u_roulette;
+    lobe_uniforms<F>(rng, bounce, normalised_lobes(c.estimator) && kFused != kLobeCount, u_lobe,
+                     u_roulette);
+    I lobe = choose_lobe<kFused>(m, u_lobe,
                                  c.estimator.survival_cap, probability,
                                  normalised_lobes(c.estimator));
     if (limits_length(c.estimator)) alive = alive & may_extend<F>(c.estimator, bounce);
@@ -184,7 +189,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
         const LobeStep<kFused, A> step(c, m, sf.magnitude, d, pos, n, sf.ns, beta, probability,
-                                       rng, bounce);
+                                       rng, u_roulette, bounce);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
         if constexpr (kCompact) {
@@ -267,17 +272,22 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         const Vec3<F> pos = gather3<A>(p.px, p.py, p.pz, j);
         const F magnitude = max(max_abs(pos), max_abs(gather3<A>(p.ox, p.oy, p.oz, j)));
         const Vec3<F> n = gather3<A>(p.nx, p.ny, p.nz, j);
+        const typename Wave<A>::U bounce = gather_lanes<A>(p.bounce, j);
+        const SampleStream<F> rng{gather_lanes<A>(p.key, j),
+                                  w.scene.path.sampler.kind == Sampler::kIndependent
+                                      ? typename Wave<A>::U(0u)
+                                      : gather_lanes<A>(p.index, j),
+                                  w.scene.path.sampler};
+        // (the roulette's draw, where the throughput roulette needs it)
+        F u_roulette(0.0f);
+        if (normalised_lobes(w.scene.path.estimator))
+            u_roulette = second_uniform<F>(rng, bounce, Purpose::kLobe);
         const LobeStep<kLobe, A> step(
             w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
             w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
             gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
             gather_lanes<A>(p.probability, j),
-            SampleStream<F>{gather_lanes<A>(p.key, j),
-                            w.scene.path.sampler.kind == Sampler::kIndependent
-                                ? typename Wave<A>::U(0u)
-                                : gather_lanes<A>(p.index, j),
-                            w.scene.path.sampler},
-            gather_lanes<A>(p.bounce, j));
+            rng, u_roulette, bounce);
         scatter3(step.o, p.ox, p.oy, p.oz, j);
         scatter3(step.d, p.dx, p.dy, p.dz, j);
         scatter3(step.beta, p.beta_r, p.beta_g, p.beta_b, j);
