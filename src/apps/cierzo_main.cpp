@@ -160,7 +160,8 @@ int run_main(int argc, char** argv) {
         ->check(CLI::Range(1, kMaxLengthLimit));
     r->add_option("--estimator", a.job.estimator,
                   describe_estimators() + "; overrides render.estimator. Sampled emitters: "
-                  "spheres and triangles of solid emission. nee and mis default to cosine "
+                  "spheres and triangles of solid emission (two that make a rectangle as one). nee and mis "
+                  "default to cosine "
                   "diffuse sampling, the throughput roulette, triangles by solid angle and the "
                   "sobol sampler (chosen by measured efficiency; docs/estimators.md), report "
                   "and lt to the report's settings; an option or scene key given keeps its value")

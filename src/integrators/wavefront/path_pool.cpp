@@ -32,7 +32,7 @@ PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, 
     const size_t n = size_t(capacity);
     for (float** a : {&p.ox, &p.oy, &p.oz, &p.dx, &p.dy, &p.dz, &p.beta_r, &p.beta_g, &p.beta_b,
                       &p.rad_r, &p.rad_g, &p.rad_b, &p.t, &p.mesh_nx, &p.mesh_ny, &p.mesh_nz,
-                      &p.px, &p.py, &p.pz, &p.nx, &p.ny, &p.nz, &p.snx, &p.sny, &p.snz, &p.probability, &p.lobe_pdf, &p.done_r,
+                      &p.px, &p.py, &p.pz, &p.nx, &p.ny, &p.nz, &p.snx, &p.sny, &p.snz, &p.probability, &p.roulette_draw, &p.lobe_pdf, &p.done_r,
                       &p.done_g, &p.done_b})
         *a = c.take<float>(n);
     for (auto& channel : p.col)

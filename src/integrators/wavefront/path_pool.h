@@ -37,6 +37,7 @@ struct PathPool {
     // Lobe choice and the per-lobe buckets (indices into the pool)
     int32_t* lobe;
     float* probability;
+    float* roulette_draw;  // the throughput roulette's number, drawn with the lobe's
     int32_t* bucket[4];  // one per lobe (kLobeCount)
     int32_t bucket_size[4];
     int32_t* order;            // material-sorted indices

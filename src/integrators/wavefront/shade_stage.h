@@ -172,10 +172,9 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
 
     // Russian roulette over the lobes
     F probability;
-    // (the roulette's draw with the lobe's: one 2D point; the lobe buckets draw theirs)
+    // (the roulette's draw with the lobe's: one 2D point, kept for the lobe buckets)
     F u_lobe, u_roulette;
-    lobe_uniforms<F>(rng, bounce, normalised_lobes(c.estimator) && kFused != kLobeCount, u_lobe,
-                     u_roulette);
+    lobe_uniforms<F>(rng, bounce, normalised_lobes(c.estimator), u_lobe, u_roulette);
     I lobe = choose_lobe<kFused>(m, u_lobe,
                                  c.estimator.survival_cap, probability,
                                  normalised_lobes(c.estimator));
@@ -185,6 +184,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     if constexpr (kFused == kLobeCount) {
         lobe.store_aligned(p.lobe + i);
         probability.store_aligned(p.probability + i);
+        if (normalised_lobes(c.estimator)) u_roulette.store_aligned(p.roulette_draw + i);
     } else {
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
@@ -278,10 +278,10 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
                                       ? typename Wave<A>::U(0u)
                                       : gather_lanes<A>(p.index, j),
                                   w.scene.path.sampler};
-        // (the roulette's draw, where the throughput roulette needs it)
-        F u_roulette(0.0f);
-        if (normalised_lobes(w.scene.path.estimator))
-            u_roulette = second_uniform<F>(rng, bounce, Purpose::kLobe);
+        // (the roulette's draw, where the throughput roulette needs it: drawn with the lobe's)
+        const F u_roulette = normalised_lobes(w.scene.path.estimator)
+                                 ? gather_lanes<A>(p.roulette_draw, j)
+                                 : F(0.0f);
         const LobeStep<kLobe, A> step(
             w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
             w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
