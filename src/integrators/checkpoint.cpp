@@ -142,6 +142,11 @@ std::string scene_fingerprint(const Scene& scene) {
         h.vec(m.indices);
         h.bytes(m.to_world, sizeof(m.to_world));
         h.bytes(&m.material, sizeof(m.material));
+        if (!m.uvs.empty()) h.vec(m.uvs);
+    }
+    for (const auto& image : scene.images) {
+        h.vec(image->bytes);
+        h.vec(image->floats);
     }
     return fmt::format("{:016x}", h.h);
 }

@@ -13,6 +13,7 @@ struct MeshData {
     std::vector<float> colors;      // 3 floats per vertex in [0, 1], or empty
     std::vector<float> normals;     // 3 floats per vertex (as the file gives them, not
                                     // necessarily unit; a zero one is allowed), or empty
+    std::vector<float> uvs;         // texture coordinates u, v per vertex, or empty
     std::vector<uint32_t> indices;  // 3 per triangle, each < vertex count
 };
 

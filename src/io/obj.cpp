@@ -66,9 +66,10 @@ struct Counts {
     uint64_t vertices = 0, normals = 0, texcoords = 0, faces = 0, corners = 0;
     bool colors = true;          // every vertex has a colour
     bool corner_normals = true;  // every corner names a normal
+    bool corner_texcoords = true;  // every corner names a texture coordinate
     size_t max_line = 0;  // the line of the largest absolute vertex index, for its message
-    int64_t max_vertex = 0, max_normal = 0;
-    size_t max_normal_line = 0;
+    int64_t max_vertex = 0, max_normal = 0, max_texcoord = 0;
+    size_t max_normal_line = 0, max_texcoord_line = 0;
     std::string checked;  // the file's checked lines, every other line emptied
 };
 
@@ -163,6 +164,13 @@ Counts check_lines(std::string_view bytes, const Source& src) {
                 } else {
                     c.corner_normals = false;
                 }
+                if (parts >= 2 && !part[1].empty()) {
+                    const int64_t vt =
+                        index[1] < 0 ? int64_t(c.texcoords) + index[1] + 1 : index[1];
+                    if (vt > c.max_texcoord) c.max_texcoord = vt, c.max_texcoord_line = line_no;
+                } else {
+                    c.corner_texcoords = false;
+                }
                 ++corners;
             }
             if (corners < 3)
@@ -180,6 +188,10 @@ Counts check_lines(std::string_view bytes, const Source& src) {
     if (uint64_t(c.max_normal) > c.normals)
         src.fail_at(c.max_normal_line, fmt::format("face refers to normal {}, but the file has "
                                                    "{} normals", c.max_normal, c.normals));
+    if (uint64_t(c.max_texcoord) > c.texcoords)
+        src.fail_at(c.max_texcoord_line,
+                    fmt::format("face refers to texture coordinate {}, but the file has {}",
+                                c.max_texcoord, c.texcoords));
     if (c.faces == 0) src.fail("has no faces ('f' lines)");
     if (c.vertices >= (uint64_t(1) << 31)) src.fail("has more than 2^31 vertices");
     return c;
@@ -214,7 +226,8 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
             src.fail("inconsistent face sizes from the OBJ parser");
     }
     if (attrib.vertices.size() != counts.vertices * 3 ||
-        attrib.normals.size() != counts.normals * 3 || faces != counts.faces ||
+        attrib.normals.size() != counts.normals * 3 ||
+        attrib.texcoords.size() != counts.texcoords * 2 || faces != counts.faces ||
         corners != counts.corners)
         src.fail(fmt::format("the OBJ parser read {} vertices, {} normals and {} faces where "
                              "the file has {}, {} and {}: a line it reads otherwise",
@@ -234,27 +247,47 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
         (colors && !finite(attrib.colors)))
         src.fail("has a value outside the float range");
 
-    // Corners become vertices: a file vertex as it is without normals; with normals, one
-    // vertex per distinct (position, normal) pair
-    std::unordered_map<uint64_t, uint32_t> split;
+    // Corners become vertices: a file vertex as it is without normals and texture
+    // coordinates; with them, one vertex per distinct (position, coordinate, normal)
+    const size_t nt = attrib.texcoords.size() / 2;
+    const bool texcoords = counts.corner_texcoords && nt > 0;
+    if (texcoords && !finite(attrib.texcoords)) src.fail("has a value outside the float range");
+    struct Corner {
+        uint32_t v, t, n;
+        bool operator==(const Corner&) const = default;
+    };
+    struct CornerHash {
+        size_t operator()(const Corner& c) const {
+            uint64_t h = (uint64_t(c.v) << 32 | c.n) * 0x9e3779b97f4a7c15ull;
+            return size_t(h ^ (uint64_t(c.t) * 0xc2b2ae3d27d4eb4full) ^ (h >> 29));
+        }
+    };
+    std::unordered_map<Corner, uint32_t, CornerHash> split;
     const auto vertex_of = [&](const tinyobj::index_t& idx) -> uint32_t {
         if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv)
             src.fail(fmt::format("face refers to vertex {} of {}", idx.vertex_index + 1, nv));
-        if (!normals) return uint32_t(idx.vertex_index);
-        if (idx.normal_index < 0 || size_t(idx.normal_index) >= nn)
+        if (!normals && !texcoords) return uint32_t(idx.vertex_index);
+        if (normals && (idx.normal_index < 0 || size_t(idx.normal_index) >= nn))
             src.fail(fmt::format("face refers to normal {} of {}", idx.normal_index + 1, nn));
-        const uint64_t key = (uint64_t(uint32_t(idx.vertex_index)) << 32) | uint32_t(idx.normal_index);
+        if (texcoords && (idx.texcoord_index < 0 || size_t(idx.texcoord_index) >= nt))
+            src.fail(fmt::format("face refers to texture coordinate {} of {}",
+                                 idx.texcoord_index + 1, nt));
+        const Corner key{uint32_t(idx.vertex_index), texcoords ? uint32_t(idx.texcoord_index) : 0u,
+                         normals ? uint32_t(idx.normal_index) : 0u};
         const auto [it, added] = split.try_emplace(key, uint32_t(mesh.positions.size() / 3));
         if (added) {
             for (int k = 0; k < 3; ++k) {
                 mesh.positions.push_back(attrib.vertices[3 * size_t(idx.vertex_index) + k]);
-                mesh.normals.push_back(attrib.normals[3 * size_t(idx.normal_index) + k]);
+                if (normals) mesh.normals.push_back(attrib.normals[3 * size_t(idx.normal_index) + k]);
                 if (colors) mesh.colors.push_back(attrib.colors[3 * size_t(idx.vertex_index) + k]);
             }
+            if (texcoords)
+                for (int k = 0; k < 2; ++k)
+                    mesh.uvs.push_back(attrib.texcoords[2 * size_t(idx.texcoord_index) + k]);
         }
         return it->second;
     };
-    if (!normals) {
+    if (!normals && !texcoords) {
         mesh.positions = attrib.vertices;
         if (colors) mesh.colors = attrib.colors;
     }

@@ -26,6 +26,17 @@ struct FlatColor {
     float a[3], b[3];
     float frequency;
     float axis[3], axis2[3];
+    int32_t image;  // image textures: the scene's image, the texture-coordinate map, the wrap
+    float uv_scale[2], uv_offset[2];
+    uint32_t clamp;
+};
+
+// An image texture (same meaning as ImageView in kernels/texture.h).
+struct FlatImage {
+    const int32_t* bytes;
+    const float* floats;
+    const float* decode;
+    int32_t width, height;
 };
 
 // A mesh object as the vertex-colour evaluation reads it: its triangles' vertex indices,
@@ -38,6 +49,7 @@ struct FlatMesh {
     const float* to_object = nullptr;    // row-major 3 × 4; null for world-space vertices
     const float* normals = nullptr;      // x, y, z per vertex; null unless the object is smooth
     const float* normal_to_world = nullptr;  // row-major 3 × 3, for an instance's normals
+    const float* uvs = nullptr;          // u, v per vertex; null when the mesh has none
 };
 
 // Which stages and primitive loops a scene needs; the kernels skip everything else.
@@ -87,6 +99,7 @@ struct FlatScene {
     const int32_t* phong;       // material_count, 1 if kd or ks is non-zero
     const int32_t* textured;    // material_count, bit c set if colour channel c is not solid
     const FlatColor* sources;   // material_count * kColCount
+    const FlatImage* images;    // the image textures the sources name
 
     // Point lights: position xyz, intensity rgb
     int32_t light_count;

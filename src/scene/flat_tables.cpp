@@ -50,8 +50,16 @@ AlignedFloats lanes_of(std::initializer_list<const std::vector<float>*> arrays) 
 }
 
 FlatColor flatten(const ColorSource& c) {
-    return {uint32_t(c.kind), {c.a.x, c.a.y, c.a.z}, {c.b.x, c.b.y, c.b.z}, c.frequency,
-            {c.axis.x, c.axis.y, c.axis.z}, {c.axis2.x, c.axis2.y, c.axis2.z}};
+    return {uint32_t(c.kind),
+            {c.a.x, c.a.y, c.a.z},
+            {c.b.x, c.b.y, c.b.z},
+            c.frequency,
+            {c.axis.x, c.axis.y, c.axis.z},
+            {c.axis2.x, c.axis2.y, c.axis2.z},
+            c.image,
+            {c.uv_scale[0], c.uv_scale[1]},
+            {c.uv_offset[0], c.uv_offset[1]},
+            c.clamp ? 1u : 0u};
 }
 
 }  // namespace
@@ -64,6 +72,7 @@ struct FlatTables {
     std::vector<int32_t> quadric_material, unbounded_quadrics, mesh_material, emitter, phong,
         textured, sphere_emitter, mesh_emitter;
     std::vector<FlatColor> sources;
+    std::vector<FlatImage> images;
     uint32_t texture_channels = 0;  // bit c: some material textures colour channel c
 };
 
@@ -116,6 +125,8 @@ std::shared_ptr<const FlatTables> build_flat_tables(const Scene& scene) {
         t->phong.push_back(mat.has_phong() ? 1 : 0);
         t->textured.push_back(tex);
     }
+    for (const ImageView& im : scene.image_views)
+        t->images.push_back({im.bytes, im.floats, im.decode, im.width, im.height});
     t->shininess = padded(t->shininess), t->ior = padded(t->ior), t->emitter = padded(t->emitter);
     t->phong = padded(t->phong), t->textured = padded(t->textured);
     // Next-event estimation's emitters, per sphere and mesh the id of its (first) emitter
@@ -158,6 +169,7 @@ FlatView flat_view(const Scene& scene) {
         flat.to_object = m.instanced() ? m.to_object : nullptr;
         flat.normals = m.smooth ? &g.normals.data()->x : nullptr;
         flat.normal_to_world = m.instanced() ? m.normal_to_world : nullptr;
+        flat.uvs = g.uvs.empty() ? nullptr : g.uvs.data();
         view.meshes.push_back(flat);
     }
     f.meshes = view.meshes.data();
@@ -170,6 +182,7 @@ FlatView flat_view(const Scene& scene) {
     f.color = t.color.data(), f.shininess = t.shininess.data(), f.ior = t.ior.data();
     f.emitter = t.emitter.data(), f.phong = t.phong.data(), f.textured = t.textured.data();
     f.sources = t.sources.data();
+    f.images = t.images.data();
     f.light_count = int32_t(scene.lights.size());
     f.light = scene.light_data.data();  // (6 floats each, as the path context has them)
     f.sphere_emitter = t.sphere_emitter.data();
@@ -192,7 +205,7 @@ FlatView flat_view(const Scene& scene) {
     const bool packet = tree && packet_tree(scene.bvh.view());
     f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, tree, packet,
                   sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
-                  sf.procedural_textures || sf.vertex_colors,
+                  sf.procedural_textures || sf.vertex_colors || sf.image_textures,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
                   t.texture_channels};
     return view;

@@ -410,6 +410,7 @@ SceneFeatures Scene::features() const {
         for (const ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt}) {
             f.procedural_textures |= c->is_procedural();
             f.vertex_colors |= c->is_vertex();
+            f.image_textures |= c->kind == TextureKind::kImage;
         }
     }
     for (const Mesh& m : meshes) f.smooth |= m.smooth;
@@ -455,6 +456,7 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
     hit.p = fma(ray.d, best, ray.o);
     hit.mesh = -1;
     hit.sphere = -1;
+    hit.plane = false;
     const auto quadric = [&](size_t index) {
         hit.n = normalize(quadric_gradient(quadrics[index].q, hit.p));
         hit.material = quadrics[index].material;
@@ -466,6 +468,7 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
             const size_t i = size_t(id & kPrimIndexMask);
             hit.n = {planes.nx[i], planes.ny[i], planes.nz[i]};
             hit.material = planes.material[i];
+            hit.plane = true;
         }
         hit.ns = hit.n;
         return true;
@@ -522,7 +525,48 @@ bool Scene::occluded(const Ray<float>& ray, float tmax) const {
     return traverse<true, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), t, unused);
 }
 
+int32_t Scene::add_image(std::shared_ptr<const TextureImage> image) {
+    ImageView view;
+    if (image->floats.empty()) {
+        view.bytes = image->bytes.data();
+        view.decode = image->srgb ? srgb_decode_table() : linear_decode_table();
+    } else {
+        view.floats = image->floats.data();
+    }
+    view.width = image->width, view.height = image->height;
+    images.push_back(std::move(image));
+    image_views.push_back(view);
+    return int32_t(images.size() - 1);
+}
+
+void Scene::hit_uv(const Hit& hit, float& u, float& v) const {
+    u = v = 0.0f;
+    if (hit.sphere >= 0) return sphere_uv(hit.n, u, v);
+    if (hit.plane) return plane_uv(hit.n, hit.p, u, v);
+    if (hit.mesh < 0) return;
+    const Mesh& object = meshes[size_t(hit.mesh)];
+    const Mesh& m = geometry_of(object);
+    if (m.uvs.empty()) return;
+    const uint32_t* idx = &m.indices[size_t(hit.triangle) * 3];
+    const Vec3f corner[3] = {m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
+    // (an instance's vertices are in the file's space: so is the point)
+    const float p[3] = {hit.p.x, hit.p.y, hit.p.z};
+    const Vec3f at = object.instanced() ? affine_point(object.to_object, p) : hit.p;
+    float b[3];
+    barycentrics(corner, at, b[0], b[1], b[2]);
+    for (int k = 0; k < 3; ++k) {
+        u = std::fma(m.uvs[2 * size_t(idx[k])], b[k], u);
+        v = std::fma(m.uvs[2 * size_t(idx[k]) + 1], b[k], v);
+    }
+}
+
 Vec3f Scene::color_at(const ColorSource& c, const Hit& hit) const {
+    if (c.kind == TextureKind::kImage) {
+        float u, v;
+        hit_uv(hit, u, v);
+        const Texel<float> t = sample_image(image_views[size_t(c.image)], c, u, v);
+        return t.rgb * c.a;
+    }
     if (!c.is_vertex()) return eval_pattern(c, hit.p);
     if (hit.mesh < 0) return c.a;
     const Mesh& object = meshes[size_t(hit.mesh)];

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "accel/bvh.h"
+#include "io/texture_image.h"
 #include "kernels/estimator.h"
 #include "kernels/intersect.h"
 #include "kernels/transport.h"
@@ -63,6 +64,7 @@ struct Mesh {
     std::vector<Vec3f> normals;  // per vertex, unit or zero (in the space of positions), for
                                  // shading; filled for "smooth" objects (and the geometry of
                                  // smooth instances), else empty
+    std::vector<float> uvs;  // texture coordinates u, v per vertex, or empty
     std::vector<uint32_t> indices;
     int32_t material = 0;
     int32_t geometry = -1;  // -1: own world-space vertices; else the entry with the vertices
@@ -96,7 +98,7 @@ struct SceneFeatures {
     bool spheres = false, planes = false, quadrics = false, meshes = false;
     bool point_lights = false, emitters = false;
     bool diffuse = false, specular = false, mirror = false, refraction = false;
-    bool procedural_textures = false, vertex_colors = false;
+    bool procedural_textures = false, vertex_colors = false, image_textures = false;
     bool smooth = false;  // a mesh is shaded with interpolated normals
 };
 
@@ -109,6 +111,7 @@ struct Hit {
     int32_t mesh = -1;  // for vertex colours
     uint32_t triangle = 0;
     int32_t sphere = -1;  // the sphere's index, when a sphere was hit
+    bool plane = false;   // a plane was hit
 };
 
 // The emitters next-event estimation samples: every sphere and triangle whose material has
@@ -165,6 +168,10 @@ public:
     std::vector<Quadric> quadrics;
     std::vector<Mesh> meshes;
     std::vector<PointLight> lights;
+    // The image textures the materials name (ColorSource::image), each decoded once, and
+    // their views for the kernels (set by add_image)
+    std::vector<std::shared_ptr<const TextureImage>> images;
+    std::vector<ImageView> image_views;
     std::filesystem::path source;  // the scene file, for messages
     // Every file read to make the scene (the scene file, mesh files), which no output may
     // replace (io/output_file.h)
@@ -198,6 +205,12 @@ public:
     void set_resolution(int width, int height);
 
     SceneFeatures features() const;
+
+    // Adds an image texture; returns its index for ColorSource::image.
+    int32_t add_image(std::shared_ptr<const TextureImage> image);
+    // The texture coordinates of a hit (kernels/texture.h: a mesh's per-vertex (u, v), 0
+    // without them; a sphere's longitude and latitude; a plane's own frame; 0 on a quadric).
+    void hit_uv(const Hit& hit, float& u, float& v) const;
 
     // Closest hit in (0, tmax); fills hit and returns true if there is one.
     bool intersect(const Ray<float>& ray, float tmax, Hit& hit) const;

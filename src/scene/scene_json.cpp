@@ -14,6 +14,7 @@
 #include <system_error>
 
 #include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
 
 #include "core/error.h"
 #include "io/mesh.h"
@@ -177,7 +178,67 @@ Vec3f colour_value(Reader& r, const json& v, const std::string& key) {
     return c;
 }
 
-ColorSource read_color(Reader& parent, const std::string& key, const fs::path& file) {
+// The image textures a scene names, each file decoded once (per colour encoding) after the
+// whole scene is read, all of them in parallel.
+struct ImageRequests {
+    struct Request {
+        fs::path path;
+        bool srgb;
+        std::string where;  // the first place that names it, for messages
+    };
+    std::map<std::pair<fs::path, bool>, int32_t> ids;
+    std::vector<Request> requests;
+
+    int32_t request(const fs::path& path, bool srgb, const std::string& where) {
+        const auto [it, added] =
+            ids.try_emplace({path.lexically_normal(), srgb}, int32_t(requests.size()));
+        if (added) requests.push_back({path, srgb, where});
+        return it->second;
+    }
+};
+
+// Reads {"texture": "image", ...} (kind already read).
+void read_image_color(Reader& r, ColorSource& c, const fs::path& file, ImageRequests& images) {
+    const std::string name = r.string("file");
+    if (name.empty()) r.fail("'file' must name an image file");
+    const bool srgb = [&] {
+        if (!r.has("srgb")) return r.allow({"srgb"}), true;
+        const json& v = r.get("srgb");
+        if (!v.is_boolean()) r.fail("'srgb' must be true (8-bit colours are sRGB-encoded, as "
+                                    "in colour maps) or false (linear, as in data maps)");
+        return v.get<bool>();
+    }();
+    c.image = images.request(file.parent_path() / name, srgb, r.where("file"));
+    c.a = Vec3f(1.0f);
+    if (r.has("factor")) c.a = colour_value(r, r.get("factor"), "factor");
+    else r.allow({"factor"});
+    const auto pair = [&](const char* key, float fallback, float out[2]) {
+        out[0] = out[1] = fallback;
+        if (!r.has(key)) return r.allow({key});
+        const json& v = r.get(key);
+        const auto ok = [](const json& x) {
+            return x.is_number() && std::isfinite(x.get<double>()) &&
+                   std::fabs(x.get<double>()) <= 1e6;
+        };
+        if (ok(v)) {
+            out[0] = out[1] = v.get<float>();
+        } else if (v.is_array() && v.size() == 2 && ok(v[0]) && ok(v[1])) {
+            out[0] = v[0].get<float>(), out[1] = v[1].get<float>();
+        } else {
+            r.fail(std::string("'") + key + "' must be a number or [u, v], finite and at most "
+                   "1e6 in magnitude, got " + v.dump());
+        }
+    };
+    pair("scale", 1.0f, c.uv_scale);
+    pair("offset", 0.0f, c.uv_offset);
+    const std::string wrap = r.string("wrap", "repeat");
+    if (wrap != "repeat" && wrap != "clamp")
+        r.fail("'wrap' must be \"repeat\" (the image tiles) or \"clamp\" (its border extends)");
+    c.clamp = wrap == "clamp";
+}
+
+ColorSource read_color(Reader& parent, const std::string& key, const fs::path& file,
+                       ImageRequests& images) {
     const json& v = parent.get(key);
     ColorSource c;
     if (!v.is_object()) {
@@ -190,13 +251,16 @@ ColorSource read_color(Reader& parent, const std::string& key, const fs::path& f
         {"solid", TextureKind::kSolid},           {"sin", TextureKind::kSin},
         {"sin2", TextureKind::kSin2},             {"sincos", TextureKind::kSinCos},
         {"vertex_nearest", TextureKind::kVertexNearest},
-        {"vertex_weighted", TextureKind::kVertexWeighted}};
+        {"vertex_weighted", TextureKind::kVertexWeighted},
+        {"image", TextureKind::kImage}};
     const auto it = kinds.find(kind);
     if (it == kinds.end())
         r.fail("unknown texture '" + kind +
-               "' (valid: solid, sin, sin2, sincos, vertex_nearest, vertex_weighted)");
+               "' (valid: solid, sin, sin2, sincos, vertex_nearest, vertex_weighted, image)");
     c.kind = it->second;
-    if (c.is_vertex()) {
+    if (c.kind == TextureKind::kImage) {
+        read_image_color(r, c, file, images);
+    } else if (c.is_vertex()) {
         c.a = Vec3f(1.0f);
         if (r.has("scale")) c.a = colour_value(r, r.get("scale"), "scale");
         else r.allow({"scale"});
@@ -214,13 +278,13 @@ ColorSource read_color(Reader& parent, const std::string& key, const fs::path& f
 }
 
 Material read_material(const json& j, const std::string& where, const std::string& name,
-                       const fs::path& file) {
+                       const fs::path& file, ImageRequests& images) {
     Reader r(j, where, file);
     Material m;
     m.name = name;
     for (auto [key, dst] : {std::pair{"emission", &m.emission}, {"kd", &m.kd}, {"ks", &m.ks},
                             {"kr", &m.kr}, {"kt", &m.kt}}) {
-        if (r.has(key)) *dst = read_color(r, key, file);
+        if (r.has(key)) *dst = read_color(r, key, file, images);
         else r.allow({key});
     }
     m.shininess = float(r.number("shininess", 0.0));
@@ -238,6 +302,7 @@ struct Loader {
     Scene scene;
     std::map<std::string, int32_t> material_ids;
     std::map<int32_t, Mesh> loose_triangles;  // by material
+    ImageRequests images;
     // Named materials and objects read while the text was parsed (parse_document), and the
     // first error met there, to be thrown where reading the whole document would meet it
     bool materials_read = false;
@@ -253,7 +318,7 @@ struct Loader {
         for (auto it = mats.begin(); it != mats.end(); ++it) {
             material_ids[it.key()] = int32_t(scene.materials.size());
             scene.materials.push_back(
-                read_material(it.value(), "materials." + it.key(), it.key(), file));
+                read_material(it.value(), "materials." + it.key(), it.key(), file, images));
         }
     }
 
@@ -265,7 +330,7 @@ struct Loader {
                 r.fail("unknown material '" + v.get<std::string>() + "'");
             return it->second;
         }
-        scene.materials.push_back(read_material(v, r.where("material"), "", file));
+        scene.materials.push_back(read_material(v, r.where("material"), "", file, images));
         return int32_t(scene.materials.size() - 1);
     }
 
@@ -362,6 +427,22 @@ struct Loader {
         } else {
             t.allow({"colors"});
             m.colors.insert(m.colors.end(), 3, Vec3f(1.0f));
+        }
+        // Texture coordinates: given, or (0, 0), (1, 0), (0, 1)
+        if (t.has("uvs")) {
+            const json& uv = t.get("uvs");
+            const auto ok = [](const json& x) {
+                return x.is_array() && x.size() == 2 && x[0].is_number() && x[1].is_number() &&
+                       std::fabs(x[0].get<double>()) <= 1e6 && std::fabs(x[1].get<double>()) <= 1e6;
+            };
+            if (!uv.is_array() || uv.size() != 3 || !ok(uv[0]) || !ok(uv[1]) || !ok(uv[2]))
+                t.fail("'uvs' must be 3 texture coordinates [[u, v], [u, v], [u, v]], each at "
+                       "most 1e6 in magnitude");
+            for (size_t i = 0; i < 3; ++i)
+                m.uvs.insert(m.uvs.end(), {uv[i][0].get<float>(), uv[i][1].get<float>()});
+        } else {
+            t.allow({"uvs"});
+            m.uvs.insert(m.uvs.end(), {0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f});
         }
         for (uint32_t i = 0; i < 3; ++i) m.indices.push_back(base + i);
     }
@@ -525,6 +606,7 @@ struct Loader {
                     for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
                         m.colors.push_back(
                             {f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
+                    m.uvs = f.data.uvs;
                     // (the file's normals through the inverse transpose; Scene::finalize
                     // makes area-weighted ones where the file has none)
                     if (m.smooth)
@@ -556,6 +638,7 @@ struct Loader {
                     for (size_t i = 0; i + 2 < f.data.colors.size(); i += 3)
                         m.colors.push_back(
                             {f.data.colors[i], f.data.colors[i + 1], f.data.colors[i + 2]});
+                    m.uvs = f.data.uvs;
                     for (size_t i = 0; i + 2 < f.data.normals.size(); i += 3)
                         m.normals.push_back(unit_or_zero(
                             {f.data.normals[i], f.data.normals[i + 1], f.data.normals[i + 2]}));
@@ -564,6 +647,65 @@ struct Loader {
             }
         }
         mesh_files.clear();
+    }
+
+    // Decodes every image texture named (in parallel; the first failing one in the order the
+    // scene names them is reported), gives the materials' sources their largest values, and
+    // refuses an image texture where there are no texture coordinates.
+    void load_images() {
+        const auto& requests = images.requests;
+        if (requests.empty()) return;
+        std::vector<std::shared_ptr<const TextureImage>> decoded(requests.size());
+        std::vector<std::exception_ptr> errors(requests.size());
+        tbb::parallel_for(size_t(0), requests.size(), [&](size_t i) {
+            try {
+                decoded[i] = std::make_shared<const TextureImage>(
+                    read_texture_image(requests[i].path, requests[i].srgb));
+            } catch (...) {
+                errors[i] = std::current_exception();
+            }
+        });
+        for (size_t i = 0; i < requests.size(); ++i) {
+            if (!errors[i]) continue;
+            try {
+                std::rethrow_exception(errors[i]);
+            } catch (const InputError& e) {
+                throw InputError(file.string() + ": " + requests[i].where + ": " + e.what());
+            } catch (const std::bad_alloc&) {
+                throw InputError(file.string() + ": " + requests[i].where + ": " +
+                                 requests[i].path.string() + ": out of memory decoding it");
+            }
+        }
+        for (size_t i = 0; i < requests.size(); ++i) {
+            scene.add_image(decoded[i]);
+            scene.files.push_back(requests[i].path);
+        }
+        for (Material& m : scene.materials)
+            for (ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt})
+                if (c->kind == TextureKind::kImage) {
+                    const TextureImage& im = *scene.images[size_t(c->image)];
+                    c->b = {c->a.x * im.max_rgb[0], c->a.y * im.max_rgb[1], c->a.z * im.max_rgb[2]};
+                }
+        const auto imaged = [&](int32_t material) {
+            const Material& m = scene.materials[size_t(material)];
+            for (const ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt})
+                if (c->kind == TextureKind::kImage) return true;
+            return false;
+        };
+        const auto name = [&](int32_t material) {
+            const std::string& n = scene.materials[size_t(material)].name;
+            return n.empty() ? std::string("an inline material") : "material '" + n + "'";
+        };
+        for (const Mesh& m : scene.meshes)
+            if (imaged(m.material) && scene.geometry_of(m).uvs.empty())
+                throw InputError(file.string() + ": " + name(m.material) +
+                                 " has an image texture, but the mesh '" + m.source +
+                                 "' has no texture coordinates (OBJ 'vt')");
+        for (size_t i = 0; i < scene.quadrics.size(); ++i)
+            if (imaged(scene.quadrics[i].material))
+                throw InputError(file.string() + ": " + name(scene.quadrics[i].material) +
+                                 " has an image texture, but a quadric has no texture "
+                                 "coordinates (use a sin, sin2 or sincos pattern there)");
     }
 
     void camera(const json& j, float aspect) {
@@ -733,6 +875,7 @@ Scene build_scene(Loader& l, const json& root) {
         l.object(objects[i], "objects[" + std::to_string(i) + "]");
     l.finish_meshes();
     for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
+    l.load_images();
 
     // Point lights
     if (r.has("lights")) {

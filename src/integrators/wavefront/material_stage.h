@@ -17,7 +17,18 @@ inline ColorSource color_source(const FlatColor& c) {
     s.frequency = c.frequency;
     s.axis = {c.axis[0], c.axis[1], c.axis[2]};
     s.axis2 = {c.axis2[0], c.axis2[1], c.axis2[2]};
+    s.image = c.image;
+    s.uv_scale[0] = c.uv_scale[0], s.uv_scale[1] = c.uv_scale[1];
+    s.uv_offset[0] = c.uv_offset[0], s.uv_offset[1] = c.uv_offset[1];
+    s.clamp = c.clamp != 0;
     return s;
+}
+
+inline ImageView image_view(const FlatImage& f) {
+    ImageView v;
+    v.bytes = f.bytes, v.floats = f.floats, v.decode = f.decode;
+    v.width = f.width, v.height = f.height;
+    return v;
 }
 
 // Solid colours straight from the material tables, for the lobes the scene has (the
@@ -126,6 +137,68 @@ Vec3<typename Wave<A>::F> vertex_colors(const Wave<A>& w, const ColorSource& cs,
     return out;
 }
 
+// Texture coordinates of K hits (pool indices j) at their points, as Scene::hit_uv gives
+// them: spheres and planes from their normals, each mesh's lanes in turn from its vertices'
+// (u, v) (0 on a mesh without them and on quadrics).
+template <class A>
+void hit_uvs(const Wave<A>& w, const typename Wave<A>::I& j,
+             const Vec3<typename Wave<A>::F>& pos, typename Wave<A>::F& u,
+             typename Wave<A>::F& v) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    const PathPool& p = w.pool;
+    const FlatFeatures& f = w.scene.features;
+    const I kind = gather_lanes<A>(p.prim, j) >> kPrimShift;
+    u = v = F(0.0f);
+    if (f.spheres || f.planes) {
+        const Vec3<F> n{gather_lanes<A>(p.nx, j), gather_lanes<A>(p.ny, j),
+                        gather_lanes<A>(p.nz, j)};
+        if (f.spheres) {
+            const auto m = mask_f32(kind == I(kPrimSphere));
+            if (any(m)) {
+                F su, sv;
+                sphere_uv(n, su, sv);
+                u = select(m, su, u), v = select(m, sv, v);
+            }
+        }
+        if (f.planes) {
+            const auto m = mask_f32(kind == I(kPrimPlane));
+            if (any(m)) {
+                F pu, pv;
+                plane_uv(n, pos, pu, pv);
+                u = select(m, pu, u), v = select(m, pv, v);
+            }
+        }
+    }
+    if (!f.meshes) return;
+    const I mesh = gather_lanes<A>(p.mesh_id, j);
+    const I triangle = gather_lanes<A>(reinterpret_cast<const int32_t*>(p.mesh_tri), j);
+    const auto on_mesh = kind == I(kPrimMesh);
+    alignas(64) int32_t ids[Wave<A>::K];
+    mesh.store_aligned(ids);
+    for (uint32_t todo = mask_bits(mask_f32(on_mesh)); todo;) {
+        const int32_t id = ids[std::countr_zero(todo)];
+        const auto lanes = on_mesh & (mesh == I(id));
+        todo &= ~mask_bits(mask_f32(lanes));
+        const FlatMesh& m = w.scene.meshes[id];
+        if (!m.uvs) continue;
+        const I corner = select(lanes, triangle, I(0)) * I(3);
+        const Vec3<F> at = mesh_space_point(m, pos);
+        Vec3<F> vtx[3];
+        for (int k = 0; k < 3; ++k) vtx[k] = gather_corner<A>(m, m.positions, corner, k);
+        F b[3];
+        barycentrics(vtx, at, b[0], b[1], b[2]);
+        F mu(0.0f), mv(0.0f);
+        for (int k = 0; k < 3; ++k) {
+            const I at2 = gather_lanes<A>(m.indices, corner + I(k)) * I(2);
+            mu = fma(gather_lanes<A>(m.uvs, at2), b[k], mu);
+            mv = fma(gather_lanes<A>(m.uvs, at2 + I(1)), b[k], mv);
+        }
+        const auto lf = mask_f32(lanes);
+        u = select(lf, mu, u), v = select(lf, mv, v);
+    }
+}
+
 // The textured channels of every live hit on a textured material, a material at a time (its
 // texture's parameters broadcast), into p.col.
 template <class A>
@@ -148,11 +221,19 @@ CIERZO_STAGE_LOOP void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
             const I j = I::load_aligned(idx);
             const Vec3<F> pos{gather_lanes<A>(p.px, j), gather_lanes<A>(p.py, j),
                               gather_lanes<A>(p.pz, j)};
+            F u, v;
+            bool have_uv = false;
             for (int c = 0; c < kColCount; ++c) {
                 if (!(s.textured[m] >> c & 1)) continue;
                 const ColorSource& cs = sources[c];
-                const Vec3<F> col =
-                    cs.is_vertex() ? vertex_colors(w, cs, j, pos) : eval_pattern(cs, pos);
+                Vec3<F> col;
+                if (cs.kind == TextureKind::kImage) {
+                    if (!have_uv) hit_uvs(w, j, pos, u, v), have_uv = true;
+                    col = sample_image(image_view(s.images[cs.image]), cs, u, v).rgb *
+                          Vec3<F>(cs.a);
+                } else {
+                    col = cs.is_vertex() ? vertex_colors(w, cs, j, pos) : eval_pattern(cs, pos);
+                }
                 scatter3(col, p.col[c][0], p.col[c][1], p.col[c][2], j);
             }
         }
