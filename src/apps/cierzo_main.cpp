@@ -50,7 +50,11 @@ int run_render(RenderArgs& args) {
         std::signal(SIGINT, on_signal);
         std::signal(SIGTERM, on_signal);
     };
-    const RenderJobResult done = run_render_job(load_scene(args.scene), a);
+    Scene loaded = load_scene(args.scene);
+    if (root)
+        for (const std::string& w : loaded.warnings)
+            std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
+    const RenderJobResult done = run_render_job(std::move(loaded), a);
     if (!root) return 0;
     const Scene& scene = done.scene;
     const RenderSettings& s = scene.settings;

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 namespace cierzo {
@@ -15,6 +16,12 @@ struct MeshData {
                                     // necessarily unit; a zero one is allowed), or empty
     std::vector<float> uvs;         // texture coordinates u, v per vertex, or empty
     std::vector<uint32_t> indices;  // 3 per triangle, each < vertex count
+    // OBJ materials: the 'usemtl' names in order of first use ("" for faces before any), the
+    // material of each triangle (an index into those names; empty when the file has no
+    // 'usemtl'), and the files its 'mtllib' lines name, as written ('\' made '/')
+    std::vector<std::string> material_names;
+    std::vector<uint32_t> triangle_material;
+    std::vector<std::string> libraries;
 };
 
 // Reads a mesh file by its extension (case-insensitive): .ply (read_ply) or .obj (read_obj).

@@ -8,6 +8,7 @@
 // counts of both passes must agree and every index is checked again before it is used.
 #include "io/obj.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -71,11 +72,17 @@ struct Counts {
     int64_t max_vertex = 0, max_normal = 0, max_texcoord = 0;
     size_t max_normal_line = 0, max_texcoord_line = 0;
     std::string checked;  // the file's checked lines, every other line emptied
+    // 'usemtl' names in order of first use, each face's, and the 'mtllib' files
+    std::vector<std::string> material_names;
+    std::vector<uint32_t> face_material;
+    std::vector<std::string> libraries;
+    bool materials = false;  // some 'usemtl'
 };
 
 Counts check_lines(std::string_view bytes, const Source& src) {
     Counts c;
     c.checked.reserve(bytes.size() + 1);
+    uint32_t current_material = 0;  // faces before any 'usemtl': "" (added when needed)
     size_t line_no = 0;
     for (size_t pos = 0; pos < bytes.size();) {
         size_t end = bytes.find('\n', pos);
@@ -91,6 +98,30 @@ Counts check_lines(std::string_view bytes, const Source& src) {
         const bool used = key == "v" || key == "vn" || key == "vt" || key == "f";
         if (used) c.checked.append(line);
         c.checked.push_back('\n');
+        if (key == "usemtl") {
+            std::string_view name = rest;
+            while (!name.empty() && (name.front() == ' ' || name.front() == '\t')) name.remove_prefix(1);
+            while (!name.empty() && (name.back() == ' ' || name.back() == '\t')) name.remove_suffix(1);
+            if (name.empty()) src.fail_at(line_no, "'usemtl' needs a material name");
+            if (!c.materials && c.faces > 0) c.material_names.push_back("");
+            c.materials = true;
+            const auto it = std::find(c.material_names.begin(), c.material_names.end(), name);
+            current_material = uint32_t(it - c.material_names.begin());
+            if (it == c.material_names.end()) c.material_names.emplace_back(name);
+            continue;
+        }
+        if (key == "mtllib") {
+            size_t n = 0;
+            for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest), ++n) {
+                std::string file(t);
+                for (char& ch : file)
+                    if (ch == '\\') ch = '/';
+                if (std::find(c.libraries.begin(), c.libraries.end(), file) == c.libraries.end())
+                    c.libraries.push_back(std::move(file));
+            }
+            if (n == 0) src.fail_at(line_no, "'mtllib' needs a file name");
+            continue;
+        }
         if (key == "v" || key == "vn") {
             double value[8];
             size_t n = 0;
@@ -180,6 +211,7 @@ Counts check_lines(std::string_view bytes, const Source& src) {
                                                  "supported)", corners, kMaxCorners));
             ++c.faces;
             c.corners += corners;
+            c.face_material.push_back(current_material);
         }
     }
     if (uint64_t(c.max_vertex) > c.vertices)
@@ -292,6 +324,8 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
         if (colors) mesh.colors = attrib.colors;
     }
     mesh.indices.reserve(size_t(counts.corners - 2 * counts.faces) * 3);
+    size_t face = 0;  // (the shapes hold the faces in file order: every 'o' and 'g' line was
+                      // emptied, so there is one)
     for (const tinyobj::shape_t& shape : shapes) {
         size_t at = 0;
         for (const unsigned char n : shape.mesh.num_face_vertices) {
@@ -300,11 +334,15 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
             for (size_t k = 2; k < n; ++k) {
                 const uint32_t next = vertex_of(shape.mesh.indices[at + k]);
                 mesh.indices.insert(mesh.indices.end(), {first, previous, next});
+                if (counts.materials) mesh.triangle_material.push_back(counts.face_material[face]);
                 previous = next;
             }
             at += n;
+            ++face;
         }
     }
+    if (counts.materials) mesh.material_names = counts.material_names;
+    mesh.libraries = counts.libraries;
     return mesh;
 }
 

@@ -176,6 +176,9 @@ public:
     // Every file read to make the scene (the scene file, mesh files), which no output may
     // replace (io/output_file.h)
     std::vector<std::filesystem::path> files;
+    // What the scene's files hold that cierzo reads but cannot model (an MTL key, a material
+    // name no library defines), one message each, for the program to print
+    std::vector<std::string> warnings;
 
     // The acceleration structure over every bounded primitive (spheres, quadrics with a
     // finite box, world-space triangles, instances), and the quadrics tested beside it.

@@ -18,6 +18,7 @@
 
 #include "core/error.h"
 #include "io/mesh.h"
+#include "io/mtl.h"
 #include "integrators/registry.h"
 #include "scene/strict_json.h"
 
@@ -322,16 +323,130 @@ struct Loader {
         }
     }
 
-    int32_t material_ref(Reader& r) {
-        const json& v = r.get("material");
+    int32_t material_ref(Reader& r) { return material_value(r, r.get("material"), r.where("material")); }
+
+    // A material by name, or an inline one.
+    int32_t material_value(Reader& r, const json& v, const std::string& where) {
         if (v.is_string()) {
             const auto it = material_ids.find(v.get<std::string>());
             if (it == material_ids.end())
                 r.fail("unknown material '" + v.get<std::string>() + "'");
             return it->second;
         }
-        scene.materials.push_back(read_material(v, r.where("material"), "", file, images));
+        scene.materials.push_back(read_material(v, where, "", file, images));
         return int32_t(scene.materials.size() - 1);
+    }
+
+    // ---- OBJ materials (MTL) -----------------------------------------------------------
+
+    std::map<fs::path, MtlLibrary> libraries;  // read so far, by path
+    std::map<std::pair<fs::path, std::string>, int32_t> mtl_ids;  // (library, name) → material
+    int32_t default_material = -1;  // faces without a material, or with an unknown one
+
+    const MtlLibrary& library(const fs::path& path, Reader& t) {
+        const fs::path key = path.lexically_normal();
+        auto it = libraries.find(key);
+        if (it != libraries.end()) return it->second;
+        MtlLibrary lib;
+        try {
+            lib = read_mtl(path);
+        } catch (const InputError& e) {
+            t.fail(std::string("material library (mtllib): ") + e.what());
+        }
+        scene.files.push_back(path);
+        for (const std::string& w : lib.warnings) scene.warnings.push_back(w);
+        return libraries.emplace(key, std::move(lib)).first->second;
+    }
+
+    // A cierzo material from an MTL one (the mapping of docs/scene-format.md, "OBJ materials").
+    Material from_mtl(const MtlMaterial& mtl, const MtlLibrary& lib) {
+        const fs::path folder = lib.path.parent_path();
+        const std::string where = lib.path.string() + ": material '" + mtl.name + "'";
+        const auto solid = [](const float c[3]) {
+            ColorSource s;
+            s.a = {c[0], c[1], c[2]};
+            return s;
+        };
+        const auto image = [&](const MtlMap& map, bool srgb) {
+            ColorSource s;
+            s.kind = TextureKind::kImage;
+            s.a = Vec3f(1.0f);
+            s.image = images.request(folder / map.file, srgb,
+                                     lib.path.string() + ": line " + std::to_string(map.line));
+            s.uv_scale[0] = map.scale[0], s.uv_scale[1] = map.scale[1];
+            s.uv_offset[0] = map.offset[0], s.uv_offset[1] = map.offset[1];
+            s.clamp = map.clamp;
+            return s;
+        };
+        Material m;
+        m.name = lib.path.filename().string() + ":" + mtl.name;
+        const float grey[3] = {0.8f, 0.8f, 0.8f};
+        m.kd = mtl.map_kd ? image(*mtl.map_kd, true) : solid(mtl.has_kd ? mtl.kd_rgb : grey);
+        const ColorSource ks = mtl.map_ks ? image(*mtl.map_ks, true) : solid(mtl.ks_rgb);
+        const int illum = mtl.illum < 0 ? 2 : mtl.illum;
+        if (illum == 3 || illum == 5 || illum == 8) {
+            m.kr = ks;  // a mirror: Ks is its reflectance
+        } else if (illum == 4 || illum == 6 || illum == 7 || illum == 9) {
+            m.kr = ks;  // glass: Ks reflects, Tf transmits through the index Ni
+            m.kt = solid(mtl.tf_rgb);
+            m.ior = mtl.ni;
+        } else if (illum >= 2) {
+            m.ks = ks;
+            m.shininess = mtl.ns;
+        }
+        if (mtl.map_ke) m.emission = image(*mtl.map_ke, true);
+        else if (mtl.has_ke) m.emission = solid(mtl.ke_rgb);
+        (void)where;
+        return m;
+    }
+
+    int32_t mtl_material(const std::string& name, const std::vector<const MtlLibrary*>& libs,
+                         const std::string& obj) {
+        for (const MtlLibrary* lib : libs) {
+            const MtlMaterial* mtl = lib->find(name);
+            if (!mtl) continue;
+            const auto [it, added] =
+                mtl_ids.try_emplace({lib->path.lexically_normal(), name}, int32_t(scene.materials.size()));
+            if (added) scene.materials.push_back(from_mtl(*mtl, *lib));
+            return it->second;
+        }
+        if (!name.empty())
+            scene.warnings.push_back(obj + ": 'usemtl " + name + "' names a material no "
+                                     "material library of the file defines: its faces take "
+                                     "the default material (diffuse grey 0.8)");
+        if (default_material < 0) {
+            Material m;
+            m.name = "(OBJ default)";
+            m.kd.a = Vec3f(0.8f);
+            default_material = int32_t(scene.materials.size());
+            scene.materials.push_back(m);
+        }
+        return default_material;
+    }
+
+    // The triangles of material group g of `data`, with only the vertices they use.
+    static MeshData group_of(const MeshData& data, uint32_t g) {
+        MeshData out;
+        std::vector<uint32_t> remap(data.positions.size() / 3, UINT32_MAX);
+        for (size_t tri = 0; tri < data.triangle_material.size(); ++tri) {
+            if (data.triangle_material[tri] != g) continue;
+            for (size_t k = 0; k < 3; ++k) {
+                const uint32_t v = data.indices[3 * tri + k];
+                if (remap[v] == UINT32_MAX) {
+                    remap[v] = uint32_t(out.positions.size() / 3);
+                    const auto copy = [v](const std::vector<float>& from, std::vector<float>& to,
+                                          size_t n) {
+                        if (!from.empty()) to.insert(to.end(), from.begin() + n * v, from.begin() + n * (v + 1));
+                    };
+                    copy(data.positions, out.positions, 3);
+                    copy(data.colors, out.colors, 3);
+                    copy(data.normals, out.normals, 3);
+                    copy(data.uvs, out.uvs, 2);
+                }
+                out.indices.push_back(remap[v]);
+            }
+        }
+        return out;
     }
 
     void object(const json& j, const std::string& where) {
@@ -459,7 +574,8 @@ struct Loader {
     // their copies would hold more triangles than this in all; below, the copies are put
     // into world space (a flat BVH traces faster, and the memory is small).
     static constexpr size_t kInstanceAbove = 65536;
-    std::map<fs::path, MeshFile> mesh_files;
+    std::map<fs::path, MeshFile> mesh_files;  // by file, or file#group (OBJ materials)
+    std::map<fs::path, MeshData> raw_meshes;  // every mesh file as read, by path
 
     void mesh(Reader& t) {
         int instance = -1;  // automatic
@@ -478,8 +594,8 @@ struct Loader {
         }
         const fs::path ply = file.parent_path() / t.string("file");
         const fs::path key = ply.lexically_normal();
-        auto found = mesh_files.find(key);
-        if (found == mesh_files.end()) {
+        auto raw = raw_meshes.find(key);
+        if (raw == raw_meshes.end()) {
             MeshData data;
             try {
                 data = read_mesh(ply);
@@ -488,14 +604,63 @@ struct Loader {
             }
             if (data.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
             scene.files.push_back(ply);
-            found = mesh_files.emplace(key, MeshFile{std::move(data), {}, {}, {}, 0}).first;
+            raw = raw_meshes.emplace(key, std::move(data)).first;
         }
-        MeshFile& f = found->second;
-        const MeshData& data = f.data;
-        Mesh m;
-        m.source = ply.string();
-        m.smooth = smooth;
-        m.material = material_ref(t);
+        const MeshData& data = raw->second;
+        // The objects to add: the whole file with the object's material, or with the file's
+        // own materials one object per material group
+        std::vector<std::pair<fs::path, int32_t>> parts;  // (mesh_files key, material)
+        if (t.has("material") || data.material_names.empty()) {
+            if (!t.has("material"))
+                t.fail("missing required key 'material' ('" + ply.string() +
+                       "' names no materials of its own: no 'usemtl')");
+            if (t.has("materials"))
+                t.fail("'materials' overrides the OBJ file's own materials by name; with "
+                       "'material' every face takes that one");
+            t.allow({"materials"});
+            const int32_t mat = material_ref(t);
+            parts.push_back({key, mat});
+        } else {
+            t.allow({"material"});
+            std::vector<const MtlLibrary*> libs;
+            for (const std::string& name : data.libraries)
+                libs.push_back(&library(ply.parent_path() / name, t));
+            std::map<std::string, int32_t> overrides;
+            if (t.has("materials")) {
+                const json& o = t.get("materials");
+                if (!o.is_object())
+                    t.fail("'materials' must be an object of MTL name: material");
+                for (auto it = o.begin(); it != o.end(); ++it) {
+                    if (std::find(data.material_names.begin(), data.material_names.end(),
+                                  it.key()) == data.material_names.end()) {
+                        std::string known;
+                        for (const std::string& n : data.material_names)
+                            if (!n.empty()) known += (known.empty() ? "" : ", ") + n;
+                        t.fail("'materials' overrides '" + it.key() + "', which '" +
+                               ply.string() + "' does not use (its materials: " + known + ")");
+                    }
+                    overrides[it.key()] = material_value(t, it.value(), t.where("materials." + it.key()));
+                }
+            } else {
+                t.allow({"materials"});
+            }
+            std::vector<size_t> used(data.material_names.size(), 0);
+            for (const uint32_t g : data.triangle_material) ++used[g];
+            for (uint32_t g = 0; g < data.material_names.size(); ++g) {
+                if (used[g] == 0) continue;
+                const std::string& name = data.material_names[g];
+                const auto o = overrides.find(name);
+                const int32_t mat = o != overrides.end() ? o->second
+                                                         : mtl_material(name, libs, ply.string());
+                parts.push_back({fs::path(key.string() + "#" + std::to_string(g)), mat});
+            }
+        }
+        for (const auto& [part, material] : parts) {
+            if (mesh_files.find(part) != mesh_files.end()) continue;
+            MeshData piece = part == key ? data : group_of(data, uint32_t(std::stoul(
+                                                      part.string().substr(key.string().size() + 1))));
+            mesh_files.emplace(part, MeshFile{std::move(piece), {}, {}, {}, 0});
+        }
         // Transform: scale, then rotate about x, y, z (degrees), then translate
         Vec3f scale(1.0f);
         if (t.has("scale")) {
@@ -518,24 +683,6 @@ struct Loader {
             p = {c * p.x - s * p.y, s * p.x + c * p.y, p.z};
             return p + move;
         };
-        // The world-space vertices (kept if the file turns out to have one object), each
-        // checked to stay in float range
-        // (kept unless the object will surely be an instance: the first object of a file
-        // may be its only one)
-        const size_t n = data.positions.size() / 3;
-        const size_t triangles = data.indices.size() / 3;
-        const bool first = f.objects.empty();
-        const bool keep = instance == 0 ||
-                          (instance < 0 && (first || (f.automatic + 1) * triangles <= kInstanceAbove));
-        if (keep) m.positions.reserve(n);
-        for (size_t i = 0; i < n; ++i) {
-            const Vec3f p = transform(
-                {data.positions[3 * i], data.positions[3 * i + 1], data.positions[3 * i + 2]});
-            if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
-                t.fail("'scale', 'rotate' and 'translate' take vertex " + std::to_string(i) +
-                       " of '" + ply.string() + "' beyond float range");
-            if (keep) m.positions.push_back(p);
-        }
         // The same map as a matrix, for instancing: to_world = T Rz Ry Rx S, in double
         double a[3][3] = {{scale.x, 0, 0}, {0, scale.y, 0}, {0, 0, scale.z}};
         const auto rotate = [&](int axis, double angle) {
@@ -550,12 +697,38 @@ struct Loader {
             std::memcpy(a, out, sizeof a);
         };
         rotate(0, rot.x), rotate(1, rot.y), rotate(2, rot.z);
-        set_transform(m, a, move);
-        f.objects.push_back(scene.meshes.size());
-        f.where.push_back(t.where("scale"));
-        f.instance.push_back(instance);
-        f.automatic += instance < 0;
-        scene.meshes.push_back(std::move(m));
+        for (const auto& [part, material] : parts) {
+            MeshFile& f = mesh_files.at(part);
+            const MeshData& piece = f.data;
+            Mesh m;
+            m.source = ply.string();
+            m.smooth = smooth;
+            m.material = material;
+            // The world-space vertices (kept if the file turns out to have one object), each
+            // checked to stay in float range
+            // (kept unless the object will surely be an instance: the first object of a file
+            // may be its only one)
+            const size_t n = piece.positions.size() / 3;
+            const size_t triangles = piece.indices.size() / 3;
+            const bool first = f.objects.empty();
+            const bool keep = instance == 0 ||
+                              (instance < 0 && (first || (f.automatic + 1) * triangles <= kInstanceAbove));
+            if (keep) m.positions.reserve(n);
+            for (size_t i = 0; i < n; ++i) {
+                const Vec3f p = transform({piece.positions[3 * i], piece.positions[3 * i + 1],
+                                           piece.positions[3 * i + 2]});
+                if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
+                    t.fail("'scale', 'rotate' and 'translate' take vertex " + std::to_string(i) +
+                           " of '" + ply.string() + "' beyond float range");
+                if (keep) m.positions.push_back(p);
+            }
+            set_transform(m, a, move);
+            f.objects.push_back(scene.meshes.size());
+            f.where.push_back(t.where("scale"));
+            f.instance.push_back(instance);
+            f.automatic += instance < 0;
+            scene.meshes.push_back(std::move(m));
+        }
     }
 
     // An object's transform (linear part a, translation) and the maps derived from it.
@@ -647,6 +820,7 @@ struct Loader {
             }
         }
         mesh_files.clear();
+        raw_meshes.clear();
     }
 
     // Decodes every image texture named (in parallel; the first failing one in the order the
