@@ -13,7 +13,31 @@ namespace cierzo {
 // make one (Scene::finalize finds them): both triangles' entries hold the rectangle, the
 // first with its power, the second with none (never chosen, but a hit on it has the
 // rectangle's pmf and density).
-enum EmitterKind : int32_t { kEmitterSphere = 0, kEmitterTriangle = 1, kEmitterRectangle = 2 };
+enum EmitterKind : int32_t {
+    kEmitterSphere = 0,
+    kEmitterTriangle = 1,
+    kEmitterRectangle = 2,
+    kEmitterEnvironment = 3,  // the scene's environment (EnvironmentMap; its record is unused)
+};
+
+// The environment light: radiance arriving from infinitely far in every direction, an
+// equirectangular grid of width × height texels (one texel for a constant one is refined
+// into rows, so its density follows sin θ). Direction ω in the environment's own frame
+// (to_local · world direction) is the texel at u = ½ + atan2(ω.x, ω.z) / 2π across and
+// θ / π down, θ = acos ω.y (row 0 looks up +y, the middle column along +z); radiance is
+// piecewise constant over texels. Sampling picks a texel in proportion to max RGB · sin θ
+// (a row by row_cdf, then a column by its row's col_cdf) and a point in it uniformly in
+// (u, v); the density in solid angle is density[texel] / (2π² sin θ) (kernels/environment.h).
+struct EnvironmentMap {
+    int32_t width = 0, height = 0;     // 0: the scene has no environment
+    const float* radiance = nullptr;   // RGB per texel, row-major from the top
+    const float* row_cdf = nullptr;    // height + 1 entries, the first 0 and the last 1
+    const float* col_cdf = nullptr;    // per row, width + 1 entries, the first 0, the last 1
+    const float* density = nullptr;    // per texel: the density of the (u, v) it covers
+    float to_local[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // row-major rotations
+    float to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    int32_t emitter = -1;              // its entry in the emitter table, or -1 (not sampled)
+};
 
 // Floats per emitter record in EmitterTable::data:
 //   [0, 3)   sphere centre, or the triangle's first vertex v0 (world space), or the
@@ -33,6 +57,7 @@ struct EmitterTable {
     const float* pmf = nullptr;        // count: the probability of choosing each emitter
     const int32_t* kind = nullptr;     // count: EmitterKind
     const float* data = nullptr;       // count * kEmitterStride
+    EnvironmentMap environment;        // the scene's, which paths that escape gather
 };
 
 // Where paths from the lights start (light tracing, kernels/transport.h): a sampled emitter

@@ -18,6 +18,7 @@
 #pragma once
 
 #include "emitter_table.h"
+#include "environment.h"
 #include "intersect.h"
 #include "sampler.h"
 #include "sampling.h"
@@ -530,7 +531,7 @@ template <class T>
 struct EmitterChoice {
     I32<T> id;
     T pmf;
-    Mask<T> sphere, rectangle;
+    Mask<T> sphere, rectangle, environment;
 };
 template <class T>
 EmitterChoice<T> choose_emitter(const EmitterTable& e, const T& u_pick, const T& u_alias) {
@@ -541,7 +542,8 @@ EmitterChoice<T> choose_emitter(const EmitterTable& e, const T& u_pick, const T&
                                        gather_table(e.alias, slot));
     const I32<T> kind = emitter_entry<T>(e, e.kind, id);
     return {id, emitter_entry<T>(e, e.pmf, id), mask_f32(kind == I32<T>(kEmitterSphere)),
-            mask_f32(kind == I32<T>(kEmitterRectangle))};
+            mask_f32(kind == I32<T>(kEmitterRectangle)),
+            mask_f32(kind == I32<T>(kEmitterEnvironment))};
 }
 
 // Chooses an emitter by power (alias table) and samples it from x:
@@ -549,7 +551,8 @@ EmitterChoice<T> choose_emitter(const EmitterTable& e, const T& u_pick, const T&
 //     (pdf 1 / (2π(1 - cos θmax))); from inside, every direction (pdf 1/4π);
 //   - a triangle or a rectangle by area (pdf d² / (A·|cos θl|) in solid angle), or with
 //     `solid_angle` uniformly over the spherical triangle or rectangle it subtends (pdf 1/Ω)
-//     where Ω is at least kMinTriangleSolidAngle.
+//     where Ω is at least kMinTriangleSolidAngle;
+//   - the environment by its own distribution (kernels/environment.h), at distance kRayFar.
 // A sphere's sampled distance is the ray's own intersection with it, so a shadow ray that
 // stops just short of t sees the same surface the sample lies on.
 template <class T>
@@ -596,7 +599,17 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         out.pdf = select(sphere, pdf, out.pdf);
         out.ok = sphere & (inside | ((one_minus > T(0.0f)) & (t > T(0.0f))));
     }
-    const auto triangle = !sphere;  // (or a rectangle)
+    const bool environment = e.environment.emitter >= 0;
+    const auto triangle = environment ? !sphere & !choice.environment : !sphere;  // (or a rectangle)
+    if (environment && any(choice.environment)) {
+        const auto env = choice.environment;
+        const EnvironmentSample<T> es = sample_environment(e.environment, u1, u2);
+        out.wi = select(env, es.wi, out.wi);
+        out.t = select(env, T(kRayFar), out.t);
+        out.pdf = select(env, pmf * es.pdf, out.pdf);
+        out.le = select(env, es.le, out.le);
+        out.ok = out.ok | (env & es.ok);
+    }
     if (any(triangle)) {
         const Mask<T>& rectangle = choice.rectangle;
         const Vec3<T> e1{at(4), at(5), at(6)}, e2{at(7), at(8), at(9)}, nl{at(10), at(11), at(12)};
@@ -739,6 +752,23 @@ T emitter_hit_weight(const EmitterTable& e, Estimator kind, const I32<T>& id, co
     if (kind == Estimator::kNee) return select(sampled, T(0.0f), T(1.0f));
     const T light =
         emitter_pdf(e, select(mask_i32(sampled), id, I32<T>(0)), x, d, t, solid_angle);
+    return select(sampled, power_heuristic(lobe_pdf, light), T(1.0f));
+}
+
+// The weight of the environment's radiance when a path escapes in direction d after a
+// vertex whose lobe sampled d with density lobe_pdf (0: the camera, a mirror or a
+// refraction, where it counts in full), as emitter_hit_weight weighs a sampled emitter: nee
+// 0 after a Phong lobe, mis the power heuristic, where the estimator samples it (`nee`:
+// PathContext::nee); report, and lt (whose light paths never start on it), 1.
+template <class T>
+T environment_weight(const EmitterTable& e, Estimator kind, bool nee, const T& lobe_pdf,
+                     const Vec3<T>& d) {
+    if (kind == Estimator::kReport || kind == Estimator::kLt || !nee || e.environment.emitter < 0)
+        return T(1.0f);
+    const auto sampled = lobe_pdf > T(0.0f);
+    if (none(sampled)) return T(1.0f);
+    if (kind == Estimator::kNee) return select(sampled, T(0.0f), T(1.0f));
+    const T light = T(e.pmf[e.environment.emitter]) * environment_pdf(e.environment, d);
     return select(sampled, power_heuristic(lobe_pdf, light), T(1.0f));
 }
 

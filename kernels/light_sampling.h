@@ -47,6 +47,9 @@ EmitterPosition<T> sample_emitter_position(const EmitterTable& e, const T& u_pic
     out.le = {at(13), at(14), at(15)};
     out.pdf = emitter_area_pdf(choice.pmf, size, choice.sphere);
     out.ok = out.pdf > T(0.0f);
+    // (light paths do not start on the environment: its share of them is not traced, and
+    // camera paths gather it in full under lt)
+    if (e.environment.emitter >= 0) out.ok = out.ok & !choice.environment;
     out.p = out.n = Vec3<T>(T(0.0f));
     // A sphere: its centre plus r times a uniform direction, which is the normal
     if (any(choice.sphere)) {

@@ -26,6 +26,18 @@ inline namespace CIERZO_ISA_NAMESPACE {
 // Whether emitter hits are weighed: nee and mis (emitters they sample), lt (all sampled).
 inline bool weighs_emitter_hits(const PathContext& c) { return c.nee || c.lt; }
 
+// Whether paths that escape the scene gather an environment.
+inline bool has_environment(const PathContext& c) { return c.emitters.environment.width > 0; }
+
+// What a path that escapes in direction d gathers (before its throughput): the
+// environment's radiance, weighed as the estimator weighs it (environment_weight; lobe_pdf
+// as for emitter hits).
+template <class T>
+Vec3<T> escaped_radiance(const PathContext& c, const Vec3<T>& d, const T& lobe_pdf) {
+    const Vec3<T> le = environment_radiance(c.emitters.environment, d);
+    return le * environment_weight(c.emitters, c.estimator.kind, c.nee, lobe_pdf, d);
+}
+
 template <class T>
 struct VertexFrame {
     Vec3<T> nf;   // the geometric normal on the arriving side

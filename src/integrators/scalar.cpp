@@ -44,7 +44,12 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
     const bool limited = limits_length(c.estimator);
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
-        if (!scene.intersect(ray, kRayFar, hit)) break;
+        if (!scene.intersect(ray, kRayFar, hit)) {
+            // An escaping path gathers the environment
+            if (has_environment(c) && (!limited || length_counts<float>(c.estimator, bounce + 1)))
+                radiance += throughput * escaped_radiance<float>(c, ray.d, lobe_pdf);
+            break;
+        }
         const Material& material = scene.materials[size_t(hit.material)];
 
         // An emitter ends the path

@@ -274,9 +274,81 @@ bool find_rectangle(const Vec3f (&c)[6], RectangleEmitter& r) {
 
 }  // namespace
 
+// The environment's tables (kernels/emitter_table.h, EnvironmentMap): radiance per texel,
+// and the distribution of max RGB · sin θ over texels. A solid colour is one column of 64
+// rows (the density then follows sin θ row by row).
+void Scene::build_environment() {
+    Emitters& e = emitters;
+    e.environment_width = e.environment_height = 0;
+    e.environment_id = -1;
+    e.environment_mean = 0.0;
+    if (!environment.present()) return;
+    const ColorSource& c = environment.emission;
+    int32_t w = 1, h = 64;
+    std::vector<float>& rad = e.environment_radiance;
+    if (c.kind == TextureKind::kImage) {
+        const TextureImage& im = *images[size_t(c.image)];
+        w = im.width, h = im.height;
+        rad.resize(size_t(w) * size_t(h) * 3);
+        const float* decode = im.srgb ? srgb_decode_table() : linear_decode_table();
+        for (size_t i = 0; i < im.texels(); ++i)
+            for (size_t k = 0; k < 3; ++k) {
+                const float v = im.floats.empty()
+                                    ? decode[(uint32_t(im.bytes[i]) >> (8 * k)) & 255u]
+                                    : im.floats[4 * i + k];
+                rad[3 * i + k] = v * c.a[int(k)];
+            }
+    } else {
+        rad.resize(size_t(h) * 3);
+        for (size_t i = 0; i < size_t(h); ++i)
+            for (int k = 0; k < 3; ++k) rad[3 * i + size_t(k)] = c.a[k];
+    }
+    e.environment_width = w, e.environment_height = h;
+    std::copy(environment.to_world, environment.to_world + 9, e.environment_to_world);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) e.environment_to_local[3 * i + j] = environment.to_world[3 * j + i];
+    // f = max RGB · sin θ at each row's centre; rows by their sums, columns within a row
+    std::vector<double> f(size_t(w) * size_t(h)), row_sum(size_t(h), 0.0);
+    double total = 0.0, mean = 0.0;
+    for (int32_t y = 0; y < h; ++y) {
+        const double t0 = kPi * double(y) / h, t1 = kPi * double(y + 1) / h;
+        const double sin_c = std::sin(0.5 * (t0 + t1));
+        const double omega = 2.0 * kPi / w * (std::cos(t0) - std::cos(t1));  // a texel's
+        for (int32_t x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            const double m = std::max({rad[3 * i], rad[3 * i + 1], rad[3 * i + 2]});
+            f[i] = m * sin_c;
+            row_sum[size_t(y)] += f[i];
+            mean += m * omega;
+        }
+        total += row_sum[size_t(y)];
+    }
+    e.environment_mean = mean / (4.0 * kPi);
+    e.environment_row_cdf.assign(size_t(h) + 1, 0.0f);
+    e.environment_col_cdf.assign(size_t(h) * (size_t(w) + 1), 0.0f);
+    e.environment_density.assign(size_t(w) * size_t(h), 0.0f);
+    if (!(total > 0.0) || !std::isfinite(total)) return;  // (black: nothing to sample)
+    double run = 0.0;
+    for (int32_t y = 0; y < h; ++y) {
+        run += row_sum[size_t(y)];
+        e.environment_row_cdf[size_t(y) + 1] = y + 1 == h ? 1.0f : float(run / total);
+        float* cdf = &e.environment_col_cdf[size_t(y) * (size_t(w) + 1)];
+        double in_row = 0.0;
+        for (int32_t x = 0; x < w; ++x) {
+            const size_t i = size_t(y) * size_t(w) + size_t(x);
+            in_row += f[i];
+            cdf[x + 1] = x + 1 == w ? 1.0f
+                         : row_sum[size_t(y)] > 0.0 ? float(in_row / row_sum[size_t(y)])
+                                                    : float(x + 1) / float(w);
+            e.environment_density[i] = float(f[i] / total * double(w) * double(h));
+        }
+    }
+}
+
 void Scene::build_emitters() {
     Emitters& e = emitters;
     e = Emitters{};
+    build_environment();
     std::vector<double> power;
     std::vector<size_t> rectangles;  // the first entry of each
     const auto add = [&](EmitterKind kind, const float (&record)[kEmitterStride], double p) {
@@ -366,6 +438,19 @@ void Scene::build_emitters() {
     }
     for (size_t i = 0; i < planes.size(); ++i) e.unsampled_objects += emits(planes.material[i]);
     for (const Quadric& q : quadrics) e.unsampled_objects += emits(q.material);
+    // The environment, by π·R²·L̄ (R the radius of the scene's bounds)
+    if (e.environment_mean > 0.0 && std::isfinite(e.environment_mean)) {
+        double radius = 1.0;
+        if (!bvh.empty()) {
+            const Vec3f d = bvh.bounds_max() - bvh.bounds_min();
+            const double half = 0.5 * std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+            if (half > 0.0 && std::isfinite(half)) radius = half;
+        }
+        const float record[kEmitterStride] = {};
+        e.environment_id = int32_t(e.kind.size());
+        add(kEmitterEnvironment, record, kPi * radius * radius * e.environment_mean);
+        ++e.sampled_objects;
+    }
     for (double p : power) e.total_power += p;
     if (!(e.total_power > 0.0) || !std::isfinite(e.total_power)) {
         // Nothing to sample (or a power that overflows): every emitter keeps the report's
@@ -373,6 +458,7 @@ void Scene::build_emitters() {
         e.unsampled_objects += e.sampled_objects;
         const size_t unsampled = e.unsampled_objects;
         e = Emitters{};
+        build_environment();  // (gathered by escaping paths, not sampled)
         e.sphere_id.assign(spheres.size(), -1);
         e.mesh_first.assign(meshes.size(), -1);
         e.unsampled_objects = unsampled;

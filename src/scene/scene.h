@@ -125,12 +125,40 @@ struct Emitters {
     size_t sampled_objects = 0;       // sampled spheres and emitting mesh objects
     size_t unsampled_objects = 0;     // emitting objects no estimator samples
     double total_power = 0.0;         // Σ area × max Le of the sampled emitters
+    // The environment's tables (EnvironmentMap), its frame and its entry (-1: none)
+    int32_t environment_width = 0, environment_height = 0, environment_id = -1;
+    std::vector<float> environment_radiance, environment_row_cdf, environment_col_cdf,
+        environment_density;
+    float environment_to_local[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    float environment_to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    double environment_mean = 0.0;  // mean max-RGB radiance over directions
 
     size_t count() const { return pmf.size(); }
     EmitterTable table() const {
-        return {int32_t(pmf.size()), alias_q.data(), alias.data(), pmf.data(), kind.data(),
-                data.data()};
+        EmitterTable t{int32_t(pmf.size()), alias_q.data(), alias.data(), pmf.data(), kind.data(),
+                       data.data(), {}};
+        if (environment_width > 0) {
+            EnvironmentMap& m = t.environment;
+            m.width = environment_width, m.height = environment_height;
+            m.radiance = environment_radiance.data();
+            m.row_cdf = environment_row_cdf.data();
+            m.col_cdf = environment_col_cdf.data();
+            m.density = environment_density.data();
+            std::copy(environment_to_local, environment_to_local + 9, m.to_local);
+            std::copy(environment_to_world, environment_to_world + 9, m.to_world);
+            m.emitter = environment_id;
+        }
+        return t;
     }
+};
+
+// The environment light (top-level "environment"): its emission, a solid colour or an
+// equirectangular image (kernels/emitter_table.h, EnvironmentMap, says how directions map to
+// it), and its rotation. Scene::finalize makes its tables (Emitters).
+struct Environment {
+    ColorSource emission;  // zero: no environment
+    float to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // row-major rotation
+    bool present() const { return !emission.is_zero(); }
 };
 
 // Where paths from the lights start (light tracing; kernels/transport.h): the sampled
@@ -168,6 +196,7 @@ public:
     std::vector<Quadric> quadrics;
     std::vector<Mesh> meshes;
     std::vector<PointLight> lights;
+    Environment environment;
     // The image textures the materials name (ColorSource::image), each decoded once, and
     // their views for the kernels (set by add_image)
     std::vector<std::shared_ptr<const TextureImage>> images;
@@ -234,7 +263,8 @@ public:
     // Whether the camera tiles trace camera paths: always, but with light tracing only where
     // some emitter cannot be sampled (the light paths bring every other light).
     bool traces_camera_paths() const {
-        return !splats(settings.estimator.kind) || emitters.unsampled_objects > 0;
+        return !splats(settings.estimator.kind) || emitters.unsampled_objects > 0 ||
+               environment.present();
     }
 
     // What a path vertex needs of the scene (kernels/path_vertex.h), for both integrators.
@@ -251,6 +281,7 @@ public:
 
 private:
     void build_emitters();
+    void build_environment();
     void build_light_starts();
     Vec3f color_at(const ColorSource& c, const Hit& hit) const;
 };

@@ -854,8 +854,10 @@ struct Loader {
             scene.add_image(decoded[i]);
             scene.files.push_back(requests[i].path);
         }
+        std::vector<ColorSource*> sources = {&scene.environment.emission};
         for (Material& m : scene.materials)
-            for (ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt})
+            for (ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt}) sources.push_back(c);
+        for (ColorSource* c : sources)
                 if (c->kind == TextureKind::kImage) {
                     const TextureImage& im = *scene.images[size_t(c->image)];
                     c->b = {c->a.x * im.max_rgb[0], c->a.y * im.max_rgb[1], c->a.z * im.max_rgb[2]};
@@ -880,6 +882,38 @@ struct Loader {
                 throw InputError(file.string() + ": " + name(scene.quadrics[i].material) +
                                  " has an image texture, but a quadric has no texture "
                                  "coordinates (use a sin, sin2 or sincos pattern there)");
+    }
+
+    // "environment": {"emission": COLOUR, "rotate": [x, y, z]}: a solid colour or an
+    // equirectangular image, rotated (degrees, about x, then y, then z).
+    void environment(const json& j) {
+        Reader r(j, "environment", file);
+        ColorSource c = read_color(r, "emission", file, images);
+        if (c.kind != TextureKind::kSolid && c.kind != TextureKind::kImage)
+            r.fail("'emission' must be a colour or an image texture (an equirectangular map)");
+        if (c.kind == TextureKind::kImage &&
+            (c.clamp || c.uv_scale[0] != 1.0f || c.uv_scale[1] != 1.0f ||
+             c.uv_offset[0] != 0.0f || c.uv_offset[1] != 0.0f))
+            r.fail("an environment image covers every direction once: 'scale', 'offset' and "
+                   "'wrap' do not apply (turn it with 'rotate')");
+        const Vec3f rot = r.vec3("rotate", Vec3f(0.0f)) * (kPi / 180.0f);
+        double a[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+        for (int axis = 0; axis < 3; ++axis) {
+            const double angle = double(rot[axis]);
+            const double cs = std::cos(angle), sn = std::sin(angle);
+            double m[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+            const int i = (axis + 1) % 3, k = (axis + 2) % 3;
+            m[i][i] = cs, m[i][k] = -sn, m[k][i] = sn, m[k][k] = cs;
+            double out[3][3];
+            for (int x = 0; x < 3; ++x)
+                for (int y = 0; y < 3; ++y)
+                    out[x][y] = m[x][0] * a[0][y] + m[x][1] * a[1][y] + m[x][2] * a[2][y];
+            std::memcpy(a, out, sizeof a);
+        }
+        r.finish();
+        scene.environment.emission = c;
+        for (int x = 0; x < 3; ++x)
+            for (int y = 0; y < 3; ++y) scene.environment.to_world[3 * x + y] = float(a[x][y]);
     }
 
     void camera(const json& j, float aspect) {
@@ -1049,6 +1083,8 @@ Scene build_scene(Loader& l, const json& root) {
         l.object(objects[i], "objects[" + std::to_string(i) + "]");
     l.finish_meshes();
     for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
+    if (r.has("environment")) l.environment(r.get("environment"));
+    else r.allow({"environment"});
     l.load_images();
 
     // Point lights

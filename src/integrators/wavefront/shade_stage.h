@@ -118,6 +118,19 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         if constexpr (kCompact && !kInlineNee)
             compaction->done = queue_radiant<A>(p, i, mask_bits(em), rad, compaction->done);
     }
+    // A path that escapes gathers the environment (never in the compacting kernels: they
+    // are not chosen for scenes with one)
+    if (!kCompact && has_environment(c)) {
+        const auto missed = w.live_mask(i) & !sf.hit;
+        if (any(missed)) {
+            const F lobe_pdf = c.nee ? F::load_aligned(p.lobe_pdf + i) : F(0.0f);
+            const Vec3<F> le = escaped_radiance<F>(c, d, lobe_pdf);
+            const auto counted = limits_length(c.estimator)
+                                     ? missed & length_counts<F>(c.estimator, bounce + U(1u))
+                                     : missed;
+            rad = select(counted, rad + beta * le, rad);
+        }
+    }
     // (a scene with one lobe kind has that lobe's parameters only: kFused)
     const Bsdf<F> m = hit_bsdf<kFused, A>(s, mat, evaluated);
 

@@ -69,14 +69,17 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
     if constexpr (kFused != kLobeCount) {
         // One lobe, no point lights, no textures: shading compacts, no radiance is carried;
         // with nee or mis, shading also traces the emitter sample and carries radiance
-        if (!f.lights && !f.textures && !scene.path.nee) {
+        // (an environment is gathered by paths that miss: radiance is carried, shading does
+        // not compact)
+        const bool escapes = has_environment(scene.path);
+        if (!f.lights && !f.textures && !scene.path.nee && !escapes) {
             for (;;) {
                 generate_camera_paths<false>(w, cursor);
                 if (w.live == 0) return;
                 trace_paths<kFused, true>(w, job);
             }
         }
-        if (!f.lights && !f.textures && scene.path.nee) {
+        if (!f.lights && !f.textures && scene.path.nee && !escapes) {
             for (;;) {
                 generate_camera_paths<true>(w, cursor);
                 if (w.live == 0) return;
