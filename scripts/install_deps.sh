@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs what cierzo needs on Debian 12 (root, or sudo): compiler, CMake, Ninja and the
 # libraries (tinyobjloader for OBJ meshes); Open MPI (distributed renders); npm for the test
-# meshes; matplotlib for the plots; Python's headers, pybind11, NumPy and pytest for the
-# Python module and its tests, and venv, pip, setuptools and wheel for `pip install .`.
+# meshes; assimp-testmodels (real OBJ, MTL and JPEG files the tests read); matplotlib for the
+# plots; Python's headers, pybind11, NumPy and pytest for the Python module and its tests,
+# and venv, pip, setuptools and wheel for `pip install .`.
 # With --render, only what the two programs need (scripts/render_default.sh): the compiler,
 # CMake, Ninja and the libraries. Skips what is installed.
 set -euo pipefail
@@ -10,7 +11,7 @@ render=(g++ cmake ninja-build pkg-config libxsimd-dev libopenexr-dev libimath-de
         libcli11-dev nlohmann-json3-dev libfmt-dev libstb-dev libtinyobjloader-dev)
 rest=(libgtest-dev libgmock-dev libbenchmark-dev python3-matplotlib openmpi-bin libopenmpi-dev
       python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-pip
-      python3-setuptools python3-wheel)
+      python3-setuptools python3-wheel assimp-testmodels)
 case "${1:-}" in
     --render) packages=("${render[@]}") ;;
     "") packages=("${render[@]}" "${rest[@]}") ;;

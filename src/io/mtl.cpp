@@ -233,7 +233,9 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
         } else if (key == "Ns") {
             m->ns = r.scalar(rest, 0.0f, 1e6f);
         } else if (key == "Ni") {
-            m->ni = r.scalar(rest, 0.0f, 1e3f, true);
+            // (0 is common in exported files for "not set": only glass needs Ni > 0)
+            m->ni = r.scalar(rest, 0.0f, 1e3f);
+            m->ni_line = line_no;
         } else if (key == "d") {
             std::string_view probe = rest;
             if (next_token(probe) == "-halo") rest = probe;  // (the halo form: as plain d)

@@ -102,7 +102,7 @@ Counts check_lines(std::string_view bytes, const Source& src) {
             std::string_view name = rest;
             while (!name.empty() && (name.front() == ' ' || name.front() == '\t')) name.remove_prefix(1);
             while (!name.empty() && (name.back() == ' ' || name.back() == '\t')) name.remove_suffix(1);
-            if (name.empty()) src.fail_at(line_no, "'usemtl' needs a material name");
+            // (an empty name is the default material, as before any 'usemtl')
             if (!c.materials && c.faces > 0) c.material_names.push_back("");
             c.materials = true;
             const auto it = std::find(c.material_names.begin(), c.material_names.end(), name);

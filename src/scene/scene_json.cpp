@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cctype>
 #include <cstring>
 #include <exception>
 #include <fstream>
@@ -361,7 +362,6 @@ struct Loader {
     // A cierzo material from an MTL one (the mapping of docs/scene-format.md, "OBJ materials").
     Material from_mtl(const MtlMaterial& mtl, const MtlLibrary& lib) {
         const fs::path folder = lib.path.parent_path();
-        const std::string where = lib.path.string() + ": material '" + mtl.name + "'";
         const auto solid = [](const float c[3]) {
             ColorSource s;
             s.a = {c[0], c[1], c[2]};
@@ -389,6 +389,11 @@ struct Loader {
         } else if (illum == 4 || illum == 6 || illum == 7 || illum == 9) {
             m.kr = ks;  // glass: Ks reflects, Tf transmits through the index Ni
             m.kt = solid(mtl.tf_rgb);
+            if (!(mtl.ni > 0.0f))
+                throw InputError(lib.path.string() + ": line " +
+                                 std::to_string(mtl.ni_line ? mtl.ni_line : mtl.line) +
+                                 ": material '" + mtl.name + "' is glass (illum " +
+                                 std::to_string(illum) + ") and needs an index Ni > 0");
             m.ior = mtl.ni;
         } else if (illum >= 2) {
             m.ks = ks;
@@ -396,7 +401,6 @@ struct Loader {
         }
         if (mtl.map_ke) m.emission = image(*mtl.map_ke, true);
         else if (mtl.has_ke) m.emission = solid(mtl.ke_rgb);
-        (void)where;
         return m;
     }
 
@@ -1118,7 +1122,55 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
     return build_scene(l, root);
 }
 
+// A mesh file rendered directly (`cierzo render model.obj`): the file with its own materials
+// (an OBJ's MTL; a PLY or an OBJ without materials in diffuse grey 0.8), under a white sky of
+// radiance 1, seen by a right-handed camera of 40 degrees that frames its bounding sphere
+// from the front, above and to the right; 512 × 512 pixels, 16 paths, written to
+// STEM.exr in the current folder.
+Scene load_mesh_as_scene(const fs::path& path) {
+    std::string ext = path.extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    const bool obj = ext == ".obj";
+    json j = json::parse(R"({
+        "materials": {"grey": {"kd": 0.8}},
+        "environment": {"emission": 1},
+        "camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "handedness": "right"},
+        "render": {"width": 512, "height": 512, "spp": 16}})");
+    json object = {{"type", "mesh"}, {"file", path.filename().string()}};
+    if (!obj) object["material"] = "grey";
+    j["objects"] = json::array({object});
+    // (messages name the mesh file: it is the one the user gave)
+    Scene scene;
+    try {
+        scene = parse_scene(j.dump(), path);
+    } catch (const InputError& e) {
+        // An OBJ without 'usemtl': every face grey (read again: a rare case)
+        const std::string m = e.what();
+        if (!obj || m.find("names no materials of its own") == std::string::npos) throw;
+        j["objects"][0]["material"] = "grey";
+        scene = parse_scene(j.dump(), path);
+    }
+    scene.source = path;
+    scene.settings.output = path.stem().string() + ".exr";
+    // Frame the bounding sphere
+    const Vec3f lo = scene.bvh.bounds_min(), hi = scene.bvh.bounds_max();
+    const Vec3f centre = (lo + hi) * 0.5f;
+    const float radius = std::max(0.5f * length(hi - lo), 1e-6f);
+    const float vfov = 40.0f;
+    const float distance = radius / std::sin(0.5f * vfov * kPi / 180.0f) * 1.05f;
+    const Vec3f from = centre + normalize(Vec3f{0.45f, 0.35f, 1.0f}) * distance;
+    scene.look_at = LookAt{from, centre, Vec3f{0.0f, 1.0f, 0.0f}, vfov, Handedness::kRight};
+    scene.set_resolution(scene.settings.width, scene.settings.height);
+    if (!scene.files.empty() && scene.files.front() != path) scene.files.insert(scene.files.begin(), path);
+    return scene;
+}
+
 Scene load_scene(const fs::path& path) {
+    {
+        std::string ext = path.extension().string();
+        for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+        if (ext == ".obj" || ext == ".ply") return load_mesh_as_scene(path);
+    }
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(path.string() + ": cannot open scene file");
     Loader l(path);
