@@ -93,4 +93,33 @@ struct BvhView {
     float bounds[6] = {0, 0, 0, -1, -1, -1};   // min xyz, max xyz of everything (empty: min > max)
 };
 
+// Alpha cut-outs (materials' "alpha", MTL d and map_d): a triangle of a masked mesh is hit
+// only where its alpha is at least kAlphaCutoff, in closest-hit and any-hit traversal alike
+// (kernels/traverse.h). The alpha is `constant`, times the mask image's `channel` looked up
+// bilinearly at the hit's texture coordinates where there is an image (width > 0). A
+// threshold, not a stochastic test: masks are cut-outs (leaves, fences), and every ray,
+// integrator and ISA makes the same decision from the same barycentrics.
+inline constexpr float kAlphaCutoff = 0.5f;
+struct AlphaMask {
+    float constant = 1.0f;
+    const int32_t* bytes = nullptr;  // the image (RGBA8 or RGBA32F), as ImageView
+    const float* floats = nullptr;
+    const float* decode = nullptr;   // byte / 255 (masks are data, never sRGB)
+    int32_t width = 0, height = 0;
+    int32_t channel = 3;             // 0..2 red, green, blue; 3 alpha
+    float uv_scale[2] = {1.0f, 1.0f}, uv_offset[2] = {0.0f, 0.0f};
+    uint32_t clamp = 0;
+};
+// Per scene mesh entry: its mask (-1: opaque), and its geometry's texture coordinates and
+// triangles (null without an image).
+struct MeshAlpha {
+    int32_t mask = -1;
+    const float* uvs = nullptr;
+    const uint32_t* indices = nullptr;
+};
+struct AlphaTable {
+    const MeshAlpha* meshes = nullptr;  // one per Scene mesh entry; null: nothing is masked
+    const AlphaMask* masks = nullptr;
+};
+
 }  // namespace cierzo

@@ -176,6 +176,19 @@ uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
 }
 inline uint32_t mask_bits(bool m) { return m ? 1u : 0u; }
 
+// The mask whose lane l is bit l of `bits` (mask_bits' inverse; rare paths only).
+template <class T>
+inline Mask<T> lanes_of_bits(uint32_t bits) {
+    if constexpr (std::is_same_v<T, float>) {
+        return (bits & 1u) != 0;
+    } else {
+        using I = xsimd::batch<int32_t, typename T::arch_type>;
+        alignas(64) int32_t lane[T::size];
+        for (size_t l = 0; l < T::size; ++l) lane[l] = int32_t((bits >> l) & 1u);
+        return mask_f32(I::load_aligned(lane) != I(0));
+    }
+}
+
 // table[idx] in every lane: a plain load for one lane, the hardware gather where there is
 // one (xsimd 8.1 emulates gather lane by lane), four lane loads on SSE and NEON.
 template <class E>

@@ -16,6 +16,7 @@
 
 #include "bvh_layout.h"
 #include "intersect.h"
+#include "texture.h"
 #include "triangle.h"
 
 namespace cierzo {
@@ -104,6 +105,77 @@ inline Vec3f linear_map(const float m[], int stride, const float v[3]) {
             m[2 * stride] * v[0] + m[2 * stride + 1] * v[1] + m[2 * stride + 2] * v[2]};
 }
 
+// ---- Alpha cut-outs ------------------------------------------------------------------------
+// The alpha of a hit on triangle `triangle` of scene mesh `mesh` at barycentrics (b1, b2)
+// (kernels/bvh_layout.h, AlphaMask): 1 where the mesh is not masked. One hit at a time, out
+// of line: only masked scenes come here.
+[[gnu::noinline]] inline float alpha_at(const AlphaTable& table, uint32_t mesh,
+                                        uint32_t triangle, float b1, float b2) {
+    const MeshAlpha& m = table.meshes[mesh];
+    if (m.mask < 0) return 1.0f;
+    const AlphaMask& a = table.masks[m.mask];
+    if (a.width == 0) return a.constant;
+    const uint32_t* idx = m.indices + 3 * size_t(triangle);
+    const float b0 = std::max(1.0f - b1 - b2, 0.0f);
+    const float* uv0 = m.uvs + 2 * size_t(idx[0]);
+    const float* uv1 = m.uvs + 2 * size_t(idx[1]);
+    const float* uv2 = m.uvs + 2 * size_t(idx[2]);
+    const float u = std::fma(uv2[0], b2, std::fma(uv1[0], b1, uv0[0] * b0));
+    const float v = std::fma(uv2[1], b2, std::fma(uv1[1], b1, uv0[1] * b0));
+    ImageView view;
+    view.bytes = a.bytes, view.floats = a.floats, view.decode = a.decode;
+    view.width = a.width, view.height = a.height;
+    ColorSource c;
+    c.uv_scale[0] = a.uv_scale[0], c.uv_scale[1] = a.uv_scale[1];
+    c.uv_offset[0] = a.uv_offset[0], c.uv_offset[1] = a.uv_offset[1];
+    c.clamp = a.clamp != 0;
+    const Texel<float> t = sample_image(view, c, u, v);
+    const float channel[4] = {t.rgb.x, t.rgb.y, t.rgb.z, t.alpha};
+    return a.constant * channel[a.channel];
+}
+
+// Whether a hit of alpha `a` counts for the world-space ray (o, d): always where a >= 1,
+// never where a <= 0, and in between where a hash of the ray and the triangle, uniform in
+// [0, 1), falls below a (stochastic transparency: the expected visibility through the
+// surface is 1 - a, and the same ray always makes the same decision, in every integrator).
+inline bool alpha_passes(float a, const float o[3], const float d[3], uint32_t mesh,
+                         uint32_t triangle) {
+    if (a >= 1.0f) return true;
+    if (!(a > 0.0f)) return false;
+    const auto mix = [](uint32_t h) {  // (a 32-bit finaliser with full avalanche)
+        h ^= h >> 16, h *= 0x7feb352du;
+        h ^= h >> 15, h *= 0x846ca68bu;
+        return h ^ (h >> 16);
+    };
+    uint32_t h = mix(mesh * 0x9e3779b9u + triangle);
+    for (int k = 0; k < 3; ++k) h = mix(h ^ std::bit_cast<uint32_t>(o[k]));
+    for (int k = 0; k < 3; ++k) h = mix(h ^ std::bit_cast<uint32_t>(d[k]));
+    return float(h >> 8) * 0x1p-24f < a;
+}
+
+// The hits of a block (bits of `hits`, lanes from lane0 on) that the alpha masks keep, for
+// the world-space ray `world`. `object`: the scene mesh of an instance's triangles (-1: the
+// tree's own, triangle_mesh).
+template <class N>
+uint32_t alpha_filter(const BvhView& bvh, const AlphaTable& table, int32_t object,
+                      const TraversalRay& world, uint32_t hits, uint32_t lane0, const N& b1,
+                      const N& b2) {
+    constexpr int kLanes = kNodeLanes<N>;
+    alignas(32) float u[kLanes], v[kLanes];
+    store_lanes(b1, u);
+    store_lanes(b2, v);
+    for (uint32_t bits = hits; bits; bits &= bits - 1) {
+        const uint32_t h = uint32_t(std::countr_zero(bits));
+        const uint32_t lane = lane0 + h;
+        const uint32_t mesh = object >= 0 ? uint32_t(object) : bvh.triangle_mesh[lane];
+        const uint32_t triangle = bvh.triangle_index[lane];
+        if (!alpha_passes(alpha_at(table, mesh, triangle, u[h], v[h]), world.o, world.d, mesh,
+                          triangle))
+            hits &= ~(1u << h);
+    }
+    return hits;
+}
+
 // ---- Traversal -----------------------------------------------------------------------------
 // A ray through the tree. A node's children are tested at once with the robust slab test
 // over [0, t] (a NaN distance leaves the interval as it was; far distances scaled by
@@ -120,7 +192,8 @@ inline Vec3f linear_map(const float m[], int stride, const float v[3]) {
 // (flatten: the kernels are inlined, so the identity picks below fold away.)
 template <bool kAnyHit, class N, bool kTop = true>
 [[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax,
-                               BvhHit& hit) {
+                               BvhHit& hit, const AlphaTable* alpha = nullptr,
+                               int32_t object = -1, const TraversalRay* world = nullptr) {
     using B = Mask<N>;
     constexpr int kLanes = kNodeLanes<N>;
     if (bvh.node_count == 0) return false;
@@ -169,9 +242,14 @@ template <bool kAnyHit, class N, bool kTop = true>
                                        row<N>(v, 3 * k + axis[2], at));
                     };
                     N th(0.0f), b1(0.0f), b2(0.0f);
-                    const uint32_t hits = mask_bits(intersect_triangle(
+                    uint32_t hits = mask_bits(intersect_triangle(
                         tri_ray, shear, vertex(0), vertex(1), vertex(2), N(t), th, b1, b2));
                     if (hits == 0) continue;
+                    if (alpha) {
+                        hits = alpha_filter(bvh, *alpha, object, world ? *world : r, hits,
+                                            j * kWideBvhWidth + uint32_t(at), b1, b2);
+                        if (hits == 0) continue;
+                    }
                     if constexpr (kAnyHit) return true;
                     any = true;
                     record(hits, th, j * kWideBvhWidth + uint32_t(at));
@@ -217,7 +295,9 @@ template <bool kAnyHit, class N, bool kTop = true>
                     const Vec3f d = linear_map(inst.to_object, 4, r.d);
                     const TraversalRay local = make_traversal_ray(o, d);
                     BvhHit h;
-                    if (!traverse<kAnyHit, N, false>(*inst.geometry, local, t, h)) continue;
+                    if (!traverse<kAnyHit, N, false>(*inst.geometry, local, t, h, alpha,
+                                                     int32_t(inst.mesh), &r))
+                        continue;
                     if constexpr (kAnyHit) return true;
                     any = true;
                     best = {kLeafTriangles, h.lane, int32_t(item)};
@@ -415,7 +495,8 @@ bool coherent(const Ray<T>& ray) {
 template <bool kAnyHit, class T, bool kTop = true>
 Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& inv,
                         const RayShear<T>& shear, Mask<T> active, T& t, I32<T>& kind,
-                        I32<T>& lane, I32<T>& instance) {
+                        I32<T>& lane, I32<T>& instance, const AlphaTable* alpha = nullptr,
+                        int32_t object = -1, const Ray<T>* world = nullptr) {
     using I = I32<T>;
     Mask<T> hit(false);
     if (bvh.node_count == 0 || none(active)) return hit;
@@ -440,6 +521,26 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                 };
                 T b1, b2;
                 h = intersect_triangle(ray, shear, vertex(0), vertex(1), vertex(2), t, th, b1, b2);
+                if (alpha && any(h & enter)) {
+                    // (each ray's hit on the one triangle, lane by lane)
+                    const uint32_t mesh = object >= 0 ? uint32_t(object) : bvh.triangle_mesh[id];
+                    const uint32_t triangle = bvh.triangle_index[id];
+                    const Ray<T>& w = world ? *world : ray;
+                    alignas(64) float u[kWidth<T>], v[kWidth<T>], wo[3][kWidth<T>], wd[3][kWidth<T>];
+                    store_lanes(b1, u), store_lanes(b2, v);
+                    store_lanes(w.o.x, wo[0]), store_lanes(w.o.y, wo[1]), store_lanes(w.o.z, wo[2]);
+                    store_lanes(w.d.x, wd[0]), store_lanes(w.d.y, wd[1]), store_lanes(w.d.z, wd[2]);
+                    uint32_t keep = mask_bits(h & enter);
+                    for (uint32_t bits = keep; bits; bits &= bits - 1) {
+                        const int k = std::countr_zero(bits);
+                        const float o1[3] = {wo[0][k], wo[1][k], wo[2][k]};
+                        const float d1[3] = {wd[0][k], wd[1][k], wd[2][k]};
+                        if (!alpha_passes(alpha_at(*alpha, mesh, triangle, u[k], v[k]), o1, d1,
+                                          mesh, triangle))
+                            keep &= ~(1u << k);
+                    }
+                    h = h & lanes_of_bits<T>(keep);
+                }
             } else if (node.kind[i] == kLeafSpheres) {
                 id = start * kWideBvhWidth + j;
                 const float(*c)[kWideBvhWidth] = bvh.spheres[id / kWideBvhWidth].c;
@@ -464,7 +565,8 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                 if constexpr (kTop) {
                     h = packet_traverse<kAnyHit, T, false>(*in.geometry, local, local_inv,
                                                            make_ray_shear(local.d), enter, t,
-                                                           kind, lane, unused);
+                                                           kind, lane, unused, alpha,
+                                                           int32_t(in.mesh), &ray);
                 }
                 hit = hit | h;
                 if constexpr (kAnyHit) {

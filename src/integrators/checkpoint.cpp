@@ -148,6 +148,15 @@ std::string scene_fingerprint(const Scene& scene) {
         h.vec(image->bytes);
         h.vec(image->floats);
     }
+    // Materials' values (those of an OBJ's MTL files are in no scene text), field by field
+    const auto f = [&](const auto&... v) { (h.bytes(&v, sizeof v), ...); };
+    for (const Material& m : scene.materials) {
+        for (const ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt})
+            f(c->kind, c->a, c->b, c->frequency, c->axis, c->axis2, c->image, c->uv_scale,
+              c->uv_offset, c->clamp);
+        const AlphaSource& a = m.alpha;
+        f(m.shininess, m.ior, a.constant, a.image, a.channel, a.uv_scale, a.uv_offset, a.clamp);
+    }
     return fmt::format("{:016x}", h.h);
 }
 

@@ -240,8 +240,10 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
             std::string_view probe = rest;
             if (next_token(probe) == "-halo") rest = probe;  // (the halo form: as plain d)
             m->d = r.scalar(rest, 0.0f, 1.0f);
+            m->d_line = line_no, m->d_from_tr = false;
         } else if (key == "Tr") {
             m->d = 1.0f - r.scalar(rest, 0.0f, 1.0f);
+            m->d_line = line_no, m->d_from_tr = true;
         } else if (key == "illum") {
             const float v = r.scalar(rest, 0.0f, 10.0f);
             if (v != std::floor(v)) r.fail("'illum' must be an integer from 0 to 10");

@@ -36,6 +36,8 @@ struct MtlMaterial {
     float ni = 1.0f;   // index of refraction (0 when a file leaves it unset)
     size_t ni_line = 0;
     float d = 1.0f;    // dissolve (opacity): 1 opaque; Tr is 1 - d
+    size_t d_line = 0;      // the line that set it (0: not given)
+    bool d_from_tr = false;  // set by Tr (the later of d and Tr wins)
     int illum = -1;    // illumination model, -1 when not given
     std::optional<MtlMap> map_kd, map_ks, map_ke, map_d;
 };

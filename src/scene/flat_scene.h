@@ -85,6 +85,7 @@ struct FlatScene {
     int32_t unbounded_quadric_count;     // the quadrics without a finite box, tested beside
     const int32_t* unbounded_quadrics;   // the BVH: their indices
     const BvhView* bvh;                  // everything bounded
+    const AlphaTable* alpha;             // the meshes' alpha cut-outs, or null (none)
     int32_t mesh_count;
     const int32_t* mesh_material;
     const FlatMesh* meshes;

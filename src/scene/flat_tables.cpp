@@ -158,6 +158,7 @@ FlatView flat_view(const Scene& scene) {
     f.unbounded_quadric_count = int32_t(scene.unbounded_quadrics.size());
     f.unbounded_quadrics = t.unbounded_quadrics.data();
     f.bvh = &scene.bvh.view();
+    f.alpha = scene.alpha();
     // The meshes: the scene's own vertex arrays
     static_assert(sizeof(Vec3f) == 3 * sizeof(float));
     for (const Mesh& m : scene.meshes) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <map>
 #include <cmath>
 
 #include "core/error.h"
@@ -128,6 +129,7 @@ void Scene::finalize() {
     in.quadric_table = table;
     bvh.build(in);
     bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    build_alpha();
     build_emitters();
     build_light_starts();
     light_data.clear();
@@ -135,6 +137,54 @@ void Scene::finalize() {
         light_data.insert(light_data.end(), {l.position.x, l.position.y, l.position.z,
                                              l.intensity.x, l.intensity.y, l.intensity.z});
     flat_tables = build_flat_tables(*this);
+}
+
+void Scene::build_alpha() {
+    alpha_tables.reset();
+    bool any = false;
+    for (const Mesh& m : meshes) any |= materials[size_t(m.material)].alpha.masked();
+    if (!any) return;
+    auto t = std::make_shared<AlphaTables>();
+    std::map<int32_t, int32_t> mask_of;    // material → its mask
+    std::map<size_t, size_t> geometry_of;  // geometry entry → its copy of uvs and indices
+    t->meshes.resize(meshes.size());
+    for (size_t i = 0; i < meshes.size(); ++i) {
+        const Mesh& m = meshes[i];
+        const AlphaSource& a = materials[size_t(m.material)].alpha;
+        if (!a.masked()) continue;
+        const auto [it, added] = mask_of.try_emplace(m.material, int32_t(t->masks.size()));
+        if (added) {
+            AlphaMask mask;
+            mask.constant = a.constant;
+            if (a.image >= 0) {
+                const ImageView& v = image_views[size_t(a.image)];
+                const std::shared_ptr<const TextureImage>& image = images[size_t(a.image)];
+                mask.bytes = v.bytes, mask.floats = v.floats;
+                mask.decode = linear_decode_table();  // (a mask is data, never sRGB)
+                mask.width = v.width, mask.height = v.height;
+                mask.channel = a.channel >= 0 ? a.channel : image->opaque ? 0 : 3;
+                std::copy(a.uv_scale, a.uv_scale + 2, mask.uv_scale);
+                std::copy(a.uv_offset, a.uv_offset + 2, mask.uv_offset);
+                mask.clamp = a.clamp ? 1u : 0u;
+                t->images.push_back(image);
+            }
+            t->masks.push_back(mask);
+        }
+        MeshAlpha& out = t->meshes[i];
+        out.mask = it->second;
+        if (a.image < 0) continue;
+        const size_t g = m.instanced() ? size_t(m.geometry) : i;
+        const auto [copy, fresh] = geometry_of.try_emplace(g, t->uvs.size());
+        if (fresh) {
+            t->uvs.push_back(meshes[g].uvs);
+            t->indices.push_back(meshes[g].indices);
+        }
+        out.uvs = t->uvs[copy->second].data();  // (a vector's buffer stays where it is
+                                                 // when the outer vector moves it)
+        out.indices = t->indices[copy->second].data();
+    }
+    t->table = {t->meshes.data(), t->masks.data()};
+    alpha_tables = std::move(t);
 }
 
 PathContext Scene::path_context() const {
@@ -383,7 +433,9 @@ void Scene::build_emitters() {
         const Mesh& m = meshes[i];
         Vec3f le;
         if (!emits(m.material)) continue;
-        if (!solid_emission(m.material, le)) {
+        // (a cut-out emitter is found by the paths that hit it, never sampled: its holes
+        // would make the area a sample lands on differ from the one that emits)
+        if (!solid_emission(m.material, le) || materials[size_t(m.material)].alpha.masked()) {
             ++e.unsampled_objects;
             continue;
         }
@@ -534,7 +586,7 @@ bool Scene::intersect(const Ray<float>& ray, float tmax, Hit& hit) const {
                       ScalarQuadrics{quadrics, unbounded_quadrics}, kPrimQuadric << kPrimShift);
     BvhHit tree{};
     const bool in_tree =
-        traverse<false, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), best, tree);
+        traverse<false, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), best, tree, alpha());
     if (!in_tree && id < 0) return false;
 
     // Hit point and outward geometric normal
@@ -608,7 +660,8 @@ bool Scene::occluded(const Ray<float>& ray, float tmax) const {
         return true;
     BvhHit unused;
     float t = tmax;
-    return traverse<true, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), t, unused);
+    return traverse<true, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), t, unused,
+                                 alpha());
 }
 
 int32_t Scene::add_image(std::shared_ptr<const TextureImage> image) {

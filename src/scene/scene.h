@@ -22,9 +22,24 @@ namespace cierzo {
 
 struct FlatTables;  // scene/flat_tables.h
 
+// A material's alpha cut-out ("alpha"; MTL d, Tr and map_d): the opacity of its triangles,
+// `constant` times a channel of an image at the hit's texture coordinates. Where it is below
+// 1, a ray passes through the surface with probability 1 - alpha (kernels/traverse.h,
+// alpha_passes), in closest-hit and shadow rays alike.
+struct AlphaSource {
+    float constant = 1.0f;
+    int32_t image = -1;    // Scene::images, or -1
+    int32_t channel = -1;  // 0, 1, 2, 3: red, green, blue, alpha; -1: the image's alpha
+                           // where it has one, else its red (a grey mask)
+    float uv_scale[2] = {1.0f, 1.0f}, uv_offset[2] = {0.0f, 0.0f};
+    bool clamp = false;
+    bool masked() const { return image >= 0 || constant < 1.0f; }
+};
+
 struct Material {
     std::string name;
     ColorSource emission, kd, ks, kr, kt;
+    AlphaSource alpha;
     float shininess = 0.0f;
     float ior = 1.0f;
 
@@ -184,6 +199,18 @@ struct LookAt {
     Handedness handedness = Handedness::kLeft;
 };
 
+// The alpha cut-outs of a scene's meshes as the traversal reads them (AlphaTable), with
+// the texture coordinates and triangles of the masked meshes it points into. Built by
+// Scene::finalize; copies of the scene share it.
+struct AlphaTables {
+    std::vector<AlphaMask> masks;
+    std::vector<MeshAlpha> meshes;  // per Scene::meshes entry
+    std::vector<std::vector<float>> uvs;
+    std::vector<std::vector<uint32_t>> indices;
+    std::vector<std::shared_ptr<const TextureImage>> images;  // the masks' images
+    AlphaTable table;
+};
+
 class Scene {
 public:
     Camera camera;
@@ -214,12 +241,17 @@ public:
     Bvh bvh;
     std::vector<int32_t> unbounded_quadrics;
     double bvh_seconds = 0.0;  // building every BVH, in finalize()
+    double load_seconds = 0.0;   // load_scene() as a whole: reading, decoding, building
+    double image_seconds = 0.0;  // decoding the image textures (in parallel), in load_scene()
     bool smooth_shading = false;  // some mesh is smooth (set by finalize())
     Emitters emitters;
     LightStarts light_starts;
     std::vector<float> light_data;  // the point lights, 6 floats each (set by finalize())
     // The tables of the scene's flat form (scene/flat_tables.h), for the wavefront kernels
     std::shared_ptr<const FlatTables> flat_tables;
+    // The meshes' alpha cut-outs; null when no material is masked
+    std::shared_ptr<const AlphaTables> alpha_tables;
+    const AlphaTable* alpha() const { return alpha_tables ? &alpha_tables->table : nullptr; }
 
     // Call once after filling the arrays: builds the BVHs, the emitters and the flat tables
     // (a copy of the scene shares its meshes' BVHs and the flat tables; change no primitive
@@ -280,6 +312,7 @@ public:
     Vec3f shading_normal(const Mesh& object, const Hit& hit) const;
 
 private:
+    void build_alpha();
     void build_emitters();
     void build_environment();
     void build_light_starts();

@@ -3,6 +3,7 @@
 #include "scene/scene_json.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cctype>
@@ -199,6 +200,8 @@ struct ImageRequests {
     }
 };
 
+void read_uv_map(Reader& r, float scale[2], float offset[2], bool& clamp);
+
 // Reads {"texture": "image", ...} (kind already read).
 void read_image_color(Reader& r, ColorSource& c, const fs::path& file, ImageRequests& images) {
     const std::string name = r.string("file");
@@ -214,6 +217,11 @@ void read_image_color(Reader& r, ColorSource& c, const fs::path& file, ImageRequ
     c.a = Vec3f(1.0f);
     if (r.has("factor")) c.a = colour_value(r, r.get("factor"), "factor");
     else r.allow({"factor"});
+    read_uv_map(r, c.uv_scale, c.uv_offset, c.clamp);
+}
+
+// The map of texture coordinates of an image ("scale", "offset", "wrap").
+void read_uv_map(Reader& r, float scale[2], float offset[2], bool& clamp) {
     const auto pair = [&](const char* key, float fallback, float out[2]) {
         out[0] = out[1] = fallback;
         if (!r.has(key)) return r.allow({key});
@@ -231,12 +239,51 @@ void read_image_color(Reader& r, ColorSource& c, const fs::path& file, ImageRequ
                    "1e6 in magnitude, got " + v.dump());
         }
     };
-    pair("scale", 1.0f, c.uv_scale);
-    pair("offset", 0.0f, c.uv_offset);
+    pair("scale", 1.0f, scale);
+    pair("offset", 0.0f, offset);
     const std::string wrap = r.string("wrap", "repeat");
     if (wrap != "repeat" && wrap != "clamp")
         r.fail("'wrap' must be \"repeat\" (the image tiles) or \"clamp\" (its border extends)");
-    c.clamp = wrap == "clamp";
+    clamp = wrap == "clamp";
+}
+
+// A material's "alpha": a number in [0, 1], or {"texture": "image", "file": ..., "channel":
+// "r" | "g" | "b" | "a" | "auto", "factor": [0, 1], "scale", "offset", "wrap"}.
+AlphaSource read_alpha(Reader& parent, const fs::path& file, ImageRequests& images) {
+    const json& v = parent.get("alpha");
+    AlphaSource a;
+    const auto unit = [&](Reader& r, const json& x, const std::string& key) {
+        if (!x.is_number() || !(x.get<double>() >= 0.0 && x.get<double>() <= 1.0))
+            r.fail("'" + key + "' must be an opacity from 0 (a hole) to 1 (opaque), got " +
+                   x.dump());
+        return x.get<float>();
+    };
+    if (!v.is_object()) {
+        a.constant = unit(parent, v, "alpha");
+        return a;
+    }
+    Reader r(v, parent.where("alpha"), file);
+    if (r.string("texture") != "image")
+        r.fail("'alpha' must be a number or {\"texture\": \"image\", \"file\": ...}");
+    const std::string name = r.string("file");
+    if (name.empty()) r.fail("'file' must name an image file");
+    // (a mask is data: its bytes are read as they are, never as sRGB, whatever the decoded
+    // image says; asked for as a colour map, so that a colour map with an alpha channel that
+    // is also the mask is decoded once)
+    a.image = images.request(file.parent_path() / name, true, r.where("file"));
+    if (r.has("factor")) a.constant = unit(r, r.get("factor"), "factor");
+    else r.allow({"factor"});
+    const std::string channel = r.string("channel", "auto");
+    static const std::map<std::string, int32_t> channels = {
+        {"auto", -1}, {"r", 0}, {"g", 1}, {"b", 2}, {"a", 3}};
+    const auto it = channels.find(channel);
+    if (it == channels.end())
+        r.fail("'channel' must be \"auto\" (the image's alpha where it has one, else its red), "
+               "\"r\", \"g\", \"b\" or \"a\"; got \"" + channel + "\"");
+    a.channel = it->second;
+    read_uv_map(r, a.uv_scale, a.uv_offset, a.clamp);
+    r.finish();
+    return a;
 }
 
 ColorSource read_color(Reader& parent, const std::string& key, const fs::path& file,
@@ -293,6 +340,8 @@ Material read_material(const json& j, const std::string& where, const std::strin
     if (m.shininess < 0.0f || m.shininess > 1e6f) r.fail("'shininess' must be in [0, 1e6]");
     m.ior = float(r.number("ior", 1.0));
     if (!(m.ior > 0.0f)) r.fail("'ior' must be > 0");
+    if (r.has("alpha")) m.alpha = read_alpha(r, file, images);
+    else r.allow({"alpha"});
     r.finish();
     return m;
 }
@@ -401,6 +450,25 @@ struct Loader {
         }
         if (mtl.map_ke) m.emission = image(*mtl.map_ke, true);
         else if (mtl.has_ke) m.emission = solid(mtl.ke_rgb);
+        // Dissolve: d (or 1 - Tr) is the opacity, map_d a mask; glass is transparent by
+        // refraction, and its d is not applied (exporters write d < 1 for glass)
+        const bool glass = !m.kt.is_zero();
+        if (!glass) m.alpha.constant = mtl.d;
+        if (!glass && mtl.d == 0.0f && mtl.d_from_tr && !mtl.map_d)
+            scene.warnings.push_back(
+                lib.path.string() + ": line " + std::to_string(mtl.d_line) + ": material '" +
+                mtl.name + "' has 'Tr 1', fully transparent: it is invisible (some exporters "
+                "write Tr as the opacity; 'd 1' would make it opaque)");
+        if (mtl.map_d) {
+            const ColorSource s = image(*mtl.map_d, true);  // (the bytes as they are: a mask)
+            m.alpha.image = s.image;
+            std::copy(s.uv_scale, s.uv_scale + 2, m.alpha.uv_scale);
+            std::copy(s.uv_offset, s.uv_offset + 2, m.alpha.uv_offset);
+            m.alpha.clamp = s.clamp;
+            static const std::string channels = "rgbm";  // -imfchan: m, the matte, is alpha
+            const size_t c = channels.find(mtl.map_d->channel);
+            m.alpha.channel = mtl.map_d->channel != 0 && c != std::string::npos ? int32_t(c) : -1;
+        }
         return m;
     }
 
@@ -833,6 +901,7 @@ struct Loader {
     void load_images() {
         const auto& requests = images.requests;
         if (requests.empty()) return;
+        const auto start = std::chrono::steady_clock::now();
         std::vector<std::shared_ptr<const TextureImage>> decoded(requests.size());
         std::vector<std::exception_ptr> errors(requests.size());
         tbb::parallel_for(size_t(0), requests.size(), [&](size_t i) {
@@ -858,6 +927,8 @@ struct Loader {
             scene.add_image(decoded[i]);
             scene.files.push_back(requests[i].path);
         }
+        scene.image_seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::vector<ColorSource*> sources = {&scene.environment.emission};
         for (Material& m : scene.materials)
             for (ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt}) sources.push_back(c);
@@ -881,11 +952,33 @@ struct Loader {
                 throw InputError(file.string() + ": " + name(m.material) +
                                  " has an image texture, but the mesh '" + m.source +
                                  "' has no texture coordinates (OBJ 'vt')");
+        for (const Mesh& m : scene.meshes)
+            if (scene.materials[size_t(m.material)].alpha.image >= 0 &&
+                scene.geometry_of(m).uvs.empty())
+                throw InputError(file.string() + ": " + name(m.material) +
+                                 " has an alpha mask image, but the mesh '" + m.source +
+                                 "' has no texture coordinates (OBJ 'vt')");
         for (size_t i = 0; i < scene.quadrics.size(); ++i)
             if (imaged(scene.quadrics[i].material))
                 throw InputError(file.string() + ": " + name(scene.quadrics[i].material) +
                                  " has an image texture, but a quadric has no texture "
                                  "coordinates (use a sin, sin2 or sincos pattern there)");
+    }
+
+    // Alpha cut-outs mask triangles only: a sphere, plane or quadric with one is refused.
+    void check_alpha() const {
+        const auto refuse = [&](int32_t material, const char* what) {
+            const Material& m = scene.materials[size_t(material)];
+            if (!m.alpha.masked()) return;
+            throw InputError(file.string() + ": " +
+                             (m.name.empty() ? std::string("an inline material")
+                                             : "material '" + m.name + "'") +
+                             " has an 'alpha' below 1, but is used by a " + what +
+                             ": alpha cut-outs apply to triangles and meshes only");
+        };
+        for (int32_t mat : scene.spheres.material) refuse(mat, "sphere");
+        for (int32_t mat : scene.planes.material) refuse(mat, "plane");
+        for (const Quadric& q : scene.quadrics) refuse(q.material, "quadric");
     }
 
     // "environment": {"emission": COLOUR, "rotate": [x, y, z]}: a solid colour or an
@@ -1090,6 +1183,7 @@ Scene build_scene(Loader& l, const json& root) {
     if (r.has("environment")) l.environment(r.get("environment"));
     else r.allow({"environment"});
     l.load_images();
+    l.check_alpha();
 
     // Point lights
     if (r.has("lights")) {
@@ -1165,7 +1259,20 @@ Scene load_mesh_as_scene(const fs::path& path) {
     return scene;
 }
 
+namespace {
+Scene load_scene_untimed(const fs::path& path);
+}  // namespace
+
 Scene load_scene(const fs::path& path) {
+    const auto start = std::chrono::steady_clock::now();
+    Scene scene = load_scene_untimed(path);
+    scene.load_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return scene;
+}
+
+namespace {
+Scene load_scene_untimed(const fs::path& path) {
     {
         std::string ext = path.extension().string();
         for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
@@ -1191,5 +1298,7 @@ Scene load_scene(const fs::path& path) {
     scene.files.insert(scene.files.begin(), path);
     return scene;
 }
+
+}  // namespace
 
 }  // namespace cierzo

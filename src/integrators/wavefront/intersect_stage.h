@@ -125,16 +125,17 @@ inline void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const Bv
 // tree's box go through it one by one.
 // on_hit(l, hit) is called for each lane hit.
 template <class A, class OnHit>
-void closest_in_tree(const BvhView& bvh, bool packet, const Ray<typename Wave<A>::F>& ray,
-                     typename Wave<A>::M live, float* t, const OnHit& on_hit) {
+void closest_in_tree(const BvhView& bvh, const AlphaTable* alpha, bool packet,
+                     const Ray<typename Wave<A>::F>& ray, typename Wave<A>::M live, float* t,
+                     const OnHit& on_hit) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     if (packet || coherent(ray)) {
         F tt = F::load_aligned(t);
         I kind(0), lane(0), instance(-1);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
-        uint32_t hits = mask_bits(packet_traverse<false>(bvh, ray, inv, make_ray_shear(ray.d),
-                                                         live, tt, kind, lane, instance));
+        uint32_t hits = mask_bits(packet_traverse<false>(
+            bvh, ray, inv, make_ray_shear(ray.d), live, tt, kind, lane, instance, alpha));
         if (!hits) return;
         tt.store_aligned(t);
         alignas(64) int32_t kinds[Wave<A>::K], lanes[Wave<A>::K], instances[Wave<A>::K];
@@ -150,7 +151,7 @@ void closest_in_tree(const BvhView& bvh, bool packet, const Ray<typename Wave<A>
     for (; enter; enter &= enter - 1) {
         const int l = std::countr_zero(enter);
         BvhHit hit;
-        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), t[l], hit)) on_hit(l, hit);
+        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), t[l], hit, alpha)) on_hit(l, hit);
     }
 }
 
@@ -160,7 +161,7 @@ template <class A>
 void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) {
     PathPool& p = w.pool;
     const BvhView& bvh = *w.scene.bvh;
-    closest_in_tree<A>(bvh, w.scene.features.packet, ray, w.live_mask(i), p.t + i,
+    closest_in_tree<A>(bvh, w.scene.alpha, w.scene.features.packet, ray, w.live_mask(i), p.t + i,
                        [&](int l, const BvhHit& hit) { record_tree_hit(p, bvh, i + l, hit); });
 }
 
@@ -190,7 +191,7 @@ void trace_rays_isa(const FlatScene& s, const float* rays, size_t count, TraceTo
         uint32_t hit = mask_bits(mask_f32(prim >= I(0)));
         const auto live = Wave<A>::lane_index() < F(float(lanes));
         if (s.features.bvh)
-            closest_in_tree<A>(*s.bvh, s.features.packet, ray, live, tt,
+            closest_in_tree<A>(*s.bvh, s.alpha, s.features.packet, ray, live, tt,
                                [&](int l, const BvhHit&) { hit |= 1u << l; });
         hit &= (1u << lanes) - 1u;
         out.hits += uint64_t(std::popcount(hit));
@@ -241,7 +242,8 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         typename Wave<A>::I kind(0), lane(0), instance(-1);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
         return blocked | packet_traverse<true>(*s.bvh, ray, inv, make_ray_shear(ray.d),
-                                               live & !blocked, t, kind, lane, instance);
+                                               live & !blocked, t, kind, lane, instance,
+                                               s.alpha);
     }
     if (s.features.bvh && !all(blocked)) {
         // The open rays that enter the tree's box through it, one by one
@@ -253,7 +255,8 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         for (; open; open &= open - 1) {
             const int l = std::countr_zero(open);
             BvhHit unused;
-            if (traverse<true, NodeLanes<A>>(*s.bvh, rays.lane(l), tm[l], unused)) hit[l] = 1;
+            if (traverse<true, NodeLanes<A>>(*s.bvh, rays.lane(l), tm[l], unused, s.alpha))
+                hit[l] = 1;
         }
         blocked = blocked | mask_f32(I::load_aligned(hit) != I(0));
     }
