@@ -113,7 +113,10 @@ int run_main(int argc, char** argv) {
     app.require_subcommand(1);
     RenderArgs a;
     CLI::App* r = app.add_subcommand("render", "Render a scene file to an HDR image");
-    r->add_option("scene", a.scene, "Scene file (JSON; see docs/scene-format.md)")
+    r->add_option("scene", a.scene,
+                  "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model to render "
+                  "with its own materials under a white sky, framed by a default camera, to "
+                  "STEM.exr in the current folder")
         ->required()
         ->check(CLI::ExistingFile);
     r->add_option("--spp", a.job.spp, "Paths per pixel (overrides render.spp)")

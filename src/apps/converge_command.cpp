@@ -131,7 +131,7 @@ CLI::App* add_converge_command(CLI::App& app) {
         "converge",
         "Measure error against time: render a scene at increasing paths per pixel for each "
         "combination of the knobs given, against a reference");
-    c->add_option("scene", a.scene, "Scene file (JSON; see docs/scene-format.md)")
+    c->add_option("scene", a.scene, "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model")
         ->required()
         ->check(CLI::ExistingFile);
     CLI::Option* reference =

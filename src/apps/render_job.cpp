@@ -254,6 +254,19 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
                 {"instances", instances}, {"instanced_mesh_bytes", mesh_bytes},
                 {"unbounded", scene.planes.size() + scene.unbounded_quadrics.size()},
                 {"build_seconds", scene.bvh_seconds}};
+    // Reading the scene: all of it, the images' decoding and the BVH's build within it
+    size_t image_bytes = 0;
+    for (const auto& image : scene.images) image_bytes += image->memory_bytes();
+    j["load"] = {{"seconds", scene.load_seconds},
+                 {"image_seconds", scene.image_seconds},
+                 {"bvh_seconds", scene.bvh_seconds},
+                 {"images", scene.images.size()},
+                 {"image_bytes", image_bytes},
+                 {"triangles", [&] {
+                      size_t n = 0;
+                      for (const Mesh& m : scene.meshes) n += scene.geometry_of(m).triangle_count();
+                      return n;
+                  }()}};
     return j;
 }
 
