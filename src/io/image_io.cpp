@@ -87,8 +87,65 @@ void check_exr_name(const fs::path& path, const std::string& name, const char* w
     }
 }
 
+// The data window of an EXR file from its header, read here before OpenEXR opens the file:
+// OpenEXR sizes its line buffers and offset tables from the header alone, so a 100-byte
+// file claiming a row of 2^28 pixels would cost gigabytes before any check of ours. A
+// single-part scanline or tiled image is required; each side at most 65536 pixels (the
+// largest image cierzo renders) and the area at most kMaxImagePixels.
+void check_exr_header(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    const auto bytes_left = [&] {
+        std::error_code ec;
+        const auto size = fs::file_size(path, ec);
+        return ec ? int64_t(0) : int64_t(size) - int64_t(in.tellg());
+    };
+    uint8_t head[8];
+    if (!in.read(reinterpret_cast<char*>(head), 8) || head[0] != 0x76 || head[1] != 0x2f ||
+        head[2] != 0x31 || head[3] != 0x01)
+        read_error(path, "not an OpenEXR file (no EXR magic number)");
+    if (head[5] & 0x18)  // (version flags: 0x08 deep data, 0x10 multi-part)
+        read_error(path, "a deep or multi-part OpenEXR file is not read (a single-part "
+                         "scanline or tiled image is)");
+    const auto token = [&]() {
+        std::string t;
+        char c;
+        while (in.get(c) && c != '\0') {
+            t += c;
+            if (t.size() > 255) read_error(path, "invalid OpenEXR header (a name too long)");
+        }
+        if (!in) read_error(path, "truncated OpenEXR header");
+        return t;
+    };
+    for (int attributes = 0;; ++attributes) {
+        const std::string name = token();
+        if (name.empty()) break;
+        const std::string type = token();
+        int32_t size = 0;
+        if (!in.read(reinterpret_cast<char*>(&size), 4) || size < 0 || size > bytes_left())
+            read_error(path, "invalid OpenEXR header (attribute '" + name + "' of " +
+                                 std::to_string(size) + " bytes)");
+        if (name == "dataWindow" && type == "box2i" && size == 16) {
+            int32_t box[4];
+            if (!in.read(reinterpret_cast<char*>(box), 16))
+                read_error(path, "truncated OpenEXR header");
+            const int64_t width = int64_t(box[2]) - box[0] + 1;
+            const int64_t height = int64_t(box[3]) - box[1] + 1;
+            if (width <= 0 || height <= 0 || width > 65536 || height > 65536 ||
+                width * height > kMaxImagePixels)
+                read_error(path, "refusing an image of " + std::to_string(width) + "x" +
+                                     std::to_string(height) + " pixels (at most 65536 on a "
+                                     "side and " + std::to_string(kMaxImagePixels) + " in all)");
+            return;
+        }
+        in.seekg(size, std::ios::cur);
+        if (attributes > 100000) read_error(path, "invalid OpenEXR header (too many attributes)");
+    }
+    read_error(path, "invalid OpenEXR header (no dataWindow)");
+}
+
 Image read_exr_file(const fs::path& path, ImageMetadata* metadata, ImageLayers* layers) {
     check_readable_file(path);
+    check_exr_header(path);
     try {
         Imf::InputFile file(path.c_str());
         const Imf::Header& header = file.header();

@@ -7,6 +7,7 @@
 #include <cctype>
 #include <cmath>
 #include <limits>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <stb/stb_image.h>
@@ -120,9 +121,106 @@ const float* linear_decode_table() {
     return table.data();
 }
 
+namespace {
+
+// Which format the bytes are, by their signature (TGA, which has none, by the name's
+// extension); stb_image is only ever given these formats, never its others (GIF, PSD, PIC).
+enum class Format { kUnknown, kPng, kJpeg, kBmp, kPnm, kHdr, kTga };
+
+Format format_of(const std::string& bytes, const fs::path& name) {
+    const auto starts = [&](std::string_view magic) {
+        return bytes.compare(0, magic.size(), magic) == 0;
+    };
+    if (starts("\x89PNG\r\n\x1a\n")) return Format::kPng;
+    if (starts("\xff\xd8\xff")) return Format::kJpeg;
+    if (starts("BM")) return Format::kBmp;
+    if (starts("P5") || starts("P6")) return Format::kPnm;
+    if (starts("#?RADIANCE\n") || starts("#?RGBE\n")) return Format::kHdr;
+    if (lower_extension(name) == ".tga") return Format::kTga;
+    return Format::kUnknown;
+}
+
+// A binary PNM's header (P5 grey, P6 colour: width, height, maxval, then one whitespace
+// byte), checked against the data before stb_image reads it: 8 bits per sample only, and
+// as many bytes as the header promises.
+void check_pnm(const std::string& bytes, const fs::path& name) {
+    size_t at = 2;
+    int64_t values[3] = {0, 0, 0};
+    for (int64_t& v : values) {
+        for (;;) {  // whitespace and comments
+            while (at < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[at]))) ++at;
+            if (at < bytes.size() && bytes[at] == '#') {
+                while (at < bytes.size() && bytes[at] != '\n') ++at;
+                continue;
+            }
+            break;
+        }
+        size_t digits = 0;
+        while (at < bytes.size() && std::isdigit(static_cast<unsigned char>(bytes[at])) &&
+               digits < 10)
+            v = v * 10 + (bytes[at++] - '0'), ++digits;
+        if (digits == 0 || digits == 10) fail(name, "is not a valid PNM file (a bad header)");
+    }
+    if (values[2] < 1 || values[2] > 255)
+        fail(name, fmt::format("is a PNM file of maxval {}: only 8-bit PNM (maxval 1 to 255) is "
+                               "read", values[2]));
+    check_size(name, values[0], values[1]);
+    const int64_t channels = bytes[1] == '5' ? 1 : 3;
+    const int64_t need = int64_t(at) + 1 + values[0] * values[1] * channels;
+    if (int64_t(bytes.size()) < need)
+        fail(name, fmt::format("is truncated: a {} x {} PNM needs {} bytes, the file has {}",
+                               values[0], values[1], need, bytes.size()));
+}
+
+uint32_t le16(const std::string& b, size_t at) {
+    return uint32_t(uint8_t(b[at])) | uint32_t(uint8_t(b[at + 1])) << 8;
+}
+int64_t le32s(const std::string& b, size_t at) {
+    return int32_t(le16(b, at) | le16(b, at + 2) << 16);
+}
+
+// An uncompressed TGA or BMP must hold the texels its header promises, and a run-length
+// encoded TGA at least one packet per 128 of them: checked before stb_image allocates the
+// image (a 30-byte file claiming 16384² texels would otherwise cost a gigabyte).
+void check_raw_size(const std::string& bytes, const fs::path& name, Format format) {
+    const auto need = [&](int64_t n, int64_t w, int64_t h) {
+        check_size(name, w, h);
+        if (int64_t(bytes.size()) < n)
+            fail(name, fmt::format("is truncated: its {} x {} texels need at least {} bytes, "
+                                   "the file has {}", w, h, n, bytes.size()));
+    };
+    if (format == Format::kTga && bytes.size() >= 18) {
+        const int64_t w = le16(bytes, 12), h = le16(bytes, 14);
+        const int type = uint8_t(bytes[2]), bits = uint8_t(bytes[16]);
+        const int64_t head = 18 + int64_t(uint8_t(bytes[0])) +
+                             (uint8_t(bytes[1]) ? int64_t(le16(bytes, 5)) *
+                                                      ((uint8_t(bytes[7]) + 7) / 8)
+                                                : 0);
+        const int64_t texel = std::max((bits + 7) / 8, 1);
+        if (type >= 1 && type <= 3) need(head + w * h * texel, w, h);
+        if (type >= 9 && type <= 11) need(head + (w * h + 127) / 128 * (1 + texel), w, h);
+    }
+    if (format == Format::kBmp && bytes.size() >= 34) {
+        const int64_t offset = le32s(bytes, 10), w = le32s(bytes, 18), h = le32s(bytes, 22);
+        const int64_t bits = le16(bytes, 28), compression = le32s(bytes, 30);
+        if ((compression == 0 || compression == 3) && w > 0 && h != 0) {
+            check_size(name, w, std::abs(h));  // (first: the product below stays small)
+            need(offset + (w * bits + 31) / 32 * 4 * std::abs(h), w, std::abs(h));
+        }
+    }
+}
+
+}  // namespace
+
 TextureImage decode_texture_image(const std::string& bytes, const fs::path& name, bool srgb) {
     if (bytes.size() > size_t(std::numeric_limits<int>::max()))
         fail(name, "is too large to be an image texture (over 2 GiB)");
+    const Format format = format_of(bytes, name);
+    if (format == Format::kUnknown)
+        fail(name, "is not an image texture cierzo can read (PNG, JPEG, TGA, BMP, PNM, HDR or "
+                   "EXR, known by their contents; TGA and EXR by the extension .tga, .exr)");
+    if (format == Format::kPnm) check_pnm(bytes, name);
+    check_raw_size(bytes, name, format);
     const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
     const int length = int(bytes.size());
     int w = 0, h = 0, channels = 0;

@@ -37,8 +37,9 @@ struct TextureImage {
 // undecodable, of absurd dimensions, or holding a value that is negative, NaN or infinite.
 TextureImage read_texture_image(const std::filesystem::path& path, bool srgb);
 
-// The same from bytes in memory; `name` is only used in messages (and decides EXR by its
-// extension).
+// The same from bytes in memory, for every format but EXR (which read_texture_image reads
+// from its file): PNG, JPEG, BMP, PNM (8-bit P5, P6) and HDR known by their signatures, TGA
+// by a `name` ending in .tga; `name` is otherwise only used in messages.
 TextureImage decode_texture_image(const std::string& bytes, const std::filesystem::path& name,
                                   bool srgb);
 

@@ -3,6 +3,8 @@
 // which is what libFuzzer and the fuzz_regressions test report as a failure.
 #include "fuzz_targets.h"
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -14,8 +16,10 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "io/mtl.h"
 #include "io/obj.h"
 #include "io/ply.h"
+#include "io/texture_image.h"
 #include "scene/scene_json.h"
 
 #ifndef CIERZO_FUZZ_SCENE_ROOT
@@ -200,10 +204,92 @@ bool fuzz_one_ply(const uint8_t* data, size_t size) {
     }
 }
 
-bool fuzz_one_obj(const uint8_t* data, size_t size) {
+bool fuzz_one_mtl(const uint8_t* data, size_t size) {
     try {
-        check_mesh(parse_obj(std::string_view(reinterpret_cast<const char*>(data), size),
-                             "fuzz.obj"));
+        const MtlLibrary lib =
+            parse_mtl(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.mtl");
+        for (const MtlMaterial& m : lib.materials) {
+            for (const float* c : {m.kd_rgb, m.ks_rgb, m.ke_rgb, m.tf_rgb})
+                for (int i = 0; i < 3; ++i)
+                    require(std::isfinite(c[i]) && c[i] >= 0.0f, "MTL colour finite and >= 0");
+            require(std::isfinite(m.ns) && m.ns >= 0.0f && m.ns <= 1e6f, "Ns in [0, 1e6]");
+            require(std::isfinite(m.ni) && m.ni >= 0.0f, "Ni finite and >= 0");
+            require(m.d >= 0.0f && m.d <= 1.0f, "d in [0, 1]");
+            require(m.illum >= -1 && m.illum <= 10, "illum in range");
+            for (const auto* map : {&m.map_kd, &m.map_ks, &m.map_ke, &m.map_d})
+                if (*map)
+                    require(!(*map)->file.empty() && std::isfinite((*map)->scale[0]) &&
+                                std::isfinite((*map)->scale[1]) &&
+                                std::isfinite((*map)->offset[0]) &&
+                                std::isfinite((*map)->offset[1]),
+                            "a map names a file, with finite options");
+        }
+        return true;
+    } catch (const InputError&) {
+        return false;
+    }
+}
+
+bool fuzz_one_obj(const uint8_t* data, size_t size) {
+    const std::string_view all(reinterpret_cast<const char*>(data), size);
+    const size_t split = all.find("\n#%mtl\n");
+    const std::string_view obj = all.substr(0, split);
+    bool ok = true;
+    if (split != std::string_view::npos) {
+        const std::string_view mtl = all.substr(split + 7);
+        ok = fuzz_one_mtl(reinterpret_cast<const uint8_t*>(mtl.data()), mtl.size());
+    }
+    try {
+        const MeshData m = parse_obj(obj, "fuzz.obj");
+        check_mesh(m);
+        require(m.uvs.empty() || m.uvs.size() / 2 == m.positions.size() / 3,
+                "one texture coordinate per vertex");
+        for (float t : m.uvs) require(std::isfinite(t), "texture coordinate finite");
+        require(m.triangle_material.empty() || m.triangle_material.size() == m.indices.size() / 3,
+                "one material per triangle");
+        for (uint32_t g : m.triangle_material)
+            require(g < m.material_names.size(), "triangle material in range");
+        return ok;
+    } catch (const InputError&) {
+        return false;
+    }
+}
+
+bool fuzz_one_image(const uint8_t* data, size_t size) {
+    const std::string bytes(reinterpret_cast<const char*>(data), size);
+    // An EXR is read from a file (OpenEXR's reader); anything else from memory, as a TGA
+    // where it has no other format's signature
+    const bool exr = bytes.compare(0, 4, "\x76\x2f\x31\x01") == 0;
+    static const fs::path exr_file =
+        fs::temp_directory_path() / ("cierzo-fuzz-" + std::to_string(::getpid()) + ".exr");
+    struct Removed {
+        bool on;
+        ~Removed() {
+            if (on) std::remove(exr_file.c_str());
+        }
+    } removed{exr};
+    if (exr) {
+        std::FILE* f = std::fopen(exr_file.c_str(), "wb");
+        require(f && std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() &&
+                    std::fclose(f) == 0,
+                "the EXR input can be written to a scratch file");
+    }
+    try {
+        for (const bool srgb : {true, false}) {
+            const TextureImage t = exr ? read_texture_image(exr_file, srgb)
+                                       : decode_texture_image(bytes, "fuzz.tga", srgb);
+            require(t.width >= 1 && t.height >= 1 && t.width <= kMaxTextureSide &&
+                        t.height <= kMaxTextureSide && int64_t(t.texels()) <= kMaxTextureTexels,
+                    "image dimensions within limits");
+            require(t.bytes.size() == t.texels() || t.floats.size() == 4 * t.texels(),
+                    "one RGBA texel per pixel");
+            require(t.bytes.empty() != t.floats.empty(), "bytes or floats, not both");
+            for (float f : t.floats) require(std::isfinite(f) && f >= 0.0f, "texel finite and >= 0");
+            for (int c = 0; c < 3; ++c)
+                require(std::isfinite(t.max_rgb[c]) && std::isfinite(t.mean_rgb[c]) &&
+                            t.mean_rgb[c] <= double(t.max_rgb[c]) * (1.0 + 1e-6) + 1e-30,
+                        "image statistics finite, mean <= max");
+        }
         return true;
     } catch (const InputError&) {
         return false;

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Writes the seed files of the fuzz corpora (docs/fuzzing.md): small PLY files in every
 format and layout the reader supports, small OBJ files of every form the OBJ reader accepts
-and some it refuses, the mesh fixtures that seed scenes refer to, and small
+and some it refuses (some with an MTL library after a "#%mtl" line), MTL libraries, small
+images in every format the texture decoder reads (and broken ones), the mesh fixtures that seed scenes refer to, and small
 scene files covering every key of docs/scene-format.md. The scenes of scenes/ are copied as
 well. Run from anywhere; files are (over)written in tests/fuzz/. The fuzzers' own finds are
 added later with -merge=1."""
@@ -9,12 +10,15 @@ import math
 import pathlib
 import shutil
 import struct
+import zlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 PLY_DIR = HERE / "corpus" / "ply"
 OBJ_DIR = HERE / "corpus" / "obj"
 SCENE_DIR = HERE / "corpus" / "scene"
+MTL_DIR = HERE / "corpus" / "mtl"
+IMAGE_DIR = HERE / "corpus" / "image"
 FIXTURES = HERE / "scene_root" / "meshes"
 
 TYPES = {"char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i", "uint": "I",
@@ -268,6 +272,113 @@ def obj_seeds():
         "err_no_faces.obj": b"v 0 0 0\n",
     }
     seeds["truncated.obj"] = seeds["ico_normals.obj"][:-9]
+    seeds["materials.obj"] = (b"mtllib full.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\n"
+                              b"vt 1 0\nvt 1 1\nvt 0 1\nusemtl stone\nf 1/1 2/2 3/3\nusemtl\n"
+                              b"f 1/1 3/3 4/4\nusemtl leaf\nf 1/1 2/2 4/4\n#%mtl\n" + MTL_FULL)
+    seeds["materials_bad_mtl.obj"] = (b"mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl a\n"
+                                      b"f 1 2 3\n#%mtl\nnewmtl a\nNs -4\n")
+    return seeds
+
+
+MTL_FULL = (b"# every key\nnewmtl stone\nKa 0.1 0.1 0.1\nKd 0.5 0.4 0.3\nKs 0.2 0.2 0.2\n"
+            b"Ns 40\nillum 2\nmap_Kd -s 2 2 1 -o 0.5 0 0 -clamp on textures\\stone.png\n"
+            b"map_Ks spec.tga\nnewmtl glass\nKs 0.1 0.1 0.1\nTf 0.9 0.9 0.9\nNi 1.5\nillum 7\n"
+            b"d 0.3\nnewmtl lamp\nKe 4 4 4\nmap_Ke -bm 1 glow.hdr\nnewmtl leaf\nKd 0.2 0.6 0.1\n"
+            b"map_d -imfchan m leaf.tga\nTr 0.1\nnewmtl pbr\nPr 0.5\nPm 1\nmap_bump -bm 2 n.png\n"
+            b"d -halo 0.5\n")
+
+
+def mtl_seeds():
+    return {
+        "full.mtl": MTL_FULL,
+        "crlf.mtl": MTL_FULL.replace(b"\n", b"\r\n"),
+        "mirror.mtl": b"newmtl m\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n",
+        "empty_name.mtl": b"newmtl\nKd 1 1 1\n",
+        "err_negative.mtl": b"newmtl a\nKd -1 0 0\n",
+        "err_spectral.mtl": b"newmtl a\nKd spectral curve.rfl\n",
+        "err_before_newmtl.mtl": b"Kd 1 1 1\nnewmtl a\n",
+        "err_twice.mtl": b"newmtl a\nnewmtl a\n",
+        "err_map_without_file.mtl": b"newmtl a\nmap_Kd -s 1 1 1\n",
+        "err_illum.mtl": b"newmtl a\nillum 2.5\n",
+    }
+
+
+def png(w, h, channels, rows):
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    colour = {1: 0, 2: 4, 3: 2, 4: 6}[channels]
+    raw = b"".join(b"\0" + bytes(r) for r in rows)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def exr(w, h, pixel):
+    """An uncompressed scanline OpenEXR of float R, G, B (stored B, G, R: sorted by name)."""
+    def attr(name, kind, value):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
+    chlist = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
+    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
+    header = (b"\x76\x2f\x31\x01" + struct.pack("<I", 2) + attr("channels", "chlist", chlist)
+              + attr("compression", "compression", b"\0") + attr("dataWindow", "box2i", box)
+              + attr("displayWindow", "box2i", box) + attr("lineOrder", "lineOrder", b"\0")
+              + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+              + attr("screenWindowCenter", "v2f", struct.pack("<ff", 0, 0))
+              + attr("screenWindowWidth", "float", struct.pack("<f", 1.0)) + b"\0")
+    chunks, offset = [], len(header) + 8 * h
+    offsets = b""
+    for y in range(h):
+        data = b"".join(struct.pack("<f", pixel(x, y)[c]) for c in (2, 1, 0) for x in range(w))
+        chunk = struct.pack("<ii", y, len(data)) + data
+        offsets += struct.pack("<Q", offset)
+        offset += len(chunk)
+        chunks.append(chunk)
+    return header + offsets + b"".join(chunks)
+
+
+def image_seeds():
+    w, h = 4, 3
+    rgb = [[(17 * x + 5 * y + c * 40) % 256 for x in range(w) for c in range(3)] for y in range(h)]
+    rgba = [[(x * 60 + c * 30 + y) % 256 for x in range(w) for c in range(4)] for y in range(h)]
+    grey_alpha = [[(x * 80 + y * 7 + c * 100) % 256 for x in range(w) for c in range(2)] for y in range(h)]
+    tga = bytearray(18)
+    tga[2], tga[16], tga[17] = 2, 32, 0x28
+    tga[12:16] = struct.pack("<HH", w, h)
+    for r in rgba:
+        for x in range(w):
+            p = r[4 * x:4 * x + 4]
+            tga += bytes((p[2], p[1], p[0], p[3]))
+    row_bytes = (3 * w + 3) // 4 * 4
+    bmp_pixels = b"".join(bytes(sum(([r[3 * x + 2], r[3 * x + 1], r[3 * x]] for x in range(w)), []))
+                          + b"\0" * (row_bytes - 3 * w) for r in reversed(rgb))
+    bmp = (b"BM" + struct.pack("<IHHI", 54 + len(bmp_pixels), 0, 0, 54)
+           + struct.pack("<IiiHHIIiiII", 40, w, h, 1, 24, 0, len(bmp_pixels), 2835, 2835, 0, 0)
+           + bmp_pixels)
+    ppm = f"P6\n{w} {h}\n255\n".encode() + b"".join(bytes(r) for r in rgb)
+    pgm = f"P5 {w} {h} 255\n".encode() + bytes(range(0, w * h * 20, 20))
+    hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 3 +X 4\n"
+    for y in range(h):
+        for x in range(w):
+            hdr += bytes((x * 60, y * 80, 128, 129 + x % 3))
+    good_exr = exr(w, h, lambda x, y: (x * 0.5, y * 0.25, 2.0 + x))
+    seeds = {
+        "rgb.png": png(w, h, 3, rgb),
+        "rgba.png": png(w, h, 4, rgba),
+        "grey_alpha.png": png(w, h, 2, grey_alpha),
+        "grey.png": png(w, h, 1, [[x * 60 + y for x in range(w)] for y in range(h)]),
+        "rgba.tga": bytes(tga),
+        "rgb.bmp": bmp,
+        "rgb.ppm": ppm,
+        "grey.pgm": pgm,
+        "sky.hdr": hdr,
+        "float.exr": good_exr,
+        "truncated.png": png(w, h, 3, rgb)[:-20],
+        "truncated.exr": good_exr[:-10],
+        "lying_size.png": png(w, h, 3, rgb).replace(struct.pack(">II", w, h), struct.pack(">II", 100000, 100000), 1),
+        "lying_size.exr": good_exr.replace(struct.pack("<iiii", 0, 0, w - 1, h - 1),
+                                           struct.pack("<iiii", 0, 0, 99999, 99999)),
+        "negative.exr": exr(w, h, lambda x, y: (-1.0 if x == 2 else 0.5, 0.5, 0.5)),
+        "not_an_image.txt": b"this is not an image\n",
+    }
     return seeds
 
 
@@ -285,7 +396,7 @@ def fixtures():
 
 def main():
     for folder, files in [(PLY_DIR, ply_seeds()), (OBJ_DIR, obj_seeds()), (SCENE_DIR, scene_seeds()),
-                          (FIXTURES, fixtures())]:
+                          (MTL_DIR, mtl_seeds()), (IMAGE_DIR, image_seeds()), (FIXTURES, fixtures())]:
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in files.items():
             (folder / name).write_bytes(data)

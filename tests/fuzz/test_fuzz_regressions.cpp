@@ -115,6 +115,24 @@ TEST(FuzzRegressions, ObjCrashers) {
     EXPECT_GE(accepted, 1u) << "a valid mesh with a 'vw' line is read, the line ignored";
 }
 
+TEST(FuzzRegressions, ImageCorpus) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "corpus" / "image", fuzz_one_image, &accepted), 8u);
+    EXPECT_GE(accepted, 5u) << "the seeds include a valid image of every format";
+}
+
+TEST(FuzzRegressions, ImageCrashers) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "regressions" / "image", fuzz_one_image, &accepted), 1u)
+        << "the kept crashers are missing";
+}
+
+TEST(FuzzRegressions, MtlCorpus) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "corpus" / "mtl", fuzz_one_mtl, &accepted), 5u);
+    EXPECT_GE(accepted, 3u) << "the seeds include valid libraries";
+}
+
 // Two finds too large to keep as files, generated here instead.
 
 const uint8_t* bytes_of(const std::string& s) { return reinterpret_cast<const uint8_t*>(s.data()); }

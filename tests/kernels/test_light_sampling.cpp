@@ -186,7 +186,7 @@ struct OneEmitter {
     float q = 1.0f, pmf = 1.0f;
     int32_t alias = 0, kind;
     float data[kEmitterStride];
-    EmitterTable table() const { return {1, &q, &alias, &pmf, &kind, data}; }
+    EmitterTable table() const { return {1, &q, &alias, &pmf, &kind, data, {}}; }
 };
 
 TEST(LightSampling, DegenerateTrianglesAreRefusedWithoutNaN) {
