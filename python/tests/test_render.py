@@ -208,3 +208,57 @@ def test_stopping_rules(cierzo):
     _, stats = cierzo.render(scene_path("cornell"), width=32, height=32, spp=1 << 20,
                              time_budget=0.2, threads=2)
     assert stats["stopped_by"] == "time budget" and stats["spp_reached"] < 1 << 20
+
+
+def png_bytes(width, height, channels, texel):
+    """An 8-bit PNG written here (zlib only): texel(x, y) gives the channels' bytes."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    rows = b"".join(b"\0" + bytes(c for x in range(width) for c in texel(x, y))
+                    for y in range(height))
+    colour = {3: 2, 4: 6}[channels]
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, colour, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+def test_downloaded_model_renders_as_in_the_program(cierzo, tmp_path):
+    """An OBJ with its MTL (a colour map, an alpha mask with holes), wrapped by a scene with an
+    environment light: the module's image is the program's bit for bit, the holes show the
+    sky, and the model file alone renders as `cierzo render model.obj` does."""
+    (tmp_path / "wood.png").write_bytes(
+        png_bytes(8, 8, 3, lambda x, y: (200, 120 + 10 * x, 40 + 20 * y)))
+    (tmp_path / "mask.png").write_bytes(
+        png_bytes(8, 8, 4, lambda x, y: (255, 255, 255, 0 if (x // 2 + y // 2) % 2 else 255)))
+    (tmp_path / "model.obj").write_text(
+        "mtllib model.mtl\nv -3 -3 0\nv 3 -3 0\nv 3 3 0\nv -3 3 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl board\nf 1/1 2/2 3/3 4/4\n")
+    (tmp_path / "model.mtl").write_text(
+        "newmtl board\nKd 1 1 1\nKs 0.2 0.2 0.2\nNs 20\nmap_Kd wood.png\nmap_d mask.png\n")
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps({
+        "camera": {"position": [0, 0, 2.5], "look_at": [0, 0, 0], "vfov": 50,
+                   "handedness": "right"},
+        "environment": {"emission": 0.5},
+        "lights": [{"position": [1, 2, 3], "intensity": 5}],
+        "objects": [{"type": "mesh", "file": "model.obj"}]}))
+    exr, cli_stats = cli_render(tmp_path, scene, extra=("--estimator", "mis"))
+    image, stats = cierzo.render(str(scene), estimator="mis", **SMALL)
+    assert same_bits(image, cierzo.read_exr(exr))
+    assert stats["load"]["images"] == cli_stats["load"]["images"] == 2
+    # The board fills the view: through its holes (and only there) the camera sees the grey
+    # sky, 0.5 exactly; on the board, lit by it
+    # and the light, the wood's red exceeds its blue
+    sky = np.all(image == np.float32(0.5), axis=2)
+    assert 0.1 * sky.size < sky.sum() < 0.9 * sky.size
+    board = ~sky
+    assert (image[board][:, 0] > image[board][:, 2]).mean() > 0.9
+    # The model alone, as the program renders it
+    out = tmp_path / "alone.exr"
+    code, err = run_cli("render", tmp_path / "model.obj", "--width", 24, "--height", 16,
+                        "--spp", 4, "--seed", 7, "--threads", 2, "--out", out, "--quiet")
+    assert code == 0, err
+    alone, _ = cierzo.render(str(tmp_path / "model.obj"), **SMALL)
+    assert same_bits(alone, cierzo.read_exr(out))
