@@ -23,6 +23,27 @@ struct MeshSource {
     }
 };
 
+// The lines of a text file's bytes (OBJ, MTL): ended by LF or CRLF (the CR dropped),
+// numbered from 1, a NUL byte refused as `format` is a text format.
+struct TextLines {
+    std::string_view bytes;
+    const MeshSource& src;
+    const char* format;
+    size_t pos = 0, number = 0;  // number: the line `next` gave last
+    bool next(std::string_view& line) {
+        if (pos >= bytes.size()) return false;
+        size_t end = bytes.find('\n', pos);
+        if (end == std::string_view::npos) end = bytes.size();
+        line = bytes.substr(pos, end - pos);
+        pos = end + 1;
+        ++number;
+        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+        if (line.find('\0') != std::string_view::npos)
+            src.fail_at(number, fmt::format("has a NUL byte (not a text {} file)", format));
+        return true;
+    }
+};
+
 // The whole file; throws InputError naming it when it is missing, a directory (`format` says
 // what it should have been, e.g. "PLY") or unreadable.
 std::string read_mesh_bytes(const std::filesystem::path& path, const char* format);

@@ -184,16 +184,9 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
     lib.path = name;
     std::set<std::string_view> warned;
     MtlMaterial* m = nullptr;
-    size_t line_no = 0;
-    for (size_t pos = 0; pos < bytes.size();) {
-        size_t end = bytes.find('\n', pos);
-        if (end == std::string_view::npos) end = bytes.size();
-        std::string_view line = bytes.substr(pos, end - pos);
-        pos = end + 1;
-        ++line_no;
-        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-        if (line.find('\0') != std::string_view::npos)
-            src.fail_at(line_no, "has a NUL byte (not a text MTL file)");
+    TextLines lines{bytes, src, "MTL"};
+    for (std::string_view line; lines.next(line);) {
+        const size_t line_no = lines.number;
         const size_t hash = line.find('#');
         if (hash != std::string_view::npos) line = line.substr(0, hash);
         std::string_view rest = line;

@@ -83,16 +83,9 @@ Counts check_lines(std::string_view bytes, const Source& src) {
     Counts c;
     c.checked.reserve(bytes.size() + 1);
     uint32_t current_material = 0;  // faces before any 'usemtl': "" (added when needed)
-    size_t line_no = 0;
-    for (size_t pos = 0; pos < bytes.size();) {
-        size_t end = bytes.find('\n', pos);
-        if (end == std::string_view::npos) end = bytes.size();
-        std::string_view line = bytes.substr(pos, end - pos);
-        pos = end + 1;
-        ++line_no;
-        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-        if (line.find('\0') != std::string_view::npos)
-            src.fail_at(line_no, "has a NUL byte (not a text OBJ file)");
+    TextLines lines{bytes, src, "OBJ"};
+    for (std::string_view line; lines.next(line);) {
+        const size_t line_no = lines.number;
         std::string_view rest = line;
         const std::string_view key = next_token(rest);
         const bool used = key == "v" || key == "vn" || key == "vt" || key == "f";

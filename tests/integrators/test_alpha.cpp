@@ -20,7 +20,7 @@
 #include "core/error.h"
 #include "kernels/traverse.h"
 #include "scene/scene_json.h"
-#include "support/removed_at_exit.h"
+#include "support/scratch.h"
 #include "support/render_variants.h"
 
 namespace cierzo {
@@ -28,17 +28,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path& scratch() {
-    static const fs::path dir =
-        fs::temp_directory_path() / ("cierzo-test-alpha-" + std::to_string(::getpid()));
-    static const test::RemovedAtExit cleanup(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+const fs::path& scratch() { return test::scratch("alpha"); }
 
-void write_text(const fs::path& path, const std::string& text) {
-    std::ofstream(path, std::ios::binary) << text;
-}
+using test::write_text;
 
 // An uncompressed 32-bit TGA (written here byte by byte): texel (x, y), y from the top,
 // has colour grey(x, y) and alpha alpha(x, y), both bytes.
@@ -58,14 +50,7 @@ void write_tga(const fs::path& path, int w, int h, const std::function<int(int, 
     write_text(path, bytes);
 }
 
-std::string refusal_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
-}
+using test::refusal_of;
 
 // A quad at z = 1 that fills a 90-degree camera's view exactly (texture coordinates 0..1
 // over it), black, with `alpha`; behind it at z = 3 a plane that emits radiance 1. Each

@@ -19,7 +19,7 @@
 #include "kernels/environment.h"
 #include "kernels/rng.h"
 #include "scene/scene_json.h"
-#include "support/removed_at_exit.h"
+#include "support/scratch.h"
 #include "support/render_variants.h"
 #include "support/statistics.h"
 
@@ -28,13 +28,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path& scratch() {
-    static const fs::path dir =
-        fs::temp_directory_path() / ("cierzo-test-environment-" + std::to_string(::getpid()));
-    static const test::RemovedAtExit cleanup(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+const fs::path& scratch() { return test::scratch("environment"); }
 
 Scene scene_from(const std::string& name, const std::string& text) {
     const fs::path path = scratch() / name;

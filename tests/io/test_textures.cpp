@@ -19,7 +19,7 @@
 #include "io/mtl.h"
 #include "io/texture_image.h"
 #include "scene/scene_json.h"
-#include "support/removed_at_exit.h"
+#include "support/scratch.h"
 #include "support/render_variants.h"
 
 namespace cierzo {
@@ -27,26 +27,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path& scratch() {
-    static const fs::path dir =
-        fs::temp_directory_path() / ("cierzo-test-textures-" + std::to_string(::getpid()));
-    static const test::RemovedAtExit cleanup(dir);
-    fs::create_directories(dir);
-    return dir;
-}
+const fs::path& scratch() { return test::scratch("textures"); }
 
-void write_text(const fs::path& path, const std::string& text) {
-    std::ofstream(path, std::ios::binary) << text;
-}
+using test::write_text;
 
-std::string refusal_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
-}
+using test::refusal_of;
 
 // sRGB decoding (IEC 61966-2-1) computed here in double
 double srgb_to_linear(int byte) {
