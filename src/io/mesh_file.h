@@ -23,6 +23,18 @@ struct MeshSource {
     }
 };
 
+// The next token of `rest` (runs of spaces and tabs separate tokens), removed from it; empty
+// at the end.
+inline std::string_view next_token(std::string_view& rest) {
+    size_t a = 0;
+    while (a < rest.size() && (rest[a] == ' ' || rest[a] == '\t')) ++a;
+    size_t b = a;
+    while (b < rest.size() && rest[b] != ' ' && rest[b] != '\t') ++b;
+    const std::string_view token = rest.substr(a, b - a);
+    rest.remove_prefix(b);
+    return token;
+}
+
 // The lines of a text file's bytes (OBJ, MTL): ended by LF or CRLF (the CR dropped),
 // numbered from 1, a NUL byte refused as `format` is a text format.
 struct TextLines {

@@ -15,15 +15,6 @@ namespace cierzo {
 
 namespace {
 
-std::string_view next_token(std::string_view& rest) {
-    size_t a = 0;
-    while (a < rest.size() && (rest[a] == ' ' || rest[a] == '\t')) ++a;
-    size_t b = a;
-    while (b < rest.size() && rest[b] != ' ' && rest[b] != '\t') ++b;
-    const std::string_view token = rest.substr(a, b - a);
-    rest.remove_prefix(b);
-    return token;
-}
 
 std::string_view trim(std::string_view s) {
     while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);

@@ -35,15 +35,6 @@ constexpr size_t kMaxCorners = 255;
 
 using Source = MeshSource;
 
-std::string_view next_token(std::string_view& rest) {
-    size_t a = 0;
-    while (a < rest.size() && (rest[a] == ' ' || rest[a] == '\t')) ++a;
-    size_t b = a;
-    while (b < rest.size() && rest[b] != ' ' && rest[b] != '\t') ++b;
-    const std::string_view token = rest.substr(a, b - a);
-    rest.remove_prefix(b);
-    return token;
-}
 
 // A decimal number, all of the token (a leading '+' allowed), finite and within float range.
 bool parse_number(std::string_view token, double& out) {

@@ -484,19 +484,7 @@ TEST(TexturedRenders, WavefrontAgreesWithTheScalarReference) {
     for (const char* estimator : {"report", "mis"}) {
         use_estimator(scene.settings.estimator, *parse_estimator(estimator));
         scene.finalize();
-        const std::vector<test::Variant> vs = test::variants();
-        const RenderResult reference = test::run(scene, vs[0]);
-        for (size_t k = 1; k < vs.size(); ++k) {
-            const RenderResult w = test::run(scene, vs[k]);
-            EXPECT_GE(test::pixels_agreeing(reference.film, w.film), 0.99)
-                << estimator << " " << vs[k].isa;
-            for (int c = 0; c < 3; ++c) {
-                const test::ImageMean a = test::image_mean(reference.film, c),
-                                      b = test::image_mean(w.film, c);
-                EXPECT_NEAR(a.mean, b.mean, 4 * std::hypot(a.sigma, b.sigma))
-                    << estimator << " " << vs[k].isa << " channel " << c;
-            }
-        }
+        test::expect_wavefront_agrees(scene, estimator);
     }
 }
 

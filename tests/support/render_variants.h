@@ -99,4 +99,21 @@ inline bool load_present_scene(const std::filesystem::path& path, Scene& scene) 
     return true;
 }
 
+// The wavefront on every ISA agrees with the scalar reference on `scene`: at least 99% of
+// pixels pass the per-pixel z-test, and each channel's image mean within 4σ. `what` names
+// the case in failures.
+inline void expect_wavefront_agrees(const Scene& scene, const std::string& what) {
+    const std::vector<Variant> vs = variants();
+    const RenderResult reference = run(scene, vs[0]);
+    for (size_t k = 1; k < vs.size(); ++k) {
+        const RenderResult w = run(scene, vs[k]);
+        EXPECT_GE(pixels_agreeing(reference.film, w.film), 0.99) << what << " " << vs[k].isa;
+        for (int c = 0; c < 3; ++c) {
+            const ImageMean a = image_mean(reference.film, c), b = image_mean(w.film, c);
+            EXPECT_NEAR(a.mean, b.mean, 4 * std::hypot(a.sigma, b.sigma))
+                << what << " " << vs[k].isa << " channel " << c;
+        }
+    }
+}
+
 }  // namespace cierzo::test
