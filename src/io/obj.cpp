@@ -35,7 +35,6 @@ constexpr size_t kMaxCorners = 255;
 
 using Source = MeshSource;
 
-
 // A decimal number, all of the token (a leading '+' allowed), finite and within float range.
 bool parse_number(std::string_view token, double& out) {
     if (!token.empty() && token[0] == '+') token.remove_prefix(1);
