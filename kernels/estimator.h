@@ -600,7 +600,7 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         out.ok = sphere & (inside | ((one_minus > T(0.0f)) & (t > T(0.0f))));
     }
     const bool environment = e.environment.emitter >= 0;
-    const auto triangle = environment ? !sphere & !choice.environment : !sphere;  // (or a rectangle)
+    const auto triangle = environment ? !(sphere | choice.environment) : !sphere;  // (or a rectangle)
     if (environment && any(choice.environment)) {
         const auto env = choice.environment;
         const EnvironmentSample<T> es = sample_environment(e.environment, u1, u2);

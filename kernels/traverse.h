@@ -519,7 +519,7 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                 const auto vertex = [&](int k) {
                     return Vec3<T>(T(v[3 * k][l]), T(v[3 * k + 1][l]), T(v[3 * k + 2][l]));
                 };
-                T b1, b2;
+                T b1(0.0f), b2(0.0f);
                 h = intersect_triangle(ray, shear, vertex(0), vertex(1), vertex(2), t, th, b1, b2);
                 if (alpha && any(h & enter)) {
                     // (each ray's hit on the one triangle, lane by lane)

@@ -177,7 +177,7 @@ void run_kernel_case(KernelCase c, const CaseInputs& in, size_t i, float* const*
         }
         case KernelCase::kLightPosition: {
             const EmitterTable e{4, kCaseEmitterQ, kCaseEmitterAlias, kCaseEmitterPmf,
-                                 kCaseEmitterKind, kCaseEmitterData};
+                                 kCaseEmitterKind, kCaseEmitterData, {}};
             // (a fourth number from the ray's origin, in [0, 1))
             const T u3 = min(abs(r.o.x) * T(0.25f), T(1.0f - 0x1.0p-24f));
             const EmitterPosition<T> s = sample_emitter_position(e, u0, u1, with_extremes(u2),
