@@ -967,9 +967,14 @@ struct Loader {
 
     // Alpha cut-outs mask triangles only: a sphere, plane or quadric with one is refused.
     void check_alpha() const {
+        std::vector<uint8_t> masked(scene.materials.size());
+        bool any = false;
+        for (size_t i = 0; i < masked.size(); ++i)
+            any |= (masked[i] = scene.materials[i].alpha.masked()) != 0;
+        if (!any) return;  // (the usual case: a million spheres are not looked at)
         const auto refuse = [&](int32_t material, const char* what) {
+            if (!masked[size_t(material)]) return;
             const Material& m = scene.materials[size_t(material)];
-            if (!m.alpha.masked()) return;
             throw InputError(file.string() + ": " +
                              (m.name.empty() ? std::string("an inline material")
                                              : "material '" + m.name + "'") +
