@@ -153,6 +153,13 @@ inline bool alpha_passes(float a, const float o[3], const float d[3], uint32_t m
     return float(h >> 8) * 0x1p-24f < a;
 }
 
+// Whether the masks keep a hit at barycentrics (b1, b2) of `triangle` of scene mesh `mesh`,
+// for the world-space ray (o, d).
+inline bool alpha_keeps(const AlphaTable& table, uint32_t mesh, uint32_t triangle, float b1,
+                        float b2, const float o[3], const float d[3]) {
+    return alpha_passes(alpha_at(table, mesh, triangle, b1, b2), o, d, mesh, triangle);
+}
+
 // The hits of a block (bits of `hits`, lanes from lane0 on) that the alpha masks keep, for
 // the world-space ray `world`. `object`: the scene mesh of an instance's triangles (-1: the
 // tree's own, triangle_mesh).
@@ -169,8 +176,7 @@ uint32_t alpha_filter(const BvhView& bvh, const AlphaTable& table, int32_t objec
         const uint32_t lane = lane0 + h;
         const uint32_t mesh = object >= 0 ? uint32_t(object) : bvh.triangle_mesh[lane];
         const uint32_t triangle = bvh.triangle_index[lane];
-        if (!alpha_passes(alpha_at(table, mesh, triangle, u[h], v[h]), world.o, world.d, mesh,
-                          triangle))
+        if (!alpha_keeps(table, mesh, triangle, u[h], v[h], world.o, world.d))
             hits &= ~(1u << h);
     }
     return hits;
@@ -535,8 +541,7 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                         const int k = std::countr_zero(bits);
                         const float o1[3] = {wo[0][k], wo[1][k], wo[2][k]};
                         const float d1[3] = {wd[0][k], wd[1][k], wd[2][k]};
-                        if (!alpha_passes(alpha_at(*alpha, mesh, triangle, u[k], v[k]), o1, d1,
-                                          mesh, triangle))
+                        if (!alpha_keeps(*alpha, mesh, triangle, u[k], v[k], o1, d1))
                             keep &= ~(1u << k);
                     }
                     h = h & lanes_of_bits<T>(keep);

@@ -94,11 +94,9 @@ void check_exr_name(const fs::path& path, const std::string& name, const char* w
 // largest image cierzo renders) and the area at most kMaxImagePixels.
 void check_exr_header(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
-    const auto bytes_left = [&] {
-        std::error_code ec;
-        const auto size = fs::file_size(path, ec);
-        return ec ? int64_t(0) : int64_t(size) - int64_t(in.tellg());
-    };
+    std::error_code ec;
+    const int64_t file_size = int64_t(fs::file_size(path, ec));
+    const auto bytes_left = [&] { return ec ? int64_t(0) : file_size - int64_t(in.tellg()); };
     uint8_t head[8];
     if (!in.read(reinterpret_cast<char*>(head), 8) || head[0] != 0x76 || head[1] != 0x2f ||
         head[2] != 0x31 || head[3] != 0x01)

@@ -233,7 +233,7 @@ TextureImage decode_texture_image(const std::string& bytes, const fs::path& name
     t.path = name;
     t.width = w, t.height = h;
     int dw = 0, dh = 0, dc = 0;
-    if (stbi_is_hdr_from_memory(data, length)) {
+    if (format == Format::kHdr) {
         float* px = stbi_loadf_from_memory(data, length, &dw, &dh, &dc, 4);
         if (!px || dw != w || dh != h) {
             stbi_image_free(px);

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
-#include <map>
 #include <cmath>
+#include <map>
 
 #include "core/error.h"
 #include "kernels/prim_id.h"
