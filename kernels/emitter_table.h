@@ -71,6 +71,9 @@ struct LightStartTable {
     // choosing it (with the point lights' share), times (η_scene/η_medium)² for a light that
     // sits inside a refractive object (docs/estimators.md, "light tracing")
     const float* point = nullptr;
+    // Per point light, 4 floats: its intensity as camera paths see it, and the probability
+    // of starting a light path at it (the bidirectional estimators' weights)
+    const float* point_source = nullptr;
 };
 
 // The pinhole as paths from the lights see it: the frame (kernels/camera.h), the image
@@ -95,6 +98,12 @@ struct PathContext {
     bool smooth = false;  // some mesh shades with interpolated normals (kernels/shading.h)
     bool nee = false;     // the estimator samples emitters: nee or mis, with emitters to sample
     bool lt = false;      // light tracing: camera paths count only emitters never sampled
+    bool bdpt = false;    // bidirectional (kernels/bidirectional.h): no nee, no point lights
+                          // of the report's kind; the pairs of subpaths bring every light
 };
+
+// Whether emitter hits are weighed (so a hit needs its emitter's id): nee and mis (emitters
+// they sample), lt (all sampled), bdpt (kernels/bidirectional.h).
+inline bool weighs_emitter_hits(const PathContext& c) { return c.nee || c.lt || c.bdpt; }
 
 }  // namespace cierzo

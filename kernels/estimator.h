@@ -329,6 +329,8 @@ struct EmitterSample {
     Vec3<T> le;
     Mask<T> ok;
     Mask<T> sphere;
+    I32<T> id;             // the emitter chosen
+    Mask<T> environment;   // it is the environment
 };
 
 // 1 - cos θmax of the cone a sphere of squared radius r2 subtends at squared distance dc2,
@@ -569,6 +571,8 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
     EmitterSample<T> out;
     out.le = {at(13), at(14), at(15)};
     out.sphere = sphere;
+    out.id = id;
+    out.environment = choice.environment;
     T s, c;
     sincos_2pi(u2, s, c);
     out.wi = Vec3<T>(T(0.0f));

@@ -23,9 +23,6 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
-// Whether emitter hits are weighed: nee and mis (emitters they sample), lt (all sampled).
-inline bool weighs_emitter_hits(const PathContext& c) { return c.nee || c.lt; }
-
 // Whether paths that escape the scene gather an environment.
 inline bool has_environment(const PathContext& c) { return c.emitters.environment.width > 0; }
 

@@ -14,11 +14,15 @@ enum class Estimator : int32_t {
     kNee = 1,     // next-event estimation: one emitter sample per Phong vertex
     kMis = 2,     // both strategies, weighted by the power heuristic
     kLt = 3,      // light tracing: paths from the lights, splatted through the pinhole
+    kBdpt = 4,    // bidirectional: every connection of a camera and a light subpath, by MIS
 };
 
 // Whether the estimator's paths start at the lights and land anywhere in the image (their
 // sums are splatted, and their error comes from batch statistics).
-inline constexpr bool splats(Estimator e) { return e == Estimator::kLt; }
+inline constexpr bool splats(Estimator e) { return e == Estimator::kLt || e == Estimator::kBdpt; }
+
+// Whether the estimator pairs each camera path with a light subpath (kernels/bidirectional.h).
+inline constexpr bool bidirectional(Estimator e) { return e == Estimator::kBdpt; }
 
 // The roulette that ends paths (render.roulette, --roulette).
 enum class Roulette : int32_t {
@@ -72,6 +76,10 @@ struct EstimatorSettings {
     // Multiplies the emitter-sampling pdf that next-event estimation divides by. Always 1;
     // the tests set it to 1.05 to show that a 5% error in that pdf is caught.
     float light_pdf_scale = 1.0f;
+    // Multiplies the reverse densities the bidirectional estimators weigh with
+    // (kernels/bidirectional.h). Always 1; the tests set it to 1.05 to show that a 5% error
+    // in a reverse density is caught.
+    float reverse_pdf_scale = 1.0f;
     // nee and mis: triangles sampled by solid angle (a spherical triangle, where it subtends
     // at least kMinTriangleSolidAngle) instead of by area
     bool triangle_solid_angle = false;

@@ -80,6 +80,10 @@ struct LightStart {
     Vec3<T> beta;    // Le·|cos θ| / (P·pdf_A·pdf_ω) = 2π·Le / (P·pdf_A); or 4π·I / P
     Mask<T> ok;
     Mask<T> on_surface;  // an emitter (else a point light)
+    // For the bidirectional estimators' weights: the emitter (-1: a point light), the density
+    // of the whole start, P·pdf_A·pdf_ω (a point light: P·pdf_ω), and |cos θ| at the emitter
+    I32<T> emitter;
+    T pdf_emit, cos_light;
 };
 
 // The random numbers of a light path's start, drawn at bounce 0 with the camera path's
@@ -97,6 +101,8 @@ LightStart<T> sample_light_start(const EmitterTable& e, const LightStartTable& l
     uniform2<T>(rng, b0, Purpose::kDirection1, u1, u2);
     out.p = out.n = out.le = out.dir = out.beta = Vec3<T>(T(0.0f));
     out.ok = out.on_surface & !out.on_surface;
+    out.emitter = I(-1);
+    out.pdf_emit = out.cos_light = T(1.0f);
     if (e.count > 0 && any(out.on_surface)) {
         T u_pick(0.0f), u_alias(0.0f), u3, u4;
         if (e.count > 1) uniform_pair<T>(rng, b0, Purpose::kEmitterPick, u_pick, u_alias);
@@ -111,6 +117,9 @@ LightStart<T> sample_light_start(const EmitterTable& e, const LightStartTable& l
         out.dir = select(ok, ed.dir, out.dir);
         out.beta = select(ok, ep.le * (inv * T(2.0f * kPi)), out.beta);
         out.ok = ok;
+        out.emitter = select(mask_i32(ok), ep.id, out.emitter);
+        out.pdf_emit = select(ok, ep.pdf * T(lights.emitter_probability) * ed.pdf, out.pdf_emit);
+        out.cos_light = select(ok, ed.cos_theta, out.cos_light);
     }
     const auto point = !out.on_surface;
     if (lights.point_count > 0 && any(point)) {
@@ -129,6 +138,11 @@ LightStart<T> sample_light_start(const EmitterTable& e, const LightStartTable& l
         out.dir = select(point, pd.dir, out.dir);
         out.beta = select(point, Vec3<T>{at(3), at(4), at(5)} * (T(1.0f) / pd.pdf), out.beta);
         out.ok = out.ok | point;
+        if (lights.point_source) {
+            const T chosen = lights.point_count == 1 ? T(lights.point_source[3])
+                                                     : gather_table(lights.point_source, id * I(4) + I(3));
+            out.pdf_emit = select(point, chosen * pd.pdf, out.pdf_emit);
+        }
     }
     return out;
 }

@@ -69,7 +69,7 @@ def test_render_size_limit_has_the_programs_message(cierzo, tmp_path):
 
 
 @pytest.mark.parametrize("kw", [dict(integrator="fast"), dict(spp=0), dict(isa="mmx"),
-                                dict(estimator="bdpt"), dict(survival_cap=1.5), dict(width=0),
+                                dict(estimator="sppm"), dict(survival_cap=1.5), dict(width=0),
                                 dict(pool=-16), dict(diffuse_sampling="gaussian"),
                                 dict(roulette="russian"), dict(roulette_depth=-1),
                                 dict(roulette_depth=1025), dict(triangle_sampling="cone"),

@@ -63,10 +63,11 @@ std::optional<Sampler> parse_sampler(std::string_view n) { return parse_in(kSamp
 void use_estimator(EstimatorSettings& e, Estimator kind) {
     e.kind = kind;
     const bool camera_sampling = kind == Estimator::kNee || kind == Estimator::kMis;
-    if (!(e.chosen & kChoseDiffuse)) e.cosine_diffuse = camera_sampling;
+    const bool both_ends = bidirectional(kind);
+    if (!(e.chosen & kChoseDiffuse)) e.cosine_diffuse = camera_sampling || both_ends;
     if (!(e.chosen & kChoseRoulette))
         e.roulette = camera_sampling ? Roulette::kThroughput : Roulette::kLobe;
-    if (!(e.chosen & kChoseTriangles)) e.triangle_solid_angle = camera_sampling;
+    if (!(e.chosen & kChoseTriangles)) e.triangle_solid_angle = camera_sampling || both_ends;
     if (!(e.chosen & kChoseSampler))
         e.sampler = camera_sampling ? Sampler::kSobol : Sampler::kIndependent;
 }

@@ -44,6 +44,9 @@ inline constexpr EstimatorEntry kEstimators[] = {
     {Estimator::kLt, "lt",
      "light tracing: paths from the lights, each vertex connected to the pinhole (a mirror or "
      "glass seen directly shows only what camera paths find)"},
+    {Estimator::kBdpt, "bdpt",
+     "bidirectional path tracing: each camera path with a light subpath, every connection "
+     "of the two (and each end alone) weighted by the power heuristic"},
 };
 
 struct RouletteEntry {

@@ -173,7 +173,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     const mpi::World& world = mpi::world();
     const bool root = world.rank == 0;
     std::vector<std::string> warnings;
-    if (splats(scene.settings.estimator.kind)) {
+    if (scene.settings.estimator.kind == Estimator::kLt) {
         // Light tracing needs lights to start from; emitters it cannot sample (planes,
         // quadrics, textured emission) are left to the camera's paths
         if (scene.light_starts.total_power <= 0.0 && scene.emitters.unsampled_objects == 0)
@@ -195,7 +195,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
     const std::vector<Tile> tiles =
-        work_units(rs.width, rs.height, splats(scene.settings.estimator.kind));
+        work_units(rs.width, rs.height, scene.settings.estimator.kind == Estimator::kLt);
     // (enough for two passes in flight and every thread's unit)
     TilePool pool(2 * tiles.size() + 8 * size_t(threads));
     const UnitRenderer renderer(scene, wavefront.get(), tiles, pool);

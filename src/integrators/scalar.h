@@ -29,4 +29,9 @@ void trace_light_path(const Scene& scene, const PathContext& context,
 // splatted.
 void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays);
 
+// The same for the bidirectional estimators (scalar_bdpt.cpp): each sample's light subpath,
+// its connections to the pinhole splatted, then its camera subpath with every connection.
+void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film,
+                             RayCounts& rays);
+
 }  // namespace cierzo

@@ -43,6 +43,8 @@ UnitResult UnitRenderer::render(const Unit& u) const {
                                        size_t(t.s1 - t.s0));
     if (wavefront_) {
         wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
+    } else if (bidirectional(scene_.settings.estimator.kind)) {
+        render_tile_bdpt_scalar(scene_, t, r.sums, r.rays);
     } else {
         render_tile_scalar(scene_, t, r.sums, r.rays);
     }

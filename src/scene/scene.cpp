@@ -198,7 +198,8 @@ PathContext Scene::path_context() const {
     c.lt = e == Estimator::kLt;
     c.nee = (e == Estimator::kNee || e == Estimator::kMis) && emitters.count() > 0;
     c.lights = light_data.data();
-    c.light_count = c.lt ? 0 : int32_t(light_data.size() / 6);
+    c.bdpt = bidirectional(e);
+    c.light_count = c.lt || c.bdpt ? 0 : int32_t(light_data.size() / 6);
     c.scene_ior = scene_ior;
     c.smooth = smooth_shading;
     return c;
@@ -255,6 +256,8 @@ void Scene::build_light_starts() {
         ls.point.insert(ls.point.end(),
                         {l.position.x, l.position.y, l.position.z, float(l.intensity.x * scale),
                          float(l.intensity.y * scale), float(l.intensity.z * scale)});
+        ls.point_source.insert(ls.point_source.end(), {l.intensity.x, l.intensity.y, l.intensity.z,
+                                                       float(p_points * pmf)});
     }
     ls.point_cdf.back() = 1.0f;
 }

@@ -181,13 +181,14 @@ struct Environment {
 // power 4π·max I, chosen by power. Built by Scene::finalize.
 struct LightStarts {
     float emitter_probability = 0.0f;
-    std::vector<float> point_cdf, point;  // see LightStartTable
+    std::vector<float> point_cdf, point, point_source;  // see LightStartTable
     // Per point light: the refractive index of the medium it sits in (the scene's, or that
     // of the refractive object around it), and whether any light can start at all
     std::vector<float> medium_ior;
     double total_power = 0.0;
     LightStartTable table() const {
-        return {emitter_probability, int32_t(point_cdf.size()), point_cdf.data(), point.data()};
+        return {emitter_probability, int32_t(point_cdf.size()), point_cdf.data(), point.data(),
+                point_source.data()};
     }
 };
 
@@ -292,10 +293,10 @@ public:
         return first < 0 ? -1 : first + int32_t(hit.triangle);
     }
 
-    // Whether the camera tiles trace camera paths: always, but with light tracing only where
+    // Whether the camera tiles trace camera paths: always, but with light tracing (lt) only where
     // some emitter cannot be sampled (the light paths bring every other light).
     bool traces_camera_paths() const {
-        return !splats(settings.estimator.kind) || emitters.unsampled_objects > 0 ||
+        return settings.estimator.kind != Estimator::kLt || emitters.unsampled_objects > 0 ||
                environment.present();
     }
 

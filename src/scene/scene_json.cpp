@@ -1124,7 +1124,12 @@ struct Loader {
             r.fail("'max_length' (" + std::to_string(e.max_length) + ") is below 'min_length' (" +
                    std::to_string(e.min_length) + "): no path would count");
         const std::optional<Estimator> kind = parse_estimator(r.string("estimator", "report"));
-        if (!kind) r.fail("'estimator' must be \"report\", \"nee\", \"mis\" or \"lt\"");
+        if (!kind) {
+            std::string names;
+            for (const std::string& n : estimator_names())
+                names += (names.empty() ? "\"" : ", \"") + n + "\"";
+            r.fail("'estimator' must be one of " + names);
+        }
         use_estimator(e, *kind);
         if (r.has("output")) s.output = file.parent_path() / r.string("output");
         else r.allow({"output"});

@@ -10,6 +10,41 @@ namespace cierzo {
 
 inline constexpr int kMaxLanes = 16;
 
+// The fields of a stored light-subpath vertex (bdpt: kernels/bidirectional.h, LightVertex),
+// one float array each.
+enum LightVertexField : int32_t {
+    kLvPx, kLvPy, kLvPz,     // position
+    kLvNx, kLvNy, kLvNz,     // geometric normal on the arriving side
+    kLvSx, kLvSy, kLvSz,     // shading normal on that side
+    kLvWx, kLvWy, kLvWz,     // towards the previous vertex
+    kLvBr, kLvBg, kLvBb,     // throughput arriving
+    kLvKdR, kLvKdG, kLvKdB,  // Phong lobes
+    kLvKsR, kLvKsG, kLvKsB,
+    kLvShininess, kLvPd, kLvPs,
+    kLvVcm, kLvVc, kLvVm,    // the subpath's MIS quantities
+    kLvMagnitude,
+    kLightVertexFloats
+};
+
+// One thread's store of the light subpaths' vertices of a job (bdpt), structure of arrays:
+// vertices are appended as the light paths' waves reach them, then each path's are found
+// through `begin` and `order` (begin[k]..begin[k+1] indexes `order`, path k's vertices in
+// the order they were reached). `grow` (the renderer's) makes room for at least `vertices`
+// vertices, keeping those stored; the memory is the thread's and is kept between jobs.
+struct LightVertexStore {
+    int32_t count = 0, capacity = 0;
+    float* field[kLightVertexFloats] = {};
+    uint32_t* length = nullptr;  // segments from the light
+    uint32_t* path = nullptr;    // the path's index in its job
+    int32_t* order = nullptr;
+    uint32_t* begin = nullptr;   // the job's paths + 1 entries
+    void* owner = nullptr;
+    void (*grow)(LightVertexStore& store, int32_t vertices) = nullptr;
+};
+
+// Bytes per stored vertex.
+inline constexpr size_t kLightVertexBytes = (kLightVertexFloats + 3) * 4;
+
 struct PathPool {
     int32_t capacity = 0;
 
@@ -20,6 +55,13 @@ struct PathPool {
     uint32_t *key, *pixel, *bounce;
     uint32_t* index;  // the sample's index in its sequence (samplers other than independent)
     float* lobe_pdf;  // nee/mis: the density of the last Phong lobe's direction (0: none)
+    // bdpt: each subpath's MIS quantities (kernels/bidirectional.h), its index in the job
+    // (which pairs a camera path with its light path), and a light path's start until its
+    // first hit (the emitter, -1 for a point light, and |cos θ| there)
+    float *mis_vcm, *mis_vc, *mis_vm, *start_cos;
+    uint32_t* path_id;
+    int32_t* start_emitter;
+    LightVertexStore* light_store = nullptr;
 
     // Per-bounce scratch: the hit, the surface and its material
     float* t;

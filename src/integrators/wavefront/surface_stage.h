@@ -94,7 +94,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
                         lookup<A>(s.sphere_cz, count, j)};
         n = select(mask_f32(m), normalize(pos - c), n);
         material = select(m, lookup<A>(s.sphere_material, count, j), material);
-        if (s.path.nee || s.path.lt) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
+        if (weighs_emitter_hits(s.path)) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
     }
     if (f.planes) {
         const auto m = kind == I(kPrimPlane);
@@ -126,7 +126,7 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         // (mesh is the last kind: n is final here, and smooth_normals keeps it for the
         // lanes that are not on a smooth mesh)
         if (s.path.smooth) ns = smooth_normals(w, i, mesh, mask_f32(m) & w.live_mask(i), pos, n);
-        if (s.path.nee || s.path.lt) {
+        if (weighs_emitter_hits(s.path)) {
             const I first = lookup<A>(s.mesh_emitter, s.mesh_count, mesh);
             const I tri = xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
             emitter = select(m & (first >= I(0)), first + tri, emitter);
@@ -153,7 +153,7 @@ Surfaces<A> load_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wave<A
             I::load_aligned(p.material + i),
             mask_f32(I::load_aligned(p.alive + i) != I(0)),
             max(max_abs(pos), max_abs(ray.o)),
-            c.nee || c.lt ? I::load_aligned(p.emitter + i) : I(-1)};
+            weighs_emitter_hits(c) ? I::load_aligned(p.emitter + i) : I(-1)};
 }
 
 // Stores a batch's surfaces for the stages that run after the material sort.
@@ -165,7 +165,7 @@ void store_surfaces(Wave<A>& w, int32_t i, const Surfaces<A>& sf) {
     store3(sf.n, p.nx, p.ny, p.nz, i);
     if (w.scene.path.smooth) store3(sf.ns, p.snx, p.sny, p.snz, i);
     sf.material.store_aligned(p.material + i);
-    if (w.scene.path.nee || w.scene.path.lt) sf.emitter.store_aligned(p.emitter + i);
+    if (weighs_emitter_hits(w.scene.path)) sf.emitter.store_aligned(p.emitter + i);
     select(mask_i32(sf.hit), I(1), I(0)).store_aligned(p.alive + i);
 }
 

@@ -8,10 +8,12 @@
 #include <memory>
 #include <new>
 #include <stdexcept>
+#include <vector>
 
 #include <oneapi/tbb/enumerable_thread_specific.h>
 
 #include "core/error.h"
+#include "integrators/registry.h"
 #include "scene/flat_tables.h"
 
 namespace cierzo {
@@ -31,6 +33,39 @@ void splat_paths(void* film, int32_t count, const uint32_t* pixel, const float* 
     for (int32_t i = 0; i < count; ++i) f.splat(pixel[i], {r[i], g[i], b[i]});
 }
 
+// One thread's light-vertex store (bdpt), grown as a job's light subpaths need.
+struct LightStoreMemory {
+    std::vector<float> field[kLightVertexFloats];
+    std::vector<uint32_t> length, path, begin;
+    std::vector<int32_t> order;
+    LightVertexStore store;
+
+    LightStoreMemory() {
+        store.owner = this;
+        store.grow = [](LightVertexStore& s, int32_t vertices) {
+            static_cast<LightStoreMemory*>(s.owner)->resize(std::max(vertices, 2 * s.capacity));
+        };
+        resize(4096);
+    }
+    void resize(int32_t capacity) {
+        for (int k = 0; k < kLightVertexFloats; ++k) {
+            field[k].resize(size_t(capacity));
+            store.field[k] = field[k].data();
+        }
+        length.resize(size_t(capacity)), path.resize(size_t(capacity)), order.resize(size_t(capacity));
+        store.length = length.data(), store.path = path.data(), store.order = order.data();
+        store.capacity = capacity;
+    }
+    // Room for a job of `paths` paths' ranges
+    void reserve_paths(size_t paths) {
+        if (begin.size() < paths + 1) begin.resize(paths + 1);
+        store.begin = begin.data();
+    }
+    size_t bytes() const {
+        return size_t(store.capacity) * kLightVertexBytes + begin.size() * sizeof(uint32_t);
+    }
+};
+
 // One thread's pool: an aligned block carved into SoA arrays.
 struct PoolMemory {
     void* memory = nullptr;
@@ -44,6 +79,7 @@ struct PoolMemory {
     PoolMemory(const PoolMemory&) = delete;
     PoolMemory& operator=(const PoolMemory&) = delete;
     ~PoolMemory() { std::free(memory); }
+    std::unique_ptr<LightStoreMemory> light_store;  // bdpt only
 };
 
 }  // namespace
@@ -117,9 +153,11 @@ static bool samples_emitters(const Scene& scene) {
     return (e == Estimator::kNee || e == Estimator::kMis) && scene.emitters.count() > 0;
 }
 
-// Shadow rays a Phong vertex may queue: one per point light, one emitter sample.
+// Shadow rays a Phong vertex may queue: one per point light, one emitter sample (bdpt: and
+// room for a few connections; its queue is traced whenever it fills).
 static int32_t shadow_rays_per_vertex(const Scene& scene) {
-    return int32_t(scene.lights.size()) + (samples_emitters(scene) ? 1 : 0);
+    const int32_t connections = bidirectional(scene.settings.estimator.kind) ? 3 : 0;
+    return int32_t(scene.lights.size()) + (samples_emitters(scene) ? 1 : 0) + connections;
 }
 
 WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size,
@@ -153,7 +191,14 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
     // The camera stage splits path numbers into pixel and sample in float lanes (exact below 2^24)
     if (int64_t(tile.x1 - tile.x0) * (tile.y1 - tile.y0) >= (int64_t(1) << 23))
         throw std::logic_error("wavefront tiles must have fewer than 2^23 pixels");
-    PathPool& pool = data_->pools.local().pool;
+    PoolMemory& memory = data_->pools.local();
+    PathPool& pool = memory.pool;
+    if (data_->view.scene.path.bdpt) {
+        if (!memory.light_store) memory.light_store = std::make_unique<LightStoreMemory>();
+        memory.light_store->reserve_paths(size_t(tile.x1 - tile.x0) * size_t(tile.y1 - tile.y0) *
+                                          size_t(tile.s1 - tile.s0));
+        pool.light_store = &memory.light_store->store;
+    }
     const TileJob job{tile.x0, tile.y0,    tile.x1,     tile.y1, tile.s0,
                       tile.s1, tile.light, &film, finish_paths, splat_paths};
     WavefrontCounters c;

@@ -8,6 +8,7 @@
 
 #include <type_traits>
 
+#include "integrators/wavefront/bdpt_stage.h"
 #include "integrators/wavefront/compact_stage.h"
 #include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/light_stage.h"
@@ -113,6 +114,11 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
     if (job.light) {
         Wave<A> w{scene, pool, counters};
         render_light_paths(w, job);
+        return;
+    }
+    if (scene.path.bdpt) {
+        Wave<A> w{scene, pool, counters};
+        render_bdpt_tile(w, job);
         return;
     }
     if (!scene.camera_paths) return;

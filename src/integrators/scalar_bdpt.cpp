@@ -1,0 +1,211 @@
+// The scalar reference of the bidirectional estimators (kernels/bidirectional.h): for each
+// camera sample, its light subpath first (its Phong vertices stored, each connected to the
+// pinhole), then its camera subpath, which at each Phong vertex samples the lights and
+// connects to every stored vertex. One path at a time, with the same kernels as the
+// wavefront's bidirectional stages.
+#include "integrators/scalar.h"
+
+#include <vector>
+
+#include "kernels/bidirectional.h"
+#include "kernels/rng.h"
+
+#if defined(__SANITIZE_ADDRESS__)
+#define CIERZO_PATH_LOOP
+#else
+#define CIERZO_PATH_LOOP [[gnu::flatten]]
+#endif
+
+namespace cierzo {
+
+namespace {
+
+// A shadow ray a vertex asked for, traced at once: what it adds if clear.
+Vec3f trace_request(const Scene& scene, const ShadowRequest<float>& r, RayCounts& rays) {
+    if (!r.want) return Vec3f(0.0f);
+    ++rays.shadow;
+    return scene.occluded({r.origin, r.dir}, r.tmax) ? Vec3f(0.0f) : r.value;
+}
+
+// One light subpath, with the numbers of the camera sample whose stream it takes: its Phong
+// vertices appended to `store`, each one's connection to the pinhole splatted (t = 1).
+CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext& c,
+                                          const LightStartTable& lights,
+                                          const PinholeFrame& pinhole,
+                                          const SampleStream<float>& camera_rng,
+                                          const MergeWeights& mw,
+                                          std::vector<LightVertex<float>>& store,
+                                          FilmTile& film, RayCounts& rays) {
+    const SampleStream<float> rng = light_stream(camera_rng);
+    const LightStart<float> start = sample_light_start<float>(c.emitters, lights, rng);
+    if (!start.ok) return;
+    ++rays.light;
+    const bool limited = limits_length(c.estimator);
+    if (limited && !may_extend<float>(c.estimator, 0u)) return;
+    SubpathMis<float> mis = light_start_mis(start, mw);
+    Ray<float> ray{start.on_surface
+                       ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
+                                           max_abs(start.p))
+                       : start.p,
+                   start.dir};
+    Vec3f beta = start.beta;
+    const float cap = c.estimator.survival_cap;
+    for (uint32_t bounce = 1;; ++bounce) {
+        Hit hit;
+        if (!scene.intersect(ray, kRayFar, hit)) break;
+        const Material& material = scene.materials[size_t(hit.material)];
+        if (material.is_emitter()) break;  // emitters absorb what reaches them
+        const Bsdf<float> m = scene.bsdf_at(hit);
+        const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
+        const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
+        const float direct =
+            bounce == 1 ? start_direct_pdf_area<float>(c, start, hit.p, ray.d, hit.t) : 1.0f;
+        mis_at_hit(mis, hit.t, std::abs(dot(ray.d, v.nf)), direct);
+        const PhongVertex<float> pv = phong_vertex(m, cap);
+
+        if (material.has_phong()) {
+            const LightVertex<float> lv{hit.p, v.nf, v.nsf, -ray.d, beta, pv, mis, magnitude, bounce};
+            store.push_back(lv);
+            // t = 1: the vertex seen from the pinhole
+            if (!limited || length_counts<float>(c.estimator, bounce + 1)) {
+                const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
+                if (cc.ok && on_arriving_side(cc.wc, v.nf)) {
+                    const Vec3f value =
+                        camera_contribution(m, beta, ray.d, v.nf, v.nsf, cc, c.smooth) *
+                        camera_connection_mis(c, lv, cc, mw);
+                    if (max_component(value) > 0.0f) {
+                        ++rays.shadow;
+                        if (!scene.occluded({offset_ray_origin(hit.p, v.nf, magnitude), cc.wc},
+                                            cc.dist * (1.0f - 1e-5f)))
+                            film.splat(uint32_t(cc.pixel), value);
+                    }
+                }
+            }
+        }
+
+        // The roulette and the chosen lobe, in importance mode
+        float p = 0.0f;
+        const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe), cap, p);
+        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
+        const ScalarContinuation next = continue_path<Transport::kImportance>(
+            lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
+        beta *= next.weight;
+        if (!(max_component(beta) > 0.0f)) break;
+        mis_after_lobe<float>(c, mis, lobe, pv, v, ray.d, next.d, mw);
+        ray = {next.o, next.d};
+        ++rays.extension;
+    }
+}
+
+// The camera subpath of one sample, with every strategy that ends on it: what it brings to
+// its pixel (the light subpath's vertices are `light`).
+CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContext& c,
+                                            const LightStartTable& lights,
+                                            const PinholeFrame& pinhole,
+                                            const Ray<float>& camera_ray,
+                                            const SampleStream<float>& rng, const MergeWeights& mw,
+                                            const LightVertex<float>* light, size_t light_count,
+                                            RayCounts& rays) {
+    Vec3f radiance(0.0f);
+    Vec3f throughput(1.0f);
+    Ray<float> ray = camera_ray;
+    SubpathMis<float> mis = camera_start_mis(pinhole, ray.d);
+    const bool limited = limits_length(c.estimator);
+    const float cap = c.estimator.survival_cap;
+    const auto counts = [&](uint32_t length) {
+        return !limited || length_counts<float>(c.estimator, length);
+    };
+    for (uint32_t bounce = 0;; ++bounce) {
+        Hit hit;
+        if (!scene.intersect(ray, kRayFar, hit)) {
+            if (has_environment(c) && counts(bounce + 1))
+                radiance += throughput * environment_radiance(c.emitters.environment, ray.d) *
+                            environment_mis<float>(c, mis, ray.d, bounce == 0);
+            break;
+        }
+        const Material& material = scene.materials[size_t(hit.material)];
+        const float cos_in = std::abs(dot(ray.d, hit.n));
+        mis_at_hit(mis, hit.t, cos_in);
+
+        // s = 0: an emitter ends the path
+        if (material.is_emitter()) {
+            if (counts(bounce + 1))
+                radiance += throughput * scene.emission_at(hit) *
+                            emitter_hit_mis<float>(c, lights, mis, scene.emitter_id(hit), ray.o,
+                                                   ray.d, hit.t, cos_in, bounce == 0);
+            break;
+        }
+        const Bsdf<float> m = scene.bsdf_at(hit);
+        const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
+        const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
+        const PhongVertex<float> pv = phong_vertex(m, cap);
+
+        if (material.has_phong()) {
+            const CameraVertex<float> cv{hit.p, v.nf, v.nsf, -ray.d,
+                                         shadow_origin(v, hit.p, magnitude), pv, mis};
+            // s = 1: the lights sampled from here
+            if (counts(bounce + 2)) {
+                Vec3f direct(0.0f);
+                if (c.emitters.count > 0)
+                    direct += trace_request(scene, nee_emitter(c, lights, cv, mw, rng, bounce, true),
+                                            rays);
+                for (int32_t j = 0; j < lights.point_count; ++j)
+                    direct += trace_request(scene, nee_point_light(c, lights, j, cv, mw, true), rays);
+                radiance += throughput * direct;
+            }
+            // s, t ≥ 2: every stored vertex of this sample's light subpath
+            Vec3f connected(0.0f);
+            for (size_t k = 0; k < light_count; ++k)
+                if (counts(light[k].length + bounce + 2))
+                    connected += trace_request(scene, connect_vertices(c, cv, light[k], mw, true), rays);
+            radiance += throughput * connected;
+        }
+
+        // The roulette and the chosen lobe
+        float p = 0.0f;
+        const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe), cap, p);
+        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
+        const ScalarContinuation next =
+            continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
+        throughput *= next.weight;
+        if (!(max_component(throughput) > 0.0f)) break;
+        mis_after_lobe<float>(c, mis, lobe, pv, v, ray.d, next.d, mw);
+        ray = {next.o, next.d};
+        ++rays.extension;
+    }
+    return radiance;
+}
+
+}  // namespace
+
+void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film,
+                             RayCounts& rays) {
+    const RenderSettings& rs = scene.settings;
+    const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
+    const PathContext c = scene.path_context();
+    const LightStartTable lights = scene.light_starts.table();
+    const PinholeFrame pinhole = scene.pinhole();
+    const MergeWeights mw;
+    std::vector<LightVertex<float>> store;
+    for (int y = tile.y0; y < tile.y1; ++y)
+        for (int x = tile.x0; x < tile.x1; ++x) {
+            PixelSums& px = film.at(x, y);
+            const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
+            for (int64_t s = tile.s0; s < tile.s1; ++s) {
+                const SampleStream<float> rng = camera_stream<float>(
+                    c.sampler, rs.seed, pixel, uint32_t(x), uint32_t(y), uint32_t(s));
+                store.clear();
+                if (lights.emitter_probability > 0.0f || lights.point_count > 0)
+                    trace_light_subpath(scene, c, lights, pinhole, rng, mw, store, film, rays);
+                float jx, jy;
+                uniform2<float>(rng, 0u, Purpose::kPixelX, jx, jy);
+                ++rays.camera;
+                px.add(trace_camera_subpath(
+                    scene, c, lights, pinhole,
+                    scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h), rng, mw,
+                    store.data(), store.size(), rays));
+            }
+        }
+}
+
+}  // namespace cierzo

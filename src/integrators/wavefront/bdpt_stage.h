@@ -1,0 +1,539 @@
+// Bidirectional path tracing in the wavefront (--estimator bdpt), with the rules of
+// kernels/bidirectional.h. A job (a tile's pixels × a pass's samples) runs in two waves
+// through the same pool, intersection, surface and material stages as the camera's:
+//   1. light subpaths, one per camera sample of the job (the sample's key, as lt's): at each
+//      Phong vertex the vertex is appended to the thread's light-vertex store (SoA) and its
+//      connection to the pinhole is queued (t = 1); the roulette and the lobes in importance
+//      mode; survivors compacted. The camera connections are traced in full batches and the
+//      clear ones splatted.
+//   2. the store is grouped by path (a counting sort of indices), then camera subpaths: at
+//      each hit s = 0 (emitter or environment) is weighed at once; a Phong vertex queues its
+//      light samples (s = 1) and one connection per vertex of its own light subpath (s, t ≥ 2,
+//      lane k of the batch gathering its path's k-th vertex), all as shadow rays whose queue
+//      is traced whenever it fills and after the pass; then the roulette, the lobes, and
+//      compaction, where ended paths hand their radiance to the film.
+#pragma once
+
+#include "integrators/wavefront/light_stage.h"
+#include "integrators/wavefront/shadow_stage.h"
+#include "kernels/bidirectional.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+// Paths [first, w.live) are the job's paths seq0, seq0 + 1, ...
+template <class A>
+void number_paths(Wave<A>& w, int32_t first, uint32_t seq0) {
+    for (int32_t k = first; k < w.live; ++k) w.pool.path_id[k] = seq0 + uint32_t(k - first);
+}
+
+template <class A>
+SubpathMis<typename Wave<A>::F> load_mis(const PathPool& p, int32_t i) {
+    using F = typename Wave<A>::F;
+    return {F::load_aligned(p.mis_vcm + i), F::load_aligned(p.mis_vc + i),
+            F::load_aligned(p.mis_vm + i)};
+}
+
+// A light-store vertex for each lane (indices idx; lanes not in `m` read vertex 0).
+template <class A>
+LightVertex<typename Wave<A>::F> gather_light_vertex(const LightVertexStore& st,
+                                                     const typename Wave<A>::I& idx) {
+    using F = typename Wave<A>::F;
+    const auto g = [&](int k) { return gather_lanes<A>(st.field[k], idx); };
+    LightVertex<F> l;
+    l.p = {g(kLvPx), g(kLvPy), g(kLvPz)};
+    l.nf = {g(kLvNx), g(kLvNy), g(kLvNz)};
+    l.nsf = {g(kLvSx), g(kLvSy), g(kLvSz)};
+    l.wl = {g(kLvWx), g(kLvWy), g(kLvWz)};
+    l.beta = {g(kLvBr), g(kLvBg), g(kLvBb)};
+    l.phong.kd = {g(kLvKdR), g(kLvKdG), g(kLvKdB)};
+    l.phong.ks = {g(kLvKsR), g(kLvKsG), g(kLvKsB)};
+    l.phong.shininess = g(kLvShininess);
+    l.phong.p_diffuse = g(kLvPd);
+    l.phong.p_specular = g(kLvPs);
+    l.mis = {g(kLvVcm), g(kLvVc), g(kLvVm)};
+    l.magnitude = g(kLvMagnitude);
+    l.length = gather_lanes<A>(st.length, idx);
+    return l;
+}
+
+// Appends the lanes in `bits` of vertex l (of paths `path`) to the store.
+template <class A>
+void append_light_vertices(LightVertexStore& st, uint32_t bits,
+                           const LightVertex<typename Wave<A>::F>& l,
+                           const typename Wave<A>::U& path) {
+    using F = typename Wave<A>::F;
+    constexpr int32_t K = Wave<A>::K;
+    if (!bits) return;
+    if (st.count + K > st.capacity) st.grow(st, st.count + K);
+    const F* v[kLightVertexFloats] = {
+        &l.p.x,         &l.p.y,         &l.p.z,         &l.nf.x,           &l.nf.y,
+        &l.nf.z,        &l.nsf.x,       &l.nsf.y,       &l.nsf.z,          &l.wl.x,
+        &l.wl.y,        &l.wl.z,        &l.beta.x,      &l.beta.y,         &l.beta.z,
+        &l.phong.kd.x,  &l.phong.kd.y,  &l.phong.kd.z,  &l.phong.ks.x,     &l.phong.ks.y,
+        &l.phong.ks.z,  &l.phong.shininess, &l.phong.p_diffuse, &l.phong.p_specular,
+        &l.mis.vcm,     &l.mis.vc,      &l.mis.vm,      &l.magnitude};
+    for (int k = 0; k < kLightVertexFloats; ++k)
+        compress<A>(*v[k], bits).store_unaligned(st.field[k] + st.count);
+    compress<A>(l.length, bits).store_unaligned(st.length + st.count);
+    compress<A>(path, bits).store_unaligned(st.path + st.count);
+    st.count += std::popcount(bits);
+}
+
+// Regeneration of light subpaths: the paths [w.live, ...) take the job's next keys and
+// become light paths (start, ray, throughput, MIS quantities).
+template <class A>
+CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
+                                               const MergeWeights& mw) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const int32_t first = w.live;
+    const uint32_t seq0 = uint32_t(cursor.next);
+    const uint64_t before = w.counters.camera;
+    generate_camera_paths<false>(w, cursor);
+    w.counters.light += w.counters.camera - before;
+    w.counters.camera = before;
+    number_paths(w, first, seq0);
+    const int32_t end = w.live;
+    const EstimatorSettings& est = s.path.estimator;
+    const bool extends = !limits_length(est) || may_extend<float>(est, 0u);
+    for (int32_t i = first / K * K; i < end; i += K) {
+        const F lane = Wave<A>::lane_index();
+        const auto fresh = (lane >= F(float(first - i))) & (lane < F(float(end - i)));
+        const SampleStream<F> rng = light_stream(stream_at<A>(s, p, i));
+        const LightStart<F> ls = sample_light_start<F>(s.path.emitters, s.light_starts, rng);
+        const Vec3<F> o = select(
+            ls.on_surface,
+            offset_ray_origin(ls.p, select(dot(ls.dir, ls.n) > F(0.0f), ls.n, -ls.n), max_abs(ls.p)),
+            ls.p);
+        const auto starts = extends ? ls.ok : (ls.ok & !ls.ok);
+        const Vec3<F> beta = select(starts, ls.beta, Vec3<F>(F(0.0f)));
+        const SubpathMis<F> mis = light_start_mis(ls, mw);
+        const auto keep = [&](const F& v, float* a) {
+            select(fresh, v, F::load_aligned(a + i)).store_aligned(a + i);
+        };
+        keep(o.x, p.ox), keep(o.y, p.oy), keep(o.z, p.oz);
+        keep(ls.dir.x, p.dx), keep(ls.dir.y, p.dy), keep(ls.dir.z, p.dz);
+        keep(beta.x, p.beta_r), keep(beta.y, p.beta_g), keep(beta.z, p.beta_b);
+        keep(mis.vcm, p.mis_vcm), keep(mis.vc, p.mis_vc), keep(mis.vm, p.mis_vm);
+        keep(ls.cos_light, p.start_cos);
+        select(mask_i32(fresh), ls.emitter, I::load_aligned(p.start_emitter + i))
+            .store_aligned(p.start_emitter + i);
+        select(mask_u32(fresh), rng.key, U::load_aligned(p.key + i)).store_aligned(p.key + i);
+        select(mask_u32(fresh), U(1u), U::load_aligned(p.bounce + i)).store_aligned(p.bounce + i);
+    }
+}
+
+// Moves the lanes in `bits` of batch i's new state to the front of the pool at `kept`.
+template <class A>
+void keep_bdpt_paths(PathPool& p, const FlatScene& s, uint32_t bits, int32_t i, int32_t kept,
+                     const Vec3<typename Wave<A>::F>& o, const Vec3<typename Wave<A>::F>& dir,
+                     const Vec3<typename Wave<A>::F>& beta,
+                     const SubpathMis<typename Wave<A>::F>& mis,
+                     const typename Wave<A>::U& bounce) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    const Vec3<F>* out[3] = {&o, &dir, &beta};
+    float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz}, {p.beta_r, p.beta_g, p.beta_b}};
+    for (int k = 0; k < 3; ++k) {
+        compress<A>(out[k]->x, bits).store_unaligned(dst[k][0] + kept);
+        compress<A>(out[k]->y, bits).store_unaligned(dst[k][1] + kept);
+        compress<A>(out[k]->z, bits).store_unaligned(dst[k][2] + kept);
+    }
+    compress<A>(mis.vcm, bits).store_unaligned(p.mis_vcm + kept);
+    compress<A>(mis.vc, bits).store_unaligned(p.mis_vc + kept);
+    compress<A>(mis.vm, bits).store_unaligned(p.mis_vm + kept);
+    compress<A>(U::load_aligned(p.key + i), bits).store_unaligned(p.key + kept);
+    if (s.path.sampler.kind != Sampler::kIndependent)
+        compress<A>(U::load_aligned(p.index + i), bits).store_unaligned(p.index + kept);
+    compress<A>(U::load_aligned(p.path_id + i), bits).store_unaligned(p.path_id + kept);
+    compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + kept);
+}
+
+// The roulette and the chosen lobe of each lane (kMode: radiance for camera subpaths,
+// importance for light subpaths), and the subpath quantities after it: the new direction
+// and throughput factor; `alive` loses the lanes whose path ends.
+template <Transport kMode, class A>
+void bdpt_scatter(const FlatScene& s, const Bsdf<typename Wave<A>::F>& m,
+                  const PhongVertex<typename Wave<A>::F>& pv,
+                  const VertexFrame<typename Wave<A>::F>& v, const Surfaces<A>& sf,
+                  const Vec3<typename Wave<A>::F>& d,
+                  const SampleStream<typename Wave<A>::F>& rng, const typename Wave<A>::U& bounce,
+                  const MergeWeights& mw, typename Wave<A>::M& alive,
+                  SubpathMis<typename Wave<A>::F>& mis, Vec3<typename Wave<A>::F>& dir,
+                  Vec3<typename Wave<A>::F>& weight) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    const FlatFeatures& f = s.features;
+    const EstimatorSettings& est = s.path.estimator;
+    F probability;
+    const I lobe = choose_lobe(m, uniform<F>(rng, bounce, Purpose::kLobe), est.survival_cap,
+                               probability);
+    alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
+    if (limits_length(est)) alive = alive & may_extend<F>(est, bounce);
+    dir = weight = Vec3<F>(F(0.0f));
+    const auto run = [&](auto kind) {
+        constexpr int kLobe = decltype(kind)::value;
+        const auto chosen = alive & mask_f32(lobe == I(kLobe));
+        if (!any(chosen)) return;
+        const Scatter<F> sc =
+            continue_path<kLobe, kMode>(s.path, m, d, v, sf.n, sf.ns, probability, rng, bounce);
+        dir = select(chosen, sc.dir, dir);
+        weight = select(chosen, sc.weight, weight);
+    };
+    if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
+    if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
+    if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
+    if (f.refraction) run(std::integral_constant<int, kLobeRefract>{});
+    if (any(alive)) mis_after_lobe(s.path, mis, lobe, pv, v, d, dir, mw);
+}
+
+// One batch of light-subpath vertices: MIS at the hit, the Phong vertices stored and
+// connected to the pinhole, the roulette and lobe; survivors compacted to `kept`.
+template <class A, class Read>
+void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
+                         const Surfaces<A>& sf, const Read& evaluated, const MergeWeights& mw,
+                         int32_t& kept, int32_t& connections) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const PathContext& c = s.path;
+    const EstimatorSettings& est = c.estimator;
+    const I mat = sf.material;
+    auto alive = sf.hit;
+    if (s.features.emitters)
+        alive = alive & !mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0));
+    const Bsdf<F> m = hit_bsdf<kLobeCount, A>(s, mat, evaluated);
+    const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
+    const SampleStream<F> rng = stream_at<A>(s, p, i);
+    const U bounce = U::load_aligned(p.bounce + i);
+    const Vec3<F>& d = ray.d;
+    const VertexFrame<F> v = vertex_frame(c.smooth, d, sf.n, sf.ns);
+
+    // The subpath quantities at the hit (the first hit completes the start's)
+    SubpathMis<F> mis = load_mis<A>(p, i);
+    const F t = length(sf.pos - ray.o);
+    F direct(1.0f);
+    const auto first = mask_f32(xsimd::bitwise_cast<I>(bounce) == I(1)) & alive;
+    if (any(first)) {
+        LightStart<F> st;
+        st.emitter = I::load_aligned(p.start_emitter + i);
+        st.on_surface = mask_f32(st.emitter >= I(0));
+        st.cos_light = F::load_aligned(p.start_cos + i);
+        direct = select(first, start_direct_pdf_area<F>(c, st, sf.pos, d, t), direct);
+    }
+    mis_at_hit(mis, t, abs(dot(d, v.nf)), direct);
+    const PhongVertex<F> pv = phong_vertex(m, est.survival_cap);
+
+    // Phong vertices: stored, and seen from the pinhole (t = 1)
+    const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+    if (any(phong)) {
+        const LightVertex<F> lv{sf.pos, v.nf, v.nsf, -d, beta, pv, mis, sf.magnitude, bounce};
+        append_light_vertices<A>(*p.light_store, mask_bits(phong), lv,
+                                 U::load_aligned(p.path_id + i));
+        auto seen = phong;
+        if (limits_length(est)) seen = seen & length_counts<F>(est, bounce + U(1u));
+        const CameraConnection<F> cc = connect_camera(s.pinhole, sf.pos);
+        seen = seen & on_arriving_side(cc.wc, v.nf);
+        if (any(seen)) {
+            const Vec3<F> value = camera_contribution(m, beta, d, v.nf, v.nsf, cc, c.smooth) *
+                                  camera_connection_mis(c, lv, cc, mw);
+            queue_connections(w, seen, offset_ray_origin(sf.pos, v.nf, sf.magnitude), cc, value,
+                              connections);
+        }
+    }
+
+    Vec3<F> dir, weight;
+    bdpt_scatter<Transport::kImportance, A>(s, m, pv, v, sf, d, rng, bounce, mw, alive, mis,
+                                            dir, weight);
+    const Vec3<F> beta1 = beta * weight;
+    alive = alive & (max_component(beta1) > F(0.0f));
+    const uint32_t bits = mask_bits(alive);
+    keep_bdpt_paths<A>(p, s, bits, i, kept, leaving_origin(sf.pos, sf.n, dir, sf.magnitude), dir,
+                       beta1, mis, bounce);
+    kept += std::popcount(bits);
+    w.counters.extension += uint64_t(std::popcount(bits));
+    w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
+    w.counters.lanes_total += uint64_t(K);
+}
+
+// Queues shadow rays of the lanes in `want` (owner: the lane's path), tracing the queue
+// first when it could not take a whole batch more. The owners' radiance must be in the pool.
+template <class A>
+void queue_owned(Wave<A>& w, int32_t i, const ShadowRequest<typename Wave<A>::F>& r,
+                 const Vec3<typename Wave<A>::F>& value, int32_t& queued) {
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const uint32_t bits = mask_bits(r.want);
+    if (!bits) return;
+    if (queued + K > p.shadow_capacity) {
+        p.shadow_count = queued;
+        trace_shadow_rays(w);
+        w.counters.shadow += uint64_t(queued);
+        queued = 0;
+    }
+    const typename Wave<A>::F* src[10] = {&r.origin.x, &r.origin.y, &r.origin.z, &r.dir.x,
+                                          &r.dir.y,    &r.dir.z,    &r.tmax,     &value.x,
+                                          &value.y,    &value.z};
+    float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy, p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
+    for (int k = 0; k < 10; ++k) compress<A>(*src[k], bits).store_unaligned(dst[k] + queued);
+    compress<A>(Wave<A>::lane_ids(i), bits).store_unaligned(p.sowner + queued);
+    queued += std::popcount(bits);
+}
+
+// One batch of camera-subpath vertices: s = 0 at once; s = 1 and s, t ≥ 2 queued as shadow
+// rays; the roulette and the lobe, the new state stored in place (compact_bdpt follows).
+template <class A, class Read>
+void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
+                          const Surfaces<A>& sf, const Read& evaluated, const MergeWeights& mw,
+                          int32_t& queued) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const PathContext& c = s.path;
+    const EstimatorSettings& est = c.estimator;
+    const LightStartTable& lights = s.light_starts;
+    const bool limited = limits_length(est);
+    const I mat = sf.material;
+    auto alive = sf.hit;
+    const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
+    Vec3<F> rad = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
+    const SampleStream<F> rng = stream_at<A>(s, p, i);
+    const U bounce = U::load_aligned(p.bounce + i);
+    const auto first = mask_f32(xsimd::bitwise_cast<I>(bounce) == I(0));
+    const Vec3<F>& d = ray.d;
+    SubpathMis<F> mis = load_mis<A>(p, i);
+    const F t = length(sf.pos - ray.o);
+    const F cos_in = abs(dot(d, sf.n));
+    mis_at_hit(mis, t, cos_in);
+    const auto counts = [&](const typename Wave<A>::M& m, const U& length) {
+        return limited ? m & length_counts<F>(est, length) : m;
+    };
+
+    // s = 0: an emitter ends the path; a path that escapes gathers the environment
+    if (s.features.emitters) {
+        const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
+        if (any(em)) {
+            const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated) *
+                               emitter_hit_mis<F>(c, lights, mis, select(mask_i32(em), sf.emitter, I(-1)),
+                                                  ray.o, d, t, cos_in, first);
+            rad = select(counts(em, bounce + U(1u)), rad + beta * le, rad);
+            alive = alive & !em;
+        }
+    }
+    if (has_environment(c)) {
+        const auto missed = w.live_mask(i) & !sf.hit;
+        if (any(missed)) {
+            const Vec3<F> le = environment_radiance(c.emitters.environment, d) *
+                               environment_mis<F>(c, mis, d, first);
+            rad = select(counts(missed, bounce + U(1u)), rad + beta * le, rad);
+        }
+    }
+    store3(rad, p.rad_r, p.rad_g, p.rad_b, i);  // (before any shadow ray adds to it)
+
+    const Bsdf<F> m = hit_bsdf<kLobeCount, A>(s, mat, evaluated);
+    const VertexFrame<F> v = vertex_frame(c.smooth, d, sf.n, sf.ns);
+    const PhongVertex<F> pv = phong_vertex(m, est.survival_cap);
+    const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+    if (any(phong)) {
+        const CameraVertex<F> cv{sf.pos, v.nf, v.nsf, -d, shadow_origin(v, sf.pos, sf.magnitude),
+                                 pv, mis};
+        // s = 1: the lights sampled from here
+        const auto direct = counts(phong, bounce + U(2u));
+        if (any(direct)) {
+            if (c.emitters.count > 0) {
+                const ShadowRequest<F> r = nee_emitter(c, lights, cv, mw, rng, bounce, direct);
+                queue_owned(w, i, r, beta * r.value, queued);
+            }
+            for (int32_t j = 0; j < lights.point_count; ++j) {
+                const ShadowRequest<F> r = nee_point_light(c, lights, j, cv, mw, direct);
+                queue_owned(w, i, r, beta * r.value, queued);
+            }
+        }
+        // s, t ≥ 2: the k-th vertex of each lane's light subpath, for every k some lane has
+        const LightVertexStore& st = *p.light_store;
+        const I id = select(mask_i32(phong), xsimd::bitwise_cast<I>(U::load_aligned(p.path_id + i)), I(0));
+        const I lo = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id));
+        const I hi = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id + I(1)));
+        const I n = select(mask_i32(phong), hi - lo, I(0));
+        alignas(64) int32_t lane_n[K];
+        n.store_aligned(lane_n);
+        int32_t most = 0;
+        for (int32_t l = 0; l < K; ++l) most = std::max(most, lane_n[l]);
+        for (int32_t k = 0; k < most; ++k) {
+            auto has = mask_f32(I(k) < n);
+            const I idx = gather_lanes<A>(st.order, select(mask_i32(has), lo + I(k), I(0)));
+            const LightVertex<F> lv = gather_light_vertex<A>(st, idx);
+            if (limited) has = has & length_counts<F>(est, lv.length + bounce + U(2u));
+            const ShadowRequest<F> r = connect_vertices(c, cv, lv, mw, has);
+            queue_owned(w, i, r, beta * r.value, queued);
+        }
+    }
+
+    Vec3<F> dir, weight;
+    bdpt_scatter<Transport::kRadiance, A>(s, m, pv, v, sf, d, rng, bounce, mw, alive, mis, dir,
+                                          weight);
+    const Vec3<F> beta1 = beta * weight;
+    alive = alive & (max_component(beta1) > F(0.0f));
+    store3(leaving_origin(sf.pos, sf.n, dir, sf.magnitude), p.ox, p.oy, p.oz, i);
+    store3(dir, p.dx, p.dy, p.dz, i);
+    store3(beta1, p.beta_r, p.beta_g, p.beta_b, i);
+    mis.vcm.store_aligned(p.mis_vcm + i);
+    mis.vc.store_aligned(p.mis_vc + i);
+    mis.vm.store_aligned(p.mis_vm + i);
+    select(mask_i32(alive), I(1), I(0)).store_aligned(p.alive + i);
+    w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
+    w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
+    w.counters.lanes_total += uint64_t(K);
+}
+
+// Camera subpaths that ended hand their radiance to the film; survivors move to the front.
+template <class A>
+void compact_bdpt(Wave<A>& w, const TileJob& job) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    float* const fa[15] = {p.ox,     p.oy,     p.oz,     p.dx,      p.dy,     p.dz,    p.beta_r, p.beta_g,
+                           p.beta_b, p.rad_r,  p.rad_g,  p.rad_b,   p.mis_vcm, p.mis_vc, p.mis_vm};
+    int32_t kept = 0, done = 0;
+    for (int32_t i = 0; i < w.live; i += K) {
+        const int32_t lanes = std::min(K, w.live - i);
+        const uint32_t valid = (1u << lanes) - 1u;
+        const uint32_t m = mask_bits(mask_f32(I::load_aligned(p.alive + i) != I(0))) & valid;
+        const uint32_t ended = ~m & valid;
+        if (ended)
+            done = queue_radiant<A>(p, i, ended, load3<F>(p.rad_r, p.rad_g, p.rad_b, i), done);
+        for (float* a : fa) compress<A>(F::load_aligned(a + i), m).store_unaligned(a + kept);
+        for (uint32_t* a : {p.key, p.pixel, p.path_id})
+            compress<A>(U::load_aligned(a + i), m).store_unaligned(a + kept);
+        if (w.scene.path.sampler.kind != Sampler::kIndependent)
+            compress<A>(U::load_aligned(p.index + i), m).store_unaligned(p.index + kept);
+        compress<A>(U::load_aligned(p.bounce + i) + U(1u), m).store_unaligned(p.bounce + kept);
+        kept += std::popcount(m);
+    }
+    if (done) job.finish(job.film, done, p.done_pixel, p.done_r, p.done_g, p.done_b);
+    w.live = kept;
+}
+
+// The light-store's vertices grouped by path: begin[k]..begin[k + 1] of `order` are path
+// k's, in the order they were stored (a counting sort; a path's vertices were stored in
+// the order of its bounces).
+inline void group_light_vertices(LightVertexStore& st, int32_t paths) {
+    for (int32_t k = 0; k <= paths; ++k) st.begin[k] = 0;
+    for (int32_t v = 0; v < st.count; ++v) ++st.begin[st.path[v] + 1];
+    for (int32_t k = 0; k < paths; ++k) st.begin[k + 1] += st.begin[k];
+    // (begin[k] is advanced past each vertex placed, then restored)
+    for (int32_t v = 0; v < st.count; ++v) st.order[st.begin[st.path[v]]++] = v;
+    for (int32_t k = paths; k > 0; --k) st.begin[k] = st.begin[k - 1];
+    st.begin[0] = 0;
+}
+
+// The whole job: its light subpaths, then its camera subpaths.
+template <class A>
+CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const bool textures = s.features.textures;
+    const MergeWeights mw;
+    LightVertexStore& st = *p.light_store;
+    st.count = 0;
+    // Batch i's rays, their closest hits and surfaces
+    const auto trace = [&](int32_t i, Ray<F>& ray) {
+        ray = {load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+        F t;
+        I prim;
+        closest_hit(w, i, ray, t, prim);
+        if (textures) prim.store_aligned(p.prim + i);  // (for the vertex colours)
+        return resolve_surfaces(w, i, ray, t, prim);
+    };
+    const auto colours = [&](int32_t i) {
+        return [&p, i](int ch) { return load3<F>(p.col[ch][0], p.col[ch][1], p.col[ch][2], i); };
+    };
+    const auto solid = [](int) { return Vec3<F>(F(0.0f)); };
+    // Runs `vertex(i, ray, surfaces, read)` on every live batch, through the material stage
+    // in textured scenes
+    const auto each_vertex = [&](const auto& vertex) {
+        const int32_t end = w.rounded_up(w.live);
+        if (!textures) {
+            for (int32_t i = 0; i < end; i += K) {
+                Ray<F> ray;
+                const Surfaces<A> sf = trace(i, ray);
+                vertex(i, ray, sf, solid);
+            }
+            return;
+        }
+        for (int32_t i = 0; i < end; i += K) {
+            Ray<F> ray;
+            store_surfaces(w, i, trace(i, ray));
+        }
+        evaluate_sorted_materials(w, p.material_starts);
+        for (int32_t i = 0; i < end; i += K) {
+            const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+            vertex(i, ray, load_surfaces(w, i, ray), colours(i));
+        }
+    };
+
+    // 1. The light subpaths
+    TileCursor cursor = tile_cursor(job);
+    if (s.light_starts.emitter_probability > 0.0f || s.light_starts.point_count > 0) {
+        w.live = 0;
+        int32_t connections = 0;
+        for (;;) {
+            generate_light_subpaths(w, cursor, mw);
+            if (w.live == 0) break;
+            int32_t kept = 0;
+            each_vertex([&](int32_t i, const Ray<F>& ray, const Surfaces<A>& sf, const auto& read) {
+                light_subpath_batch(w, i, ray, sf, read, mw, kept, connections);
+            });
+            trace_camera_connections<A>(w, job, connections);
+            w.live = kept;
+        }
+    }
+    group_light_vertices(st, int32_t(cursor.total));
+
+    // 2. The camera subpaths
+    cursor = tile_cursor(job);
+    w.live = 0;
+    for (;;) {
+        const int32_t first = w.live;
+        const uint32_t seq0 = uint32_t(cursor.next);
+        generate_camera_paths<true>(w, cursor);
+        if (w.live == 0) break;
+        number_paths(w, first, seq0);
+        for (int32_t i = first / K * K; i < w.live; i += K) {
+            const F lane = Wave<A>::lane_index();
+            const auto fresh = (lane >= F(float(first - i))) & (lane < F(float(w.live - i)));
+            const SubpathMis<F> mis =
+                camera_start_mis(s.pinhole, load3<F>(p.dx, p.dy, p.dz, i));
+            select(fresh, mis.vcm, F::load_aligned(p.mis_vcm + i)).store_aligned(p.mis_vcm + i);
+            select(fresh, mis.vc, F::load_aligned(p.mis_vc + i)).store_aligned(p.mis_vc + i);
+            select(fresh, mis.vm, F::load_aligned(p.mis_vm + i)).store_aligned(p.mis_vm + i);
+        }
+        int32_t queued = 0;
+        each_vertex([&](int32_t i, const Ray<F>& ray, const Surfaces<A>& sf, const auto& read) {
+            camera_subpath_batch(w, i, ray, sf, read, mw, queued);
+        });
+        p.shadow_count = queued;
+        trace_shadow_rays(w);
+        w.counters.shadow += uint64_t(queued);
+        compact_bdpt(w, job);
+    }
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo
