@@ -133,7 +133,7 @@ template <class T>
 T start_direct_pdf_area(const PathContext& c, const LightStart<T>& s, const Vec3<T>& x,
                         const Vec3<T>& d, const T& t) {
     T pdf(1.0f);
-    if (any(s.on_surface)) {
+    if (c.emitters.count > 0 && any(s.on_surface)) {
         const I32<T> id = select(mask_i32(s.on_surface), s.emitter, I32<T>(0));
         const T w = emitter_pdf(c.emitters, id, x, -d, t, c.estimator.triangle_solid_angle);
         pdf = select(s.on_surface, w * s.cos_light / (t * t), pdf);

@@ -154,6 +154,10 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         // (light tracing: splats of any unit land anywhere in the image)
         {"emitting_spheres.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "lt"}},
         {"point_lights.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt"}},
+        // (bidirectional: each unit's light subpaths splat anywhere, its camera paths connect
+        // to them)
+        {"caustic.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "bdpt"}},
+        {"point_lights.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "bdpt"}},
         // (the samplers other than the independent one: their streams too are keyed by the
         // pixel and sample, not by the rank)
         {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis", "--sampler", "zsobol"}},
@@ -287,14 +291,20 @@ TEST(Mpi, AKilledRankEndsTheRunNonZeroInBoundedTime) {
 // process.
 void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
                      const std::vector<std::string>& estimator = {}) {
-    const std::string tag = (ranks ? "mpi" : "one") + std::string(estimator.empty() ? "" : "_lt");
+    // (a file name of its own per case: the cases may run at the same time)
+    std::string tag = ranks ? "mpi" : "one";
+    for (const std::string& a : estimator)
+        if (a.rfind("--", 0) != 0) tag += "_" + a;
     const fs::path full = kDir / ("full_" + tag + ".exr"), ck = kDir / ("ck_" + tag + ".exr");
     const fs::path part = kDir / ("part_" + tag + ".exr"), resumed = kDir / ("resumed_" + tag + ".exr");
     // (long enough that the kill lands mid-render: natively a 300-path render can end before
     // its first checkpoint, and the test would then have checked nothing)
-    const std::string spp = emulated() ? "300" : "2000";
-    std::vector<std::string> scene = {"--spp", spp, "--width", emulated() ? "64" : "160",
-                                      "--height", emulated() ? "48" : "120", "--variance"};
+    // (bdpt's paths cost several times a camera path's: a smaller image takes as long)
+    const bool heavy = std::find(estimator.begin(), estimator.end(), "bdpt") != estimator.end();
+    const std::string spp = emulated() ? "300" : heavy ? "800" : "2000";
+    const bool small = emulated() || heavy;
+    std::vector<std::string> scene = {"--spp", spp, "--width", small ? "64" : "160",
+                                      "--height", small ? "48" : "120", "--variance"};
     scene.insert(scene.end(), estimator.begin(), estimator.end());
     ASSERT_EQ(run({render_args(scene_file, full, scene)}, "full"), 0);
     fs::remove(ck), fs::remove(part);
@@ -341,6 +351,10 @@ TEST(Checkpoints, KilledUnderMpiAndResumedInOneProcessGivesTheSameImage) {
 // Light tracing's checkpoints keep whole passes (the splats of a pass in progress are redone)
 TEST(Checkpoints, KilledAndResumedLightTracingGivesTheUninterruptedImage) {
     kill_and_resume(0, "emitting_spheres.json", {"--estimator", "lt"});
+}
+
+TEST(Checkpoints, KilledAndResumedBidirectionalGivesTheUninterruptedImage) {
+    kill_and_resume(0, "caustic.json", {"--estimator", "bdpt"});
 }
 
 TEST(Checkpoints, KilledAndResumedWithTheSobolSamplerGivesTheUninterruptedImage) {

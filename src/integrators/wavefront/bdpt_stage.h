@@ -224,7 +224,8 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
     const auto first = mask_f32(xsimd::bitwise_cast<I>(bounce) == I(1)) & alive;
     if (any(first)) {
         LightStart<F> st;
-        st.emitter = I::load_aligned(p.start_emitter + i);
+        // (only the lanes at their first hit: the others' start is stale)
+        st.emitter = select(mask_i32(first), I::load_aligned(p.start_emitter + i), I(-1));
         st.on_surface = mask_f32(st.emitter >= I(0));
         st.cos_light = F::load_aligned(p.start_cos + i);
         direct = select(first, start_direct_pdf_area<F>(c, st, sf.pos, d, t), direct);
