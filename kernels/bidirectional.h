@@ -90,11 +90,16 @@ BsdfEval<T> phong_eval(const PhongVertex<T>& v, const Vec3<T>& wo, const Vec3<T>
         return cosine ? max(c, T(0.0f)) * T(kInvPi)
                       : select(c > T(0.0f), T(0.5f * kInvPi), T(0.0f));
     };
-    const T cos_a = dot(wi, normalize(reflect(d, nf)));
-    const T lobe = select(cos_a > T(0.0f), pow_s(max(cos_a, T(0.0f)), v.shininess), T(0.0f));
-    const T specular = (v.shininess + T(1.0f)) * T(0.5f * kInvPi) * lobe;
-    out.pdf = v.p_diffuse * diffuse_pdf(out.cos_i) + v.p_specular * specular;
-    out.pdf_reverse = v.p_diffuse * diffuse_pdf(cos_o) + v.p_specular * specular;
+    out.pdf = v.p_diffuse * diffuse_pdf(out.cos_i);
+    out.pdf_reverse = v.p_diffuse * diffuse_pdf(cos_o);
+    // (the specular lobe's density only where some lane has one: it costs an exp and a log)
+    if (any(v.p_specular > T(0.0f))) {
+        const T cos_a = dot(wi, normalize(reflect(d, nf)));
+        const T lobe = select(cos_a > T(0.0f), pow_s(max(cos_a, T(0.0f)), v.shininess), T(0.0f));
+        const T specular = v.p_specular * (v.shininess + T(1.0f)) * T(0.5f * kInvPi) * lobe;
+        out.pdf = out.pdf + specular;
+        out.pdf_reverse = out.pdf_reverse + specular;
+    }
     return out;
 }
 

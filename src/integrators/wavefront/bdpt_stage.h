@@ -35,22 +35,29 @@ SubpathMis<typename Wave<A>::F> load_mis(const PathPool& p, int32_t i) {
 }
 
 // A light-store vertex for each lane (indices idx; lanes not in `m` read vertex 0).
+// (the shading normal only in scenes with smooth meshes, the specular lobe only in scenes
+// with one: the fields that are not stored)
 template <class A>
-LightVertex<typename Wave<A>::F> gather_light_vertex(const LightVertexStore& st,
+LightVertex<typename Wave<A>::F> gather_light_vertex(const FlatScene& s, const LightVertexStore& st,
                                                      const typename Wave<A>::I& idx) {
     using F = typename Wave<A>::F;
     const auto g = [&](int k) { return gather_lanes<A>(st.field[k], idx); };
     LightVertex<F> l;
     l.p = {g(kLvPx), g(kLvPy), g(kLvPz)};
     l.nf = {g(kLvNx), g(kLvNy), g(kLvNz)};
-    l.nsf = {g(kLvSx), g(kLvSy), g(kLvSz)};
+    l.nsf = s.path.smooth ? Vec3<F>{g(kLvSx), g(kLvSy), g(kLvSz)} : l.nf;
     l.wl = {g(kLvWx), g(kLvWy), g(kLvWz)};
     l.beta = {g(kLvBr), g(kLvBg), g(kLvBb)};
     l.phong.kd = {g(kLvKdR), g(kLvKdG), g(kLvKdB)};
-    l.phong.ks = {g(kLvKsR), g(kLvKsG), g(kLvKsB)};
-    l.phong.shininess = g(kLvShininess);
     l.phong.p_diffuse = g(kLvPd);
-    l.phong.p_specular = g(kLvPs);
+    if (s.features.specular) {
+        l.phong.ks = {g(kLvKsR), g(kLvKsG), g(kLvKsB)};
+        l.phong.shininess = g(kLvShininess);
+        l.phong.p_specular = g(kLvPs);
+    } else {
+        l.phong.ks = Vec3<F>(F(0.0f));
+        l.phong.shininess = l.phong.p_specular = F(0.0f);
+    }
     l.mis = {g(kLvVcm), g(kLvVc), g(kLvVm)};
     l.magnitude = g(kLvMagnitude);
     l.length = gather_lanes<A>(st.length, idx);
@@ -59,7 +66,7 @@ LightVertex<typename Wave<A>::F> gather_light_vertex(const LightVertexStore& st,
 
 // Appends the lanes in `bits` of vertex l (of paths `path`) to the store.
 template <class A>
-void append_light_vertices(LightVertexStore& st, uint32_t bits,
+void append_light_vertices(const FlatScene& s, LightVertexStore& st, uint32_t bits,
                            const LightVertex<typename Wave<A>::F>& l,
                            const typename Wave<A>::U& path) {
     using F = typename Wave<A>::F;
@@ -73,8 +80,12 @@ void append_light_vertices(LightVertexStore& st, uint32_t bits,
         &l.phong.kd.x,  &l.phong.kd.y,  &l.phong.kd.z,  &l.phong.ks.x,     &l.phong.ks.y,
         &l.phong.ks.z,  &l.phong.shininess, &l.phong.p_diffuse, &l.phong.p_specular,
         &l.mis.vcm,     &l.mis.vc,      &l.mis.vm,      &l.magnitude};
-    for (int k = 0; k < kLightVertexFloats; ++k)
-        compress<A>(*v[k], bits).store_unaligned(st.field[k] + st.count);
+    for (int k = 0; k < kLightVertexFloats; ++k) {
+        const bool unread = (!s.path.smooth && k >= kLvSx && k <= kLvSz) ||
+                            (!s.features.specular && (k == kLvShininess || k == kLvPs ||
+                                                      (k >= kLvKsR && k <= kLvKsB)));
+        if (!unread) compress<A>(*v[k], bits).store_unaligned(st.field[k] + st.count);
+    }
     compress<A>(l.length, bits).store_unaligned(st.length + st.count);
     compress<A>(path, bits).store_unaligned(st.path + st.count);
     st.count += std::popcount(bits);
@@ -237,7 +248,7 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     if (any(phong)) {
         const LightVertex<F> lv{sf.pos, v.nf, v.nsf, -d, beta, pv, mis, sf.magnitude, bounce};
-        append_light_vertices<A>(*p.light_store, mask_bits(phong), lv,
+        append_light_vertices<A>(s, *p.light_store, mask_bits(phong), lv,
                                  U::load_aligned(p.path_id + i));
         auto seen = phong;
         if (limits_length(est)) seen = seen & length_counts<F>(est, bounce + U(1u));
@@ -374,7 +385,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
         for (int32_t k = 0; k < most; ++k) {
             auto has = mask_f32(I(k) < n);
             const I idx = gather_lanes<A>(st.order, select(mask_i32(has), lo + I(k), I(0)));
-            const LightVertex<F> lv = gather_light_vertex<A>(st, idx);
+            const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
             if (limited) has = has & length_counts<F>(est, lv.length + bounce + U(2u));
             const ShadowRequest<F> r = connect_vertices(c, cv, lv, mw, has);
             queue_owned(w, i, r, beta * r.value, queued);
