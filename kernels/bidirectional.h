@@ -103,6 +103,16 @@ BsdfEval<T> phong_eval(const PhongVertex<T>& v, const Vec3<T>& wo, const Vec3<T>
     return out;
 }
 
+// The strategy filter (EstimatorSettings::strategy_s, strategy_t, unweighted): what strategy
+// (s, t) of MIS weight w counts with: w, or 1 (unweighted) for the one strategy kept, 0 for
+// the others.
+template <class T>
+T strategy_weight(const EstimatorSettings& e, const U32<T>& s, const U32<T>& t, const T& w) {
+    if (e.strategy_s < 0) return w;
+    const auto kept = (to_float(s) == T(float(e.strategy_s))) & (to_float(t) == T(float(e.strategy_t)));
+    return select(kept, e.unweighted ? T(1.0f) : w, T(0.0f));
+}
+
 // ---- Starts -------------------------------------------------------------------------------
 
 // A camera subpath's quantities at the pinhole, for the direction d of its first ray:
@@ -203,34 +213,40 @@ void mis_after_lobe(const PathContext& c, SubpathMis<T>& m, const I32<T>& lobe,
 // ---- The strategies' weights and values ---------------------------------------------------
 
 // s = 0: the weight of Le where the camera subpath (quantities `m`, already updated at this
-// hit) hits sampled emitter `id` at x, from the previous vertex `prev` along d at distance t,
-// cos_l the geometric cosine at the emitter. The camera's own first hit (bounce 0) and an
-// emitter that is not sampled (id < 0) count in full: no other strategy makes those paths.
+// hit; `vertices` camera vertices with this one: the bounce + 2) hits sampled emitter `id` at
+// x, from the previous vertex `prev` along d at distance t, cos_l the geometric cosine at
+// the emitter. The camera's own first hit and an emitter that is not sampled (id < 0) count
+// in full: no other strategy makes those paths.
 template <class T>
 T emitter_hit_mis(const PathContext& c, const LightStartTable& lights, const SubpathMis<T>& m,
                   const I32<T>& id, const Vec3<T>& prev, const Vec3<T>& d, const T& t,
-                  const T& cos_l, const Mask<T>& first) {
+                  const T& cos_l, const U32<T>& vertices) {
+    const auto first = to_float(vertices) == T(2.0f);
     const auto sampled = mask_f32(id >= I32<T>(0)) & !first;
-    if (none(sampled)) return T(1.0f);
+    if (none(sampled)) return strategy_weight(c.estimator, U32<T>(0u), vertices, T(1.0f));
     const I32<T> e = select(mask_i32(sampled), id, I32<T>(0));
     const T direct_w = emitter_pdf(c.emitters, e, prev, d, t, c.estimator.triangle_solid_angle);
     const T direct_a = direct_w * cos_l / (t * t);
     const T emit = T(lights.emitter_probability) * emitter_position_pdf<T>(c.emitters, e) * cos_l *
                    T(0.5f * kInvPi);
     const T w = mis2(direct_a) * m.vcm + mis2(emit) * m.vc;
-    return select(sampled, T(1.0f) / (T(1.0f) + w), T(1.0f));
+    return strategy_weight(c.estimator, U32<T>(0u), vertices,
+                           select(sampled, T(1.0f) / (T(1.0f) + w), T(1.0f)));
 }
 
 // s = 0 for the environment, where a camera subpath escapes along d: its only other strategy
 // is next-event estimation (light paths do not start at it). The camera's own ray counts in
-// full.
+// full. (`vertices`: as for emitter_hit_mis, the escape counting as one)
 template <class T>
 T environment_mis(const PathContext& c, const SubpathMis<T>& m, const Vec3<T>& d,
-                  const Mask<T>& first) {
-    if (c.emitters.environment.emitter < 0) return T(1.0f);
+                  const U32<T>& vertices) {
+    if (c.emitters.environment.emitter < 0)
+        return strategy_weight(c.estimator, U32<T>(0u), vertices, T(1.0f));
     const T light = T(c.emitters.pmf[c.emitters.environment.emitter]) *
                     environment_pdf(c.emitters.environment, d);
-    return select(first, T(1.0f), T(1.0f) / (T(1.0f) + mis2(light) * m.vcm));
+    const auto first = to_float(vertices) == T(2.0f);
+    return strategy_weight(c.estimator, U32<T>(0u), vertices,
+                           select(first, T(1.0f), T(1.0f) / (T(1.0f) + mis2(light) * m.vcm)));
 }
 
 // A camera vertex as the strategies that end there see it.
@@ -241,6 +257,7 @@ struct CameraVertex {
     Vec3<T> origin;      // where its shadow rays start (shadow_origin)
     PhongVertex<T> phong;
     SubpathMis<T> mis;
+    U32<T> vertices;     // the camera subpath's vertices up to this one (bounce + 2)
 };
 
 // s = 1 from an emitter: the weight of a sample of sampled emitter `id` (or the
@@ -287,7 +304,9 @@ ShadowRequest<T> nee_emitter(const PathContext& c, const LightStartTable& lights
     const T pdf = ls.pdf * T(est.light_pdf_scale);
     const BsdfEval<T> b = phong_eval(v.phong, v.wo, v.nsf, ls.wi, est.cosine_diffuse);
     const T cos_g = dot(ls.wi, v.nf);
-    const T weight = emitter_sample_mis(c, lights, v, mw, b, ls.wi, pdf, ls.id, ls.environment);
+    const T weight = strategy_weight(
+        c.estimator, U32<T>(1u), v.vertices,
+        emitter_sample_mis(c, lights, v, mw, b, ls.wi, pdf, ls.id, ls.environment));
     ShadowRequest<T> r;
     r.origin = v.origin;
     r.dir = ls.wi;
@@ -325,7 +344,8 @@ ShadowRequest<T> nee_point_light(const PathContext& c, const LightStartTable& li
     const Vec3<T> wi = to * (T(1.0f) / dist);
     const BsdfEval<T> b = phong_eval(v.phong, v.wo, v.nsf, wi, c.estimator.cosine_diffuse);
     const T cos_g = dot(wi, v.nf);
-    const T weight = point_light_mis(c, lights, j, v, mw, b, wi, d2);
+    const T weight = strategy_weight(c.estimator, U32<T>(1u), v.vertices,
+                                     point_light_mis(c, lights, j, v, mw, b, wi, d2));
     ShadowRequest<T> r;
     r.origin = v.origin;
     r.dir = wi;
@@ -368,7 +388,8 @@ T camera_connection_mis(const PathContext& c, const LightVertex<T>& l,
     const T camera_area = cc.factor * dot(cc.wc, l.nf);
     const T rest = T(mw.vm_weight) + l.mis.vcm +
                    l.mis.vc * mis2(b.pdf_reverse * T(c.estimator.reverse_pdf_scale));
-    return T(1.0f) / (T(1.0f) + mis2(camera_area) * rest);
+    return strategy_weight(c.estimator, l.length + U32<T>(1u), U32<T>(1u),
+                           T(1.0f) / (T(1.0f) + mis2(camera_area) * rest));
 }
 
 // s, t ≥ 2: the weight of connecting camera vertex v to light vertex l along w (unit, from
@@ -405,7 +426,8 @@ ShadowRequest<T> connect_vertices(const PathContext& c, const CameraVertex<T>& v
     const BsdfEval<T> bl = phong_eval(l.phong, l.wl, l.nsf, -w, est.cosine_diffuse);
     const T cos_c = dot(w, v.nf), cos_l = -dot(w, l.nf);
     const T inv_d2 = T(1.0f) / d2;
-    const T weight = connection_mis(c, v, l, mw, bc, bl, w, d2);
+    const T weight = strategy_weight(c.estimator, l.length + U32<T>(1u), v.vertices,
+                                     connection_mis(c, v, l, mw, bc, bl, w, d2));
     const Vec3<T> target = offset_ray_origin(l.p, l.nf, l.magnitude);
     const Vec3<T> ray = target - v.origin;
     const T reach = length(ray);

@@ -92,6 +92,10 @@ struct EstimatorSettings {
     // seeing an emitter is 1 segment, direct light at the first hit 2): to isolate a length
     int32_t min_length = 1;
     int32_t max_length = kNoLengthLimit;
+    // bdpt: only strategy (strategy_s, strategy_t) counts, with its weight or (unweighted)
+    // without; -1: every strategy (render.strategy, --strategy, --unweighted)
+    int32_t strategy_s = -1, strategy_t = -1;
+    bool unweighted = false;
     // Which of the four knobs whose default depends on the estimator (diffuse sampling,
     // roulette, triangle sampling, sampler) a scene, the command line or a sweep chose;
     // use_estimator (src/integrators/registry.h) gives the others the estimator's defaults

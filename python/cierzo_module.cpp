@@ -172,7 +172,7 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
                  std::optional<std::string> roulette, std::optional<int> roulette_depth,
                  std::optional<std::string> triangle_sampling, std::optional<std::string> sampler,
                  std::optional<int> min_length, std::optional<int> max_length,
-                 int pool, bool variance, double time_budget, double target_error,
+                 std::optional<std::pair<int, int>> strategy, bool unweighted, int pool, bool variance, double time_budget, double target_error,
                  bool progress, const py::object& cancel,
                  const std::optional<fs::path>& checkpoint,
                  std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
@@ -211,6 +211,8 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     job.triangle_sampling = triangle_sampling;
     job.sampler = sampler;
     job.min_length = min_length, job.max_length = max_length;
+    if (strategy) job.strategy = {strategy->first, strategy->second};
+    job.unweighted = unweighted;
     job.estimator = estimator;
     job.threads = threads;
     job.integrator = integrator;
@@ -440,6 +442,7 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
           py::arg("roulette") = py::none(), py::arg("roulette_depth") = py::none(),
           py::arg("triangle_sampling") = py::none(), py::arg("sampler") = py::none(),
           py::arg("min_length") = py::none(), py::arg("max_length") = py::none(),
+          py::arg("strategy") = py::none(), py::arg("unweighted") = false,
           py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
           py::arg("target_error") = 0.0, py::arg("progress") = false,
           py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
@@ -449,13 +452,15 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
 Returns (image, stats), or (image, variance, stats) with variance=True: float32 arrays of
 shape (height, width, 3), the mean and the variance of each pixel's mean, and the dict of
 `cierzo render --stats` (same keys). Keywords left at None keep the scene's value:
-  spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt'), survival_cap (0..1),
+  spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt', 'bdpt'), survival_cap (0..1),
   diffuse_sampling ('uniform', 'cosine'), roulette ('lobe', or 'throughput' for nee and
   mis), roulette_depth (the vertex the throughput roulette starts at, 0..1024),
   triangle_sampling ('area', 'solid-angle': how nee and mis sample emitting triangles),
   sampler ('independent', 'sobol', 'zsobol', 'pmj02': where the random numbers come from),
   min_length, max_length (only paths of that many segments count: 1 is the camera seeing an
   emitter, 2 direct light; 1..1048576);
+  strategy (bdpt: a pair (s, t), only the paths of s light and t camera vertices count, with
+  their MIS weight, or with unweighted=True without it);
 and as the command line's options: integrator 'wavefront' or 'scalar', isa 'auto', 'avx512',
 'avx2', 'sse4.2' or 'neon', threads (0 = every CPU), pool (wavefront paths per thread, a
 multiple of 16; 0 = 512), time_budget (seconds, 0 = none) and target_error (mean relative

@@ -95,6 +95,29 @@ def test_sampler_and_lengths_as_the_program(cierzo, tmp_path, sampler):
     assert image.max() > 0 and rest.max() > 0
 
 
+def test_bdpt_strategy_images_as_the_program_and_adding_up(cierzo, tmp_path):
+    exr, _ = cli_render(tmp_path, scene_path("caustic"),
+                        extra=("--estimator", "bdpt", "--max-length", "3", "--min-length", "3",
+                               "--strategy", "2,2"))
+    image, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", min_length=3, max_length=3,
+                             strategy=(2, 2), **SMALL)
+    assert same_bits(image, cierzo.read_exr(exr))
+    # the weighted images of one length's strategies add up to that length's image
+    whole, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", min_length=3, max_length=3,
+                             **SMALL)
+    parts = [cierzo.render(scene_path("caustic"), estimator="bdpt", min_length=3, max_length=3,
+                           strategy=(s, 4 - s), **SMALL)[0].astype("float64") for s in range(4)]
+    assert abs(sum(parts) - whole).max() <= 1e-4 * whole.max() + 1e-6
+    assert all(p.max() > 0 for p in parts)
+    unweighted, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", min_length=3,
+                                  max_length=3, strategy=(2, 2), unweighted=True, **SMALL)
+    assert unweighted.sum() > image.sum()
+    with pytest.raises(ValueError, match="strategy"):
+        cierzo.render(scene_path("caustic"), estimator="mis", strategy=(1, 2), **SMALL)
+    with pytest.raises(ValueError, match="unweighted"):
+        cierzo.render(scene_path("caustic"), estimator="bdpt", unweighted=True, **SMALL)
+
+
 def test_isa_this_cpu_lacks_has_the_programs_message(cierzo):
     lacking = [i["name"] for i in cierzo.isas() if not i["supported"]]
     if not lacking:

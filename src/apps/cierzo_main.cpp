@@ -165,6 +165,15 @@ int run_main(int argc, char** argv) {
                   "Count only light carried by paths of at most this many segments, and end "
                   "paths there (overrides render.max_length; default: no limit)")
         ->check(CLI::Range(1, kMaxLengthLimit));
+    r->add_option("--strategy", a.job.strategy,
+                  "bdpt: count only the paths strategy S,T makes (S light vertices, T camera "
+                  "vertices, the pinhole one of them; a path of S + T - 1 segments), with its "
+                  "MIS weight: the strategies' images add up to the whole (docs/estimators.md)")
+        ->delimiter(',')
+        ->expected(2);
+    r->add_flag("--unweighted", a.job.unweighted,
+                "With --strategy: without its MIS weight (each strategy alone is an unbiased "
+                "image of the paths it can make)");
     r->add_option("--estimator", a.job.estimator,
                   describe_estimators() + "; overrides render.estimator. Sampled emitters: "
                   "spheres and triangles of solid emission (two that make a rectangle as one). nee and mis "

@@ -92,6 +92,21 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
                          " is below --min-length " + std::to_string(s.estimator.min_length) +
                          " (with the scene's values): no path would count");
     use_estimator(e, a.estimator ? *parse_estimator(*a.estimator) : e.kind);
+    if (!a.strategy.empty()) {
+        if (!bidirectional(e.kind))
+            throw InputError("--strategy: strategies are bdpt's (this render's estimator is " +
+                             std::string(estimator_name(e.kind)) + ")");
+        if (a.strategy.size() != 2 || a.strategy[0] < 0 || a.strategy[1] < 1 ||
+            a.strategy[0] + a.strategy[1] < 2 || a.strategy[0] > kMaxLengthLimit ||
+            a.strategy[1] > kMaxLengthLimit)
+            throw InputError("--strategy: expected S,T with S >= 0 light vertices and T >= 1 "
+                             "camera vertices (the pinhole counts as one), S + T >= 2");
+        e.strategy_s = a.strategy[0], e.strategy_t = a.strategy[1];
+    }
+    if (a.unweighted && a.strategy.empty())
+        throw InputError("--unweighted: it shows one strategy without its weight; name it with "
+                         "--strategy S,T");
+    e.unweighted = a.unweighted;
     if (!a.out.empty()) s.output = a.out;
     check_render_size(scene, scene.source);
 }

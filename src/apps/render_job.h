@@ -31,6 +31,8 @@ struct RenderJob {
     std::optional<int> roulette_depth;
     std::optional<std::string> sampler;           // independent, sobol, zsobol or pmj02
     std::optional<int> min_length, max_length;    // path lengths that count
+    std::vector<int> strategy;                    // bdpt: {s, t}, the one strategy kept
+    bool unweighted = false;                      // ... without its weight
     std::optional<std::string> estimator;         // report, nee or mis
     // How to render
     int threads = 0;

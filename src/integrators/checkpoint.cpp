@@ -192,6 +192,10 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     id.lengths = s.estimator.max_length == kNoLengthLimit
                      ? fmt::format("{}..", s.estimator.min_length)
                      : fmt::format("{}..{}", s.estimator.min_length, s.estimator.max_length);
+    // (bdpt's strategy filter changes what the sums hold, as the lengths do)
+    if (s.estimator.strategy_s >= 0)
+        id.lengths += fmt::format(" s{}t{}{}", s.estimator.strategy_s, s.estimator.strategy_t,
+                                  s.estimator.unweighted ? " unweighted" : "");
     id.integrator = integrator;
     id.isa = integrator == "wavefront" ? isa : "scalar";
     id.pool = integrator == "wavefront" ? pool : 0;

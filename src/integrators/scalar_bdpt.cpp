@@ -120,7 +120,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
         if (!scene.intersect(ray, kRayFar, hit)) {
             if (has_environment(c) && counts(bounce + 1))
                 radiance += throughput * environment_radiance(c.emitters.environment, ray.d) *
-                            environment_mis<float>(c, mis, ray.d, bounce == 0);
+                            environment_mis<float>(c, mis, ray.d, bounce + 2);
             break;
         }
         const Material& material = scene.materials[size_t(hit.material)];
@@ -132,7 +132,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
             if (counts(bounce + 1))
                 radiance += throughput * scene.emission_at(hit) *
                             emitter_hit_mis<float>(c, lights, mis, scene.emitter_id(hit), ray.o,
-                                                   ray.d, hit.t, cos_in, bounce == 0);
+                                                   ray.d, hit.t, cos_in, bounce + 2);
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
@@ -141,8 +141,8 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
         const PhongVertex<float> pv = phong_vertex(m, cap);
 
         if (material.has_phong()) {
-            const CameraVertex<float> cv{hit.p, v.nf, v.nsf, -ray.d,
-                                         shadow_origin(v, hit.p, magnitude), pv, mis};
+            const CameraVertex<float> cv{hit.p,  v.nf, v.nsf, -ray.d, shadow_origin(v, hit.p, magnitude),
+                                         pv,     mis,  bounce + 2};
             // s = 1: the lights sampled from here
             if (counts(bounce + 2)) {
                 Vec3f direct(0.0f);

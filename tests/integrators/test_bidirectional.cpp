@@ -181,7 +181,8 @@ double weight_sum(const Scene& scene, const PathContext& c, const RandomPath& pa
     const auto camera_vertex = [&](int i) {
         const Vec3f wo = normalize(toward_camera(i) - path.x[size_t(i)]);
         return CameraVertex<float>{path.x[size_t(i)], path.n[size_t(i)], path.n[size_t(i)], wo,
-                                   path.x[size_t(i)], path.phong[size_t(i)], camera_at[size_t(i)]};
+                                   path.x[size_t(i)], path.phong[size_t(i)], camera_at[size_t(i)],
+                                   uint32_t(k - i + 1)};
     };
     const auto light_vertex = [&](int i) {
         const Vec3f wl = normalize(toward_light(i) - path.x[size_t(i)]);
@@ -198,7 +199,7 @@ double weight_sum(const Scene& scene, const PathContext& c, const RandomPath& pa
         SubpathMis<float> at_light = m;  // (after x[0]'s scattering towards y0)
         const float cos_l = std::abs(dot(d, path.ny0));
         mis_at_hit(at_light, t, cos_l);
-        sum += emitter_hit_mis<float>(c, lights, at_light, 0, from, d, t, cos_l, false);
+        sum += emitter_hit_mis<float>(c, lights, at_light, 0, from, d, t, cos_l, uint32_t(k + 2));
     }
     // s = 1: x[0] samples the light
     if (drop != 1 && !path.delta[0]) {
@@ -391,6 +392,64 @@ TEST(Bidirectional, EachPathLengthAgreesWithMis) {
             EXPECT_NEAR(x.mean, y.mean, 4 * std::hypot(x.sigma, y.sigma)) << "channel " << c;
         }
     }
+}
+
+// The strategies of one length: their weighted images add up to the whole image of that
+// length, and each strategy alone (unweighted) is an unbiased image of the paths it makes,
+// the same as mis's where it makes all of them (kBox without its point light and glass:
+// every strategy there can make every path of Phong vertices).
+TEST(Bidirectional, EachStrategyAloneConvergesToTheSameImage) {
+    const int n = spp(1024, 128);
+    const Variant v = variants().back();
+    std::string json = kBox;
+    json.erase(json.find(R"(,
+    "lights")"), std::string::npos);
+    json += "}";
+    const size_t glass = json.find(R"(
+      {"type": "sphere", "center": [-0.4, -0.65, -0.3], "radius": 0.3, "material": "glass"},)");
+    ASSERT_NE(glass, std::string::npos);
+    json.erase(glass, std::string(R"(
+      {"type": "sphere", "center": [-0.4, -0.65, -0.3], "radius": 0.3, "material": "glass"},)").size());
+    const int length = 3;
+    Scene base = scene_of(json, Estimator::kBdpt, n);
+    base.settings.estimator.min_length = base.settings.estimator.max_length = length;
+    Scene mis = scene_of(json, Estimator::kMis, 4 * n);
+    mis.settings.estimator.min_length = mis.settings.estimator.max_length = length;
+    mis.settings.seed = 77;
+    const RenderResult whole = run(base, v), reference = run(mis, v);
+    std::vector<double> sum(whole.film.mean().rgb.size(), 0.0);
+    for (int s = 0; s <= length; ++s) {
+        const int t = length + 1 - s;
+        SCOPED_TRACE("strategy s=" + std::to_string(s) + " t=" + std::to_string(t));
+        Scene weighted = base;
+        weighted.settings.estimator.strategy_s = s, weighted.settings.estimator.strategy_t = t;
+        const Image w = run(weighted, v).film.mean();
+        for (size_t i = 0; i < sum.size(); ++i) sum[i] += w.rgb[i];
+        Scene alone = weighted;
+        alone.settings.estimator.unweighted = true;
+        alone.settings.seed = 1000 + uint32_t(s);
+        // (the image mean: a strategy alone has heavy tails where it is poor, which a
+        // pixel's own variance estimate does not show)
+        const RenderResult a = run(alone, v);
+        for (int c = 0; c < 3; ++c) {
+            const Mean x = image_mean(a.film, c), y = image_mean(reference.film, c);
+            std::printf("length %d, s=%d t=%d alone, channel %d: %.5f ± %.5f (mis %.5f ± %.5f)\n",
+                        length, s, t, c, x.mean, x.sigma, y.mean, y.sigma);
+            EXPECT_NEAR(x.mean, y.mean, 4 * std::hypot(x.sigma, y.sigma)) << "channel " << c;
+        }
+    }
+    // (the same paths with the same numbers: the sum differs from the whole by rounding)
+    const Image all = whole.film.mean();
+    for (size_t i = 0; i < sum.size(); ++i)
+        ASSERT_NEAR(sum[i], all.rgb[i], 1e-5 + 1e-4 * std::abs(all.rgb[i])) << "value " << i;
+    // A strategy left out is missed
+    double dropped = 0, total = 0;
+    for (size_t i = 0; i < sum.size(); ++i) total += all.rgb[i];
+    Scene one = base;
+    one.settings.estimator.strategy_s = 2, one.settings.estimator.strategy_t = 2;
+    const Image two = run(one, v).film.mean();
+    for (size_t i = 0; i < sum.size(); ++i) dropped += two.rgb[i];
+    EXPECT_GT(dropped, 0.05 * total);
 }
 
 TEST(Bidirectional, SameBitsForAnyNumberOfThreads) {

@@ -322,7 +322,6 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     Vec3<F> rad = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
     const SampleStream<F> rng = stream_at<A>(s, p, i);
     const U bounce = U::load_aligned(p.bounce + i);
-    const auto first = mask_f32(xsimd::bitwise_cast<I>(bounce) == I(0));
     const Vec3<F>& d = ray.d;
     SubpathMis<F> mis = load_mis<A>(p, i);
     const F t = length(sf.pos - ray.o);
@@ -338,7 +337,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
         if (any(em)) {
             const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated) *
                                emitter_hit_mis<F>(c, lights, mis, select(mask_i32(em), sf.emitter, I(-1)),
-                                                  ray.o, d, t, cos_in, first);
+                                                  ray.o, d, t, cos_in, bounce + U(2u));
             rad = select(counts(em, bounce + U(1u)), rad + beta * le, rad);
             alive = alive & !em;
         }
@@ -347,7 +346,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
         const auto missed = w.live_mask(i) & !sf.hit;
         if (any(missed)) {
             const Vec3<F> le = environment_radiance(c.emitters.environment, d) *
-                               environment_mis<F>(c, mis, d, first);
+                               environment_mis<F>(c, mis, d, bounce + U(2u));
             rad = select(counts(missed, bounce + U(1u)), rad + beta * le, rad);
         }
     }
@@ -359,7 +358,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     if (any(phong)) {
         const CameraVertex<F> cv{sf.pos, v.nf, v.nsf, -d, shadow_origin(v, sf.pos, sf.magnitude),
-                                 pv, mis};
+                                 pv,     mis,  bounce + U(2u)};
         // s = 1: the lights sampled from here
         const auto direct = counts(phong, bounce + U(2u));
         if (any(direct)) {

@@ -1,0 +1,137 @@
+#!/usr/bin/python3
+"""Equal-time efficiency of the estimators on caustic scenes, and bdpt's wavefront speed-up.
+
+1. Efficiency. For each scene, a long reference (`cierzo render --estimator bdpt` at
+   --reference-spp, wavefront, 2 threads; or --reference FILE); then, in --rounds rounds,
+   each estimator renders with --time-budget SECONDS on one thread (whole passes: every
+   pixel has the same paths). The error is the relative MSE (x-r)^2/(r^2+0.01) averaged over
+   pixels and channels, against the reference, over the whole image and over the region
+   --region x0,y0,x1,y1 (fractions of the image; default: the floor under caustic.json's
+   glass ball); efficiency = 1 / (relMSE x seconds), seconds the render's own. Each round
+   runs every estimator in turn; the table gives the medians, and each estimator's
+   efficiency over mis's (the median of the rounds' ratios).
+2. Speed. The wavefront's rays/s per core over the scalar reference's for bdpt, on every ISA
+   this CPU runs (one thread, interleaved rounds; the median of the rounds' ratios).
+
+Usage: /usr/bin/python3 bench/bidirectional.py [--scenes caustic,PATH.json,...] [--size 160]
+       [--seconds 4] [--rounds 3] [--estimators report,mis,lt,bdpt] [--reference-spp 4096]
+       [--speed-scenes caustic,cornell,...] [--speed-spp 8]
+The CPU is named in the output; say which one a number came from.
+"""
+import argparse
+import json
+import pathlib
+import statistics
+import subprocess
+import sys
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+CIERZO = ROOT / "build" / "cierzo"
+sys.path.insert(0, str(ROOT / "build" / "python" / "module"))
+
+
+def cpu_name():
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            return line.split(":", 1)[1].strip()
+    return "unknown CPU"
+
+
+def scene_path(name):
+    p = pathlib.Path(name)
+    return p if p.suffix == ".json" else ROOT / "scenes" / (name + ".json")
+
+
+def render(scene, out, args, stats=None):
+    cmd = [str(CIERZO), "render", str(scene), "--out", str(out), "--quiet"] + args
+    if stats:
+        cmd += ["--stats", str(stats)]
+    subprocess.run(cmd, check=True, capture_output=True, text=True)
+    return json.load(open(stats)) if stats else None
+
+
+def rel_mse(img, ref, region=None):
+    import numpy as np
+    a, r = img[..., :3], ref[..., :3]
+    if region:
+        h, w = r.shape[:2]
+        x0, y0, x1, y1 = region
+        a = a[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)]
+        r = r[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)]
+    return float(((a - r) ** 2 / (r * r + 0.01)).mean())
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenes", default="caustic")
+    ap.add_argument("--size", type=int, default=160)
+    ap.add_argument("--seconds", type=float, default=4.0)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--estimators", default="report,mis,lt,bdpt")
+    ap.add_argument("--reference-spp", type=int, default=4096)
+    ap.add_argument("--reference", default=None, help="reference EXR (one scene only)")
+    ap.add_argument("--region", default="0.35,0.85,0.65,0.98")
+    ap.add_argument("--speed-scenes", default="")
+    ap.add_argument("--speed-spp", type=int, default=8)
+    a = ap.parse_args()
+    import numpy as np
+    import cierzo
+    print(f"CPU: {cpu_name()}")
+    region = tuple(float(v) for v in a.region.split(","))
+    estimators = a.estimators.split(",")
+    size = ["--width", str(a.size), "--height", str(a.size)]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        for name in [s for s in a.scenes.split(",") if s]:
+            scene = scene_path(name)
+            ref_path = pathlib.Path(a.reference) if a.reference else tmp / "ref.exr"
+            if not a.reference:
+                render(scene, ref_path, size + ["--estimator", "bdpt", "--spp", str(a.reference_spp),
+                                                "--threads", "2"])
+            ref = np.asarray(cierzo.read_exr(str(ref_path)))
+            rows = {e: [] for e in estimators}
+            for rnd in range(a.rounds):
+                for e in estimators:
+                    out, st = tmp / f"{e}.exr", tmp / f"{e}.json"
+                    s = render(scene, out, size + ["--estimator", e, "--threads", "1", "--spp", "1000000",
+                                                   "--time-budget", str(a.seconds),
+                                                   "--seed", str(1000 + rnd)], st)
+                    img = np.asarray(cierzo.read_exr(str(out)))
+                    secs = s["seconds"]
+                    whole, part = rel_mse(img, ref), rel_mse(img, ref, region)
+                    rows[e].append((secs, s["spp_reached"], whole, part, 1 / (whole * secs), 1 / (part * secs)))
+            print(f"\n{name} ({a.size}x{a.size}, {a.seconds:g} s per render, 1 thread, {a.rounds} rounds; "
+                  f"reference bdpt {a.reference_spp} spp; region {a.region})")
+            print(f"{'estimator':10s} {'spp':>6s} {'relMSE':>10s} {'eff':>9s} {'vs mis':>7s} "
+                  f"{'relMSE reg':>10s} {'eff reg':>9s} {'vs mis':>7s}")
+            for e in estimators:
+                r = rows[e]
+                med = lambda k: statistics.median(x[k] for x in r)
+                ratio = lambda k: (statistics.median(x[k] / m[k] for x, m in zip(r, rows["mis"]))
+                                   if "mis" in rows else float("nan"))
+                print(f"{e:10s} {med(1):6.0f} {med(2):10.5f} {med(4):9.1f} {ratio(4):7.2f} "
+                      f"{med(3):10.5f} {med(5):9.1f} {ratio(5):7.2f}")
+        speed = [s for s in a.speed_scenes.split(",") if s]
+        if speed:
+            isas = [l.split()[0] for l in subprocess.run([str(CIERZO), "isas"], capture_output=True,
+                                                         text=True).stdout.splitlines() if "yes" in l]
+            print(f"\nbdpt wavefront over scalar, rays/s per core, 1 thread, {a.rounds} rounds "
+                  f"({a.size}x{a.size}, {a.speed_spp} spp)")
+            print(f"{'scene':22s} {'scalar Mrays/s':>14s} " + " ".join(f"{i:>8s}" for i in isas))
+            for name in speed:
+                scene = scene_path(name)
+                per = {"scalar": []} | {i: [] for i in isas}
+                for rnd in range(a.rounds):
+                    for key in per:
+                        args = size + ["--estimator", "bdpt", "--threads", "1", "--spp", str(a.speed_spp)]
+                        args += ["--integrator", "scalar"] if key == "scalar" else ["--isa", key]
+                        s = render(scene, tmp / "s.exr", args, tmp / "s.json")
+                        per[key].append(s["rays_per_second"])
+                ratios = [statistics.median(w / s for w, s in zip(per[i], per["scalar"])) for i in isas]
+                print(f"{name:22s} {statistics.median(per['scalar']) / 1e6:14.2f} " +
+                      " ".join(f"{r:8.2f}" for r in ratios))
+
+
+if __name__ == "__main__":
+    main()
