@@ -179,8 +179,10 @@ int run_main(int argc, char** argv) {
                   "spheres and triangles of solid emission (two that make a rectangle as one). nee and mis "
                   "default to cosine "
                   "diffuse sampling, the throughput roulette, triangles by solid angle and the "
-                  "sobol sampler (chosen by measured efficiency; docs/estimators.md), report "
-                  "and lt to the report's settings; an option or scene key given keeps its value")
+                  "sobol sampler (chosen by measured efficiency; docs/estimators.md), bdpt "
+                  "to cosine diffuse sampling, triangles by solid angle and the sobol sampler "
+                  "(with the lobe roulette), report and lt to the report's settings; an option "
+                  "or scene key given keeps its value")
         ->check(CLI::IsMember(estimator_names()));
     r->add_option("--integrator", a.job.integrator, describe_integrators())
         ->check(CLI::IsMember(integrator_names()))

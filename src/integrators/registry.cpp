@@ -69,7 +69,7 @@ void use_estimator(EstimatorSettings& e, Estimator kind) {
         e.roulette = camera_sampling ? Roulette::kThroughput : Roulette::kLobe;
     if (!(e.chosen & kChoseTriangles)) e.triangle_solid_angle = camera_sampling || both_ends;
     if (!(e.chosen & kChoseSampler))
-        e.sampler = camera_sampling ? Sampler::kSobol : Sampler::kIndependent;
+        e.sampler = camera_sampling || both_ends ? Sampler::kSobol : Sampler::kIndependent;
 }
 
 void check_roulette(const EstimatorSettings& e, const std::string& source) {

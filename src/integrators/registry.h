@@ -76,7 +76,7 @@ inline constexpr SamplerEntry kSamplers[] = {
      "default of report and lt"},
     {Sampler::kSobol, "sobol",
      "Owen-scrambled Sobol (0,2) points, one shuffled pair per decision, per pixel; the "
-     "default of nee and mis"},
+     "default of nee, mis and bdpt"},
     {Sampler::kZSobol, "zsobol",
      "Sobol points spread over the image in Morton order (error as blue noise; the points "
      "depend on --spp)"},

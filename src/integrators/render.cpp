@@ -284,6 +284,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         st.shade_lane_utilisation = double(lanes.shade_active) / double(std::max<uint64_t>(lanes.shade_total, 1));
         st.isect_lane_utilisation = double(lanes.isect_active) / double(std::max<uint64_t>(lanes.isect_total, 1));
         st.shadow_lane_utilisation = double(lanes.shadow_active) / double(std::max<uint64_t>(lanes.shadow_total, 1));
+        if (wavefront) st.light_store_bytes = wavefront->light_store_bytes();
     }
     st.seconds = seconds_since(start);
 

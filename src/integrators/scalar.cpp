@@ -2,30 +2,10 @@
 // time, using the same templated kernels as the wavefront integrator with T = float.
 #include "integrators/scalar.h"
 
-#include "kernels/path_vertex.h"
+#include "integrators/scalar_path.h"
 #include "kernels/rng.h"
 
-// The path loops inline every kernel they call, as the wavefront's stage loops do (and as
-// the compiler chose to when the vertex rules were written inside them). Sanitizer builds
-// skip it, for their compile time.
-#if defined(__SANITIZE_ADDRESS__)
-#define CIERZO_PATH_LOOP
-#else
-#define CIERZO_PATH_LOOP [[gnu::flatten]]
-#endif
-
 namespace cierzo {
-
-namespace {
-
-// A shadow ray the vertex asked for, traced at once: what it adds if clear.
-Vec3f trace_request(const Scene& scene, const ShadowRequest<float>& r, RayCounts& rays) {
-    if (!r.want) return Vec3f(0.0f);
-    ++rays.shadow;
-    return scene.occluded({r.origin, r.dir}, r.tmax) ? Vec3f(0.0f) : r.value;
-}
-
-}  // namespace
 
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
                  RayCounts& rays) {

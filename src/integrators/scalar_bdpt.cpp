@@ -7,25 +7,13 @@
 
 #include <vector>
 
+#include "integrators/scalar_path.h"
 #include "kernels/bidirectional.h"
 #include "kernels/rng.h"
-
-#if defined(__SANITIZE_ADDRESS__)
-#define CIERZO_PATH_LOOP
-#else
-#define CIERZO_PATH_LOOP [[gnu::flatten]]
-#endif
 
 namespace cierzo {
 
 namespace {
-
-// A shadow ray a vertex asked for, traced at once: what it adds if clear.
-Vec3f trace_request(const Scene& scene, const ShadowRequest<float>& r, RayCounts& rays) {
-    if (!r.want) return Vec3f(0.0f);
-    ++rays.shadow;
-    return scene.occluded({r.origin, r.dir}, r.tmax) ? Vec3f(0.0f) : r.value;
-}
 
 // One light subpath, with the numbers of the camera sample whose stream it takes: its Phong
 // vertices appended to `store`, each one's connection to the pinhole splatted (t = 1).

@@ -360,6 +360,18 @@ const char* kBox = R"({"render": {"width": 20, "height": 16, "seed": 11},
        "material": "Q"}],
     "lights": [{"position": [-0.3, 0.2, -0.5], "intensity": [0.3, 0.3, 0.2]}]})";
 
+// kBox without its point light, and without the glass ball (`glass` false).
+std::string box_without_point_light(bool glass) {
+    std::string json = kBox;
+    json.erase(json.find(R"(,
+    "lights")"), std::string::npos);
+    json += "}";
+    const std::string ball = R"(
+      {"type": "sphere", "center": [-0.4, -0.65, -0.3], "radius": 0.3, "material": "glass"},)";
+    if (!glass) json.erase(json.find(ball), ball.size());
+    return json;
+}
+
 TEST(Bidirectional, ScalarAndWavefrontAgree) {
     Scene s = scene_of(kBox, Estimator::kBdpt, spp(256, 48));
     test::expect_wavefront_agrees(s, "bdpt box");
@@ -375,10 +387,7 @@ TEST(Bidirectional, ScalarAndWavefrontAgree) {
 TEST(Bidirectional, EachPathLengthAgreesWithMis) {
     const int n = spp(1024, 128);
     const Variant v = variants().back();
-    std::string json = kBox;
-    json.erase(json.find(R"(,
-    "lights")"), std::string::npos);
-    json += "}";
+    const std::string json = box_without_point_light(true);
     for (int length : {2, 3, 4, 5}) {
         SCOPED_TRACE("length " + std::to_string(length));
         Scene mis = scene_of(json, Estimator::kMis, 4 * n), bdpt = scene_of(json, Estimator::kBdpt, n);
@@ -401,15 +410,7 @@ TEST(Bidirectional, EachPathLengthAgreesWithMis) {
 TEST(Bidirectional, EachStrategyAloneConvergesToTheSameImage) {
     const int n = spp(1024, 128);
     const Variant v = variants().back();
-    std::string json = kBox;
-    json.erase(json.find(R"(,
-    "lights")"), std::string::npos);
-    json += "}";
-    const size_t glass = json.find(R"(
-      {"type": "sphere", "center": [-0.4, -0.65, -0.3], "radius": 0.3, "material": "glass"},)");
-    ASSERT_NE(glass, std::string::npos);
-    json.erase(glass, std::string(R"(
-      {"type": "sphere", "center": [-0.4, -0.65, -0.3], "radius": 0.3, "material": "glass"},)").size());
+    const std::string json = box_without_point_light(false);
     const int length = 3;
     Scene base = scene_of(json, Estimator::kBdpt, n);
     base.settings.estimator.min_length = base.settings.estimator.max_length = length;
@@ -453,21 +454,7 @@ TEST(Bidirectional, EachStrategyAloneConvergesToTheSameImage) {
 }
 
 TEST(Bidirectional, SameBitsForAnyNumberOfThreads) {
-    for (const Variant& v : variants()) {
-        SCOPED_TRACE(v.integrator + " " + v.isa);
-        const Scene s = scene_of(kBox, Estimator::kBdpt, 20);
-        std::vector<Image> images;
-        for (int threads : {1, 2, 3}) {
-            RenderOptions o;
-            o.integrator = integrator_of(v.integrator);
-            o.isa = v.isa;
-            o.threads = threads;
-            o.progress = false;
-            images.push_back(render(s, o).film.mean());
-        }
-        EXPECT_EQ(images[0].rgb, images[1].rgb);
-        EXPECT_EQ(images[0].rgb, images[2].rgb);
-    }
+    test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kBdpt, 20));
 }
 
 // A wavefront pool smaller than a job: the light subpaths and the camera paths run in

@@ -230,21 +230,7 @@ TEST(LightTracing, ScalarAndWavefrontAgree) {
 }
 
 TEST(LightTracing, SameBitsForAnyNumberOfThreads) {
-    for (const Variant& v : variants()) {
-        SCOPED_TRACE(v.integrator + " " + v.isa);
-        const Scene s = scene_of(kBox, Estimator::kLt, 40);
-        std::vector<Image> images;
-        for (int threads : {1, 2, 3}) {
-            RenderOptions o;
-            o.integrator = integrator_of(v.integrator);
-            o.isa = v.isa;
-            o.threads = threads;
-            o.progress = false;
-            images.push_back(render(s, o).film.mean());
-        }
-        EXPECT_EQ(images[0].rgb, images[1].rgb);
-        EXPECT_EQ(images[0].rgb, images[2].rgb);
-    }
+    test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kLt, 40));
 }
 
 TEST(SplatSums, SameBitsInAnyOrderAndSplit) {

@@ -99,6 +99,23 @@ inline bool load_present_scene(const std::filesystem::path& path, Scene& scene) 
     return true;
 }
 
+// Every variant renders `scene` to the same bits with 1, 2 and 3 threads.
+inline void expect_same_bits_for_any_threads(const Scene& scene) {
+    for (const Variant& v : variants()) {
+        std::vector<Image> images;
+        for (int threads : {1, 2, 3}) {
+            RenderOptions o;
+            o.integrator = integrator_of(v.integrator);
+            o.isa = v.isa;
+            o.threads = threads;
+            o.progress = false;
+            images.push_back(render(scene, o).film.mean());
+        }
+        EXPECT_EQ(images[0].rgb, images[1].rgb) << v.integrator << " " << v.isa;
+        EXPECT_EQ(images[0].rgb, images[2].rgb) << v.integrator << " " << v.isa;
+    }
+}
+
 // The wavefront on every ISA agrees with the scalar reference on `scene`: at least 99% of
 // pixels pass the per-pixel z-test, and each channel's image mean within 4σ. `what` names
 // the case in failures.

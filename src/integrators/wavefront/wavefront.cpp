@@ -181,6 +181,13 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
 
 WavefrontRenderer::~WavefrontRenderer() = default;
 
+size_t WavefrontRenderer::light_store_bytes() const {
+    size_t most = 0;
+    for (const PoolMemory& m : data_->pools)
+        if (m.light_store) most = std::max(most, m.light_store->bytes());
+    return most;
+}
+
 size_t WavefrontRenderer::pool_bytes() const {
     return path_pool_bytes(pool_size_, shadow_rays_per_vertex(data_->scene),
                            int32_t(data_->scene.materials.size()));

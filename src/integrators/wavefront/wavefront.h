@@ -29,6 +29,8 @@ public:
     Isa isa() const { return isa_; }
     int32_t pool_size() const { return pool_size_; }
     size_t pool_bytes() const;
+    // bdpt: the largest of the threads' light-vertex stores (bytes; 0 for other estimators)
+    size_t light_store_bytes() const;
     // Thread-safe: each calling thread uses its own path pool.
     void render_tile(const Tile& tile, FilmTile& film, RayCounts& rays, LaneStats& lanes) const;
     // Closest hits of `count` ray records (7 floats: origin, direction, tmax) through the
