@@ -1,6 +1,7 @@
-// Bidirectional path tracing (--estimator bdpt) and vertex connection and merging
-// (--estimator vcm): the vertex-level rules, written once for both integrators (T = float for
-// the scalar reference, T = xsimd::batch for the wavefront kernels).
+// Bidirectional path tracing (--estimator bdpt): the vertex-level rules, written once for both
+// integrators (T = float for the scalar reference, T = xsimd::batch for the wavefront
+// kernels). Vertex merging is not built yet; the merging quantity (dVM) and its weights
+// (MergeWeights, 0 without merging) are carried so that it adds strategies, not rules.
 //
 // A sample pairs one camera subpath with one light subpath (the light path of camera sample
 // n takes the key of that sample, as lt's do). Every way of making a full path from them is a
@@ -10,23 +11,20 @@
 //     nee_point_light);
 //   - t = 1: a Phong light vertex is connected to the pinhole (camera_connection_mis);
 //   - s, t ≥ 2: a Phong camera vertex is connected to each stored Phong vertex of its light
-//     subpath (connect_vertices);
-//   - vcm only: a Phong camera vertex merges with the stored light vertices of the unit's
-//     light paths that lie within the radius (merge_vertex).
+//     subpath (connect_vertices).
 // They are combined by the power heuristic, with the recursive quantities of Georgiev's
 // "Implementing Vertex Connection and Merging" (2012): each subpath carries three numbers
 // (SubpathMis: dVCM, dVC, dVM), updated at each hit (mis_at_hit) and each scattering
-// (mis_after_scatter), from which the weight of any strategy needs only its two end vertices.
+// (mis_after_lobe), from which the weight of any strategy needs only its two end vertices.
 // All densities are of the BSDF strategy as the report's roulette samples it: P(lobe), the
 // survival included, times the lobe's own density (phong_eval), summed over the Phong lobes.
-// Delta lobes (mirror, refraction) are never connected or merged; a path through them keeps
+// Delta lobes (mirror, refraction) are never connected; a path through them keeps
 // its weights exact because dVCM is 0 after them (their densities cancel). Cosines in the
 // conversions between solid-angle and area densities are those of the geometric normal.
 //
 // Units of density. A light path's connection to the pinhole lands anywhere in the image
 // (kernels/transport.h), so the camera strategy's density of a direction is that of the whole
-// film: p = 1 / (A·cos³θ) per unit solid angle (A: the film's area at distance 1). Merging
-// uses η = π r²·N (N: light paths of the unit the camera path merges with).
+// film: p = 1 / (A·cos³θ) per unit solid angle (A: the film's area at distance 1).
 #pragma once
 
 #include "light_sampling.h"
@@ -48,7 +46,7 @@ struct SubpathMis {
     T vcm, vc, vm;
 };
 
-// What the strategies of a unit share: whether vertices are merged, and
+// What the strategies of a unit share once vertices are merged (vertex merging, to come):
 //   vm_weight = η² (merging's weight against a connection), 0 without merging;
 //   vc_weight = 1/η² (a connection's against merging), 0 without merging;
 // with η = π r²·N. (bdpt: both 0.)
