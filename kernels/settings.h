@@ -15,14 +15,32 @@ enum class Estimator : int32_t {
     kMis = 2,     // both strategies, weighted by the power heuristic
     kLt = 3,      // light tracing: paths from the lights, splatted through the pinhole
     kBdpt = 4,    // bidirectional: every connection of a camera and a light subpath, by MIS
+    kVcm = 5,     // bdpt and vertex merging (photon mapping's strategy), by MIS
 };
 
 // Whether the estimator's paths start at the lights and land anywhere in the image (their
 // sums are splatted, and their error comes from batch statistics).
-inline constexpr bool splats(Estimator e) { return e == Estimator::kLt || e == Estimator::kBdpt; }
+inline constexpr bool splats(Estimator e) {
+    return e == Estimator::kLt || e == Estimator::kBdpt || e == Estimator::kVcm;
+}
 
 // Whether the estimator pairs each camera path with a light subpath (kernels/bidirectional.h).
-inline constexpr bool bidirectional(Estimator e) { return e == Estimator::kBdpt; }
+inline constexpr bool bidirectional(Estimator e) {
+    return e == Estimator::kBdpt || e == Estimator::kVcm;
+}
+
+// Whether camera vertices also merge with the light vertices near them (vcm).
+inline constexpr bool merges(Estimator e) { return e == Estimator::kVcm; }
+
+// vcm's merging radius (render.merge_radius, --merge-radius; render.merge_alpha,
+// --merge-alpha): sample n (from 0) merges within r0 · (n + 1)^((α − 1) / 2). r0 = 0 takes
+// kMergeRadiusFraction of the scene's size (Scene::merge_radius; chosen by measured
+// efficiency, docs/estimators.md "vcm").
+inline constexpr float kMergeAlpha = 0.75f;
+// The N of vcm's merging weights in every tile: a full tile's pixels (kernels/bidirectional.h,
+// merge_weights; src/integrators/render.h checks it against kTileSize).
+inline constexpr int32_t kMergeTilePaths = 256;
+inline constexpr float kMergeRadiusFraction = 0.05f;
 
 // The roulette that ends paths (render.roulette, --roulette).
 enum class Roulette : int32_t {
@@ -96,6 +114,10 @@ struct EstimatorSettings {
     // without; -1: every strategy (render.strategy, --strategy, --unweighted)
     int32_t strategy_s = -1, strategy_t = -1;
     bool unweighted = false;
+    // vcm: the first sample's merging radius r0 (0: from the scene's size) and the exponent α
+    // in (0, 1) of its decrease (kMergeAlpha)
+    float merge_radius = 0.0f;
+    float merge_alpha = kMergeAlpha;
     // Which of the four knobs whose default depends on the estimator (diffuse sampling,
     // roulette, triangle sampling, sampler) a scene, the command line or a sweep chose;
     // use_estimator (src/integrators/registry.h) gives the others the estimator's defaults

@@ -172,7 +172,8 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
                  std::optional<std::string> roulette, std::optional<int> roulette_depth,
                  std::optional<std::string> triangle_sampling, std::optional<std::string> sampler,
                  std::optional<int> min_length, std::optional<int> max_length,
-                 std::optional<std::pair<int, int>> strategy, bool unweighted, int pool, bool variance, double time_budget, double target_error,
+                 std::optional<std::pair<int, int>> strategy, bool unweighted,
+                 std::optional<float> merge_radius, std::optional<float> merge_alpha, int pool, bool variance, double time_budget, double target_error,
                  bool progress, const py::object& cancel,
                  const std::optional<fs::path>& checkpoint,
                  std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
@@ -213,6 +214,7 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     job.min_length = min_length, job.max_length = max_length;
     if (strategy) job.strategy = {strategy->first, strategy->second};
     job.unweighted = unweighted;
+    job.merge_radius = merge_radius, job.merge_alpha = merge_alpha;
     job.estimator = estimator;
     job.threads = threads;
     job.integrator = integrator;
@@ -277,6 +279,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
                   const std::vector<std::string>& triangle_sampling,
                   const std::vector<std::string>& sampler,
                   const std::vector<std::string>& estimator,
+                  const std::vector<float>& merge_radius, const std::vector<float>& merge_alpha,
                   std::optional<std::string> reference_estimator, std::optional<int> width,
                   std::optional<int> height, int threads, int repeats,
                   const std::optional<fs::path>& out, bool verbose, const py::object& cancel) {
@@ -294,6 +297,12 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
         check_member("triangle_sampling", v, kTriangleSampling);
     for (const std::string& v : sampler) check_member("sampler", v, kSamplerNames);
     for (const std::string& v : estimator) check_member("estimator", v, kEstimatorNames);
+    for (float v : merge_radius)
+        if (!(v > 0.0f) || !std::isfinite(v))
+            throw py::value_error("merge_radius: each must be a positive length");
+    for (float v : merge_alpha)
+        if (!(v > 0.0f && v < 1.0f))
+            throw py::value_error("merge_alpha: each must be in (0, 1), exclusive");
     check_member("reference_estimator", reference_estimator, kEstimatorNames);
     check_range<int>("width", width, 1, 1 << 16);
     check_range<int>("height", height, 1, 1 << 16);
@@ -321,6 +330,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
     a.triangle_sampling = triangle_sampling;
     a.samplers = sampler;
     a.estimators = estimator;
+    a.merge_radii = merge_radius, a.merge_alphas = merge_alpha;
     a.reference_estimator = reference_estimator;
     a.width = width, a.height = height;
     a.threads = threads;
@@ -443,6 +453,7 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
           py::arg("triangle_sampling") = py::none(), py::arg("sampler") = py::none(),
           py::arg("min_length") = py::none(), py::arg("max_length") = py::none(),
           py::arg("strategy") = py::none(), py::arg("unweighted") = false,
+          py::arg("merge_radius") = py::none(), py::arg("merge_alpha") = py::none(),
           py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
           py::arg("target_error") = 0.0, py::arg("progress") = false,
           py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
@@ -452,7 +463,8 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
 Returns (image, stats), or (image, variance, stats) with variance=True: float32 arrays of
 shape (height, width, 3), the mean and the variance of each pixel's mean, and the dict of
 `cierzo render --stats` (same keys). Keywords left at None keep the scene's value:
-  spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt', 'bdpt'), survival_cap (0..1),
+  spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt', 'bdpt', 'vcm'),
+  survival_cap (0..1),
   diffuse_sampling ('uniform', 'cosine'), roulette ('lobe', or 'throughput' for nee and
   mis), roulette_depth (the vertex the throughput roulette starts at, 0..1024),
   triangle_sampling ('area', 'solid-angle': how nee and mis sample emitting triangles),
@@ -460,7 +472,9 @@ shape (height, width, 3), the mean and the variance of each pixel's mean, and th
   min_length, max_length (only paths of that many segments count: 1 is the camera seeing an
   emitter, 2 direct light; 1..1048576);
   strategy (bdpt: a pair (s, t), only the paths of s light and t camera vertices count, with
-  their MIS weight, or with unweighted=True without it);
+  their MIS weight, or with unweighted=True without it); merge_radius, merge_alpha (vcm:
+  the first sample's merging radius r0 > 0, scene units, and alpha in (0, 1); sample n
+  merges within r0 * (n + 1)^((alpha - 1) / 2));
 and as the command line's options: integrator 'wavefront' or 'scalar', isa 'auto', 'avx512',
 'avx2', 'sse4.2' or 'neon', threads (0 = every CPU), pool (wavefront paths per thread, a
 multiple of 16; 0 = 512), time_budget (seconds, 0 = none) and target_error (mean relative
@@ -491,6 +505,7 @@ seed, estimator or integrator is refused).)");
           py::arg("triangle_sampling") = std::vector<std::string>{},
           py::arg("sampler") = std::vector<std::string>{},
           py::arg("estimator") = std::vector<std::string>{},
+          py::arg("merge_radius") = std::vector<float>{}, py::arg("merge_alpha") = std::vector<float>{},
           py::arg("reference_estimator") = py::none(), py::arg("width") = py::none(),
           py::arg("height") = py::none(), py::arg("threads") = 0, py::arg("repeats") = 1,
           py::arg("out") = py::none(), py::arg("verbose") = false, py::arg("cancel") = py::none(),
@@ -498,10 +513,12 @@ seed, estimator or integrator is refused).)");
 
 Renders (or reads, reference=PATH to an .exr or .pfm) a reference, then the scene at each
 paths-per-pixel count of spp for every combination of integrator, isa, pool, survival_cap,
-diffuse_sampling, roulette, triangle_sampling, sampler and estimator (lists; an empty list keeps the
-scene's value; roulette_depth one value or None). Returns one dict per render, keyed by the
-CSV's columns (scene, integrator, isa, pool, survival_cap, diffuse_sampling, roulette
-('lobe', or e.g. 'throughput3': from vertex 3), triangle_sampling, sampler, estimator, threads, width, height, spp, repeats, seconds, rays,
+diffuse_sampling, roulette, triangle_sampling, sampler and estimator, and for vcm
+merge_radius and merge_alpha (lists; an empty list keeps the scene's value; roulette_depth
+one value or None). Returns one dict per render, keyed by the CSV's columns (scene,
+integrator, isa, pool, survival_cap, diffuse_sampling, roulette ('lobe', or e.g.
+'throughput3': from vertex 3), triangle_sampling, sampler, estimator, merge_radius and
+merge_alpha (vcm's, as rendered; empty for the others), threads, width, height, spp, repeats, seconds, rays,
 rays_per_second, mse, rmse, rel_mse, reference_mse, reference_rel_mse, mse_corrected,
 rmse_corrected, rel_mse_corrected, estimated_relative_error, efficiency). out writes the
 same rows as CSV, save_reference the rendered reference (.exr); verbose prints the table and

@@ -118,6 +118,25 @@ def test_bdpt_strategy_images_as_the_program_and_adding_up(cierzo, tmp_path):
         cierzo.render(scene_path("caustic"), estimator="bdpt", unweighted=True, **SMALL)
 
 
+def test_vcm_as_the_program_and_its_options_checked(cierzo, tmp_path):
+    exr, _ = cli_render(tmp_path, scene_path("caustic"),
+                        extra=("--estimator", "vcm", "--merge-radius", "0.08",
+                               "--merge-alpha", "0.6"))
+    image, stats = cierzo.render(scene_path("caustic"), estimator="vcm", merge_radius=0.08,
+                                 merge_alpha=0.6, **SMALL)
+    assert same_bits(image, cierzo.read_exr(exr))
+    assert stats["estimator"] == "vcm"
+    # another radius is another image
+    other, _ = cierzo.render(scene_path("caustic"), estimator="vcm", merge_radius=0.3, **SMALL)
+    assert not same_bits(image, other)
+    with pytest.raises(ValueError, match="merge-radius"):
+        cierzo.render(scene_path("caustic"), estimator="vcm", merge_radius=-1.0, **SMALL)
+    with pytest.raises(ValueError, match="merge-alpha"):
+        cierzo.render(scene_path("caustic"), estimator="vcm", merge_alpha=1.0, **SMALL)
+    with pytest.raises(ValueError, match="vcm"):
+        cierzo.render(scene_path("caustic"), estimator="bdpt", merge_radius=0.1, **SMALL)
+
+
 def test_isa_this_cpu_lacks_has_the_programs_message(cierzo):
     lacking = [i["name"] for i in cierzo.isas() if not i["supported"]]
     if not lacking:

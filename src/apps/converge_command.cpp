@@ -4,8 +4,10 @@
 // reference's own noise removed) in a CSV file that papers/scripts/plot_converge.py plots.
 #include "apps/converge_command.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 
@@ -51,6 +53,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     std::vector<int> samplers;
     for (const std::string& s : a.samplers) samplers.push_back(int(*parse_sampler(s)));
     if (samplers.empty()) samplers.push_back(-1);
+    // (vcm's radius and exponent: swept for vcm alone)
+    const std::vector<float> radii = a.merge_radii.empty() ? std::vector<float>{-1.0f} : a.merge_radii;
+    const std::vector<float> alphas = a.merge_alphas.empty() ? std::vector<float>{-1.0f} : a.merge_alphas;
     std::vector<ConvergeConfig> out;
     for (const std::string& integrator : a.integrators) {
         const bool scalar = integrator_of(integrator) == Integrator::kScalar;
@@ -63,18 +68,24 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                         for (int e : estimators)
                             for (int r : roulettes)
                                 for (int t : triangles)
-                                    for (int smp : samplers)
-                                        out.push_back({.integrator = integrator,
-                                                       .isa = scalar ? "auto" : isa,
-                                                       .pool_size = pool,
-                                                       .survival_cap = cap,
-                                                       .cosine_diffuse = d,
-                                                       .estimator = e,
-                                                       .roulette = r,
-                                                       .triangle_solid_angle = t,
-                                                       .roulette_depth =
-                                                           a.roulette_depth.value_or(-1),
-                                                       .sampler = smp});
+                                    for (int smp : samplers) {
+                                        const bool vcm = e == int(Estimator::kVcm);
+                                        for (float radius : vcm ? radii : std::vector<float>{-1.0f})
+                                            for (float alpha : vcm ? alphas : std::vector<float>{-1.0f})
+                                                out.push_back({.integrator = integrator,
+                                                               .isa = scalar ? "auto" : isa,
+                                                               .pool_size = pool,
+                                                               .survival_cap = cap,
+                                                               .cosine_diffuse = d,
+                                                               .estimator = e,
+                                                               .roulette = r,
+                                                               .triangle_solid_angle = t,
+                                                               .roulette_depth =
+                                                                   a.roulette_depth.value_or(-1),
+                                                               .sampler = smp,
+                                                               .merge_radius = radius,
+                                                               .merge_alpha = alpha});
+                                    }
     }
     return out;
 }
@@ -83,7 +94,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
 
 std::string converge_csv_header() {
     return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,roulette,triangle_sampling,"
-           "sampler,estimator,threads,width,"
+           "sampler,estimator,merge_radius,merge_alpha,threads,width,"
            "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
@@ -110,12 +121,15 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
         p.estimator.survival_cap, diffuse_name(p.estimator), roulette_label(p.estimator),
         triangle_sampling_name(p.estimator), sampler_name(p.estimator.sampler),
         estimator_name(p.estimator.kind),
+        // (vcm's radius as rendered, the scene's rule resolved; empty for the others)
+        merges(p.estimator.kind) ? fmt::format("{:.6g}", p.merge_radius) : std::string(),
+        merges(p.estimator.kind) ? fmt::format("{:.6g}", p.estimator.merge_alpha) : std::string(),
         p.stats.threads,
         scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
         p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
@@ -196,6 +210,27 @@ CLI::App* add_converge_command(CLI::App& app) {
                       "; default: the scene's")
         ->delimiter(',')
         ->check(CLI::IsMember(sampler_names()));
+    const auto positive = CLI::Validator(
+        [](std::string& v) {
+            const double x = std::strtod(v.c_str(), nullptr);
+            return x > 0.0 && std::isfinite(x) ? std::string() : "must be a positive length";
+        },
+        "POSITIVE");
+    const auto open_unit = CLI::Validator(
+        [](std::string& v) {
+            const double x = std::strtod(v.c_str(), nullptr);
+            return x > 0.0 && x < 1.0 ? std::string() : "must be in (0, 1), exclusive";
+        },
+        "(0, 1)");
+    c->add_option("--merge-radius", a.merge_radii,
+                  "vcm's first merging radii r0 to sweep (scene units, each > 0; render's "
+                  "--merge-radius); default: the scene's")
+        ->delimiter(',')
+        ->check(positive);
+    c->add_option("--merge-alpha", a.merge_alphas,
+                  "vcm's radius exponents alpha to sweep, each in (0, 1); default: the scene's")
+        ->delimiter(',')
+        ->check(open_unit);
     c->add_option("--roulette", a.roulettes,
                   "Roulettes to sweep, comma-separated: " + describe_roulettes() +
                       "; default: the scene's")
@@ -257,6 +292,13 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         if (pool % 16 != 0)
             throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
     for (const std::string& isa : a.isas) require_isa(parse_isa(isa), "--isa");
+    if (!a.merge_radii.empty() || !a.merge_alphas.empty()) {
+        const bool vcm = std::find(a.estimators.begin(), a.estimators.end(), "vcm") != a.estimators.end() ||
+                         (a.estimators.empty() && merges(scene.settings.estimator.kind));
+        if (!vcm)
+            throw InputError(std::string(a.merge_radii.empty() ? "--merge-alpha" : "--merge-radius") +
+                             ": merging is vcm's; sweep it with --estimator vcm");
+    }
     if (!a.save_reference.empty() && a.save_reference.extension() != ".exr")
         throw InputError(a.save_reference.string() + ": --save-reference must end in .exr");
     std::vector<InputPath> inputs = scene_inputs(scene);

@@ -2,6 +2,7 @@
 // outputs and statistics, shared by the command line and the Python module.
 #include "apps/render_job.h"
 
+#include <cmath>
 #include <cstdio>
 
 #include <fmt/format.h>
@@ -92,10 +93,27 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
                          " is below --min-length " + std::to_string(s.estimator.min_length) +
                          " (with the scene's values): no path would count");
     use_estimator(e, a.estimator ? *parse_estimator(*a.estimator) : e.kind);
+    if (a.merge_radius) {
+        if (!(*a.merge_radius > 0.0f) || !std::isfinite(*a.merge_radius))
+            throw InputError("--merge-radius: must be a positive length (got " +
+                             fmt::format("{}", *a.merge_radius) + ")");
+        e.merge_radius = *a.merge_radius;
+    }
+    if (a.merge_alpha) {
+        if (!(*a.merge_alpha > 0.0f && *a.merge_alpha < 1.0f))
+            throw InputError("--merge-alpha: must be in (0, 1), exclusive (got " +
+                             fmt::format("{}", *a.merge_alpha) + ")");
+        e.merge_alpha = *a.merge_alpha;
+    }
+    if ((a.merge_radius || a.merge_alpha) && !merges(e.kind))
+        throw InputError(std::string(a.merge_radius ? "--merge-radius" : "--merge-alpha") +
+                         ": merging is vcm's (this render's estimator is " +
+                         estimator_name(e.kind) + ")");
     if (!a.strategy.empty()) {
-        if (!bidirectional(e.kind))
+        if (e.kind != Estimator::kBdpt)
             throw InputError("--strategy: strategies are bdpt's (this render's estimator is " +
-                             std::string(estimator_name(e.kind)) + ")");
+                             std::string(estimator_name(e.kind)) +
+                             (merges(e.kind) ? "; vcm's merging is no strategy (s, t)" : "") + ")");
         if (a.strategy.size() != 2 || a.strategy[0] < 0 || a.strategy[1] < 1 ||
             a.strategy[0] + a.strategy[1] < 2 || a.strategy[0] > kMaxLengthLimit ||
             a.strategy[1] > kMaxLengthLimit)

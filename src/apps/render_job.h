@@ -33,6 +33,7 @@ struct RenderJob {
     std::optional<int> min_length, max_length;    // path lengths that count
     std::vector<int> strategy;                    // bdpt: {s, t}, the one strategy kept
     bool unweighted = false;                      // ... without its weight
+    std::optional<float> merge_radius, merge_alpha;  // vcm: r0 and α
     std::optional<std::string> estimator;         // report, nee or mis
     // How to render
     int threads = 0;

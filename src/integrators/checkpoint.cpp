@@ -184,6 +184,10 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     id.width = s.width, id.height = s.height;
     id.seed = s.seed;
     id.estimator = estimator_name(s.estimator.kind);
+    // (vcm's radius as set, 0 for the scene's rule, and its exponent)
+    if (merges(s.estimator.kind))
+        id.estimator += fmt::format(" r0 {:a} alpha {:a}", s.estimator.merge_radius,
+                                    s.estimator.merge_alpha);
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);

@@ -55,6 +55,8 @@ EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& 
         settings.chosen |= kChoseTriangles;
     if (config.roulette_depth >= 0) settings.roulette_depth = config.roulette_depth;
     if (config.sampler >= 0) settings.sampler = Sampler(config.sampler), settings.chosen |= kChoseSampler;
+    if (config.merge_radius >= 0.0f) settings.merge_radius = config.merge_radius;
+    if (config.merge_alpha >= 0.0f) settings.merge_alpha = config.merge_alpha;
     use_estimator(settings, config.estimator >= 0 ? Estimator(config.estimator) : settings.kind);
     return settings;
 }
@@ -80,6 +82,7 @@ std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& referen
             ConvergePoint point;
             point.config = config;
             point.estimator = s.settings.estimator;
+            point.merge_radius = s.merge_radius();
             point.spp = spp;
             point.repeats = std::max(1, sweep.repeats);
             std::vector<double> seconds;

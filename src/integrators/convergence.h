@@ -51,11 +51,14 @@ struct ConvergeConfig {
     int triangle_solid_angle = -1;  // -1: the scene's; 0 area, 1 solid angle
     int roulette_depth = -1;      // -1: the scene's
     int sampler = -1;             // -1: the scene's; else a Sampler
+    float merge_radius = -1.0f;   // vcm: < 0 the scene's (0: from the scene's size)
+    float merge_alpha = -1.0f;    // vcm: < 0 the scene's
 };
 
 struct ConvergePoint {
     ConvergeConfig config;
     EstimatorSettings estimator;  // the settings rendered with: the scene's and the config's
+    float merge_radius = 0.0f;    // vcm: the r0 rendered with (the scene's rule resolved)
     int64_t spp = 0;
     int repeats = 0;
     double seconds = 0.0;        // median over the repeats

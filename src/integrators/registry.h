@@ -47,6 +47,10 @@ inline constexpr EstimatorEntry kEstimators[] = {
     {Estimator::kBdpt, "bdpt",
      "bidirectional path tracing: each camera path with a light subpath, every connection "
      "of the two (and each end alone) weighted by the power heuristic"},
+    {Estimator::kVcm, "vcm",
+     "vertex connection and merging: bdpt plus each camera vertex merged with the light "
+     "vertices near it (photon mapping's strategy, for paths no connection makes: a caustic "
+     "seen in a mirror), all weighted by the power heuristic; biased, consistent"},
 };
 
 struct RouletteEntry {

@@ -20,6 +20,7 @@
 namespace cierzo {
 
 inline constexpr int kTileSize = 16;
+static_assert(kTileSize * kTileSize == kMergeTilePaths, "vcm's weights take a full tile's pixels");
 
 // Rays traced, by kind.
 struct RayCounts {

@@ -1,12 +1,14 @@
 // The scalar reference of the bidirectional estimators (kernels/bidirectional.h): for each
 // camera sample, its light subpath first (its Phong vertices stored, each connected to the
-// pinhole), then its camera subpath, which at each Phong vertex samples the lights and
-// connects to every stored vertex. One path at a time, with the same kernels as the
-// wavefront's bidirectional stages.
+// pinhole), then its camera subpath, which at each Phong vertex samples the lights,
+// connects to every stored vertex of its light subpath and (vcm) merges with the stored
+// vertices near it of every light subpath of its sample index in the tile. One path at a
+// time, with the same kernels as the wavefront's bidirectional stages.
 #include "integrators/scalar.h"
 
 #include <vector>
 
+#include "integrators/merge_vertex.h"
 #include "integrators/scalar_path.h"
 #include "kernels/bidirectional.h"
 #include "kernels/rng.h"
@@ -21,7 +23,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
                                           const LightStartTable& lights,
                                           const PinholeFrame& pinhole,
                                           const SampleStream<float>& camera_rng,
-                                          const MergeWeights& mw,
+                                          const MergeWeights<float>& mw,
                                           std::vector<LightVertex<float>>& store,
                                           FilmTile& film, RayCounts& rays) {
     const SampleStream<float> rng = light_stream(camera_rng);
@@ -85,15 +87,23 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
     }
 }
 
+// vcm: the grid of the light vertices a camera vertex merges with (every one of its sample
+// index in the tile), and the sample's merging quantities.
+struct Merging {
+    const MergeGrid* grid = nullptr;
+    MergeWeights<float> weights;
+};
+
 // The camera subpath of one sample, with every strategy that ends on it: what it brings to
 // its pixel (the light subpath's vertices are `light`).
 CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContext& c,
                                             const LightStartTable& lights,
                                             const PinholeFrame& pinhole,
                                             const Ray<float>& camera_ray,
-                                            const SampleStream<float>& rng, const MergeWeights& mw,
+                                            const SampleStream<float>& rng, const Merging& merging,
                                             const LightVertex<float>* light, size_t light_count,
                                             RayCounts& rays) {
+    const MergeWeights<float>& mw = merging.weights;
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
@@ -147,6 +157,8 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                 if (counts(light[k].length + bounce + 2))
                     connected += trace_request(scene, connect_vertices(c, cv, light[k], mw, true), rays);
             radiance += throughput * connected;
+            // vcm: the light vertices near it
+            if (merging.grid) radiance += throughput * merge_at(c, *merging.grid, cv, 0u, mw);
         }
 
         // The roulette and the chosen lobe
@@ -173,27 +185,68 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
     const PathContext c = scene.path_context();
     const LightStartTable lights = scene.light_starts.table();
     const PinholeFrame pinhole = scene.pinhole();
-    const MergeWeights mw;
+    const bool has_lights = lights.emitter_probability > 0.0f || lights.point_count > 0;
+    const auto stream = [&](int x, int y, int64_t s) {
+        const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
+        return camera_stream<float>(c.sampler, rs.seed, pixel, uint32_t(x), uint32_t(y), uint32_t(s));
+    };
+    // Sample s of pixel (x, y)'s camera subpath, with its light subpath's vertices
+    const auto camera = [&](int x, int y, const SampleStream<float>& rng, const Merging& merging,
+                            const LightVertex<float>* light, size_t light_count) {
+        float jx, jy;
+        uniform2<float>(rng, 0u, Purpose::kPixelX, jx, jy);
+        ++rays.camera;
+        film.at(x, y).add(trace_camera_subpath(
+            scene, c, lights, pinhole,
+            scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h), rng, merging,
+            light, light_count, rays));
+    };
     std::vector<LightVertex<float>> store;
-    for (int y = tile.y0; y < tile.y1; ++y)
-        for (int x = tile.x0; x < tile.x1; ++x) {
-            PixelSums& px = film.at(x, y);
-            const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
-            for (int64_t s = tile.s0; s < tile.s1; ++s) {
-                const SampleStream<float> rng = camera_stream<float>(
-                    c.sampler, rs.seed, pixel, uint32_t(x), uint32_t(y), uint32_t(s));
-                store.clear();
-                if (lights.emitter_probability > 0.0f || lights.point_count > 0)
-                    trace_light_subpath(scene, c, lights, pinhole, rng, mw, store, film, rays);
-                float jx, jy;
-                uniform2<float>(rng, 0u, Purpose::kPixelX, jx, jy);
-                ++rays.camera;
-                px.add(trace_camera_subpath(
-                    scene, c, lights, pinhole,
-                    scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h), rng, mw,
-                    store.data(), store.size(), rays));
-            }
+    if (!merges(c.estimator.kind)) {
+        // bdpt: each sample's light subpath, then its camera subpath
+        const Merging none;
+        for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x)
+                for (int64_t s = tile.s0; s < tile.s1; ++s) {
+                    const SampleStream<float> rng = stream(x, y, s);
+                    store.clear();
+                    if (has_lights)
+                        trace_light_subpath(scene, c, lights, pinhole, rng, none.weights, store,
+                                            film, rays);
+                    camera(x, y, rng, none, store.data(), store.size());
+                }
+        return;
+    }
+    // vcm: per sample index, the light subpaths of every pixel, their grid, then the camera
+    // subpaths
+    const int32_t width = tile.x1 - tile.x0, pixels = width * (tile.y1 - tile.y0);
+    std::vector<uint32_t> begin(size_t(pixels) + 1);
+    std::vector<Photon> photons;
+    MergeGrid grid;
+    for (int64_t s = tile.s0; s < tile.s1; ++s) {
+        Merging merging;
+        merging.weights = merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha, s,
+                                        has_lights ? pixels : 0, kMergeTilePaths);
+        store.clear();
+        for (int32_t k = 0; k < pixels; ++k) {
+            begin[size_t(k)] = uint32_t(store.size());
+            if (has_lights)
+                trace_light_subpath(scene, c, lights, pinhole,
+                                    stream(tile.x0 + k % width, tile.y0 + k / width, s),
+                                    merging.weights, store, film, rays);
         }
+        begin[size_t(pixels)] = uint32_t(store.size());
+        photons.clear();
+        for (const LightVertex<float>& l : store) photons.push_back(photon_of(l, 0u));
+        const float radius = std::sqrt(merging.weights.radius2);
+        grid.build(photons, std::span<const float>(&radius, 1));
+        merging.grid = &grid;
+        for (int32_t k = 0; k < pixels; ++k) {
+            const int x = tile.x0 + k % width, y = tile.y0 + k / width;
+            camera(x, y, stream(x, y, s), merging, store.data() + begin[size_t(k)],
+                   begin[size_t(k) + 1] - begin[size_t(k)]);
+        }
+    }
 }
 
 }  // namespace cierzo

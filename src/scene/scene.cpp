@@ -202,7 +202,29 @@ PathContext Scene::path_context() const {
     c.light_count = c.lt || c.bdpt ? 0 : int32_t(light_data.size() / 6);
     c.scene_ior = scene_ior;
     c.smooth = smooth_shading;
+    if (merges(e)) c.estimator.merge_radius = merge_radius();
     return c;
+}
+
+float Scene::merge_radius() const {
+    if (settings.estimator.merge_radius > 0.0f) return settings.estimator.merge_radius;
+    // (the box around the bounded primitives and the camera: planes have no size, and the
+    // camera's distance is the scale at which the image is seen)
+    Vec3f lo = camera.origin, hi = camera.origin;
+    if (!bvh.empty()) lo = vmin(lo, bvh.bounds_min()), hi = vmax(hi, bvh.bounds_max());
+    const Vec3f d = hi - lo;
+    const double half = 0.5 * std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+    const double radius = half > 0.0 && half < 1e30 ? half : 1.0;
+    return float(kMergeRadiusFraction * radius);
+}
+
+double Scene::bounds_radius() const {
+    if (!bvh.empty()) {
+        const Vec3f d = bvh.bounds_max() - bvh.bounds_min();
+        const double half = 0.5 * std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+        if (half > 0.0 && std::isfinite(half)) return half;
+    }
+    return 1.0;
 }
 
 void Scene::build_light_starts() {
@@ -495,12 +517,7 @@ void Scene::build_emitters() {
     for (const Quadric& q : quadrics) e.unsampled_objects += emits(q.material);
     // The environment, by π·R²·L̄ (R the radius of the scene's bounds)
     if (e.environment_mean > 0.0 && std::isfinite(e.environment_mean)) {
-        double radius = 1.0;
-        if (!bvh.empty()) {
-            const Vec3f d = bvh.bounds_max() - bvh.bounds_min();
-            const double half = 0.5 * std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
-            if (half > 0.0 && std::isfinite(half)) radius = half;
-        }
+        const double radius = bounds_radius();
         const float record[kEmitterStride] = {};
         e.environment_id = int32_t(e.kind.size());
         add(kEmitterEnvironment, record, kPi * radius * radius * e.environment_mean);

@@ -300,8 +300,17 @@ public:
                environment.present();
     }
 
-    // What a path vertex needs of the scene (kernels/path_vertex.h), for both integrators.
+    // What a path vertex needs of the scene (kernels/path_vertex.h), for both integrators
+    // (vcm's merge_radius resolved: merge_radius()).
     PathContext path_context() const;
+
+    // vcm's r0: render.merge_radius / --merge-radius if set, else kMergeRadiusFraction of
+    // half the diagonal of the box around the bounded primitives and the camera (1 if that
+    // is empty or not finite).
+    float merge_radius() const;
+    // The scene's radius: half the diagonal of the box around its bounded primitives
+    // (spheres, meshes, bounded quadrics; planes have none), or 1 with none.
+    double bounds_radius() const;
 
     // The pinhole as paths from the lights see it (kernels/transport.h).
     PinholeFrame pinhole() const {

@@ -1131,6 +1131,25 @@ struct Loader {
             r.fail("'estimator' must be one of " + names);
         }
         use_estimator(e, *kind);
+        if (r.has("merge_radius")) {
+            const double r0 = r.number("merge_radius", 0.0);
+            if (!(r0 > 0.0) || !std::isfinite(float(r0)))
+                r.fail("'merge_radius' must be a positive length (vcm's first merging radius)");
+            e.merge_radius = float(r0);
+        } else {
+            r.allow({"merge_radius"});
+        }
+        if (r.has("merge_alpha")) {
+            const double alpha = r.number("merge_alpha", kMergeAlpha);
+            if (!(alpha > 0.0 && alpha < 1.0))
+                r.fail("'merge_alpha' must be in (0, 1), exclusive (how fast vcm's radius shrinks)");
+            e.merge_alpha = float(alpha);
+        } else {
+            r.allow({"merge_alpha"});
+        }
+        if ((r.has("merge_radius") || r.has("merge_alpha")) && !merges(e.kind))
+            r.fail("'merge_radius' and 'merge_alpha' are vcm's (the estimator is \"" +
+                   std::string(estimator_name(e.kind)) + "\")");
         if (r.has("output")) s.output = file.parent_path() / r.string("output");
         else r.allow({"output"});
         r.finish();

@@ -344,6 +344,42 @@ TEST_F(cli, TheEstimatorIsChosenRecordedAndChecked) {
     EXPECT_NE(o.err.find("--estimator"), std::string::npos) << o.err;
 }
 
+// vcm's radius and exponent: refused outside their ranges, or with another estimator, on
+// the command line and in the scene file, each message naming the option; no image written.
+TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
+    const fs::path scene = write("scene.json", kTinyScene);
+    const fs::path out = dir_ / "merge.exr";
+    const std::pair<std::string, std::string> cases[] = {
+        {" --estimator vcm --merge-radius 0", "--merge-radius"},
+        {" --estimator vcm --merge-radius -1", "--merge-radius"},
+        {" --estimator vcm --merge-radius inf", "--merge-radius"},
+        {" --estimator vcm --merge-alpha 0", "--merge-alpha"},
+        {" --estimator vcm --merge-alpha 1", "--merge-alpha"},
+        {" --estimator vcm --merge-alpha 1.5", "--merge-alpha"},
+        {" --estimator bdpt --merge-radius 0.1", "merging is vcm's"},
+        {" --estimator vcm --strategy 1,2", "--strategy"},
+    };
+    for (const auto& [args, message] : cases) {
+        SCOPED_TRACE(args);
+        const Outcome o = run(quote(scene) + kQuiet + args + " --out " + quote(out));
+        EXPECT_GT(o.exit_code, 0);
+        EXPECT_NE(o.err.find(message), std::string::npos) << o.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
+    std::string text = kTinyScene;
+    text.replace(text.find("\"seed\": 3"), 9,
+                 "\"seed\": 3, \"estimator\": \"vcm\", \"merge_radius\": -0.5");
+    const Outcome b = run(quote(write("bad_radius.json", text)) + kQuiet + " --out " + quote(out));
+    EXPECT_EQ(b.exit_code, 1);
+    EXPECT_NE(b.err.find("bad_radius.json"), std::string::npos) << b.err;
+    EXPECT_NE(b.err.find("'merge_radius' must be a positive length"), std::string::npos) << b.err;
+    // (and accepted in range: the image is written)
+    const Outcome ok = run(quote(scene) + kQuiet + " --estimator vcm --merge-radius 0.05 "
+                           "--merge-alpha 0.5 --spp 2 --out " + quote(out));
+    EXPECT_EQ(ok.exit_code, 0) << ok.err;
+    EXPECT_TRUE(fs::exists(out));
+}
+
 TEST_F(cli, OnePathPerPixelHasNoRelativeError) {
     const fs::path scene = write("tiny.json", kTinyScene);
     const fs::path stats = dir_ / "s.json";

@@ -158,6 +158,9 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         // to them)
         {"caustic.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "bdpt"}},
         {"point_lights.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "bdpt"}},
+        // (vcm: a unit merges with its own light subpaths, per sample index)
+        {"caustic.json", "wavefront", {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "vcm"}},
+        {"point_lights.json", "scalar", {"--spp", "4", "--width", "40", "--height", "32", "--estimator", "vcm", "--merge-radius", "0.2"}},
         // (the samplers other than the independent one: their streams too are keyed by the
         // pixel and sample, not by the rank)
         {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis", "--sampler", "zsobol"}},
@@ -300,7 +303,8 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     // (long enough that the kill lands mid-render: natively a 300-path render can end before
     // its first checkpoint, and the test would then have checked nothing)
     // (bdpt's paths cost several times a camera path's: a smaller image takes as long)
-    const bool heavy = std::find(estimator.begin(), estimator.end(), "bdpt") != estimator.end();
+    const bool heavy = std::find(estimator.begin(), estimator.end(), "bdpt") != estimator.end() ||
+                       std::find(estimator.begin(), estimator.end(), "vcm") != estimator.end();
     const std::string spp = emulated() ? "300" : heavy ? "800" : "2000";
     const bool small = emulated() || heavy;
     std::vector<std::string> scene = {"--spp", spp, "--width", small ? "64" : "160",
@@ -355,6 +359,10 @@ TEST(Checkpoints, KilledAndResumedLightTracingGivesTheUninterruptedImage) {
 
 TEST(Checkpoints, KilledAndResumedBidirectionalGivesTheUninterruptedImage) {
     kill_and_resume(0, "caustic.json", {"--estimator", "bdpt"});
+}
+
+TEST(Checkpoints, KilledAndResumedVertexMergingGivesTheUninterruptedImage) {
+    kill_and_resume(0, "caustic.json", {"--estimator", "vcm"});
 }
 
 TEST(Checkpoints, KilledAndResumedWithTheSobolSamplerGivesTheUninterruptedImage) {

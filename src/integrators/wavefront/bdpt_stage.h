@@ -10,10 +10,13 @@
 //      each hit s = 0 (emitter or environment) is weighed at once; a Phong vertex queues its
 //      light samples (s = 1) and one connection per vertex of its own light subpath (s, t ≥ 2,
 //      lane k of the batch gathering its path's k-th vertex), all as shadow rays whose queue
-//      is traced whenever it fills and after the pass; then the roulette, the lobes, and
-//      compaction, where ended paths hand their radiance to the film.
+//      is traced whenever it fills and after the pass; vcm: each Phong vertex merges with
+//      the stored vertices near it of its sample index (the job's grid, lane by lane); then
+//      the roulette, the lobes, and compaction, where ended paths hand their radiance to the
+//      film.
 #pragma once
 
+#include "integrators/merge_vertex.h"
 #include "integrators/wavefront/light_stage.h"
 #include "integrators/wavefront/shadow_stage.h"
 #include "kernels/bidirectional.h"
@@ -32,6 +35,112 @@ SubpathMis<typename Wave<A>::F> load_mis(const PathPool& p, int32_t i) {
     using F = typename Wave<A>::F;
     return {F::load_aligned(p.mis_vcm + i), F::load_aligned(p.mis_vc + i),
             F::load_aligned(p.mis_vm + i)};
+}
+
+// Each lane's sample offset in the job (paths are numbered sample by sample: path k is
+// sample k / paths_per_sample), clamped to the job's samples (lanes past the live ones hold
+// any index).
+template <class A>
+typename Wave<A>::I sample_offsets(const PathPool& p, int32_t i, const MergeTable& t) {
+    constexpr int32_t K = Wave<A>::K;
+    alignas(64) int32_t j[K];
+    const uint32_t last = uint32_t(t.radius.size()) - 1u;
+    for (int32_t l = 0; l < K; ++l)
+        j[l] = int32_t(std::min(p.path_id[i + l] / uint32_t(t.paths_per_sample), last));
+    return Wave<A>::I::load_aligned(j);
+}
+
+// The merging quantities of each lane's sample (vcm; bdpt: all 0).
+template <class A>
+MergeWeights<typename Wave<A>::F> lane_merge_weights(const Wave<A>& w, int32_t i) {
+    if (!merges(w.scene.path.estimator.kind)) return {};
+    const MergeTable& t = *w.pool.light_store->merging;
+    const typename Wave<A>::I j = sample_offsets<A>(w.pool, i, t);
+    return {gather_lanes<A>(t.vm_weight.data(), j), gather_lanes<A>(t.vc_weight.data(), j),
+            gather_lanes<A>(t.normalization.data(), j), gather_lanes<A>(t.radius2.data(), j)};
+}
+
+// vcm: the lanes in `want` (Phong camera vertices cv of batch i, throughput beta) merged
+// with the stored vertices of their sample within its radius, found through the job's grid
+// lane by lane (merge_at); what they add goes to the lanes' radiance in the pool.
+template <class A>
+void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
+                 const Vec3<typename Wave<A>::F>& beta, const typename Wave<A>::M& want) {
+    using F = typename Wave<A>::F;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const LightVertexStore& st = *p.light_store;
+    const MergeTable& table = *st.merging;
+    const uint32_t per = uint32_t(table.paths_per_sample);
+    uint32_t bits = mask_bits(want);
+    if (!bits) return;
+    constexpr int kFields = 27;
+    const F* src[kFields] = {&cv.p.x,      &cv.p.y,      &cv.p.z,      &cv.nf.x,     &cv.nf.y,
+                             &cv.nf.z,     &cv.nsf.x,    &cv.nsf.y,    &cv.nsf.z,    &cv.wo.x,
+                             &cv.wo.y,     &cv.wo.z,     &cv.phong.kd.x, &cv.phong.kd.y,
+                             &cv.phong.kd.z, &cv.phong.ks.x, &cv.phong.ks.y, &cv.phong.ks.z,
+                             &cv.phong.shininess, &cv.phong.p_diffuse, &cv.phong.p_specular,
+                             &cv.mis.vcm,  &cv.mis.vc,   &cv.mis.vm,   &beta.x,      &beta.y,
+                             &beta.z};
+    alignas(64) float lanes[kFields][K];
+    for (int k = 0; k < kFields; ++k) src[k]->store_aligned(lanes[k]);
+    alignas(64) uint32_t vertices[K];
+    cv.vertices.store_aligned(vertices);
+    while (bits) {
+        const int l = std::countr_zero(bits);
+        bits &= bits - 1u;
+        const auto at = [&](int k) { return lanes[k][l]; };
+        CameraVertex<float> v;
+        v.p = {at(0), at(1), at(2)};
+        v.nf = {at(3), at(4), at(5)};
+        v.nsf = {at(6), at(7), at(8)};
+        v.wo = {at(9), at(10), at(11)};
+        v.phong = {{at(12), at(13), at(14)}, {at(15), at(16), at(17)}, at(18), at(19), at(20)};
+        v.mis = {at(21), at(22), at(23)};
+        v.vertices = vertices[l];
+        const uint32_t j = std::min(p.path_id[i + l] / per, uint32_t(table.radius.size()) - 1u);
+        const MergeWeights<float> mw{table.vm_weight[j], table.vc_weight[j],
+                                     table.normalization[j], table.radius2[j]};
+        const Vec3f sum = merge_at(s.path, *st.grid, v, j, mw);
+        p.rad_r[i + l] += at(24) * sum.x;
+        p.rad_g[i + l] += at(25) * sum.y;
+        p.rad_b[i + l] += at(26) * sum.z;
+    }
+}
+
+// The job's grid (vcm): its stored vertices as photons of their sample's set.
+inline void build_merge_grid(LightVertexStore& st) {
+    MergeTable& t = *st.merging;
+    const uint32_t per = uint32_t(t.paths_per_sample);
+    t.photons.resize(size_t(st.count));
+    const auto f = [&](int k, int32_t v) { return st.field[k][v]; };
+    for (int32_t v = 0; v < st.count; ++v) {
+        Photon& p = t.photons[size_t(v)];
+        p.p[0] = f(kLvPx, v), p.p[1] = f(kLvPy, v), p.p[2] = f(kLvPz, v);
+        p.wl[0] = f(kLvWx, v), p.wl[1] = f(kLvWy, v), p.wl[2] = f(kLvWz, v);
+        p.beta[0] = f(kLvBr, v), p.beta[1] = f(kLvBg, v), p.beta[2] = f(kLvBb, v);
+        p.vcm = f(kLvVcm, v), p.vm = f(kLvVm, v);
+        p.length = st.length[v], p.set = st.path[v] / per;
+    }
+    st.grid->build(t.photons, t.radius);
+}
+
+// The job's merging quantities per sample (vcm), before its light subpaths.
+inline void merging_table(MergeTable& t, const PathContext& c, const TileJob& job,
+                          bool has_lights) {
+    const int32_t pixels = (job.x1 - job.x0) * (job.y1 - job.y0);
+    t.paths_per_sample = pixels;
+    t.resize(size_t(job.sample_end - job.sample_begin));
+    for (size_t j = 0; j < t.radius.size(); ++j) {
+        const MergeWeights<float> m =
+            merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha,
+                          job.sample_begin + int64_t(j), has_lights ? pixels : 0,
+                          kMergeTilePaths);
+        t.vm_weight[j] = m.vm_weight, t.vc_weight[j] = m.vc_weight;
+        t.normalization[j] = m.normalization, t.radius2[j] = m.radius2;
+        t.radius[j] = std::sqrt(m.radius2);
+    }
 }
 
 // A light-store vertex for each lane (indices idx; lanes not in `m` read vertex 0).
@@ -94,8 +203,7 @@ void append_light_vertices(const FlatScene& s, LightVertexStore& st, uint32_t bi
 // Regeneration of light subpaths: the paths [w.live, ...) take the job's next keys and
 // become light paths (start, ray, throughput, MIS quantities).
 template <class A>
-CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
-                                               const MergeWeights& mw) {
+CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
@@ -123,7 +231,7 @@ CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
             ls.p);
         const auto starts = extends ? ls.ok : (ls.ok & !ls.ok);
         const Vec3<F> beta = select(starts, ls.beta, Vec3<F>(F(0.0f)));
-        const SubpathMis<F> mis = light_start_mis(ls, mw);
+        const SubpathMis<F> mis = light_start_mis(ls, lane_merge_weights(w, i));
         const auto keep = [&](const F& v, float* a) {
             select(fresh, v, F::load_aligned(a + i)).store_aligned(a + i);
         };
@@ -174,7 +282,7 @@ void bdpt_scatter(const FlatScene& s, const Bsdf<typename Wave<A>::F>& m,
                   const VertexFrame<typename Wave<A>::F>& v, const Surfaces<A>& sf,
                   const Vec3<typename Wave<A>::F>& d,
                   const SampleStream<typename Wave<A>::F>& rng, const typename Wave<A>::U& bounce,
-                  const MergeWeights& mw, typename Wave<A>::M& alive,
+                  const MergeWeights<typename Wave<A>::F>& mw, typename Wave<A>::M& alive,
                   SubpathMis<typename Wave<A>::F>& mis, Vec3<typename Wave<A>::F>& dir,
                   Vec3<typename Wave<A>::F>& weight) {
     using F = typename Wave<A>::F;
@@ -207,8 +315,8 @@ void bdpt_scatter(const FlatScene& s, const Bsdf<typename Wave<A>::F>& m,
 // connected to the pinhole, the roulette and lobe; survivors compacted to `kept`.
 template <class A, class Read>
 void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
-                         const Surfaces<A>& sf, const Read& evaluated, const MergeWeights& mw,
-                         int32_t& kept, int32_t& connections) {
+                         const Surfaces<A>& sf, const Read& evaluated, int32_t& kept,
+                         int32_t& connections) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
@@ -218,6 +326,7 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
     const PathContext& c = s.path;
     const EstimatorSettings& est = c.estimator;
     const I mat = sf.material;
+    const MergeWeights<F> mw = lane_merge_weights(w, i);
     auto alive = sf.hit;
     if (s.features.emitters)
         alive = alive & !mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0));
@@ -304,8 +413,7 @@ void queue_owned(Wave<A>& w, int32_t i, const ShadowRequest<typename Wave<A>::F>
 // rays; the roulette and the lobe, the new state stored in place (compact_bdpt follows).
 template <class A, class Read>
 void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
-                          const Surfaces<A>& sf, const Read& evaluated, const MergeWeights& mw,
-                          int32_t& queued) {
+                          const Surfaces<A>& sf, const Read& evaluated, int32_t& queued) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
@@ -317,6 +425,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     const LightStartTable& lights = s.light_starts;
     const bool limited = limits_length(est);
     const I mat = sf.material;
+    const MergeWeights<F> mw = lane_merge_weights(w, i);
     auto alive = sf.hit;
     const Vec3<F> beta = load3<F>(p.beta_r, p.beta_g, p.beta_b, i);
     Vec3<F> rad = load3<F>(p.rad_r, p.rad_g, p.rad_b, i);
@@ -389,6 +498,8 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
             const ShadowRequest<F> r = connect_vertices(c, cv, lv, mw, has);
             queue_owned(w, i, r, beta * r.value, queued);
         }
+        // vcm: the stored vertices near it
+        if (merges(est.kind)) merge_lanes<A>(w, i, cv, beta, phong);
     }
 
     Vec3<F> dir, weight;
@@ -460,9 +571,12 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
     const bool textures = s.features.textures;
-    const MergeWeights mw;
+    const bool merging = merges(s.path.estimator.kind);
+    const bool has_lights =
+        s.light_starts.emitter_probability > 0.0f || s.light_starts.point_count > 0;
     LightVertexStore& st = *p.light_store;
     st.count = 0;
+    if (merging) merging_table(*st.merging, s.path, job, has_lights);
     // Batch i's rays, their closest hits and surfaces
     const auto trace = [&](int32_t i, Ray<F>& ray) {
         ray = {load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
@@ -501,21 +615,22 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
 
     // 1. The light subpaths
     TileCursor cursor = tile_cursor(job);
-    if (s.light_starts.emitter_probability > 0.0f || s.light_starts.point_count > 0) {
+    if (has_lights) {
         w.live = 0;
         int32_t connections = 0;
         for (;;) {
-            generate_light_subpaths(w, cursor, mw);
+            generate_light_subpaths(w, cursor);
             if (w.live == 0) break;
             int32_t kept = 0;
             each_vertex([&](int32_t i, const Ray<F>& ray, const Surfaces<A>& sf, const auto& read) {
-                light_subpath_batch(w, i, ray, sf, read, mw, kept, connections);
+                light_subpath_batch(w, i, ray, sf, read, kept, connections);
             });
             trace_camera_connections<A>(w, job, connections);
             w.live = kept;
         }
     }
     group_light_vertices(st, int32_t(cursor.total));
+    if (merging) build_merge_grid(st);
 
     // 2. The camera subpaths
     cursor = tile_cursor(job);
@@ -537,7 +652,7 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
         }
         int32_t queued = 0;
         each_vertex([&](int32_t i, const Ray<F>& ray, const Surfaces<A>& sf, const auto& read) {
-            camera_subpath_batch(w, i, ray, sf, read, mw, queued);
+            camera_subpath_batch(w, i, ray, sf, read, queued);
         });
         p.shadow_count = queued;
         trace_shadow_rays(w);

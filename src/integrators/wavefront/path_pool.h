@@ -8,6 +8,9 @@
 
 namespace cierzo {
 
+class MergeGrid;
+struct MergeTable;
+
 inline constexpr int kMaxLanes = 16;
 
 // The fields of a stored light-subpath vertex (bdpt: kernels/bidirectional.h, LightVertex),
@@ -40,6 +43,9 @@ struct LightVertexStore {
     uint32_t* begin = nullptr;   // the job's paths + 1 entries
     void* owner = nullptr;
     void (*grow)(LightVertexStore& store, int32_t vertices) = nullptr;
+    // vcm: the grid over the job's vertices and its samples' merging quantities
+    MergeGrid* grid = nullptr;
+    MergeTable* merging = nullptr;
 };
 
 // Bytes per stored vertex.

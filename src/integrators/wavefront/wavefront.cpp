@@ -13,6 +13,7 @@
 #include <oneapi/tbb/enumerable_thread_specific.h>
 
 #include "core/error.h"
+#include "integrators/merge_grid.h"
 #include "integrators/registry.h"
 #include "scene/flat_tables.h"
 
@@ -38,10 +39,14 @@ struct LightStoreMemory {
     std::vector<float> field[kLightVertexFloats];
     std::vector<uint32_t> length, path, begin;
     std::vector<int32_t> order;
+    MergeGrid grid;
+    MergeTable merging;
     LightVertexStore store;
 
     LightStoreMemory() {
         store.owner = this;
+        store.grid = &grid;
+        store.merging = &merging;
         store.grow = [](LightVertexStore& s, int32_t vertices) {
             static_cast<LightStoreMemory*>(s.owner)->resize(std::max(vertices, 2 * s.capacity));
         };
@@ -62,7 +67,8 @@ struct LightStoreMemory {
         store.begin = begin.data();
     }
     size_t bytes() const {
-        return size_t(store.capacity) * kLightVertexBytes + begin.size() * sizeof(uint32_t);
+        return size_t(store.capacity) * kLightVertexBytes + begin.size() * sizeof(uint32_t) +
+               grid.bytes();
     }
 };
 

@@ -1,0 +1,89 @@
+#include "integrators/merge_grid.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+namespace cierzo {
+
+namespace {
+
+// A cell's coordinate along one axis (clamped far beyond any scene: a point that far out
+// shares its cell with its neighbours, which the distance test sorts out).
+int32_t cell_of(double v) { return int32_t(std::clamp(std::floor(v), -1.0e9, 1.0e9)); }
+
+uint32_t hash_cell(int32_t ix, int32_t iy, int32_t iz) {
+    uint32_t h = uint32_t(ix) * 73856093u ^ uint32_t(iy) * 19349663u ^ uint32_t(iz) * 83492791u;
+    h ^= h >> 15;
+    h *= 0x2C1B3C6Du;
+    h ^= h >> 12;
+    return h;
+}
+
+}  // namespace
+
+void MergeGrid::build(std::span<const Photon> points, std::span<const float> radius) {
+    const size_t sets = radius.size();
+    inverse_cell_.resize(sets);
+    for (size_t k = 0; k < sets; ++k) {
+        const double r = radius[k];
+        inverse_cell_[k] = r > 0.0 && std::isfinite(r) ? 0.5 / r : 0.0;
+    }
+    // Each set's table: a power of two at least twice its points
+    scratch_.assign(sets, 0u);
+    for (const Photon& p : points)
+        if (p.set < sets) ++scratch_[p.set];
+    table_.resize(2 * sets);
+    uint32_t buckets = 0;
+    for (size_t k = 0; k < sets; ++k) {
+        const uint32_t size = std::bit_ceil(std::max(scratch_[k], 1u) * 2u);
+        table_[2 * k] = buckets, table_[2 * k + 1] = size - 1u;
+        buckets += size;
+    }
+    begin_.assign(size_t(buckets) + 1, 0);
+    scratch_.resize(points.size());
+    for (size_t v = 0; v < points.size(); ++v) {
+        const Photon& p = points[v];
+        const double inv = p.set < sets ? inverse_cell_[p.set] : 0.0;
+        if (inv == 0.0) {
+            scratch_[v] = ~0u;
+            continue;
+        }
+        const uint32_t b = table_[2 * p.set] +
+                           (hash_cell(cell_of(p.p[0] * inv), cell_of(p.p[1] * inv),
+                                      cell_of(p.p[2] * inv)) &
+                            table_[2 * p.set + 1]);
+        scratch_[v] = b;
+        ++begin_[size_t(b) + 1];
+    }
+    for (uint32_t b = 0; b < buckets; ++b) begin_[b + 1] += begin_[b];
+    sorted_.resize(size_t(begin_[buckets]));
+    // (begin_[b] is advanced past each point placed, then restored)
+    for (size_t v = 0; v < points.size(); ++v)
+        if (scratch_[v] != ~0u) sorted_[size_t(begin_[scratch_[v]]++)] = points[v];
+    for (uint32_t b = buckets; b > 0; --b) begin_[b] = begin_[b - 1];
+    begin_[0] = 0;
+}
+
+int MergeGrid::cells(float x, float y, float z, int32_t set, Range out[8]) const {
+    if (set < 0 || size_t(set) >= inverse_cell_.size() || inverse_cell_[size_t(set)] == 0.0)
+        return 0;
+    const double inv = inverse_cell_[size_t(set)];
+    const uint32_t first = table_[2 * size_t(set)], mask = table_[2 * size_t(set) + 1];
+    // The 2 × 2 × 2 cells around the cell corner nearest the position
+    const int32_t ix = cell_of(x * inv - 0.5), iy = cell_of(y * inv - 0.5),
+                  iz = cell_of(z * inv - 0.5);
+    uint32_t seen[8];
+    int count = 0;
+    for (int k = 0; k < 8; ++k) {
+        const uint32_t b =
+            first + (hash_cell(ix + (k & 1), iy + ((k >> 1) & 1), iz + (k >> 2)) & mask);
+        if (begin_[b] == begin_[b + 1] || std::find(seen, seen + count, b) != seen + count)
+            continue;
+        seen[count] = b;
+        out[count++] = {begin_[b], begin_[b + 1]};
+    }
+    return count;
+}
+
+}  // namespace cierzo
