@@ -9,12 +9,14 @@
    --region x0,y0,x1,y1 (fractions of the image; default: the floor under caustic.json's
    glass ball); efficiency = 1 / (relMSE x seconds), seconds the render's own. Each round
    runs every estimator in turn; the table gives the medians, and each estimator's
-   efficiency over mis's (the median of the rounds' ratios).
+   efficiency over --base's (default mis; the median of the rounds' ratios). An estimator
+   written vcm@R renders with --merge-radius R (vcm alone: the scene's rule).
 2. Speed. The wavefront's rays/s per core over the scalar reference's for bdpt, on every ISA
    this CPU runs (one thread, interleaved rounds; the median of the rounds' ratios).
 
 Usage: /usr/bin/python3 bench/bidirectional.py [--scenes caustic,PATH.json,...] [--size 160]
-       [--seconds 4] [--rounds 3] [--estimators report,mis,lt,bdpt] [--reference-spp 4096]
+       [--seconds 4] [--rounds 3] [--estimators report,mis,lt,bdpt,vcm,vcm@0.05] [--base mis]
+       [--reference-spp 4096]
        [--speed-scenes caustic,cornell,...] [--speed-spp 8]
 The CPU is named in the output; say which one a number came from.
 """
@@ -68,7 +70,8 @@ def main():
     ap.add_argument("--size", type=int, default=160)
     ap.add_argument("--seconds", type=float, default=4.0)
     ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--estimators", default="report,mis,lt,bdpt")
+    ap.add_argument("--estimators", default="report,mis,lt,bdpt,vcm")
+    ap.add_argument("--base", default="mis", help="the estimator the ratios are against")
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--reference", default=None, help="reference EXR (one scene only)")
     ap.add_argument("--region", default="0.35,0.85,0.65,0.98")
@@ -94,7 +97,9 @@ def main():
             for rnd in range(a.rounds):
                 for e in estimators:
                     out, st = tmp / f"{e}.exr", tmp / f"{e}.json"
-                    s = render(scene, out, size + ["--estimator", e, "--threads", "1", "--spp", "1000000",
+                    name_e, _, radius = e.partition("@")
+                    extra = ["--merge-radius", radius] if radius else []
+                    s = render(scene, out, size + extra + ["--estimator", name_e, "--threads", "1", "--spp", "1000000",
                                                    "--time-budget", str(a.seconds),
                                                    "--seed", str(1000 + rnd)], st)
                     img = np.asarray(cierzo.read_exr(str(out)))
@@ -103,15 +108,16 @@ def main():
                     rows[e].append((secs, s["spp_reached"], whole, part, 1 / (whole * secs), 1 / (part * secs)))
             print(f"\n{name} ({a.size}x{a.size}, {a.seconds:g} s per render, 1 thread, {a.rounds} rounds; "
                   f"reference bdpt {a.reference_spp} spp; region {a.region})")
-            print(f"{'estimator':10s} {'spp':>6s} {'relMSE':>10s} {'eff':>9s} {'vs mis':>7s} "
-                  f"{'relMSE reg':>10s} {'eff reg':>9s} {'vs mis':>7s}")
+            vs = "vs " + a.base
+            print(f"{'estimator':10s} {'spp':>6s} {'relMSE':>10s} {'eff':>9s} {vs:>9s} "
+                  f"{'relMSE reg':>10s} {'eff reg':>9s} {vs:>9s}")
             for e in estimators:
                 r = rows[e]
                 med = lambda k: statistics.median(x[k] for x in r)
-                ratio = lambda k: (statistics.median(x[k] / m[k] for x, m in zip(r, rows["mis"]))
-                                   if "mis" in rows else float("nan"))
-                print(f"{e:10s} {med(1):6.0f} {med(2):10.5f} {med(4):9.1f} {ratio(4):7.2f} "
-                      f"{med(3):10.5f} {med(5):9.1f} {ratio(5):7.2f}")
+                ratio = lambda k: (statistics.median(x[k] / m[k] for x, m in zip(r, rows[a.base]))
+                                   if a.base in rows else float("nan"))
+                print(f"{e:10s} {med(1):6.0f} {med(2):10.5f} {med(4):9.1f} {ratio(4):9.2f} "
+                      f"{med(3):10.5f} {med(5):9.1f} {ratio(5):9.2f}")
         speed = [s for s in a.speed_scenes.split(",") if s]
         if speed:
             isas = [l.split()[0] for l in subprocess.run([str(CIERZO), "isas"], capture_output=True,
