@@ -13,6 +13,7 @@
 #include <mutex>
 #include <thread>
 
+#include <fmt/format.h>
 #include <oneapi/tbb/info.h>
 #include <unistd.h>
 
@@ -24,6 +25,18 @@
 #include "integrators/wavefront/wavefront.h"
 
 namespace cierzo {
+
+void refuse_light_store(const Scene& scene, size_t limit, size_t vertices) {
+    const std::string bound = limit >= (size_t(1) << 20)
+                                  ? fmt::format("{:.0f} MiB", double(limit) / double(1 << 20))
+                                  : fmt::format("{} bytes", limit);
+    throw InputError(fmt::format(
+        "{}: {}: a unit's light subpaths need more than {} of light-vertex store (over {} "
+        "vertices): paths this long come from a survival cap near 1 (survival_cap {}); lower "
+        "it (--survival-cap), or use an estimator without light subpaths",
+        scene.source.string(), estimator_name(scene.settings.estimator.kind), bound,
+        vertices, scene.settings.estimator.survival_cap));
+}
 
 namespace {
 
@@ -190,7 +203,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == Integrator::kWavefront)
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
-                                                        options.pool_size, options.specialise);
+                                                        options.pool_size, options.specialise,
+                                                        options.light_store_limit);
     const int threads =
         options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
@@ -198,7 +212,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         work_units(rs.width, rs.height, scene.settings.estimator.kind == Estimator::kLt);
     // (enough for two passes in flight and every thread's unit)
     TilePool pool(2 * tiles.size() + 8 * size_t(threads));
-    const UnitRenderer renderer(scene, wavefront.get(), tiles, pool);
+    const UnitRenderer renderer(scene, wavefront.get(), tiles, pool, options.light_store_limit);
     RenderResult result{root ? Film(rs.width, rs.height) : Film(0, 0), {}};
     RenderStats& st = result.stats;
     st.warnings = warnings;  // (the program prints them at the end)

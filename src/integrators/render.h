@@ -22,6 +22,16 @@ namespace cierzo {
 inline constexpr int kTileSize = 16;
 static_assert(kTileSize * kTileSize == kMergeTilePaths, "vcm's weights take a full tile's pixels");
 
+// The bidirectional estimators keep a unit's light-subpath vertices (a tile × a pass's
+// samples: at most 256 × 16 light paths; about 5 MB at a mean of 10 vertices a path). A unit
+// whose light subpaths would take more than this many bytes per thread (RenderOptions::
+// light_store_limit) is refused: paths that long come from a survival cap near 1.
+inline constexpr size_t kLightStoreLimit = size_t(1) << 30;
+
+// Throws InputError: the scene's unit needs more than `limit` bytes of light-vertex store
+// (`vertices` vertices at least).
+[[noreturn]] void refuse_light_store(const Scene& scene, size_t limit, size_t vertices);
+
 // Rays traced, by kind.
 struct RayCounts {
     uint64_t camera = 0;
@@ -68,6 +78,9 @@ struct RenderOptions {
     std::function<void(const RenderState&)> checkpoint;
     // Continue from this state (read from a checkpoint) instead of from zero
     const RenderState* resume = nullptr;
+    // bdpt and vcm: the most bytes a thread's light-vertex store may hold (a unit's light
+    // subpaths); a unit that needs more is refused (refuse_light_store)
+    size_t light_store_limit = kLightStoreLimit;
 };
 
 // Per-process figures of a distributed render (one entry per MPI rank).

@@ -31,7 +31,9 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
 
 // The same for the bidirectional estimators (scalar_bdpt.cpp): each sample's light subpath,
 // its connections to the pinhole splatted, then its camera subpath with every connection.
+// The light vertices kept at once (one sample's, or with vcm a tile's sample's) may take at
+// most `light_store_limit` bytes (refuse_light_store).
 void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film,
-                             RayCounts& rays);
+                             RayCounts& rays, size_t light_store_limit = kLightStoreLimit);
 
 }  // namespace cierzo

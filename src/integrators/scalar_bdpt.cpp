@@ -17,6 +17,12 @@ namespace cierzo {
 
 namespace {
 
+// The light vertices a unit may keep at once (RenderOptions::light_store_limit), and in
+// bytes.
+struct StoreLimit {
+    size_t vertices, bytes;
+};
+
 // One light subpath, with the numbers of the camera sample whose stream it takes: its Phong
 // vertices appended to `store`, each one's connection to the pinhole splatted (t = 1).
 CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext& c,
@@ -25,7 +31,8 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
                                           const SampleStream<float>& camera_rng,
                                           const MergeWeights<float>& mw,
                                           std::vector<LightVertex<float>>& store,
-                                          FilmTile& film, RayCounts& rays) {
+                                          const StoreLimit& limit, FilmTile& film,
+                                          RayCounts& rays) {
     const SampleStream<float> rng = light_stream(camera_rng);
     const LightStart<float> start = sample_light_start<float>(c.emitters, lights, rng);
     if (!start.ok) return;
@@ -55,6 +62,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
 
         if (material.has_phong()) {
             const LightVertex<float> lv{hit.p, v.nf, v.nsf, -ray.d, beta, pv, mis, magnitude, bounce};
+            if (store.size() >= limit.vertices) refuse_light_store(scene, limit.bytes, store.size());
             store.push_back(lv);
             // t = 1: the vertex seen from the pinhole
             if (!limited || length_counts<float>(c.estimator, bounce + 1)) {
@@ -179,7 +187,11 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
 }  // namespace
 
 void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film,
-                             RayCounts& rays) {
+                             RayCounts& rays, size_t light_store_limit) {
+    // (with vcm each vertex also takes a photon)
+    const size_t vertex_bytes =
+        sizeof(LightVertex<float>) + (merges(scene.settings.estimator.kind) ? sizeof(Photon) : 0);
+    const StoreLimit store_limit{light_store_limit / vertex_bytes, light_store_limit};
     const RenderSettings& rs = scene.settings;
     const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
     const PathContext c = scene.path_context();
@@ -212,7 +224,7 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
                     store.clear();
                     if (has_lights)
                         trace_light_subpath(scene, c, lights, pinhole, rng, none.weights, store,
-                                            film, rays);
+                                            store_limit, film, rays);
                     camera(x, y, rng, none, store.data(), store.size());
                 }
         return;
@@ -233,7 +245,7 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
             if (has_lights)
                 trace_light_subpath(scene, c, lights, pinhole,
                                     stream(tile.x0 + k % width, tile.y0 + k / width, s),
-                                    merging.weights, store, film, rays);
+                                    merging.weights, store, store_limit, film, rays);
         }
         begin[size_t(pixels)] = uint32_t(store.size());
         photons.clear();

@@ -44,7 +44,7 @@ UnitResult UnitRenderer::render(const Unit& u) const {
     if (wavefront_) {
         wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
     } else if (bidirectional(scene_.settings.estimator.kind)) {
-        render_tile_bdpt_scalar(scene_, t, r.sums, r.rays);
+        render_tile_bdpt_scalar(scene_, t, r.sums, r.rays, light_store_limit_);
     } else {
         render_tile_scalar(scene_, t, r.sums, r.rays);
     }

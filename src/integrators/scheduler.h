@@ -70,8 +70,9 @@ private:
 class UnitRenderer {
 public:
     UnitRenderer(const Scene& scene, const WavefrontRenderer* wavefront,
-                 const std::vector<Tile>& tiles, TilePool& pool)
-        : scene_(scene), wavefront_(wavefront), tiles_(tiles), pool_(pool) {}
+                 const std::vector<Tile>& tiles, TilePool& pool, size_t light_store_limit)
+        : scene_(scene), wavefront_(wavefront), tiles_(tiles), pool_(pool),
+          light_store_limit_(light_store_limit) {}
     UnitResult render(const Unit& u) const;
 
 private:
@@ -79,6 +80,7 @@ private:
     const WavefrontRenderer* wavefront_;
     const std::vector<Tile>& tiles_;
     TilePool& pool_;
+    size_t light_store_limit_;  // the scalar bidirectional estimators' (RenderOptions)
 };
 
 // The one owner of the film (rank 0): hands out units in pass order, keeps the units of the

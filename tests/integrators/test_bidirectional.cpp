@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "integrators/render.h"
 #include "kernels/bidirectional.h"
 #include "scene/scene_json.h"
@@ -539,6 +540,41 @@ TEST(Bidirectional, EachStrategyAloneConvergesToTheSameImage) {
 TEST(Bidirectional, SameBitsForAnyNumberOfThreads) {
     test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kBdpt, 20));
     test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kVcm, 20, 0.1f));
+}
+
+// A unit whose light subpaths need more light-vertex store than the limit is refused with
+// a message naming the store and the survival cap, in both integrators; within the limit
+// the render goes on.
+TEST(Bidirectional, ALightStoreBeyondItsLimitIsRefused) {
+    for (Estimator e : {Estimator::kBdpt, Estimator::kVcm})
+        for (Integrator integrator : {Integrator::kScalar, Integrator::kWavefront}) {
+            SCOPED_TRACE(std::string(estimator_name(e)) + " " + integrator_name(integrator));
+            // (a white sphere: the roulette keeps a path with the cap's probability, so paths
+            // have about 1,000 vertices)
+            Scene s = scene_of(R"({"render": {"width": 8, "height": 8, "seed": 3},
+                "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "up": [0, 1, 0]},
+                "materials": {"white": {"kd": [1, 1, 1]}},
+                "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"}],
+                "lights": [{"position": [0, 0.5, 0], "intensity": [1, 1, 1]}]})",
+                               e, 1, 0.1f);
+            s.settings.estimator.survival_cap = 0.999f;
+            RenderOptions o;
+            o.threads = 1;
+            o.progress = false;
+            o.integrator = integrator;
+            o.light_store_limit = 64 << 10;
+            try {
+                render(s, o);
+                ADD_FAILURE() << "not refused";
+            } catch (const InputError& error) {
+                const std::string m = error.what();
+                EXPECT_NE(m.find("light-vertex store"), std::string::npos) << m;
+                EXPECT_NE(m.find("survival_cap 0.999"), std::string::npos) << m;
+            }
+            s.settings.estimator.survival_cap = 0.9f;
+            o.light_store_limit = 16 << 20;
+            EXPECT_EQ(render(s, o).film.nonfinite_samples(), 0u);
+        }
 }
 
 // A wavefront pool smaller than a job: the light subpaths and the camera paths run in

@@ -42,15 +42,23 @@ struct LightStoreMemory {
     MergeGrid grid;
     MergeTable merging;
     LightVertexStore store;
+    const Scene& scene;  // (for the message of a unit refused)
+    size_t limit;        // bytes (RenderOptions::light_store_limit)
+    int32_t most;        // vertices within the limit (with vcm each also takes a photon)
 
-    LightStoreMemory() {
+    LightStoreMemory(const Scene& s, size_t limit_bytes) : scene(s), limit(limit_bytes) {
+        const size_t each =
+            kLightVertexBytes + (merges(s.settings.estimator.kind) ? sizeof(Photon) : 0);
+        most = int32_t(std::min<size_t>(limit / each, INT32_MAX / 2));
         store.owner = this;
         store.grid = &grid;
         store.merging = &merging;
-        store.grow = [](LightVertexStore& s, int32_t vertices) {
-            static_cast<LightStoreMemory*>(s.owner)->resize(std::max(vertices, 2 * s.capacity));
+        store.grow = [](LightVertexStore& st, int32_t vertices) {
+            LightStoreMemory& m = *static_cast<LightStoreMemory*>(st.owner);
+            if (vertices > m.most) refuse_light_store(m.scene, m.limit, size_t(st.count));
+            m.resize(std::min(std::max(vertices, 2 * st.capacity), m.most));
         };
-        resize(4096);
+        resize(std::min(4096, most));
     }
     void resize(int32_t capacity) {
         for (int k = 0; k < kLightVertexFloats; ++k) {
@@ -144,12 +152,14 @@ struct WavefrontRenderer::Data {
     FlatView view;  // the scene as the kernels read it (scene/flat_tables.h)
     RenderTileEntry entry = nullptr;
     int32_t pool_size;
+    size_t light_store_limit;  // bytes per thread (RenderOptions::light_store_limit)
     mutable oneapi::tbb::enumerable_thread_specific<PoolMemory> pools;
 
-    Data(const Scene& s, int32_t size)
+    Data(const Scene& s, int32_t size, size_t limit)
         : scene(s),
           view(flat_view(s)),
           pool_size(size),
+          light_store_limit(limit),
           pools(size, shadow_rays_per_vertex(s), int32_t(s.materials.size())) {}
 };
 
@@ -167,13 +177,13 @@ static int32_t shadow_rays_per_vertex(const Scene& scene) {
 }
 
 WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size,
-                                     bool specialise)
+                                     bool specialise, size_t light_store_limit)
     : isa_(isa == Isa::kAuto ? best_isa() : isa),
       pool_size_(pool_size > 0 ? pool_size : kDefaultPoolSize) {
     require_isa(isa_, "--isa");
     if (pool_size_ % 16 != 0 || pool_size_ < 16 || pool_size_ > (1 << 22))
         throw InputError("--pool: the path pool size must be a multiple of 16 in [16, 4194304]");
-    data_ = std::make_unique<Data>(scene, pool_size_);
+    data_ = std::make_unique<Data>(scene, pool_size_, light_store_limit);
     data_->entry = entry_of(isa_);
     FlatFeatures& f = data_->view.scene.features;
     if (!specialise) {
@@ -207,7 +217,9 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
     PoolMemory& memory = data_->pools.local();
     PathPool& pool = memory.pool;
     if (data_->view.scene.path.bdpt) {
-        if (!memory.light_store) memory.light_store = std::make_unique<LightStoreMemory>();
+        if (!memory.light_store)
+            memory.light_store =
+                std::make_unique<LightStoreMemory>(data_->scene, data_->light_store_limit);
         memory.light_store->reserve_paths(size_t(tile.x1 - tile.x0) * size_t(tile.y1 - tile.y0) *
                                           size_t(tile.s1 - tile.s0));
         pool.light_store = &memory.light_store->store;

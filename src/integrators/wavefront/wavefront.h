@@ -22,7 +22,10 @@ public:
     // pool_size: paths in flight per thread (0 picks the default, kDefaultPoolSize).
     // specialise = false runs every stage and lobe kernel whatever the scene uses (for
     // measuring what specialisation to the scene's features saves; same image).
-    WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size = 0, bool specialise = true);
+    // light_store_limit: bdpt and vcm, the bytes a thread's light-vertex store may take
+    // (RenderOptions::light_store_limit).
+    WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size = 0, bool specialise = true,
+                      size_t light_store_limit = kLightStoreLimit);
     ~WavefrontRenderer();
     static constexpr int32_t kDefaultPoolSize = 512;
 
