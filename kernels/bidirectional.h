@@ -29,6 +29,7 @@
 // film: p = 1 / (A·cos³θ) per unit solid angle (A: the film's area at distance 1).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 
 #include "light_sampling.h"
@@ -78,8 +79,10 @@ inline MergeWeights<float> merge_weights(float r0, float alpha, int64_t n, int64
     MergeWeights<float> m;
     const double r = double(r0) * std::pow(double(n + 1), 0.5 * (double(alpha) - 1.0));
     const double area = kPi * r * r;
-    const double eta = area * double(tile_paths);
-    if (light_paths <= 0 || !(eta > 0.0) || !std::isfinite(eta)) return m;
+    // (η kept within 10^±12, so that η² and 1/η² are finite floats whatever the radius:
+    // every strategy's weight takes the same η, so the weights still sum to 1)
+    const double eta = std::clamp(area * double(tile_paths), 1e-12, 1e12);
+    if (light_paths <= 0 || !(area > 0.0) || !std::isfinite(area)) return m;
     m.vm_weight = float(eta * eta);
     m.vc_weight = float(1.0 / (eta * eta));
     m.normalization = float(1.0 / (area * double(light_paths)));

@@ -542,6 +542,21 @@ TEST(Bidirectional, SameBitsForAnyNumberOfThreads) {
     test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kVcm, 20, 0.1f));
 }
 
+// vcm at radii far too small and far too large for the scene (η = π r² N of 10^-37 and
+// 10^21, whose squares overflow a float): nothing NaN or infinite reaches the image, in
+// both integrators.
+TEST(Bidirectional, VcmAtExtremeRadiiStaysFinite) {
+    for (float radius : {1e-20f, 1e9f})
+        for (const Variant& v : {variants().front(), variants().back()}) {
+            SCOPED_TRACE(v.integrator + " " + v.isa + " r0 " + std::to_string(radius));
+            const RenderResult r = run(scene_of(kBox, Estimator::kVcm, 8, radius), v);
+            EXPECT_EQ(r.film.nonfinite_samples(), 0u);
+            const Image m = r.film.mean();
+            for (float x : m.rgb) ASSERT_TRUE(std::isfinite(x));
+            EXPECT_GT(image_mean(r.film, 0).mean, 0.0);
+        }
+}
+
 // A unit whose light subpaths need more light-vertex store than the limit is refused with
 // a message naming the store and the survival cap, in both integrators; within the limit
 // the render goes on.
