@@ -45,7 +45,9 @@ void MergeGrid::build(std::span<const Photon> points, std::span<const float> rad
     for (size_t v = 0; v < points.size(); ++v) {
         const Photon& p = points[v];
         const double inv = p.set < sets ? inverse_cell_[p.set] : 0.0;
-        if (inv == 0.0) {
+        // (a point that is not finite is in no cell)
+        if (inv == 0.0 || !std::isfinite(p.p[0]) || !std::isfinite(p.p[1]) ||
+            !std::isfinite(p.p[2])) {
             scratch_[v] = ~0u;
             continue;
         }
@@ -66,7 +68,8 @@ void MergeGrid::build(std::span<const Photon> points, std::span<const float> rad
 }
 
 int MergeGrid::cells(float x, float y, float z, int32_t set, Range out[8]) const {
-    if (set < 0 || size_t(set) >= inverse_cell_.size() || inverse_cell_[size_t(set)] == 0.0)
+    if (set < 0 || size_t(set) >= inverse_cell_.size() || inverse_cell_[size_t(set)] == 0.0 ||
+        !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
         return 0;
     const double inv = inverse_cell_[size_t(set)];
     const uint32_t first = table_[2 * size_t(set)], mask = table_[2 * size_t(set) + 1];

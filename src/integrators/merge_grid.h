@@ -35,11 +35,12 @@ public:
     };
 
     // Builds the grid over `points` (set p.set, whose radius is radius[set]; sets beyond
-    // `radius`, of radius 0 or not finite, find nothing and are left out).
+    // `radius`, of radius 0 or not finite, find nothing and are left out, as are points not
+    // finite).
     void build(std::span<const Photon> points, std::span<const float> radius);
 
     // The buckets that can hold the points of set `set` within its radius of (x, y, z),
-    // each once: their count (at most 8), written to `out`.
+    // each once: their count (at most 8, 0 for a position not finite), written to `out`.
     int cells(float x, float y, float z, int32_t set, Range out[8]) const;
 
     // The points, bucket by bucket.
