@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <span>
 
 namespace cierzo {
 
@@ -22,8 +23,9 @@ uint32_t hash_cell(int32_t ix, int32_t iy, int32_t iz) {
 
 }  // namespace
 
-void MergeGrid::build(std::span<const Photon> points, std::span<const float> radius) {
-    const size_t sets = radius.size();
+void MergeGrid::build(const Photon* points_in, size_t count, const float* radius,
+                      size_t sets) {
+    const std::span<const Photon> points(points_in, count);
     inverse_cell_.resize(sets);
     for (size_t k = 0; k < sets; ++k) {
         const double r = radius[k];
@@ -65,6 +67,20 @@ void MergeGrid::build(std::span<const Photon> points, std::span<const float> rad
         if (scratch_[v] != ~0u) sorted_[size_t(begin_[scratch_[v]]++)] = points[v];
     for (uint32_t b = buckets; b > 0; --b) begin_[b] = begin_[b - 1];
     begin_[0] = 0;
+    photons_ = sorted_.data();
+}
+
+void MergeTable::resize(size_t sample_count) {
+    samples = int32_t(sample_count);
+    values_.resize(5 * sample_count);
+    float* v = values_.data();
+    vm_weight = v, vc_weight = v + sample_count, normalization = v + 2 * sample_count;
+    radius2 = v + 3 * sample_count, radius = v + 4 * sample_count;
+}
+
+void MergeTable::reserve_photons(size_t count) {
+    if (photon_memory_.size() < count) photon_memory_.resize(count);
+    photons = photon_memory_.data();
 }
 
 int MergeGrid::cells(float x, float y, float z, int32_t set, Range out[8]) const {

@@ -11,8 +11,8 @@
 // bucket by bucket with what merging reads of them, one cache line each.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
-#include <span>
 #include <vector>
 
 namespace cierzo {
@@ -34,17 +34,17 @@ public:
         int32_t begin, end;
     };
 
-    // Builds the grid over `points` (set p.set, whose radius is radius[set]; sets beyond
-    // `radius`, of radius 0 or not finite, find nothing and are left out, as are points not
-    // finite).
-    void build(std::span<const Photon> points, std::span<const float> radius);
+    // Builds the grid over points[0, count) (set p.set, whose radius is radius[set]; sets
+    // from `sets` on, of radius 0 or not finite, find nothing and are left out, as are points
+    // not finite).
+    void build(const Photon* points, size_t count, const float* radius, size_t sets);
 
     // The buckets that can hold the points of set `set` within its radius of (x, y, z),
     // each once: their count (at most 8, 0 for a position not finite), written to `out`.
     int cells(float x, float y, float z, int32_t set, Range out[8]) const;
 
     // The points, bucket by bucket.
-    const Photon* photons() const { return sorted_.data(); }
+    const Photon* photons() const { return photons_; }
 
     size_t bytes() const {
         return begin_.capacity() * sizeof(int32_t) + sorted_.capacity() * sizeof(Photon) +
@@ -57,19 +57,27 @@ private:
     std::vector<uint32_t> table_;       // per set: its first bucket, and its mask (pairs)
     std::vector<int32_t> begin_;        // per bucket + 1: its first photon
     std::vector<Photon> sorted_;
+    const Photon* photons_ = nullptr;   // sorted_'s (the kernels read no std::vector)
     std::vector<uint32_t> scratch_;     // each point's bucket (or ~0: left out), and counts
 };
 
 // A unit's merging quantities per sample index (kernels/bidirectional.h's MergeWeights and
-// the radius), by the sample's offset in the unit.
+// the radius), by the sample's offset in the unit, and its photons before the grid sorts
+// them. The kernels read and write them through the plain pointers (every std::vector
+// operation is compiled once, here, not in each ISA's objects).
 struct MergeTable {
     int32_t paths_per_sample = 1;  // the unit's light subpaths per sample index (its pixels)
-    std::vector<float> vm_weight, vc_weight, normalization, radius2, radius;
-    std::vector<Photon> photons;   // the unit's stored light vertices, before the grid sorts them
-    void resize(size_t samples) {
-        for (std::vector<float>* v : {&vm_weight, &vc_weight, &normalization, &radius2, &radius})
-            v->resize(samples);
-    }
+    int32_t samples = 0;
+    float *vm_weight = nullptr, *vc_weight = nullptr, *normalization = nullptr,
+          *radius2 = nullptr, *radius = nullptr;
+    Photon* photons = nullptr;  // room for at least the count of the last reserve_photons
+
+    void resize(size_t sample_count);     // (merge_grid.cpp)
+    void reserve_photons(size_t count);   // (merge_grid.cpp)
+
+private:
+    std::vector<float> values_;
+    std::vector<Photon> photon_memory_;
 };
 
 }  // namespace cierzo

@@ -251,7 +251,7 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
         photons.clear();
         for (const LightVertex<float>& l : store) photons.push_back(photon_of(l, 0u));
         const float radius = std::sqrt(merging.weights.radius2);
-        grid.build(photons, std::span<const float>(&radius, 1));
+        grid.build(photons.data(), photons.size(), &radius, 1);
         merging.grid = &grid;
         for (int32_t k = 0; k < pixels; ++k) {
             const int x = tile.x0 + k % width, y = tile.y0 + k / width;

@@ -51,7 +51,7 @@ TEST(MergeGrid, FindsWhatBruteForceFinds) {
                 p.length = uint32_t(i);  // (to tell the points apart)
             }
             MergeGrid g;
-            g.build(points, radius);
+            g.build(points.data(), points.size(), radius.data(), radius.size());
             int hits = 0;
             for (int q = 0; q < 2000; ++q) {
                 const int32_t set = q % int32_t(radius.size());
@@ -83,7 +83,7 @@ TEST(MergeGrid, NothingNotFiniteIsFoundOrAsked) {
     points[1].p[0] = nan, points[2].p[2] = inf;
     MergeGrid g;
     const std::vector<float> radius = {0.5f, 0.0f};
-    g.build(points, radius);
+    g.build(points.data(), points.size(), radius.data(), radius.size());
     const float origin[3] = {0.0f, 0.0f, 0.0f};
     EXPECT_EQ(found(g, origin, 0, 0.5f).size(), 1u);
     MergeGrid::Range cells[8];

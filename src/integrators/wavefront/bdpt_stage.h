@@ -44,7 +44,7 @@ template <class A>
 typename Wave<A>::I sample_offsets(const PathPool& p, int32_t i, const MergeTable& t) {
     constexpr int32_t K = Wave<A>::K;
     alignas(64) int32_t j[K];
-    const uint32_t last = uint32_t(t.radius.size()) - 1u;
+    const uint32_t last = uint32_t(t.samples) - 1u;
     for (int32_t l = 0; l < K; ++l)
         j[l] = int32_t(std::min(p.path_id[i + l] / uint32_t(t.paths_per_sample), last));
     return Wave<A>::I::load_aligned(j);
@@ -56,8 +56,8 @@ MergeWeights<typename Wave<A>::F> lane_merge_weights(const Wave<A>& w, int32_t i
     if (!merges(w.scene.path.estimator.kind)) return {};
     const MergeTable& t = *w.pool.light_store->merging;
     const typename Wave<A>::I j = sample_offsets<A>(w.pool, i, t);
-    return {gather_lanes<A>(t.vm_weight.data(), j), gather_lanes<A>(t.vc_weight.data(), j),
-            gather_lanes<A>(t.normalization.data(), j), gather_lanes<A>(t.radius2.data(), j)};
+    return {gather_lanes<A>(t.vm_weight, j), gather_lanes<A>(t.vc_weight, j),
+            gather_lanes<A>(t.normalization, j), gather_lanes<A>(t.radius2, j)};
 }
 
 // vcm: the lanes in `want` (Phong camera vertices cv of batch i, throughput beta) merged
@@ -99,7 +99,7 @@ void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>&
         v.phong = {{at(12), at(13), at(14)}, {at(15), at(16), at(17)}, at(18), at(19), at(20)};
         v.mis = {at(21), at(22), at(23)};
         v.vertices = vertices[l];
-        const uint32_t j = std::min(p.path_id[i + l] / per, uint32_t(table.radius.size()) - 1u);
+        const uint32_t j = std::min(p.path_id[i + l] / per, uint32_t(table.samples) - 1u);
         const MergeWeights<float> mw{table.vm_weight[j], table.vc_weight[j],
                                      table.normalization[j], table.radius2[j]};
         const Vec3f sum = merge_at(s.path, *st.grid, v, j, mw);
@@ -113,7 +113,7 @@ void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>&
 inline void build_merge_grid(LightVertexStore& st) {
     MergeTable& t = *st.merging;
     const uint32_t per = uint32_t(t.paths_per_sample);
-    t.photons.resize(size_t(st.count));
+    t.reserve_photons(size_t(st.count));
     const auto f = [&](int k, int32_t v) { return st.field[k][v]; };
     for (int32_t v = 0; v < st.count; ++v) {
         Photon& p = t.photons[size_t(v)];
@@ -123,7 +123,7 @@ inline void build_merge_grid(LightVertexStore& st) {
         p.vcm = f(kLvVcm, v), p.vm = f(kLvVm, v);
         p.length = st.length[v], p.set = st.path[v] / per;
     }
-    st.grid->build(t.photons, t.radius);
+    st.grid->build(t.photons, size_t(st.count), t.radius, size_t(t.samples));
 }
 
 // The job's merging quantities per sample (vcm), before its light subpaths.
@@ -132,7 +132,7 @@ inline void merging_table(MergeTable& t, const PathContext& c, const TileJob& jo
     const int32_t pixels = (job.x1 - job.x0) * (job.y1 - job.y0);
     t.paths_per_sample = pixels;
     t.resize(size_t(job.sample_end - job.sample_begin));
-    for (size_t j = 0; j < t.radius.size(); ++j) {
+    for (size_t j = 0; j < size_t(t.samples); ++j) {
         const MergeWeights<float> m =
             merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha,
                           job.sample_begin + int64_t(j), has_lights ? pixels : 0,
