@@ -293,9 +293,9 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
             throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
     for (const std::string& isa : a.isas) require_isa(parse_isa(isa), "--isa");
     if (!a.merge_radii.empty() || !a.merge_alphas.empty()) {
-        const bool vcm = std::find(a.estimators.begin(), a.estimators.end(), "vcm") != a.estimators.end() ||
-                         (a.estimators.empty() && merges(scene.settings.estimator.kind));
-        if (!vcm)
+        // (the radii are swept for the configurations of --estimator vcm alone: a scene's own
+        // vcm without --estimator would ignore them)
+        if (std::find(a.estimators.begin(), a.estimators.end(), "vcm") == a.estimators.end())
             throw InputError(std::string(a.merge_radii.empty() ? "--merge-alpha" : "--merge-radius") +
                              ": merging is vcm's; sweep it with --estimator vcm");
     }

@@ -60,33 +60,36 @@ MergeWeights<typename Wave<A>::F> lane_merge_weights(const Wave<A>& w, int32_t i
             gather_lanes<A>(t.normalization, j), gather_lanes<A>(t.radius2, j)};
 }
 
-// vcm: the lanes in `want` (Phong camera vertices cv of batch i, throughput beta) merged
-// with the stored vertices of their sample within its radius, found through the job's grid
-// lane by lane (merge_at); what they add goes to the lanes' radiance in the pool.
+// vcm: the lanes in `want` (Phong camera vertices cv of batch i, throughput beta, their
+// samples' merging quantities mw) merged with the stored vertices of their sample within
+// its radius, found through the job's grid lane by lane (merge_at); what they add goes to
+// the lanes' radiance in the pool.
 template <class A>
 void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
-                 const Vec3<typename Wave<A>::F>& beta, const typename Wave<A>::M& want) {
+                 const Vec3<typename Wave<A>::F>& beta,
+                 const MergeWeights<typename Wave<A>::F>& mw, const typename Wave<A>::M& want) {
     using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
     const LightVertexStore& st = *p.light_store;
-    const MergeTable& table = *st.merging;
-    const uint32_t per = uint32_t(table.paths_per_sample);
     uint32_t bits = mask_bits(want);
     if (!bits) return;
-    constexpr int kFields = 27;
+    constexpr int kFields = 31;
     const F* src[kFields] = {&cv.p.x,      &cv.p.y,      &cv.p.z,      &cv.nf.x,     &cv.nf.y,
                              &cv.nf.z,     &cv.nsf.x,    &cv.nsf.y,    &cv.nsf.z,    &cv.wo.x,
                              &cv.wo.y,     &cv.wo.z,     &cv.phong.kd.x, &cv.phong.kd.y,
                              &cv.phong.kd.z, &cv.phong.ks.x, &cv.phong.ks.y, &cv.phong.ks.z,
                              &cv.phong.shininess, &cv.phong.p_diffuse, &cv.phong.p_specular,
                              &cv.mis.vcm,  &cv.mis.vc,   &cv.mis.vm,   &beta.x,      &beta.y,
-                             &beta.z};
+                             &beta.z,      &mw.vm_weight, &mw.vc_weight, &mw.normalization,
+                             &mw.radius2};
     alignas(64) float lanes[kFields][K];
     for (int k = 0; k < kFields; ++k) src[k]->store_aligned(lanes[k]);
     alignas(64) uint32_t vertices[K];
     cv.vertices.store_aligned(vertices);
+    alignas(64) int32_t sample[K];
+    sample_offsets<A>(p, i, *st.merging).store_aligned(sample);
     while (bits) {
         const int l = std::countr_zero(bits);
         bits &= bits - 1u;
@@ -99,10 +102,8 @@ void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>&
         v.phong = {{at(12), at(13), at(14)}, {at(15), at(16), at(17)}, at(18), at(19), at(20)};
         v.mis = {at(21), at(22), at(23)};
         v.vertices = vertices[l];
-        const uint32_t j = std::min(p.path_id[i + l] / per, uint32_t(table.samples) - 1u);
-        const MergeWeights<float> mw{table.vm_weight[j], table.vc_weight[j],
-                                     table.normalization[j], table.radius2[j]};
-        const Vec3f sum = merge_at(s.path, *st.grid, v, j, mw);
+        const Vec3f sum =
+            merge_at(s.path, *st.grid, v, uint32_t(sample[l]), {at(27), at(28), at(29), at(30)});
         p.rad_r[i + l] += at(24) * sum.x;
         p.rad_g[i + l] += at(25) * sum.y;
         p.rad_b[i + l] += at(26) * sum.z;
@@ -499,7 +500,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
             queue_owned(w, i, r, beta * r.value, queued);
         }
         // vcm: the stored vertices near it
-        if (merges(est.kind)) merge_lanes<A>(w, i, cv, beta, phong);
+        if (merges(est.kind)) merge_lanes<A>(w, i, cv, beta, mw, phong);
     }
 
     Vec3<F> dir, weight;
