@@ -138,10 +138,11 @@ BsdfEval<T> phong_eval(const PhongVertex<T>& v, const Vec3<T>& wo, const Vec3<T>
 
 // The strategy filter (EstimatorSettings::strategy_s, strategy_t, unweighted): what strategy
 // (s, t) of MIS weight w counts with: w, or 1 (unweighted) for the one strategy kept, 0 for
-// the others.
+// the others. Unweighted with no strategy named, every strategy counts with 1: the scalar
+// integrator's strategy images (integrators/strategies.h) take each contribution so too.
 template <class T>
 T strategy_weight(const EstimatorSettings& e, const U32<T>& s, const U32<T>& t, const T& w) {
-    if (e.strategy_s < 0) return w;
+    if (e.strategy_s < 0) return e.unweighted ? T(1.0f) : w;
     const auto kept = (to_float(s) == T(float(e.strategy_s))) & (to_float(t) == T(float(e.strategy_t)));
     return select(kept, e.unweighted ? T(1.0f) : w, T(0.0f));
 }

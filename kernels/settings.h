@@ -111,7 +111,8 @@ struct EstimatorSettings {
     int32_t min_length = 1;
     int32_t max_length = kNoLengthLimit;
     // bdpt: only strategy (strategy_s, strategy_t) counts, with its weight or (unweighted)
-    // without; -1: every strategy (render.strategy, --strategy, --unweighted)
+    // without; -1: every strategy (render.strategy, --strategy, --unweighted), each with its
+    // weight (unweighted: without, as the strategy images' second evaluation takes them)
     int32_t strategy_s = -1, strategy_t = -1;
     bool unweighted = false;
     // vcm: the first sample's merging radius r0 (0: from the scene's size) and the exponent α

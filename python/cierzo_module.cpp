@@ -173,7 +173,7 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
                  std::optional<std::string> triangle_sampling, std::optional<std::string> sampler,
                  std::optional<int> min_length, std::optional<int> max_length,
                  std::optional<std::pair<int, int>> strategy, bool unweighted,
-                 std::optional<float> merge_radius, std::optional<float> merge_alpha, int pool, bool variance, double time_budget, double target_error,
+                 bool strategies, std::optional<float> merge_radius, std::optional<float> merge_alpha, int pool, bool variance, double time_budget, double target_error,
                  bool progress, const py::object& cancel,
                  const std::optional<fs::path>& checkpoint,
                  std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
@@ -214,6 +214,8 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     job.min_length = min_length, job.max_length = max_length;
     if (strategy) job.strategy = {strategy->first, strategy->second};
     job.unweighted = unweighted;
+    job.strategies = strategies;
+    job.integrator_given = integrator != std::string(integrator_name(Integrator::kWavefront));
     job.merge_radius = merge_radius, job.merge_alpha = merge_alpha;
     job.estimator = estimator;
     job.threads = threads;
@@ -241,9 +243,25 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     const RenderStats& st = done.result.stats;
     py::object stats = json_to_python(render_stats_json(done.scene, st, done.checkpoint));
     py::array_t<float> image = to_array(done.result.film.mean());
-    if (variance)
-        return py::make_tuple(image, to_array(done.result.film.variance_of_mean()), stats);
-    return py::make_tuple(image, stats);
+    py::list out;
+    out.append(image);
+    if (variance) out.append(to_array(done.result.film.variance_of_mean()));
+    out.append(stats);
+    if (done.strategies) {
+        // {(s, t): {'weighted': image, 'unweighted': image}}
+        py::dict images;
+        const StrategyFilm& f = *done.strategies;
+        for (int i = 0; i < f.layout().count(); ++i) {
+            int s = 0, t = 0;
+            f.layout().strategy(i, s, t);
+            py::dict pair;
+            pair["weighted"] = to_array(f.image(i, true, st.spp_reached));
+            pair["unweighted"] = to_array(f.image(i, false, st.spp_reached));
+            images[py::make_tuple(s, t)] = pair;
+        }
+        out.append(images);
+    }
+    return py::tuple(out);
 }
 
 // ---- Converge --------------------------------------------------------------------------
@@ -453,7 +471,7 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
           py::arg("triangle_sampling") = py::none(), py::arg("sampler") = py::none(),
           py::arg("min_length") = py::none(), py::arg("max_length") = py::none(),
           py::arg("strategy") = py::none(), py::arg("unweighted") = false,
-          py::arg("merge_radius") = py::none(), py::arg("merge_alpha") = py::none(),
+          py::arg("strategies") = false, py::arg("merge_radius") = py::none(), py::arg("merge_alpha") = py::none(),
           py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
           py::arg("target_error") = 0.0, py::arg("progress") = false,
           py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
@@ -462,7 +480,11 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
 
 Returns (image, stats), or (image, variance, stats) with variance=True: float32 arrays of
 shape (height, width, 3), the mean and the variance of each pixel's mean, and the dict of
-`cierzo render --stats` (same keys). Keywords left at None keep the scene's value:
+`cierzo render --stats` (same keys). With strategies=True (bdpt) a last element is added:
+{(s, t): {'weighted': image, 'unweighted': image}}, every strategy of paths up to
+max_length segments (default 5, at most 12), as `cierzo render --strategies DIR` writes
+them; the render is then the scalar integrator's (integrator must be left at its default
+or be 'scalar'). Keywords left at None keep the scene's value:
   spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt', 'bdpt', 'vcm'),
   survival_cap (0..1),
   diffuse_sampling ('uniform', 'cosine'), roulette ('lobe', or 'throughput' for nee and

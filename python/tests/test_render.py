@@ -118,6 +118,33 @@ def test_bdpt_strategy_images_as_the_program_and_adding_up(cierzo, tmp_path):
         cierzo.render(scene_path("caustic"), estimator="bdpt", unweighted=True, **SMALL)
 
 
+def test_bdpt_every_strategy_image_of_one_render_as_arrays_and_files(cierzo, tmp_path):
+    image, stats, strategies = cierzo.render(scene_path("caustic"), estimator="bdpt",
+                                             max_length=3, strategies=True, **SMALL)
+    assert stats["integrator"] == "scalar"
+    assert sorted(strategies) == sorted((s, k + 1 - s) for k in (1, 2, 3) for s in range(k + 1))
+    plain, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", max_length=3,
+                             integrator="scalar", **SMALL)
+    assert same_bits(image, plain)
+    for (s, t), pair in strategies.items():
+        assert pair["weighted"].shape == image.shape and pair["weighted"].dtype == np.float32
+        one, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", max_length=3,
+                               integrator="scalar", strategy=(s, t), **SMALL)
+        assert abs(pair["weighted"] - one).max() <= 1e-5 * (one.max() + 1e-6)
+    total = sum(p["weighted"].astype("float64") for p in strategies.values())
+    assert abs(total - image).max() <= 1e-4 * image.max() + 1e-6
+    # the program's files hold the same images
+    exr, _ = cli_render(tmp_path, scene_path("caustic"),
+                        extra=("--estimator", "bdpt", "--max-length", "3", "--strategies",
+                               tmp_path / "strategies"))
+    for (s, t), pair in strategies.items():
+        for kind, suffix in (("weighted", ""), ("unweighted", "_unweighted")):
+            name = tmp_path / "strategies" / f"length{s + t - 1}_s{s}_t{t}{suffix}.exr"
+            assert same_bits(pair[kind], cierzo.read_exr(name)), name
+    with pytest.raises(ValueError, match="strategies"):
+        cierzo.render(scene_path("caustic"), estimator="vcm", strategies=True, **SMALL)
+
+
 def test_vcm_as_the_program_and_its_options_checked(cierzo, tmp_path):
     exr, _ = cli_render(tmp_path, scene_path("caustic"),
                         extra=("--estimator", "vcm", "--merge-radius", "0.08",

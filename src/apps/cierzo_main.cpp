@@ -171,6 +171,13 @@ int run_main(int argc, char** argv) {
                   "MIS weight: the strategies' images add up to the whole (docs/estimators.md)")
         ->delimiter(',')
         ->expected(2);
+    r->add_option("--strategies", a.job.strategies_dir,
+                  "bdpt: also write every strategy's image, MIS-weighted and unweighted, of "
+                  "paths up to --max-length segments (default 5, at most 12) into folder DIR "
+                  "(made if missing): lengthK_sS_tT.exr and lengthK_sS_tT_unweighted.exr. "
+                  "One render, by the scalar integrator, in one process, without checkpoints "
+                  "(docs/estimators.md, \"strategy images\")")
+        ->type_name("DIR");
     r->add_option("--merge-radius", a.job.merge_radius,
                   "vcm: the first sample's merging radius r0, in scene units; sample n merges "
                   "within r0 * (n + 1)^((alpha - 1) / 2) (overrides render.merge_radius; "
@@ -258,6 +265,8 @@ int run_main(int argc, char** argv) {
             throw InputError("only `cierzo render` runs across MPI ranks; run this command in "
                              "one process");
         a.job.checkpoint_every_given = r->count("--checkpoint-every") > 0;
+        a.job.integrator_given = r->count("--integrator") > 0;
+        a.job.strategies = r->count("--strategies") > 0;
         if (r->parsed()) return run_render(a);
         if (converge->parsed()) return run_converge_command();
         if (trace->parsed()) return run_trace_command();

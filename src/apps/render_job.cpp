@@ -2,8 +2,12 @@
 // outputs and statistics, shared by the command line and the Python module.
 #include "apps/render_job.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -28,9 +32,51 @@ bool on_pass_schedule(int64_t spp) {
     return false;
 }
 
+// The strategy images recorded by a render of `scene` (with the job's overrides) that asks
+// for them; throws InputError naming the option when it cannot record them.
+StrategyLayout strategy_layout(const Scene& scene, const RenderJob& a, int ranks) {
+    const EstimatorSettings& e = scene.settings.estimator;
+    const char* option = a.strategies_dir.empty() ? "strategies" : "--strategies";
+    const auto refuse = [&](const std::string& why) {
+        throw InputError(std::string(option) + ": " + why);
+    };
+    if (e.kind != Estimator::kBdpt)
+        refuse(std::string("strategy images are bdpt's (this render's estimator is ") +
+               estimator_name(e.kind) + (merges(e.kind) ? "; merging is no strategy (s, t))" : ")"));
+    if (!a.strategy.empty())
+        refuse("it records every strategy; --strategy keeps one (give one or the other)");
+    if (a.integrator_given && integrator_of(a.integrator) != Integrator::kScalar)
+        refuse("the scalar integrator records the strategy images (--integrator scalar, or "
+               "leave --integrator out)");
+    if (ranks > 1)
+        refuse("one process records the strategy images (this run has " +
+               std::to_string(ranks) + " MPI ranks)");
+    if (!a.checkpoint.empty() || !a.resume.empty())
+        refuse("a render with strategy images takes no checkpoint and resumes none");
+    StrategyLayout layout;
+    if (e.max_length == kNoLengthLimit) {
+        layout.max_length = StrategyLayout::kDefaultLength;
+    } else if (e.max_length > StrategyLayout::kLengthLimit) {
+        refuse(fmt::format("strategy images go up to paths of {} segments; the render's "
+                           "--max-length (or render.max_length) is {}",
+                           StrategyLayout::kLengthLimit, e.max_length));
+    } else {
+        layout.max_length = e.max_length;
+    }
+    const RenderSettings& s = scene.settings;
+    const size_t bytes = StrategyFilm::bytes(s.width, s.height, layout);
+    if (bytes > kStrategyMemoryLimit)
+        refuse(fmt::format("{} strategies (paths up to {} segments) at {}x{} take {:.1f} GiB, "
+                           "more than the {} GiB allowed: lower --max-length or the resolution",
+                           layout.count(), layout.max_length, s.width, s.height,
+                           double(bytes) / double(size_t(1) << 30), kStrategyMemoryLimit >> 30));
+    return layout;
+}
+
 // Refuses, before any work, an output that cannot be written or that is the same file as an
 // input (the scene, its meshes, the checkpoint resumed) or as another output.
-void check_render_outputs(const Scene& scene, const RenderJob& a, const fs::path& checkpoint) {
+void check_render_outputs(const Scene& scene, const RenderJob& a, const fs::path& checkpoint,
+                          const StrategyLayout& strategies) {
     std::vector<OutputPath> outputs;
     if (a.write_outputs) {
         const fs::path& image = scene.settings.output;
@@ -40,6 +86,30 @@ void check_render_outputs(const Scene& scene, const RenderJob& a, const fs::path
         outputs.push_back({image, a.out.empty() ? "the scene's render.output" : "--out",
                            "the image"});
         outputs.push_back({a.stats, "--stats", "the statistics"});
+        if (a.strategies && a.strategies_dir.empty())
+            throw InputError("--strategies: empty folder name");
+        if (a.strategies) {
+            const fs::path& dir = a.strategies_dir;
+            std::error_code ec;
+            const fs::file_status st = fs::status(dir, ec);
+            if (fs::exists(st) && !fs::is_directory(st))
+                throw InputError(dir.string() + ": --strategies must name a folder (it is a file)");
+            if (!fs::exists(st)) {
+                // (a folder still to be made holds nothing its images could replace)
+                const fs::path parent = dir.has_parent_path() ? dir.parent_path() : fs::path(".");
+                if (!fs::is_directory(parent, ec))
+                    throw InputError(dir.string() + ": --strategies: its folder " +
+                                     parent.string() + " does not exist");
+                if (::access(parent.c_str(), W_OK) != 0)
+                    throw InputError(dir.string() + ": --strategies: cannot make it in " +
+                                     parent.string() + ": " + std::strerror(errno));
+            } else {
+                for (int i = 0; i < strategies.count(); ++i)
+                    for (bool weighted : {true, false})
+                        outputs.push_back({strategy_image_path(dir, strategies, i, weighted),
+                                           "--strategies", "a strategy image"});
+            }
+        }
     }
     if (!checkpoint.empty()) {
         const char* option = a.checkpoint.empty() ? "--resume" : "--checkpoint";
@@ -133,13 +203,14 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     const mpi::World& world = mpi::world();
     const bool root = world.rank == 0;
     check_render_isa(a);
-    RenderJobResult done{std::move(scene_in), RenderResult{Film(0, 0), {}}, {}, {}};
+    RenderJobResult done{std::move(scene_in), RenderResult{Film(0, 0), {}}, {}, {}, {}};
     Scene& scene = done.scene;
     apply_render_overrides(scene, a);
     RenderSettings& s = scene.settings;
     RenderOptions options;
     options.threads = a.threads;
     options.integrator = integrator_of(a.integrator);
+    if (a.strategies) options.integrator = Integrator::kScalar;  // (it records them)
     options.isa = a.isa;
     options.pool_size = a.pool;
     options.time_budget = a.time_budget;
@@ -158,7 +229,21 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     done.checkpoint = checkpoint;
     if (a.checkpoint_every_given && checkpoint.empty())
         throw InputError("--checkpoint-every needs --checkpoint FILE.exr (or --resume FILE.exr)");
-    if (root) check_render_outputs(scene, a, checkpoint);
+    StrategyLayout layout;
+    if (a.strategies) layout = strategy_layout(scene, a, world.size);
+    if (root) check_render_outputs(scene, a, checkpoint, layout);
+    if (a.strategies) {
+        // (the folder once everything else is known to be right)
+        if (root && !a.strategies_dir.empty() && a.write_outputs) {
+            std::error_code ec;
+            fs::create_directory(a.strategies_dir, ec);
+            if (ec)
+                throw InputError(a.strategies_dir.string() +
+                                 ": --strategies: cannot make the folder: " + ec.message());
+        }
+        done.strategies = std::make_shared<StrategyFilm>(s.width, s.height, layout);
+        options.strategies = done.strategies.get();
+    }
     // (the fingerprint reads every mesh: only rank 0, and only with checkpoints)
     const CheckpointIdentity identity = root && !checkpoint.empty()
                                             ? checkpoint_identity(scene, a.integrator, isa, pool)
@@ -193,6 +278,14 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     RenderStats& st = done.result.stats;
     st.warnings.insert(st.warnings.begin(), resume_warnings.begin(), resume_warnings.end());
     return done;
+}
+
+fs::path strategy_image_path(const fs::path& dir, const StrategyLayout& layout, int i,
+                             bool weighted) {
+    int s = 0, t = 0;
+    layout.strategy(i, s, t);
+    return dir / fmt::format("length{}_s{}_t{}{}.exr", s + t - 1, s, t,
+                             weighted ? "" : "_unweighted");
 }
 
 ImageMetadata render_metadata(const Scene& scene, const RenderStats& st) {
@@ -312,6 +405,19 @@ void write_render_outputs(const RenderJob& a, const RenderJobResult& done) {
     if (a.variance && output.extension() == ".exr")
         layers = variance_layers(done.result.film.variance_of_mean());
     write_hdr(output, done.result.film.mean(), render_metadata(scene, st), layers);
+    if (done.strategies && !a.strategies_dir.empty()) {
+        const StrategyFilm& f = *done.strategies;
+        for (int i = 0; i < f.layout().count(); ++i)
+            for (bool weighted : {true, false}) {
+                int s = 0, t = 0;
+                f.layout().strategy(i, s, t);
+                ImageMetadata m = render_metadata(scene, st);
+                m["cierzo:strategy"] = fmt::format("s={} t={} length={}", s, t, s + t - 1);
+                m["cierzo:weighted"] = weighted ? "MIS-weighted" : "unweighted";
+                write_hdr(strategy_image_path(a.strategies_dir, f.layout(), i, weighted),
+                          f.image(i, weighted, st.spp_reached), m);
+            }
+    }
     if (!a.stats.empty()) {
         const nlohmann::json j = render_stats_json(scene, st, done.checkpoint);
         write_output_stream(a.stats, [&](std::ostream& out) { out << j.dump(2) << "\n"; });

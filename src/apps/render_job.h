@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,9 +36,14 @@ struct RenderJob {
     bool unweighted = false;                      // ... without its weight
     std::optional<float> merge_radius, merge_alpha;  // vcm: r0 and α
     std::optional<std::string> estimator;         // report, nee or mis
+    // bdpt: also record every strategy's image (integrators/strategies.h), written to
+    // `strategies_dir` when outputs are written (the Python module keeps them)
+    bool strategies = false;
+    std::filesystem::path strategies_dir;
     // How to render
     int threads = 0;
     std::string integrator = "wavefront";
+    bool integrator_given = false;  // (the strategy images refuse another than scalar)
     std::string isa = "auto";
     int pool = 0;
     double time_budget = 0.0;
@@ -66,7 +72,15 @@ struct RenderJobResult {
     RenderResult result;
     std::vector<std::string> resume_warnings;  // already printed on stderr
     std::filesystem::path checkpoint;          // the file checkpoints went to, if any
+    std::shared_ptr<StrategyFilm> strategies;  // the strategy images, if recorded
 };
+
+// The most memory the strategy images may take (StrategyFilm::bytes).
+inline constexpr size_t kStrategyMemoryLimit = size_t(4) << 30;
+
+// The strategy images' files in `dir`: strategy i's, weighted or not.
+std::filesystem::path strategy_image_path(const std::filesystem::path& dir,
+                                          const StrategyLayout& layout, int i, bool weighted);
 
 // Refuses an instruction set this CPU lacks (before the scene is read, as the CLI does).
 void check_render_isa(const RenderJob& job);

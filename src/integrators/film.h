@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -11,6 +12,8 @@
 #include "kernels/vec3.h"
 
 namespace cierzo {
+
+class StrategyTile;  // integrators/strategies.h
 
 // One pixel's running sums, accumulated in double so long renders do not lose precision.
 struct PixelSums {
@@ -128,6 +131,9 @@ public:
     // (in the order they were traced; the coordinator adds them up exactly, SplatSums).
     std::vector<Splat> splats;
     void splat(uint32_t image_index, const Vec3f& v) { splats.push_back({image_index, v}); }
+    // bdpt's strategy images, when they are recorded (RenderOptions::strategies): this
+    // unit's contributions to each
+    std::shared_ptr<StrategyTile> strategies;
 
 private:
     int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, image_width_ = 0;

@@ -200,6 +200,12 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                 "textured emission are not sampled): light tracing adds nothing, the image is "
                 "the camera paths' alone");
     }
+    if (options.strategies &&
+        (options.integrator != Integrator::kScalar ||
+         scene.settings.estimator.kind != Estimator::kBdpt || world.size > 1 || options.resume ||
+         options.checkpoint || options.strategies->width() != scene.settings.width ||
+         options.strategies->height() != scene.settings.height))
+        throw std::logic_error("strategy images are scalar bdpt's, in one process, from zero");
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == Integrator::kWavefront)
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
@@ -212,7 +218,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         work_units(rs.width, rs.height, scene.settings.estimator.kind == Estimator::kLt);
     // (enough for two passes in flight and every thread's unit)
     TilePool pool(2 * tiles.size() + 8 * size_t(threads));
-    const UnitRenderer renderer(scene, wavefront.get(), tiles, pool, options.light_store_limit);
+    const UnitRenderer renderer(scene, wavefront.get(), tiles, pool, options.light_store_limit,
+                                options.strategies);
     RenderResult result{root ? Film(rs.width, rs.height) : Film(0, 0), {}};
     RenderStats& st = result.stats;
     st.warnings = warnings;  // (the program prints them at the end)

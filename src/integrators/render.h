@@ -15,6 +15,7 @@
 
 #include "integrators/film.h"
 #include "integrators/registry.h"
+#include "integrators/strategies.h"
 #include "scene/scene.h"
 
 namespace cierzo {
@@ -81,6 +82,9 @@ struct RenderOptions {
     // bdpt and vcm: the most bytes a thread's light-vertex store may hold (a unit's light
     // subpaths); a unit that needs more is refused (refuse_light_store)
     size_t light_store_limit = kLightStoreLimit;
+    // bdpt with the scalar integrator in one process: also adds every pass's contributions
+    // of each strategy to this film (integrators/strategies.h)
+    StrategyFilm* strategies = nullptr;
 };
 
 // Per-process figures of a distributed render (one entry per MPI rank).

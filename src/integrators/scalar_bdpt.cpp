@@ -3,13 +3,17 @@
 // pinhole), then its camera subpath, which at each Phong vertex samples the lights,
 // connects to every stored vertex of its light subpath and (vcm) merges with the stored
 // vertices near it of every light subpath of its sample index in the tile. One path at a
-// time, with the same kernels as the wavefront's bidirectional stages.
+// time, with the same kernels as the wavefront's bidirectional stages. With strategy images
+// (integrators/strategies.h), each contribution is also recorded under its strategy (s, t),
+// with its weight and without: the second value comes from the same kernels with every
+// weight 1 (strategy_weight), along the same shadow ray, traced once.
 #include "integrators/scalar.h"
 
 #include <vector>
 
 #include "integrators/merge_vertex.h"
 #include "integrators/scalar_path.h"
+#include "integrators/strategies.h"
 #include "kernels/bidirectional.h"
 #include "kernels/rng.h"
 
@@ -23,6 +27,34 @@ struct StoreLimit {
     size_t vertices, bytes;
 };
 
+// Where a unit records its strategy images, if it does: its tile, the context whose weights
+// are all 1, and the pixel of the camera sample being traced.
+struct Recorder {
+    StrategyTile* tile = nullptr;
+    PathContext unweighted;
+    int x = 0, y = 0;
+
+    // Strategy (s, t)'s number, or -1 when it is not recorded (or nothing is).
+    int strategy(uint32_t s, uint32_t t) const { return tile ? tile->layout().index(s, t) : -1; }
+};
+
+// trace_request for a recorded strategy: the shadow ray of `weighted` and of `unweighted`
+// (the same ray, every weight 1), traced once if either wants it. Both values, times the
+// camera subpath's throughput, go to the strategy's image; what the weighted one adds is
+// returned (what trace_request would return).
+Vec3f trace_recorded(const Scene& scene, const ShadowRequest<float>& weighted,
+                     const ShadowRequest<float>& unweighted, const Vec3f& throughput,
+                     int strategy, Recorder& rec, RayCounts& rays) {
+    if (!weighted.want && !unweighted.want) return Vec3f(0.0f);
+    const ShadowRequest<float>& r = weighted.want ? weighted : unweighted;
+    ++rays.shadow;
+    if (scene.occluded({r.origin, r.dir}, r.tmax)) return Vec3f(0.0f);
+    const Vec3f value = weighted.want ? weighted.value : Vec3f(0.0f);
+    rec.tile->add(rec.x, rec.y, strategy, throughput * value,
+                  unweighted.want ? throughput * unweighted.value : Vec3f(0.0f));
+    return value;
+}
+
 // One light subpath, with the numbers of the camera sample whose stream it takes: its Phong
 // vertices appended to `store`, each one's connection to the pinhole splatted (t = 1).
 CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext& c,
@@ -32,7 +64,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
                                           const MergeWeights<float>& mw,
                                           std::vector<LightVertex<float>>& store,
                                           const StoreLimit& limit, FilmTile& film,
-                                          RayCounts& rays) {
+                                          const Recorder& rec, RayCounts& rays) {
     const SampleStream<float> rng = light_stream(camera_rng);
     const LightStart<float> start = sample_light_start<float>(c.emitters, lights, rng);
     if (!start.ok) return;
@@ -68,14 +100,19 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
             if (!limited || length_counts<float>(c.estimator, bounce + 1)) {
                 const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
                 if (cc.ok && on_arriving_side(cc.wc, v.nf)) {
-                    const Vec3f value =
-                        camera_contribution(m, beta, ray.d, v.nf, v.nsf, cc, c.smooth) *
-                        camera_connection_mis(c, lv, cc, mw);
-                    if (max_component(value) > 0.0f) {
+                    const Vec3f unweighted =
+                        camera_contribution(m, beta, ray.d, v.nf, v.nsf, cc, c.smooth);
+                    const Vec3f value = unweighted * camera_connection_mis(c, lv, cc, mw);
+                    const int strategy = rec.strategy(bounce + 1, 1);
+                    if (max_component(value) > 0.0f ||
+                        (strategy >= 0 && max_component(unweighted) > 0.0f)) {
                         ++rays.shadow;
                         if (!scene.occluded({offset_ray_origin(hit.p, v.nf, magnitude), cc.wc},
-                                            cc.dist * (1.0f - 1e-5f)))
-                            film.splat(uint32_t(cc.pixel), value);
+                                            cc.dist * (1.0f - 1e-5f))) {
+                            if (max_component(value) > 0.0f) film.splat(uint32_t(cc.pixel), value);
+                            if (strategy >= 0)
+                                rec.tile->splat(uint32_t(cc.pixel), strategy, value, unweighted);
+                        }
                     }
                 }
             }
@@ -110,7 +147,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                                             const Ray<float>& camera_ray,
                                             const SampleStream<float>& rng, const Merging& merging,
                                             const LightVertex<float>* light, size_t light_count,
-                                            RayCounts& rays) {
+                                            Recorder& rec, RayCounts& rays) {
     const MergeWeights<float>& mw = merging.weights;
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
@@ -124,9 +161,14 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) {
-            if (has_environment(c) && counts(bounce + 1))
-                radiance += throughput * environment_radiance(c.emitters.environment, ray.d) *
-                            environment_mis<float>(c, mis, ray.d, bounce + 2);
+            if (has_environment(c) && counts(bounce + 1)) {
+                const Vec3f unweighted =
+                    throughput * environment_radiance(c.emitters.environment, ray.d);
+                const Vec3f value = unweighted * environment_mis<float>(c, mis, ray.d, bounce + 2);
+                radiance += value;
+                if (const int i = rec.strategy(0, bounce + 2); i >= 0)
+                    rec.tile->add(rec.x, rec.y, i, value, unweighted);
+            }
             break;
         }
         const Material& material = scene.materials[size_t(hit.material)];
@@ -135,10 +177,15 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
 
         // s = 0: an emitter ends the path
         if (material.is_emitter()) {
-            if (counts(bounce + 1))
-                radiance += throughput * scene.emission_at(hit) *
-                            emitter_hit_mis<float>(c, lights, mis, scene.emitter_id(hit), ray.o,
-                                                   ray.d, hit.t, cos_in, bounce + 2);
+            if (counts(bounce + 1)) {
+                const Vec3f unweighted = throughput * scene.emission_at(hit);
+                const Vec3f value =
+                    unweighted * emitter_hit_mis<float>(c, lights, mis, scene.emitter_id(hit),
+                                                        ray.o, ray.d, hit.t, cos_in, bounce + 2);
+                radiance += value;
+                if (const int i = rec.strategy(0, bounce + 2); i >= 0)
+                    rec.tile->add(rec.x, rec.y, i, value, unweighted);
+            }
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
@@ -152,18 +199,40 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
             // s = 1: the lights sampled from here
             if (counts(bounce + 2)) {
                 Vec3f direct(0.0f);
-                if (c.emitters.count > 0)
-                    direct += trace_request(scene, nee_emitter(c, lights, cv, mw, rng, bounce, true),
-                                            rays);
-                for (int32_t j = 0; j < lights.point_count; ++j)
-                    direct += trace_request(scene, nee_point_light(c, lights, j, cv, mw, true), rays);
+                if (const int i = rec.strategy(1, bounce + 2); i >= 0) {
+                    const PathContext& u = rec.unweighted;
+                    if (c.emitters.count > 0)
+                        direct += trace_recorded(
+                            scene, nee_emitter(c, lights, cv, mw, rng, bounce, true),
+                            nee_emitter(u, lights, cv, mw, rng, bounce, true), throughput, i,
+                            rec, rays);
+                    for (int32_t j = 0; j < lights.point_count; ++j)
+                        direct += trace_recorded(scene, nee_point_light(c, lights, j, cv, mw, true),
+                                                 nee_point_light(u, lights, j, cv, mw, true),
+                                                 throughput, i, rec, rays);
+                } else {
+                    if (c.emitters.count > 0)
+                        direct += trace_request(
+                            scene, nee_emitter(c, lights, cv, mw, rng, bounce, true), rays);
+                    for (int32_t j = 0; j < lights.point_count; ++j)
+                        direct +=
+                            trace_request(scene, nee_point_light(c, lights, j, cv, mw, true), rays);
+                }
                 radiance += throughput * direct;
             }
             // s, t ≥ 2: every stored vertex of this sample's light subpath
             Vec3f connected(0.0f);
-            for (size_t k = 0; k < light_count; ++k)
-                if (counts(light[k].length + bounce + 2))
-                    connected += trace_request(scene, connect_vertices(c, cv, light[k], mw, true), rays);
+            for (size_t k = 0; k < light_count; ++k) {
+                if (!counts(light[k].length + bounce + 2)) continue;
+                if (const int i = rec.strategy(light[k].length + 1, bounce + 2); i >= 0)
+                    connected += trace_recorded(
+                        scene, connect_vertices(c, cv, light[k], mw, true),
+                        connect_vertices(rec.unweighted, cv, light[k], mw, true), throughput, i,
+                        rec, rays);
+                else
+                    connected +=
+                        trace_request(scene, connect_vertices(c, cv, light[k], mw, true), rays);
+            }
             radiance += throughput * connected;
             // vcm: the light vertices near it
             if (merging.grid) radiance += throughput * merge_at(c, *merging.grid, cv, 0u, mw);
@@ -202,16 +271,22 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
         const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
         return camera_stream<float>(c.sampler, rs.seed, pixel, uint32_t(x), uint32_t(y), uint32_t(s));
     };
+    // The strategy images' recording, if the unit has them
+    Recorder rec;
+    rec.tile = film.strategies.get();
+    rec.unweighted = c;
+    rec.unweighted.estimator.unweighted = true;
     // Sample s of pixel (x, y)'s camera subpath, with its light subpath's vertices
     const auto camera = [&](int x, int y, const SampleStream<float>& rng, const Merging& merging,
                             const LightVertex<float>* light, size_t light_count) {
         float jx, jy;
         uniform2<float>(rng, 0u, Purpose::kPixelX, jx, jy);
         ++rays.camera;
+        rec.x = x, rec.y = y;
         film.at(x, y).add(trace_camera_subpath(
             scene, c, lights, pinhole,
             scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h), rng, merging,
-            light, light_count, rays));
+            light, light_count, rec, rays));
     };
     std::vector<LightVertex<float>> store;
     if (!merges(c.estimator.kind)) {
@@ -224,7 +299,7 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
                     store.clear();
                     if (has_lights)
                         trace_light_subpath(scene, c, lights, pinhole, rng, none.weights, store,
-                                            store_limit, film, rays);
+                                            store_limit, film, rec, rays);
                     camera(x, y, rng, none, store.data(), store.size());
                 }
         return;
@@ -245,7 +320,7 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
             if (has_lights)
                 trace_light_subpath(scene, c, lights, pinhole,
                                     stream(tile.x0 + k % width, tile.y0 + k / width, s),
-                                    merging.weights, store, store_limit, film, rays);
+                                    merging.weights, store, store_limit, film, rec, rays);
         }
         begin[size_t(pixels)] = uint32_t(store.size());
         photons.clear();

@@ -44,6 +44,9 @@ UnitResult UnitRenderer::render(const Unit& u) const {
     if (wavefront_) {
         wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
     } else if (bidirectional(scene_.settings.estimator.kind)) {
+        if (strategies_)
+            r.sums.strategies =
+                std::make_shared<StrategyTile>(strategies_->layout(), t.x0, t.y0, t.x1, t.y1);
         render_tile_bdpt_scalar(scene_, t, r.sums, r.rays, light_store_limit_);
     } else {
         render_tile_scalar(scene_, t, r.sums, r.rays);
@@ -212,6 +215,8 @@ void Coordinator::commit_passes() {
                 film_.merge_batch(f, w.splats);
             else
                 film_.merge(f);
+            if (options_.strategies && f.strategies) options_.strategies->merge(*f.strategies);
+            f.strategies.reset();
             pool_.give(std::move(f));
         }
         if (splat_pixels_) film_.end_batch(w.splats.nonfinite());

@@ -70,9 +70,10 @@ private:
 class UnitRenderer {
 public:
     UnitRenderer(const Scene& scene, const WavefrontRenderer* wavefront,
-                 const std::vector<Tile>& tiles, TilePool& pool, size_t light_store_limit)
+                 const std::vector<Tile>& tiles, TilePool& pool, size_t light_store_limit,
+                 const StrategyFilm* strategies = nullptr)
         : scene_(scene), wavefront_(wavefront), tiles_(tiles), pool_(pool),
-          light_store_limit_(light_store_limit) {}
+          light_store_limit_(light_store_limit), strategies_(strategies) {}
     UnitResult render(const Unit& u) const;
 
 private:
@@ -81,6 +82,7 @@ private:
     const std::vector<Tile>& tiles_;
     TilePool& pool_;
     size_t light_store_limit_;  // the scalar bidirectional estimators' (RenderOptions)
+    const StrategyFilm* strategies_;  // the strategy images recorded, if any
 };
 
 // The one owner of the film (rank 0): hands out units in pass order, keeps the units of the

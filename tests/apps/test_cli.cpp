@@ -380,6 +380,60 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
     EXPECT_TRUE(fs::exists(out));
 }
 
+// --strategies DIR: every strategy's image of paths up to --max-length, weighted and
+// unweighted, named and labelled by its strategy; what it cannot do is refused before any
+// work, with nothing written and the folder not made.
+TEST_F(cli, StrategiesWritesEveryStrategysImagesOrIsRefused) {
+    const fs::path scene = write("scene.json", kTinyScene);
+    const fs::path out = dir_ / "whole.exr", strategies = dir_ / "strategies";
+    const Outcome ok = run(quote(scene) + kQuiet + " --estimator bdpt --max-length 3 --strategies " +
+                           quote(strategies) + " --out " + quote(out));
+    ASSERT_EQ(ok.exit_code, 0) << ok.err;
+    EXPECT_TRUE(fs::exists(out));
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(strategies)) names.push_back(e.path().filename());
+    std::sort(names.begin(), names.end());
+    std::vector<std::string> want;
+    for (int k = 1; k <= 3; ++k)
+        for (int st = 0; st <= k; ++st)
+            for (const char* w : {"", "_unweighted"})
+                want.push_back("length" + std::to_string(k) + "_s" + std::to_string(st) + "_t" +
+                               std::to_string(k + 1 - st) + w + ".exr");
+    std::sort(want.begin(), want.end());
+    EXPECT_EQ(names, want);
+    const auto header = exr_header(strategies / "length3_s2_t2_unweighted.exr");
+    ASSERT_TRUE(header.count("cierzo:strategy"));
+    EXPECT_NE(header.at("cierzo:strategy").find("s=2 t=2 length=3"), std::string::npos);
+    EXPECT_NE(header.at("cierzo:weighted").find("unweighted"), std::string::npos);
+
+    const fs::path file = write("a_file", "keep me");
+    const fs::path fresh = dir_ / "fresh";
+    const std::pair<std::string, std::string> cases[] = {
+        {" --estimator vcm --strategies " + quote(fresh), "strategy images are bdpt's"},
+        {" --estimator mis --strategies " + quote(fresh), "strategy images are bdpt's"},
+        {" --estimator bdpt --integrator wavefront --strategies " + quote(fresh), "scalar"},
+        {" --estimator bdpt --strategy 1,2 --strategies " + quote(fresh), "--strategy"},
+        {" --estimator bdpt --max-length 13 --strategies " + quote(fresh), "12"},
+        {" --estimator bdpt --width 4000 --height 4000 --max-length 12 --strategies " +
+             quote(fresh), "GiB"},
+        {" --estimator bdpt --checkpoint " + quote(dir_ / "c.exr") + " --strategies " +
+             quote(fresh), "checkpoint"},
+        {" --estimator bdpt --strategies " + quote(file), "must name a folder"},
+        {" --estimator bdpt --strategies " + quote(dir_ / "no" / "such"), "does not exist"},
+    };
+    for (const auto& [args, message] : cases) {
+        SCOPED_TRACE(args);
+        const fs::path other = dir_ / "refused.exr";
+        const Outcome o = run(quote(scene) + kQuiet + args + " --out " + quote(other));
+        EXPECT_EQ(o.exit_code, 1);
+        EXPECT_NE(o.err.find("--strategies"), std::string::npos) << o.err;
+        EXPECT_NE(o.err.find(message), std::string::npos) << o.err;
+        EXPECT_FALSE(fs::exists(other));
+        EXPECT_FALSE(fs::exists(fresh));
+    }
+    EXPECT_EQ(read_file(file), "keep me");
+}
+
 TEST_F(cli, OnePathPerPixelHasNoRelativeError) {
     const fs::path scene = write("tiny.json", kTinyScene);
     const fs::path stats = dir_ / "s.json";

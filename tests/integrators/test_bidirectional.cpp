@@ -22,6 +22,7 @@
 //     mirror, which no connection makes, is found, and its bias falls as the radius does.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -539,6 +540,69 @@ TEST(Bidirectional, EachStrategyAloneConvergesToTheSameImage) {
     const Image two = run(one, v).film.mean();
     for (size_t i = 0; i < sum.size(); ++i) dropped += two.rgb[i];
     EXPECT_GT(dropped, 0.05 * total);
+}
+
+// The strategy images of one render (RenderOptions::strategies, `--strategies DIR`): each
+// is, weighted and unweighted, the image of a render that keeps that strategy alone
+// (--strategy S,T [--unweighted]) to rounding, the strategies of all lengths together; the
+// render's own image is the same bits as without them; and they are the same bits for any
+// number of threads.
+TEST(Bidirectional, StrategyImagesOfOneRenderAreEachStrategysOwnRender) {
+    Scene s = scene_of(kBox, Estimator::kBdpt, 8);
+    RenderOptions o;
+    o.integrator = Integrator::kScalar;
+    o.progress = false;
+    o.threads = 2;
+    const StrategyLayout layout{4};
+    StrategyFilm film(s.settings.width, s.settings.height, layout);
+    o.strategies = &film;
+    const RenderResult recorded = render(s, o);
+    o.strategies = nullptr;
+    const RenderResult plain = render(s, o);
+    EXPECT_EQ(recorded.film.mean().rgb, plain.film.mean().rgb);
+    ASSERT_EQ(layout.count(), 14);
+    std::vector<double> sum(plain.film.mean().rgb.size(), 0.0);
+    int lit = 0;
+    for (int i = 0; i < layout.count(); ++i) {
+        int st = 0, tt = 0;
+        layout.strategy(i, st, tt);
+        ASSERT_EQ(layout.index(uint32_t(st), uint32_t(tt)), i);
+        for (bool weighted : {true, false}) {
+            SCOPED_TRACE("strategy s=" + std::to_string(st) + " t=" + std::to_string(tt) +
+                         (weighted ? "" : " unweighted"));
+            Scene one = s;
+            one.settings.estimator.strategy_s = st, one.settings.estimator.strategy_t = tt;
+            one.settings.estimator.unweighted = !weighted;
+            const Image want = render(one, o).film.mean();
+            const Image got = film.image(i, weighted, s.settings.spp);
+            float peak = 0.0f;
+            for (float v : want.rgb) peak = std::max(peak, std::abs(v));
+            if (peak > 0.0f) ++lit;
+            for (size_t k = 0; k < want.rgb.size(); ++k)
+                ASSERT_NEAR(got.rgb[k], want.rgb[k], 1e-5f * (peak + std::abs(want.rgb[k])))
+                    << "value " << k;
+            if (weighted)
+                for (size_t k = 0; k < sum.size(); ++k) sum[k] += got.rgb[k];
+        }
+    }
+    EXPECT_GE(lit, 20);  // (most strategies see light in this box)
+    // Every length up to 4 alone: the weighted images add up to it
+    Scene upto = s;
+    upto.settings.estimator.max_length = 4;
+    const Image whole = render(upto, o).film.mean();
+    for (size_t k = 0; k < sum.size(); ++k)
+        ASSERT_NEAR(sum[k], whole.rgb[k], 1e-5 + 1e-4 * std::abs(whole.rgb[k])) << "value " << k;
+    // The same bits for 1 and 3 threads
+    for (int threads : {1, 3}) {
+        StrategyFilm again(s.settings.width, s.settings.height, layout);
+        o.threads = threads;
+        o.strategies = &again;
+        render(s, o);
+        for (int i = 0; i < layout.count(); ++i)
+            for (bool weighted : {true, false})
+                ASSERT_EQ(again.image(i, weighted, 8).rgb, film.image(i, weighted, 8).rgb)
+                    << threads << " threads, strategy " << i;
+    }
 }
 
 TEST(Bidirectional, SameBitsForAnyNumberOfThreads) {
