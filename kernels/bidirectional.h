@@ -73,9 +73,11 @@ struct MergeWeights {
 
 // The merging quantities of sample n (from 0) of a tile whose light subpaths for that
 // sample number `light_paths` (0: none, nothing merges), with merging radius r0 and exponent
-// α (EstimatorSettings); the weights' N is `tile_paths`, a full tile's.
+// α (EstimatorSettings); the weights' N is `tile_paths`, a full tile's. Without connections
+// (bpm, ppm: `connections` false) the connections' weight 1/η² is 0, so merging is weighed
+// against merging alone.
 inline MergeWeights<float> merge_weights(float r0, float alpha, int64_t n, int64_t light_paths,
-                                         int64_t tile_paths) {
+                                         int64_t tile_paths, bool connections) {
     MergeWeights<float> m;
     const double r = double(r0) * std::pow(double(n + 1), 0.5 * (double(alpha) - 1.0));
     const double area = kPi * r * r;
@@ -84,7 +86,7 @@ inline MergeWeights<float> merge_weights(float r0, float alpha, int64_t n, int64
     const double eta = std::clamp(area * double(tile_paths), 1e-12, 1e12);
     if (light_paths <= 0 || !(area > 0.0) || !std::isfinite(area)) return m;
     m.vm_weight = float(eta * eta);
-    m.vc_weight = float(1.0 / (eta * eta));
+    m.vc_weight = connections ? float(1.0 / (eta * eta)) : 0.0f;
     m.normalization = float(1.0 / (area * double(light_paths)));
     m.radius2 = float(r * r);
     return m;
@@ -245,13 +247,24 @@ void mis_after_lobe(const PathContext& c, SubpathMis<T>& m, const I32<T>& lobe,
     m.vm = select(delta, through_delta.vm, m.vm);
 }
 
+// Whether camera subpaths that came this way (quantities m, `vertices` camera vertices with
+// this one) came only through mirrors and glass from the pinhole: its first hit, or dVCM and
+// dVC still 0 (a Phong vertex makes both positive, a delta lobe keeps them 0).
+template <class T>
+Mask<T> through_delta_only(const SubpathMis<T>& m, const U32<T>& vertices) {
+    return (to_float(vertices) == T(2.0f)) | ((m.vcm == T(0.0f)) & (m.vc == T(0.0f)));
+}
+
 // ---- The strategies' weights and values ---------------------------------------------------
 
 // s = 0: the weight of Le where the camera subpath (quantities `m`, already updated at this
 // hit; `vertices` camera vertices with this one: the bounce + 2) hits sampled emitter `id` at
 // x, from the previous vertex `prev` along d at distance t, cos_l the geometric cosine at
 // the emitter. The camera's own first hit and an emitter that is not sampled (id < 0) count
-// in full: no other strategy makes those paths.
+// in full: no other strategy makes those paths. Without connections (bpm, ppm) merging makes
+// every path of a sampled emitter through a Phong vertex, so the emitter counts in full where
+// the camera subpath came only through mirrors and glass (its dVCM and dVC still 0) and not
+// at all after a Phong vertex.
 template <class T>
 T emitter_hit_mis(const PathContext& c, const LightStartTable& lights, const SubpathMis<T>& m,
                   const I32<T>& id, const Vec3<T>& prev, const Vec3<T>& d, const T& t,
@@ -259,6 +272,10 @@ T emitter_hit_mis(const PathContext& c, const LightStartTable& lights, const Sub
     const auto first = to_float(vertices) == T(2.0f);
     const auto sampled = mask_f32(id >= I32<T>(0)) & !first;
     if (none(sampled)) return strategy_weight(c.estimator, U32<T>(0u), vertices, T(1.0f));
+    if (!connects(c.estimator.kind))
+        return strategy_weight(c.estimator, U32<T>(0u), vertices,
+                               select(sampled & !through_delta_only(m, vertices), T(0.0f),
+                                      T(1.0f)));
     const I32<T> e = select(mask_i32(sampled), id, I32<T>(0));
     const T direct_w = emitter_pdf(c.emitters, e, prev, d, t, c.estimator.triangle_solid_angle);
     const T direct_a = direct_w * cos_l / (t * t);
@@ -270,12 +287,13 @@ T emitter_hit_mis(const PathContext& c, const LightStartTable& lights, const Sub
 }
 
 // s = 0 for the environment, where a camera subpath escapes along d: its only other strategy
-// is next-event estimation (light paths do not start at it). The camera's own ray counts in
-// full. (`vertices`: as for emitter_hit_mis, the escape counting as one)
+// is next-event estimation (light paths do not start at it; bpm and ppm have none). The
+// camera's own ray counts in full. (`vertices`: as for emitter_hit_mis, the escape counting
+// as one)
 template <class T>
 T environment_mis(const PathContext& c, const SubpathMis<T>& m, const Vec3<T>& d,
                   const U32<T>& vertices) {
-    if (c.emitters.environment.emitter < 0)
+    if (c.emitters.environment.emitter < 0 || !connects(c.estimator.kind))
         return strategy_weight(c.estimator, U32<T>(0u), vertices, T(1.0f));
     const T light = T(c.emitters.pmf[c.emitters.environment.emitter]) *
                     environment_pdf(c.emitters.environment, d);
@@ -478,16 +496,38 @@ ShadowRequest<T> connect_vertices(const PathContext& c, const CameraVertex<T>& v
     return r;
 }
 
-// ---- Vertex merging (vcm) ------------------------------------------------------------------
+// ---- Vertex merging (vcm, bpm, ppm) ------------------------------------------------------
+
+// Whether camera vertex v merges: every Phong vertex under vcm and bpm; under ppm
+// (progressive photon mapping) the first Phong vertex of the camera subpath, reached through
+// mirrors and glass alone.
+template <class T>
+Mask<T> camera_vertex_merges(const EstimatorSettings& e, const CameraVertex<T>& v) {
+    if (e.kind != Estimator::kPpm) return Mask<T>(true);
+    return through_delta_only(v.mis, v.vertices);
+}
+
+// ppm: whether the lobe the roulette chose at a camera vertex ends its subpath. A Phong lobe
+// does (the vertex merged, and no later vertex would), unless the scene has light that only
+// camera paths find (PathContext::unstarted_light), which the subpath goes on to gather;
+// mirrors and glass go on with their usual weight.
+template <class T>
+Mask<T> camera_lobe_ends_path(const PathContext& c, const I32<T>& lobe) {
+    if (c.estimator.kind != Estimator::kPpm || c.unstarted_light) return Mask<T>(false);
+    return mask_f32(lobe == I32<T>(kLobeDiffuse)) | mask_f32(lobe == I32<T>(kLobeSpecular));
+}
 
 // A camera vertex merged with a light vertex l of its sample's tile (a photon): the path
 // the light subpath would make if it went on from l's previous vertex to v's point. Its
 // weight against the connections that make the same path (bc: v's Phong lobes towards
 // l.wl): the light side's quantities at l with v's density of sampling l.wl as the reverse,
-// the camera side's with its density of sampling v.wo from l.wl.
+// the camera side's with its density of sampling v.wo from l.wl. ppm weighs nothing: its
+// camera subpaths merge only at their first Phong vertex (camera_vertex_merges), so each
+// merge makes paths that no other strategy of it makes.
 template <class T>
 T merge_mis(const PathContext& c, const CameraVertex<T>& v, const LightVertex<T>& l,
             const MergeWeights<T>& mw, const BsdfEval<T>& bc) {
+    if (c.estimator.kind == Estimator::kPpm) return T(1.0f);
     const T w_light = l.mis.vcm * mw.vc_weight + l.mis.vm * mis2(bc.pdf);
     const T w_camera = v.mis.vcm * mw.vc_weight +
                        v.mis.vm * mis2(bc.pdf_reverse * T(c.estimator.reverse_pdf_scale));

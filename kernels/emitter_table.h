@@ -100,6 +100,9 @@ struct PathContext {
     bool lt = false;      // light tracing: camera paths count only emitters never sampled
     bool bdpt = false;    // bidirectional (kernels/bidirectional.h): no nee, no point lights
                           // of the report's kind; the pairs of subpaths bring every light
+    // Light no path from the lights starts at: emitters not sampled (planes, quadrics,
+    // textured emission) or an environment (ppm's camera paths then go on past a merge)
+    bool unstarted_light = false;
 };
 
 // Whether emitter hits are weighed (so a hit needs its emitter's id): nee and mis (emitters

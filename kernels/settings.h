@@ -16,6 +16,9 @@ enum class Estimator : int32_t {
     kLt = 3,      // light tracing: paths from the lights, splatted through the pinhole
     kBdpt = 4,    // bidirectional: every connection of a camera and a light subpath, by MIS
     kVcm = 5,     // bdpt and vertex merging (photon mapping's strategy), by MIS
+    kBpm = 6,     // bidirectional photon mapping: merging at every camera vertex, by MIS
+    kPpm = 7,     // progressive photon mapping: merging where a camera path first scatters
+                  // diffusely (it goes on only through mirrors and glass), unweighted
 };
 
 // Whether the estimator's paths start at the lights and land anywhere in the image (their
@@ -26,11 +29,22 @@ inline constexpr bool splats(Estimator e) {
 
 // Whether the estimator pairs each camera path with a light subpath (kernels/bidirectional.h).
 inline constexpr bool bidirectional(Estimator e) {
-    return e == Estimator::kBdpt || e == Estimator::kVcm;
+    return e == Estimator::kBdpt || e == Estimator::kVcm || e == Estimator::kBpm ||
+           e == Estimator::kPpm;
 }
 
-// Whether camera vertices also merge with the light vertices near them (vcm).
-inline constexpr bool merges(Estimator e) { return e == Estimator::kVcm; }
+// Whether camera vertices merge with the light vertices near them (vcm, bpm, ppm).
+inline constexpr bool merges(Estimator e) {
+    return e == Estimator::kVcm || e == Estimator::kBpm || e == Estimator::kPpm;
+}
+
+// Whether the bidirectional estimator connects vertices (bdpt, vcm): next-event estimation
+// (s = 1), a light vertex to a camera vertex (s, t ≥ 2) and to the pinhole (t = 1). bpm and
+// ppm only merge, and count an emitter hit (s = 0) only where merging cannot make the path
+// (kernels/bidirectional.h, emitter_hit_mis).
+inline constexpr bool connects(Estimator e) {
+    return e == Estimator::kBdpt || e == Estimator::kVcm;
+}
 
 // vcm's merging radius (render.merge_radius, --merge-radius; render.merge_alpha,
 // --merge-alpha): sample n (from 0) merges within r0 · (n + 1)^((α − 1) / 2). r0 = 0 takes

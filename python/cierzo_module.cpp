@@ -485,7 +485,8 @@ shape (height, width, 3), the mean and the variance of each pixel's mean, and th
 max_length segments (default 5, at most 12), as `cierzo render --strategies DIR` writes
 them; the render is then the scalar integrator's (integrator must be left at its default
 or be 'scalar'). Keywords left at None keep the scene's value:
-  spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt', 'bdpt', 'vcm'),
+  spp, width, height, seed, estimator ('report', 'nee', 'mis', 'lt', 'bdpt', 'vcm',
+  'bpm', 'ppm'),
   survival_cap (0..1),
   diffuse_sampling ('uniform', 'cosine'), roulette ('lobe', or 'throughput' for nee and
   mis), roulette_depth (the vertex the throughput roulette starts at, 0..1024),
@@ -494,7 +495,7 @@ or be 'scalar'). Keywords left at None keep the scene's value:
   min_length, max_length (only paths of that many segments count: 1 is the camera seeing an
   emitter, 2 direct light; 1..1048576);
   strategy (bdpt: a pair (s, t), only the paths of s light and t camera vertices count, with
-  their MIS weight, or with unweighted=True without it); merge_radius, merge_alpha (vcm:
+  their MIS weight, or with unweighted=True without it); merge_radius, merge_alpha (vcm, bpm, ppm:
   the first sample's merging radius r0 > 0, scene units, and alpha in (0, 1); sample n
   merges within r0 * (n + 1)^((alpha - 1) / 2));
 and as the command line's options: integrator 'wavefront' or 'scalar', isa 'auto', 'avx512',
@@ -535,12 +536,12 @@ seed, estimator or integrator is refused).)");
 
 Renders (or reads, reference=PATH to an .exr or .pfm) a reference, then the scene at each
 paths-per-pixel count of spp for every combination of integrator, isa, pool, survival_cap,
-diffuse_sampling, roulette, triangle_sampling, sampler and estimator, and for vcm
+diffuse_sampling, roulette, triangle_sampling, sampler and estimator, and for vcm, bpm and ppm
 merge_radius and merge_alpha (lists; an empty list keeps the scene's value; roulette_depth
 one value or None). Returns one dict per render, keyed by the CSV's columns (scene,
 integrator, isa, pool, survival_cap, diffuse_sampling, roulette ('lobe', or e.g.
 'throughput3': from vertex 3), triangle_sampling, sampler, estimator, merge_radius and
-merge_alpha (vcm's, as rendered; empty for the others), threads, width, height, spp, repeats, seconds, rays,
+merge_alpha (vcm's, bpm's and ppm's, as rendered; empty for the others), threads, width, height, spp, repeats, seconds, rays,
 rays_per_second, mse, rmse, rel_mse, reference_mse, reference_rel_mse, mse_corrected,
 rmse_corrected, rel_mse_corrected, estimated_relative_error, efficiency). out writes the
 same rows as CSV, save_reference the rendered reference (.exr); verbose prints the table and

@@ -179,12 +179,12 @@ int run_main(int argc, char** argv) {
                   "(docs/estimators.md, \"strategy images\")")
         ->type_name("DIR");
     r->add_option("--merge-radius", a.job.merge_radius,
-                  "vcm: the first sample's merging radius r0, in scene units; sample n merges "
+                  "vcm, bpm, ppm: the first sample's merging radius r0, in scene units; sample n merges "
                   "within r0 * (n + 1)^((alpha - 1) / 2) (overrides render.merge_radius; "
                   "default: 0.05 of half the diagonal of the box around the scene's bounded "
                   "objects and the camera)");
     r->add_option("--merge-alpha", a.job.merge_alpha,
-                  "vcm: how fast the merging radius shrinks, alpha in (0, 1): the error's bias "
+                  "vcm, bpm, ppm: how fast the merging radius shrinks, alpha in (0, 1): the error's bias "
                   "vanishes as the radius does (overrides render.merge_alpha; default 0.75)");
     r->add_flag("--unweighted", a.job.unweighted,
                 "With --strategy: without its MIS weight (each strategy alone is an unbiased "
@@ -194,7 +194,7 @@ int run_main(int argc, char** argv) {
                   "spheres and triangles of solid emission (two that make a rectangle as one). nee and mis "
                   "default to cosine "
                   "diffuse sampling, the throughput roulette, triangles by solid angle and the "
-                  "sobol sampler (chosen by measured efficiency; docs/estimators.md), bdpt and vcm "
+                  "sobol sampler (chosen by measured efficiency; docs/estimators.md), bdpt, vcm, bpm and ppm "
                   "to cosine diffuse sampling, triangles by solid angle and the sobol sampler "
                   "(with the lobe roulette), report and lt to the report's settings; an option "
                   "or scene key given keeps its value")

@@ -69,7 +69,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                             for (int r : roulettes)
                                 for (int t : triangles)
                                     for (int smp : samplers) {
-                                        const bool vcm = e == int(Estimator::kVcm);
+                                        const bool vcm = merges(Estimator(e));
                                         for (float radius : vcm ? radii : std::vector<float>{-1.0f})
                                             for (float alpha : vcm ? alphas : std::vector<float>{-1.0f})
                                                 out.push_back({.integrator = integrator,
@@ -293,11 +293,15 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
             throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
     for (const std::string& isa : a.isas) require_isa(parse_isa(isa), "--isa");
     if (!a.merge_radii.empty() || !a.merge_alphas.empty()) {
-        // (the radii are swept for the configurations of --estimator vcm alone: a scene's own
-        // vcm without --estimator would ignore them)
-        if (std::find(a.estimators.begin(), a.estimators.end(), "vcm") == a.estimators.end())
+        // (the radii are swept for the configurations of --estimator vcm, bpm or ppm alone: a
+        // scene's own vcm without --estimator would ignore them)
+        if (std::none_of(a.estimators.begin(), a.estimators.end(), [](const std::string& e) {
+                const std::optional<Estimator> kind = parse_estimator(e);
+                return kind && merges(*kind);
+            }))
             throw InputError(std::string(a.merge_radii.empty() ? "--merge-alpha" : "--merge-radius") +
-                             ": merging is vcm's; sweep it with --estimator vcm");
+                             ": merging is vcm's, bpm's and ppm's; sweep it with --estimator vcm "
+                             "(or bpm, ppm)");
     }
     if (!a.save_reference.empty() && a.save_reference.extension() != ".exr")
         throw InputError(a.save_reference.string() + ": --save-reference must end in .exr");

@@ -177,13 +177,13 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
     }
     if ((a.merge_radius || a.merge_alpha) && !merges(e.kind))
         throw InputError(std::string(a.merge_radius ? "--merge-radius" : "--merge-alpha") +
-                         ": merging is vcm's (this render's estimator is " +
+                         ": merging is vcm's, bpm's and ppm's (this render's estimator is " +
                          estimator_name(e.kind) + ")");
     if (!a.strategy.empty()) {
         if (e.kind != Estimator::kBdpt)
             throw InputError("--strategy: strategies are bdpt's (this render's estimator is " +
                              std::string(estimator_name(e.kind)) +
-                             (merges(e.kind) ? "; vcm's merging is no strategy (s, t)" : "") + ")");
+                             (merges(e.kind) ? "; merging is no strategy (s, t)" : "") + ")");
         if (a.strategy.size() != 2 || a.strategy[0] < 0 || a.strategy[1] < 1 ||
             a.strategy[0] + a.strategy[1] < 2 || a.strategy[0] > kMaxLengthLimit ||
             a.strategy[1] > kMaxLengthLimit)

@@ -51,6 +51,12 @@ inline constexpr EstimatorEntry kEstimators[] = {
      "vertex connection and merging: bdpt plus each camera vertex merged with the light "
      "vertices near it (photon mapping's strategy, for paths no connection makes: a caustic "
      "seen in a mirror), all weighted by the power heuristic; biased, consistent"},
+    {Estimator::kBpm, "bpm",
+     "bidirectional photon mapping: vcm's merging at every camera vertex, weighted by the "
+     "power heuristic against merging alone, without connections; biased, consistent"},
+    {Estimator::kPpm, "ppm",
+     "progressive photon mapping: a camera path goes on through mirrors and glass and "
+     "merges where it scatters off a Phong surface, unweighted; biased, consistent"},
 };
 
 struct RouletteEntry {

@@ -97,7 +97,8 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
             if (store.size() >= limit.vertices) refuse_light_store(scene, limit.bytes, store.size());
             store.push_back(lv);
             // t = 1: the vertex seen from the pinhole
-            if (!limited || length_counts<float>(c.estimator, bounce + 1)) {
+            if (connects(c.estimator.kind) &&
+                (!limited || length_counts<float>(c.estimator, bounce + 1))) {
                 const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
                 if (cc.ok && on_arriving_side(cc.wc, v.nf)) {
                     const Vec3f unweighted =
@@ -197,7 +198,8 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
             const CameraVertex<float> cv{hit.p,  v.nf, v.nsf, -ray.d, shadow_origin(v, hit.p, magnitude),
                                          pv,     mis,  bounce + 2};
             // s = 1: the lights sampled from here
-            if (counts(bounce + 2)) {
+            const bool connecting = connects(c.estimator.kind);
+            if (connecting && counts(bounce + 2)) {
                 Vec3f direct(0.0f);
                 if (const int i = rec.strategy(1, bounce + 2); i >= 0) {
                     const PathContext& u = rec.unweighted;
@@ -222,7 +224,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
             }
             // s, t ≥ 2: every stored vertex of this sample's light subpath
             Vec3f connected(0.0f);
-            for (size_t k = 0; k < light_count; ++k) {
+            for (size_t k = 0; connecting && k < light_count; ++k) {
                 if (!counts(light[k].length + bounce + 2)) continue;
                 if (const int i = rec.strategy(light[k].length + 1, bounce + 2); i >= 0)
                     connected += trace_recorded(
@@ -234,14 +236,17 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                         trace_request(scene, connect_vertices(c, cv, light[k], mw, true), rays);
             }
             radiance += throughput * connected;
-            // vcm: the light vertices near it
-            if (merging.grid) radiance += throughput * merge_at(c, *merging.grid, cv, 0u, mw);
+            // vcm, bpm, ppm: the light vertices near it
+            if (merging.grid && camera_vertex_merges<float>(c.estimator, cv))
+                radiance += throughput * merge_at(c, *merging.grid, cv, 0u, mw);
         }
 
         // The roulette and the chosen lobe
         float p = 0.0f;
         const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe), cap, p);
-        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
+        if (lobe == kLobeAbsorbed || camera_lobe_ends_path<float>(c, lobe) ||
+            (limited && !may_extend<float>(c.estimator, bounce)))
+            break;
         const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
         throughput *= next.weight;
@@ -313,7 +318,8 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
     for (int64_t s = tile.s0; s < tile.s1; ++s) {
         Merging merging;
         merging.weights = merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha, s,
-                                        has_lights ? pixels : 0, kMergeTilePaths);
+                                        has_lights ? pixels : 0, kMergeTilePaths,
+                                        connects(c.estimator.kind));
         store.clear();
         for (int32_t k = 0; k < pixels; ++k) {
             begin[size_t(k)] = uint32_t(store.size());

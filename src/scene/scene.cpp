@@ -199,6 +199,7 @@ PathContext Scene::path_context() const {
     c.nee = (e == Estimator::kNee || e == Estimator::kMis) && emitters.count() > 0;
     c.lights = light_data.data();
     c.bdpt = bidirectional(e);
+    c.unstarted_light = emitters.unsampled_objects > 0 || c.emitters.environment.width > 0;
     c.light_count = c.lt || c.bdpt ? 0 : int32_t(light_data.size() / 6);
     c.scene_ior = scene_ior;
     c.smooth = smooth_shading;

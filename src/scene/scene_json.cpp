@@ -1134,7 +1134,7 @@ struct Loader {
         if (r.has("merge_radius")) {
             const double r0 = r.number("merge_radius", 0.0);
             if (!(r0 > 0.0) || !std::isfinite(float(r0)))
-                r.fail("'merge_radius' must be a positive length (vcm's first merging radius)");
+                r.fail("'merge_radius' must be a positive length (the first merging radius of vcm, bpm and ppm)");
             e.merge_radius = float(r0);
         } else {
             r.allow({"merge_radius"});
@@ -1142,13 +1142,13 @@ struct Loader {
         if (r.has("merge_alpha")) {
             const double alpha = r.number("merge_alpha", kMergeAlpha);
             if (!(alpha > 0.0 && alpha < 1.0))
-                r.fail("'merge_alpha' must be in (0, 1), exclusive (how fast vcm's radius shrinks)");
+                r.fail("'merge_alpha' must be in (0, 1), exclusive (how fast the merging radius shrinks)");
             e.merge_alpha = float(alpha);
         } else {
             r.allow({"merge_alpha"});
         }
         if ((r.has("merge_radius") || r.has("merge_alpha")) && !merges(e.kind))
-            r.fail("'merge_radius' and 'merge_alpha' are vcm's (the estimator is \"" +
+            r.fail("'merge_radius' and 'merge_alpha' are vcm's, bpm's and ppm's (the estimator is \"" +
                    std::string(estimator_name(e.kind)) + "\")");
         if (r.has("output")) s.output = file.parent_path() / r.string("output");
         else r.allow({"output"});

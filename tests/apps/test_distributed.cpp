@@ -161,6 +161,9 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         // (vcm: a unit merges with its own light subpaths, per sample index)
         {"caustic.json", "wavefront", {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "vcm"}},
         {"point_lights.json", "scalar", {"--spp", "4", "--width", "40", "--height", "32", "--estimator", "vcm", "--merge-radius", "0.2"}},
+        // (bpm and ppm: merging alone, per-path sums as no light path splats)
+        {"caustic_mirror.json", "wavefront", {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "bpm"}},
+        {"cornell.json", "scalar", {"--spp", "4", "--width", "40", "--height", "32", "--estimator", "ppm"}},
         // (the samplers other than the independent one: their streams too are keyed by the
         // pixel and sample, not by the rank)
         {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis", "--sampler", "zsobol"}},
@@ -303,8 +306,9 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     // (long enough that the kill lands mid-render: natively a 300-path render can end before
     // its first checkpoint, and the test would then have checked nothing)
     // (bdpt's paths cost several times a camera path's: a smaller image takes as long)
-    const bool heavy = std::find(estimator.begin(), estimator.end(), "bdpt") != estimator.end() ||
-                       std::find(estimator.begin(), estimator.end(), "vcm") != estimator.end();
+    const bool heavy = std::any_of(estimator.begin(), estimator.end(), [](const std::string& e) {
+        return e == "bdpt" || e == "vcm" || e == "bpm" || e == "ppm";
+    });
     const std::string spp = emulated() ? "300" : heavy ? "800" : "2000";
     const bool small = emulated() || heavy;
     std::vector<std::string> scene = {"--spp", spp, "--width", small ? "64" : "160",
@@ -363,6 +367,11 @@ TEST(Checkpoints, KilledAndResumedBidirectionalGivesTheUninterruptedImage) {
 
 TEST(Checkpoints, KilledAndResumedVertexMergingGivesTheUninterruptedImage) {
     kill_and_resume(0, "caustic.json", {"--estimator", "vcm"});
+}
+
+// (bpm: no splats, so the tiles done of the pass in progress are kept, as for camera paths)
+TEST(Checkpoints, KilledAndResumedPhotonMappingGivesTheUninterruptedImage) {
+    kill_and_resume(0, "caustic_mirror.json", {"--estimator", "bpm"});
 }
 
 TEST(Checkpoints, KilledAndResumedWithTheSobolSamplerGivesTheUninterruptedImage) {

@@ -137,7 +137,7 @@ inline void merging_table(MergeTable& t, const PathContext& c, const TileJob& jo
         const MergeWeights<float> m =
             merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha,
                           job.sample_begin + int64_t(j), has_lights ? pixels : 0,
-                          kMergeTilePaths);
+                          kMergeTilePaths, connects(c.estimator.kind));
         t.vm_weight[j] = m.vm_weight, t.vc_weight[j] = m.vc_weight;
         t.normalization[j] = m.normalization, t.radius2[j] = m.radius2;
         t.radius[j] = std::sqrt(m.radius2);
@@ -294,6 +294,8 @@ void bdpt_scatter(const FlatScene& s, const Bsdf<typename Wave<A>::F>& m,
     const I lobe = choose_lobe(m, uniform<F>(rng, bounce, Purpose::kLobe), est.survival_cap,
                                probability);
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
+    if constexpr (kMode == Transport::kRadiance)
+        alive = alive & !camera_lobe_ends_path<F>(s.path, lobe);
     if (limits_length(est)) alive = alive & may_extend<F>(est, bounce);
     dir = weight = Vec3<F>(F(0.0f));
     const auto run = [&](auto kind) {
@@ -360,7 +362,7 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
         const LightVertex<F> lv{sf.pos, v.nf, v.nsf, -d, beta, pv, mis, sf.magnitude, bounce};
         append_light_vertices<A>(s, *p.light_store, mask_bits(phong), lv,
                                  U::load_aligned(p.path_id + i));
-        auto seen = phong;
+        auto seen = connects(est.kind) ? phong : decltype(phong)(false);
         if (limits_length(est)) seen = seen & length_counts<F>(est, bounce + U(1u));
         const CameraConnection<F> cc = connect_camera(s.pinhole, sf.pos);
         seen = seen & on_arriving_side(cc.wc, v.nf);
@@ -470,8 +472,9 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
         const CameraVertex<F> cv{sf.pos, v.nf, v.nsf, -d, shadow_origin(v, sf.pos, sf.magnitude),
                                  pv,     mis,  bounce + U(2u)};
         // s = 1: the lights sampled from here
+        const bool connecting = connects(est.kind);
         const auto direct = counts(phong, bounce + U(2u));
-        if (any(direct)) {
+        if (connecting && any(direct)) {
             if (c.emitters.count > 0) {
                 const ShadowRequest<F> r = nee_emitter(c, lights, cv, mw, rng, bounce, direct);
                 queue_owned(w, i, r, beta * r.value, queued);
@@ -491,7 +494,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
         n.store_aligned(lane_n);
         int32_t most = 0;
         for (int32_t l = 0; l < K; ++l) most = std::max(most, lane_n[l]);
-        for (int32_t k = 0; k < most; ++k) {
+        for (int32_t k = 0; connecting && k < most; ++k) {
             auto has = mask_f32(I(k) < n);
             const I idx = gather_lanes<A>(st.order, select(mask_i32(has), lo + I(k), I(0)));
             const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
@@ -499,8 +502,8 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
             const ShadowRequest<F> r = connect_vertices(c, cv, lv, mw, has);
             queue_owned(w, i, r, beta * r.value, queued);
         }
-        // vcm: the stored vertices near it
-        if (merges(est.kind)) merge_lanes<A>(w, i, cv, beta, mw, phong);
+        // vcm, bpm, ppm: the stored vertices near it
+        if (merges(est.kind)) merge_lanes<A>(w, i, cv, beta, mw, phong & camera_vertex_merges<F>(est, cv));
     }
 
     Vec3<F> dir, weight;
