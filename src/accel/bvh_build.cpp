@@ -10,13 +10,21 @@
 //     instances).
 #include "accel/bvh.h"
 
+#include <sys/mman.h>
+
 #include <algorithm>
 #include <array>
+#include <cstdlib>
+#include <new>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
+#include <utility>
 
+#include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_invoke.h>
 
@@ -85,6 +93,65 @@ Vec3f affine(const float m[12], const Vec3f& p) {
             m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
 }
 
+// An allocator for the build's large arrays of plain structs, every element of which is
+// written before it is read (by parallel loops):
+// - its vectors grow without writing their new elements (resize() constructs nothing):
+//   value-initialising them first was a serial pass over 100+ MB that faulted in every page
+//   (a fifth of a 1M-triangle build);
+// - an array of 4 MiB or more is asked for in huge pages (madvise, where the kernel offers
+//   transparent huge pages on request): a page fault costs microseconds under
+//   virtualisation, and a 1M-triangle build faulted in 69,000 small pages.
+inline void* allocate_build_array(size_t bytes) {
+    constexpr size_t kHuge = size_t(2) << 20;
+    if (bytes < 2 * kHuge) return ::operator new(bytes);
+    const size_t rounded = (bytes + kHuge - 1) / kHuge * kHuge;
+    void* p = std::aligned_alloc(kHuge, rounded);
+    if (!p) throw std::bad_alloc();
+    ::madvise(p, rounded, MADV_HUGEPAGE);  // (a hint: refused, the pages are small ones)
+    return p;
+}
+
+// The same request for memory already allocated (the tree's own arrays, reserved): the
+// whole 2 MiB pages within [p, p + bytes).
+inline void advise_huge_pages(const void* p, size_t bytes) {
+    constexpr uintptr_t kHuge = uintptr_t(2) << 20;
+    const uintptr_t lo = (reinterpret_cast<uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
+    const uintptr_t hi = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHuge - 1);
+    if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
+}
+
+inline void free_build_array(void* p, size_t bytes) {
+    constexpr size_t kHuge = size_t(2) << 20;
+    if (bytes < 2 * kHuge)
+        ::operator delete(p);
+    else
+        std::free(p);
+}
+
+template <class T>
+struct Uninitialised {
+    using value_type = T;
+    template <class U>
+    struct rebind {
+        using other = Uninitialised<U>;
+    };
+    Uninitialised() = default;
+    template <class U>
+    Uninitialised(const Uninitialised<U>&) noexcept {}
+    T* allocate(size_t n) { return static_cast<T*>(allocate_build_array(n * sizeof(T))); }
+    void deallocate(T* p, size_t n) noexcept { free_build_array(p, n * sizeof(T)); }
+    template <class U>
+    bool operator==(const Uninitialised<U>&) const noexcept { return true; }
+    template <class U>
+    void construct(U*) noexcept {
+        static_assert(std::is_trivially_copyable_v<U> && std::is_trivially_destructible_v<U>);
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+
 // A primitive as the build sees it.
 struct Ref {
     Box box;
@@ -103,6 +170,7 @@ struct Node {
     uint8_t kind = 0;
     bool inner = false;
 };
+using NodeArray = std::vector<Node, Uninitialised<Node>>;
 
 }  // namespace
 
@@ -143,9 +211,9 @@ Bvh& Bvh::operator=(Bvh&& o) noexcept {
 }
 
 struct Bvh::Builder {
-    std::vector<Ref> refs;
-    std::vector<uint32_t> order;  // the refs being partitioned
-    std::vector<Node> nodes;      // allocated by `next`
+    std::vector<Ref, Uninitialised<Ref>> refs;
+    std::vector<uint32_t, Uninitialised<uint32_t>> order;  // the refs being partitioned
+    NodeArray nodes;  // allocated by `next`, each written whole
     std::atomic<uint32_t> next{0};
     std::atomic<int> depth{0};
 
@@ -157,12 +225,6 @@ struct Bvh::Builder {
         return x > 0.0f ? int(std::min(x, float(kBins - 1))) : 0;
     }
 
-    bool one_kind(uint32_t begin, uint32_t end) const {
-        for (uint32_t i = begin + 1; i < end; ++i)
-            if (refs[order[i]].kind != refs[order[begin]].kind) return false;
-        return true;
-    }
-
     float cost(uint32_t begin, uint32_t end) const {
         float c = 0.0f;
         for (uint32_t i = begin; i < end; ++i) c += kKindCost[refs[order[i]].kind];
@@ -171,25 +233,75 @@ struct Bvh::Builder {
 
     uint32_t add_leaf(Bvh& bvh, const BvhInput& in, const Node& leaf) const;
 
-    // Builds the subtree over order[begin, end) into node `node`.
-    void build(uint32_t node, uint32_t begin, uint32_t end, int level) {
+    // What a node's refs span: their boxes, their centroids, and the kinds among them (a bit
+    // per kind). The partition that makes a node measures its children's, so each ref is read
+    // once per level, by the binning pass.
+    struct Extent {
+        Box bounds, centroids;
+        uint32_t kinds = 0;
+        void add(const Ref& r) {
+            bounds.grow(r.box);
+            centroids.grow(r.centroid);
+            kinds |= 1u << r.kind;
+        }
+    };
+
+    Extent extent_of(uint32_t begin, uint32_t end) const {
+        Extent e;
+        for (uint32_t i = begin; i < end; ++i) e.add(refs[order[i]]);
+        return e;
+    }
+
+    // order[begin, end) split in place so that the refs `left` says yes to come first (the
+    // order std::partition leaves them in: swaps from both ends), with each side's extent;
+    // returns where the second side starts.
+    template <class Left>
+    uint32_t partition(uint32_t begin, uint32_t end, const Left& left, Extent& a, Extent& b) {
+        uint32_t* first = order.data() + begin;
+        uint32_t* last = order.data() + end;
+        while (true) {
+            while (true) {
+                if (first == last) return uint32_t(first - order.data());
+                const Ref& r = refs[*first];
+                if (!left(r)) break;
+                a.add(r);
+                ++first;
+            }
+            b.add(refs[*first]);
+            --last;
+            while (true) {
+                if (first == last) return uint32_t(first - order.data());
+                const Ref& r = refs[*last];
+                if (left(r)) break;
+                b.add(r);
+                --last;
+            }
+            a.add(refs[*last]);
+            std::iter_swap(first, last);
+            ++first;
+        }
+    }
+
+    // Builds the subtree over order[begin, end), whose extent is `e`, into node `node`.
+    void build(uint32_t node, uint32_t begin, uint32_t end, int level, const Extent& e) {
         int d = depth.load(std::memory_order_relaxed);
         while (level > d && !depth.compare_exchange_weak(d, level)) {}
-        Box bounds, centroid_bounds;
-        for (uint32_t i = begin; i < end; ++i) {
-            bounds.grow(refs[order[i]].box);
-            centroid_bounds.grow(refs[order[i]].centroid);
-        }
+        const Box& bounds = e.bounds;
+        const Box& centroid_bounds = e.centroids;
         Node& out = nodes[node];
         out.box = bounds;
         const uint32_t n = end - begin;
-        const bool homogeneous = one_kind(begin, end);
-        out.first = begin, out.count = n, out.kind = homogeneous ? refs[order[begin]].kind : kMixed;
+        const bool homogeneous = std::has_single_bit(e.kinds);
+        out.first = begin, out.count = n,
+        out.kind = homogeneous ? uint8_t(std::countr_zero(e.kinds)) : kMixed;
+        out.left = out.right = 0;
         auto leaf = [&] { out.inner = false; };
         if (n <= kLeafSize && homogeneous) return leaf();
         // Split: binned SAH, or by kind where a small mixed node would otherwise be a leaf,
         // or an object median when the SAH is not usable
         uint32_t mid = begin;
+        Extent left_extent, right_extent;
+        bool measured = false;  // (the children's extents, from the partition)
         const Vec3f extent = centroid_bounds.hi - centroid_bounds.lo;
         if (level < kMaxSahDepth && max_component(extent) > 0.0f) {
             int axis = 0, bin = -1;
@@ -200,11 +312,10 @@ struct Bvh::Builder {
             if (bin >= 0) {
                 const float lo = component(centroid_bounds.lo, axis);
                 const float scale = kBins / component(extent, axis);
-                auto* split = std::partition(order.data() + begin, order.data() + end,
-                                             [&](uint32_t r) {
-                    return bin_of(component(refs[r].centroid, axis), lo, scale) < bin;
-                });
-                mid = uint32_t(split - order.data());
+                mid = partition(begin, end, [&](const Ref& r) {
+                    return bin_of(component(r.centroid, axis), lo, scale) < bin;
+                }, left_extent, right_extent);
+                measured = true;
             }
         }
         if ((mid == begin || mid == end) && !homogeneous && n <= 4 * kBvhMaxLeafSize) {
@@ -212,6 +323,7 @@ struct Bvh::Builder {
             auto* split = std::stable_partition(order.data() + begin, order.data() + end,
                                                 [&](uint32_t r) { return refs[r].kind == k; });
             mid = uint32_t(split - order.data());
+            measured = false;
         }
         if (mid == begin || mid == end) {
             const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0
@@ -221,54 +333,65 @@ struct Bvh::Builder {
                              [&](uint32_t a, uint32_t b) {
                 return component(refs[a].centroid, axis) < component(refs[b].centroid, axis);
             });
+            measured = false;
         }
+        if (!measured) left_extent = extent_of(begin, mid), right_extent = extent_of(mid, end);
         const uint32_t left = next.fetch_add(2, std::memory_order_relaxed);
         out.left = left, out.right = left + 1, out.inner = true;
         if (n > kParallelBelow) {
-            oneapi::tbb::parallel_invoke([&] { build(left, begin, mid, level + 1); },
-                                         [&] { build(left + 1, mid, end, level + 1); });
+            oneapi::tbb::parallel_invoke(
+                [&] { build(left, begin, mid, level + 1, left_extent); },
+                [&] { build(left + 1, mid, end, level + 1, right_extent); });
         } else {
-            build(left, begin, mid, level + 1);
-            build(left + 1, mid, end, level + 1);
+            build(left, begin, mid, level + 1, left_extent);
+            build(left + 1, mid, end, level + 1, right_extent);
         }
     }
 
-    // The cheapest binned split plane over the three axes: returns its SAH cost (the sum of
-    // child half-areas times test costs) and sets the axis and the first bin of the second
-    // child (bin stays -1 when no plane separates anything).
+    // The cheapest binned split plane over the three axes, binned in one pass: returns its
+    // SAH cost (the sum of child half-areas times test costs) and sets the axis and the first
+    // bin of the second child (bin stays -1 when no plane separates anything).
     float find_sah_split(uint32_t begin, uint32_t end, const Box& centroid_bounds, int& best_axis,
                          int& best_bin) const {
+        float lo[3], scale[3];
+        bool usable[3];
+        for (int axis = 0; axis < 3; ++axis) {
+            lo[axis] = component(centroid_bounds.lo, axis);
+            const float extent = component(centroid_bounds.hi, axis) - lo[axis];
+            usable[axis] = extent > 0.0f;
+            scale[axis] = usable[axis] ? kBins / extent : 0.0f;
+        }
+        Box bin_boxes[3][kBins];
+        float bin_cost[3][kBins] = {};
+        uint32_t bin_count[3][kBins] = {};
+        for (uint32_t i = begin; i < end; ++i) {
+            const Ref& r = refs[order[i]];
+            const float c = kKindCost[r.kind];
+            for (int axis = 0; axis < 3; ++axis) {
+                const int b = bin_of(component(r.centroid, axis), lo[axis], scale[axis]);
+                bin_boxes[axis][b].grow(r.box);
+                bin_cost[axis][b] += c;
+                ++bin_count[axis][b];
+            }
+        }
         float best = kInf;
         for (int axis = 0; axis < 3; ++axis) {
-            const float lo = component(centroid_bounds.lo, axis);
-            const float extent = component(centroid_bounds.hi, axis) - lo;
-            if (!(extent > 0.0f)) continue;
-            const float scale = kBins / extent;
-            Box bin_boxes[kBins];
-            float bin_cost[kBins] = {};
-            uint32_t bin_count[kBins] = {};
-            for (uint32_t i = begin; i < end; ++i) {
-                const Ref& r = refs[order[i]];
-                const int b = bin_of(component(r.centroid, axis), lo, scale);
-                bin_boxes[b].grow(r.box);
-                bin_cost[b] += kKindCost[r.kind];
-                ++bin_count[b];
-            }
+            if (!usable[axis]) continue;
             float right_cost[kBins];
             Box right;
             float right_sum = 0.0f;
             for (int b = kBins - 1; b > 0; --b) {
-                right.grow(bin_boxes[b]);
-                right_sum += bin_cost[b];
+                right.grow(bin_boxes[axis][b]);
+                right_sum += bin_cost[axis][b];
                 right_cost[b] = right_sum * right.half_area();
             }
             Box left;
             float left_sum = 0.0f;
             uint32_t left_count = 0;
             for (int b = 1; b < kBins; ++b) {
-                left.grow(bin_boxes[b - 1]);
-                left_sum += bin_cost[b - 1];
-                left_count += bin_count[b - 1];
+                left.grow(bin_boxes[axis][b - 1]);
+                left_sum += bin_cost[axis][b - 1];
+                left_count += bin_count[axis][b - 1];
                 if (left_count == 0 || left_count == end - begin) continue;
                 const float c = left_sum * left.half_area() + right_cost[b];
                 if (c < best) best = c, best_axis = axis, best_bin = b;
@@ -282,7 +405,7 @@ namespace {
 
 // The collapse of the binary tree into wide nodes and leaf blocks.
 struct Collapser {
-    const std::vector<Node>& nodes;
+    const NodeArray& nodes;
     // Per binary node: the cost of its subtree as at most i roots (cost[i], i = 1..8; as one
     // root it is a leaf or a wide node, whichever is cheaper: leaf); for i >= 2, whether
     // spreading over i slots beats one root (spread[i]) and how many go to the first child
@@ -303,7 +426,7 @@ struct Collapser {
         return area * kBlockCost * kKindCost[node.kind] * float(node.count);
     }
 
-    Collapser(const std::vector<Node>& n, uint32_t used) : nodes(n), plan(used) {
+    Collapser(const NodeArray& n, uint32_t used) : nodes(n), plan(used) {
         if (used > 0) plan_subtree(0);
     }
 
@@ -383,27 +506,42 @@ void Bvh::build(const BvhInput& in) {
             throw InputError("BVH: the triangle index count (" + std::to_string(set.indices.size()) +
                              ") is not a multiple of 3");
         const size_t count = set.indices.size() / 3;
-        for (size_t i = 0; i < count; ++i) {
-            const uint32_t* tri = &set.indices[3 * i];
-            for (int k = 0; k < 3; ++k)
-                if (tri[k] >= set.positions.size())
-                    throw InputError("BVH: triangle " + std::to_string(i) + " uses vertex " +
-                                     std::to_string(tri[k]) + " but there are only " +
-                                     std::to_string(set.positions.size()) + " vertices");
-        }
         const size_t first = b.refs.size();
         b.refs.resize(first + count);
-        std::vector<uint8_t> keep(count);
-        oneapi::tbb::parallel_for(size_t(0), count, [&](size_t i) {
+        std::vector<uint8_t, Uninitialised<uint8_t>> keep(count);
+        // (a triangle with a vertex past the end is reported, the first one if several)
+        std::atomic<size_t> bad{count};
+        oneapi::tbb::parallel_for(
+            oneapi::tbb::blocked_range<size_t>(0, count, 4096),
+            [&](const oneapi::tbb::blocked_range<size_t>& range) {
+                for (size_t i = range.begin(); i < range.end(); ++i) {
+                    const uint32_t* tri = &set.indices[3 * i];
+                    Ref& r = b.refs[first + i];
+                    if (tri[0] >= set.positions.size() || tri[1] >= set.positions.size() ||
+                        tri[2] >= set.positions.size()) {
+                        size_t seen = bad.load(std::memory_order_relaxed);
+                        while (i < seen && !bad.compare_exchange_weak(seen, i)) {}
+                        keep[i] = 0;
+                        continue;
+                    }
+                    const Vec3f &p0 = set.positions[tri[0]], &p1 = set.positions[tri[1]],
+                                &p2 = set.positions[tri[2]];
+                    keep[i] = !is_degenerate(p0, p1, p2);
+                    r.box = Box{};
+                    r.box.grow(p0), r.box.grow(p1), r.box.grow(p2);
+                    r.centroid = (r.box.lo + r.box.hi) * 0.5f;
+                    r.kind = kLeafTriangles, r.a = uint32_t(s), r.b = uint32_t(i);
+                }
+            });
+        if (const size_t i = bad.load(); i < count) {
             const uint32_t* tri = &set.indices[3 * i];
-            const Vec3f &p0 = set.positions[tri[0]], &p1 = set.positions[tri[1]],
-                        &p2 = set.positions[tri[2]];
-            keep[i] = !is_degenerate(p0, p1, p2);
-            Ref& r = b.refs[first + i];
-            r.box.grow(p0), r.box.grow(p1), r.box.grow(p2);
-            r.centroid = (r.box.lo + r.box.hi) * 0.5f;
-            r.kind = kLeafTriangles, r.a = uint32_t(s), r.b = uint32_t(i);
-        });
+            const uint32_t v = tri[0] >= set.positions.size()   ? tri[0]
+                               : tri[1] >= set.positions.size() ? tri[1]
+                                                                : tri[2];
+            throw InputError("BVH: triangle " + std::to_string(i) + " uses vertex " +
+                             std::to_string(v) + " but there are only " +
+                             std::to_string(set.positions.size()) + " vertices");
+        }
         size_t out = first;
         for (size_t i = 0; i < count; ++i)
             if (keep[i]) b.refs[out++] = b.refs[first + i];
@@ -466,17 +604,31 @@ void Bvh::build(const BvhInput& in) {
     // The binary tree
     const uint32_t n = uint32_t(b.refs.size());
     b.order.resize(n);
-    for (uint32_t i = 0; i < n; ++i) b.order[i] = i;
-    b.nodes.resize(2 * size_t(n));
+    oneapi::tbb::parallel_for(uint32_t(0), n, [&](uint32_t i) { b.order[i] = i; });
+    b.nodes.resize(2 * size_t(n));  // (at most 2n - 1 are used; pages untouched cost nothing)
     b.next = 1;
-    b.build(0, 0, n, 1);
+    b.build(0, 0, n, 1, b.extent_of(0, n));
     stats_.depth = b.depth;
     const Box root = b.nodes[0].box;
     view_.bounds[0] = root.lo.x, view_.bounds[1] = root.lo.y, view_.bounds[2] = root.lo.z;
     view_.bounds[3] = root.hi.x, view_.bounds[4] = root.hi.y, view_.bounds[5] = root.hi.z;
 
     // The wide tree: breadth of each node's slots from the plan, leaves written as blocks
+    // (into arrays reserved for the most the leaves can take: a block per 8 triangles and one
+    // partial block per binary leaf, so they never move while they grow)
     const Collapser c(b.nodes, b.next.load());
+    {
+        size_t triangle_refs = 0, leaves = 0;
+        for (uint32_t i = 0; i < b.next.load(); ++i) leaves += !b.nodes[i].inner;
+        for (const BvhTriangles& set : in.triangles) triangle_refs += set.indices.size() / 3;
+        const size_t blocks = triangle_refs / kWideBvhWidth + leaves;
+        triangles_.reserve(blocks);
+        triangle_mesh_.reserve(blocks * kWideBvhWidth);
+        triangle_index_.reserve(blocks * kWideBvhWidth);
+        advise_huge_pages(triangles_.data(), triangles_.capacity() * sizeof(TriangleBlock));
+        advise_huge_pages(triangle_mesh_.data(), triangle_mesh_.capacity() * sizeof(uint32_t));
+        advise_huge_pages(triangle_index_.data(), triangle_index_.capacity() * sizeof(uint32_t));
+    }
     std::vector<uint32_t> kids;
     struct Todo {
         uint32_t wide, binary;

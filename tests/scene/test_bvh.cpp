@@ -327,6 +327,21 @@ TEST(Bvh, BadIndicesAreInputErrors) {
     Bvh bvh;
     EXPECT_THROW(bvh.build(positions, out_of_range), InputError);
     EXPECT_THROW(bvh.build(positions, not_triangles), InputError);
+    // Among many triangles (checked in parallel), the first bad one is named, with its vertex
+    std::vector<Vec3f> grid;
+    std::vector<uint32_t> tris;
+    for (uint32_t i = 0; i < 20000; ++i) {
+        grid.push_back({float(i), 0, 0}), grid.push_back({float(i), 1, 0}), grid.push_back({float(i), 0, 1});
+        tris.insert(tris.end(), {3 * i, 3 * i + 1, 3 * i + 2});
+    }
+    tris[3 * 15000 + 1] = 70000, tris[3 * 17000] = 90000, tris[3 * 19000 + 2] = 60001;
+    try {
+        bvh.build(grid, tris);
+        FAIL() << "a vertex past the end was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("triangle 15000 uses vertex 70000 but there are only 60000"),
+                  std::string::npos) << e.what();
+    }
 }
 
 // ---- The 8-wide BVH ----------------------------------------------------------------------------
