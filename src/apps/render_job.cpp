@@ -26,9 +26,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Whether `spp` ends a pass of an uninterrupted render (pass_bounds from zero).
-bool on_pass_schedule(int64_t spp) {
-    for (int64_t b : pass_bounds(0, spp)) if (b == spp) return true;
+// Whether `spp` ends a pass of an uninterrupted render of `target` paths per pixel
+// (pass_bounds from zero) of an image of `pixels`.
+bool on_pass_schedule(int64_t spp, int64_t target, int64_t pixels) {
+    for (int64_t b : pass_bounds(0, target, pixels)) if (b == spp) return true;
     return false;
 }
 
@@ -258,7 +259,8 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
             throw InputError(fmt::format("{}: the checkpoint already has {} paths per pixel, "
                                          "more than the {} asked for",
                                          a.resume.string(), spp_done, s.spp));
-        if (!on_pass_schedule(spp_done) && spp_done < s.spp)
+        if (spp_done < s.spp &&
+            !on_pass_schedule(spp_done, s.spp, int64_t(s.width) * int64_t(s.height)))
             resume_warnings.push_back(fmt::format(
                 "{}: the checkpoint is a finished render of {} paths per pixel; continued to {}, "
                 "the image is right but not bit-identical to an uninterrupted render of {}",

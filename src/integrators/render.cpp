@@ -135,12 +135,17 @@ void work(Coordinator& coord, const UnitRenderer& renderer, Clock::time_point st
 
 }  // namespace
 
-std::vector<int64_t> pass_bounds(int64_t start, int64_t spp) {
-    // Boundaries 1, 2, 4, 8, 16 and then every 16: so a finished render of a power of two or a
-    // multiple of 16 paths per pixel ends on a boundary, and can be continued to more
-    // paths with the very bits of an uninterrupted render of more
+std::vector<int64_t> pass_bounds(int64_t start, int64_t spp, int64_t pixels) {
+    // Boundaries 1, 2, 4, 8, 16 (those of passes of kMinPassPaths paths or more) and then
+    // every 16: so a finished render of a multiple of 16 paths per pixel (in a large image,
+    // of a power of two too) ends on a boundary, and can be continued to more paths with the
+    // very bits of an uninterrupted render of more
     std::vector<int64_t> bounds{start};
+    int64_t kept = 0;  // the last boundary of the schedule from zero
     for (int64_t b = 1; b < spp + 16; b = b < 16 ? 2 * b : b + 16) {
+        if (b < 16 && b < spp && (b - kept) * std::max<int64_t>(pixels, 1) < kMinPassPaths)
+            continue;
+        kept = b;
         const int64_t end = std::min(b, spp);
         if (end > bounds.back()) bounds.push_back(end);
         if (end == spp) break;
@@ -240,7 +245,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
             result.film = resume->film;
             st.spp_resumed = resume->spp_done;
         }
-        std::vector<int64_t> bounds = pass_bounds(resume ? resume->spp_done : 0, rs.spp);
+        std::vector<int64_t> bounds = pass_bounds(resume ? resume->spp_done : 0, rs.spp,
+                                                  int64_t(rs.width) * int64_t(rs.height));
         Progress progress(options.progress && isatty(STDERR_FILENO),
                           tiles.size() * (bounds.size() - 1));
         Coordinator coord(scene, options, tiles, bounds, result.film, start, progress, pool);

@@ -155,8 +155,14 @@ struct Tile {
 // The passes: pass k renders samples [bounds[k], bounds[k + 1]) of every pixel. From zero,
 // the boundaries are 1, 2, 4, 8, 16 and then every 16 paths per pixel, the last one cut at
 // `spp`: a fixed schedule (so the image does not depend on timing), fine enough to stop
-// soon after a request. From `start` (a resumed render), the same boundaries above `start`.
-std::vector<int64_t> pass_bounds(int64_t start, int64_t spp);
+// soon after a request. Below 16, a boundary is kept only where the pass it ends has at
+// least kMinPassPaths paths over the image's `pixels`: a pass costs every pixel the same
+// handling whatever its paths (its sums zeroed, counted, added to the film), which in a
+// small image's 1-, 2- and 4-path passes took a third of the render, and a small image's
+// early passes are over in milliseconds anyway. From `start` (a resumed render), the same
+// boundaries above `start`.
+inline constexpr int64_t kMinPassPaths = int64_t(1) << 20;
+std::vector<int64_t> pass_bounds(int64_t start, int64_t spp, int64_t pixels);
 
 // The tiles of a width × height image, kTileSize square, in row order.
 std::vector<Tile> image_tiles(int width, int height);

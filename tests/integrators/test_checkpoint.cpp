@@ -74,21 +74,47 @@ RenderOptions options_for(const test::Variant& v, int threads) {
 }
 
 TEST(PassBounds, StartAtZeroOrAtAResumedCountAndEndAtSpp) {
-    EXPECT_EQ(pass_bounds(0, 40), (std::vector<int64_t>{0, 1, 2, 4, 8, 16, 32, 40}));
-    EXPECT_EQ(pass_bounds(0, 1), (std::vector<int64_t>{0, 1}));
-    EXPECT_EQ(pass_bounds(0, 3), (std::vector<int64_t>{0, 1, 2, 3}));
-    EXPECT_EQ(pass_bounds(0, 48), (std::vector<int64_t>{0, 1, 2, 4, 8, 16, 32, 48}));
+    // (an image of 2^20 pixels: every pass of one path per pixel or more has enough paths)
+    const int64_t kLarge = kMinPassPaths;
+    EXPECT_EQ(pass_bounds(0, 40, kLarge), (std::vector<int64_t>{0, 1, 2, 4, 8, 16, 32, 40}));
+    EXPECT_EQ(pass_bounds(0, 1, kLarge), (std::vector<int64_t>{0, 1}));
+    EXPECT_EQ(pass_bounds(0, 3, kLarge), (std::vector<int64_t>{0, 1, 2, 3}));
+    EXPECT_EQ(pass_bounds(0, 48, kLarge), (std::vector<int64_t>{0, 1, 2, 4, 8, 16, 32, 48}));
     // From a boundary: the same boundaries above it; a finished render of a power of two or a
     // multiple of 16 is on a boundary
-    EXPECT_EQ(pass_bounds(16, 40), (std::vector<int64_t>{16, 32, 40}));
-    const std::vector<int64_t> big = pass_bounds(0, 16384);
+    EXPECT_EQ(pass_bounds(16, 40, kLarge), (std::vector<int64_t>{16, 32, 40}));
+    const std::vector<int64_t> big = pass_bounds(0, 16384, kLarge);
     EXPECT_NE(std::find(big.begin(), big.end(), 4096), big.end());
-    EXPECT_EQ(pass_bounds(4096, 4128), (std::vector<int64_t>{4096, 4112, 4128}));
+    EXPECT_EQ(pass_bounds(4096, 4128, kLarge), (std::vector<int64_t>{4096, 4112, 4128}));
     // From a finished render's count that is not a boundary: the first pass is shorter
-    EXPECT_EQ(pass_bounds(20, 40), (std::vector<int64_t>{20, 32, 40}));
-    EXPECT_EQ(pass_bounds(40, 40), (std::vector<int64_t>{40}));
+    EXPECT_EQ(pass_bounds(20, 40, kLarge), (std::vector<int64_t>{20, 32, 40}));
+    EXPECT_EQ(pass_bounds(40, 40, kLarge), (std::vector<int64_t>{40}));
     // Passes never exceed 16 paths per pixel
     for (size_t i = 1; i < big.size(); ++i) EXPECT_LE(big[i] - big[i - 1], 16);
+}
+
+// A small image's early passes are joined until each has kMinPassPaths paths (or reaches 16
+// paths per pixel); from 16 on, every 16 as for any image.
+TEST(PassBounds, ASmallImageJoinsItsEarlyPasses) {
+    const int64_t k = kMinPassPaths;
+    EXPECT_EQ(pass_bounds(0, 40, k / 2), (std::vector<int64_t>{0, 2, 4, 8, 16, 32, 40}));
+    EXPECT_EQ(pass_bounds(0, 40, k / 4), (std::vector<int64_t>{0, 4, 8, 16, 32, 40}));
+    EXPECT_EQ(pass_bounds(0, 40, 250 * 250), (std::vector<int64_t>{0, 16, 32, 40}));
+    EXPECT_EQ(pass_bounds(0, 16, 250 * 250), (std::vector<int64_t>{0, 16}));
+    EXPECT_EQ(pass_bounds(0, 3, 64 * 64), (std::vector<int64_t>{0, 3}));
+    EXPECT_EQ(pass_bounds(0, 1, 1), (std::vector<int64_t>{0, 1}));
+    EXPECT_EQ(pass_bounds(16, 40, 64 * 64), (std::vector<int64_t>{16, 32, 40}));
+    // (a pass between two kept boundaries is never below the minimum unless it reaches 16)
+    for (int64_t pixels : {int64_t(1), int64_t(4096), k / 3, k / 2 + 1, k}) {
+        const std::vector<int64_t> b = pass_bounds(0, 4096, pixels);
+        for (size_t i = 1; i < b.size(); ++i) {
+            EXPECT_LE(b[i] - b[i - 1], 16);
+            if (b[i] < 16) {
+                EXPECT_GE((b[i] - b[i - 1]) * pixels, k) << pixels << " pixels";
+            }
+        }
+        EXPECT_NE(std::find(b.begin(), b.end(), 16), b.end());
+    }
 }
 
 // The heart of it: states taken every few milliseconds, each resumed, each ending in the
