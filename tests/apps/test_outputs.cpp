@@ -190,6 +190,27 @@ TEST_F(outputs, CheckpointsClashWithTheImageNotWithTheStateTheyContinue) {
     EXPECT_EQ(read_file(ck), state);
 }
 
+// A finished render continued to more paths: on the schedule of the larger count, no
+// warning; off it (a small image's passes below 16 are joined), a warning that the bits
+// differ from an uninterrupted render's.
+TEST_F(outputs, AResumedFinishedRenderOffTheScheduleWarns) {
+    const fs::path ck16 = dir_ / "ck16.exr", ck8 = dir_ / "ck8.exr";
+    const std::string size = " --width 16 --height 16 --threads 1 --quiet";
+    ASSERT_EQ(run(quote(scene_) + size + " --spp 16 --out " + quote(dir_ / "a.exr") +
+                  " --checkpoint " + quote(ck16)).exit_code, 0);
+    ASSERT_EQ(run(quote(scene_) + size + " --spp 8 --out " + quote(dir_ / "b.exr") +
+                  " --checkpoint " + quote(ck8)).exit_code, 0);
+    Outcome r = run(quote(scene_) + size + " --spp 32 --out " + quote(dir_ / "c.exr") +
+                    " --resume " + quote(ck16));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err.find("not bit-identical"), std::string::npos) << r.err;
+    r = run(quote(scene_) + size + " --spp 32 --out " + quote(dir_ / "d.exr") + " --resume " +
+            quote(ck8));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("not bit-identical to an uninterrupted render of 32"), std::string::npos)
+        << r.err;
+}
+
 // A link kept as "the latest render" stays a link, and points at the new image.
 TEST_F(outputs, AnImageLinkIsWrittenThrough) {
     fs::create_directory(dir_ / "renders");
