@@ -259,8 +259,7 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
             throw InputError(fmt::format("{}: the checkpoint already has {} paths per pixel, "
                                          "more than the {} asked for",
                                          a.resume.string(), spp_done, s.spp));
-        if (spp_done < s.spp &&
-            !on_pass_schedule(spp_done, s.spp, int64_t(s.width) * int64_t(s.height)))
+        if (spp_done < s.spp && !on_pass_schedule(spp_done, s.spp, pass_pixels(scene)))
             resume_warnings.push_back(fmt::format(
                 "{}: the checkpoint is a finished render of {} paths per pixel; continued to {}, "
                 "the image is right but not bit-identical to an uninterrupted render of {}",

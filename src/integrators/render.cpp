@@ -153,6 +153,11 @@ std::vector<int64_t> pass_bounds(int64_t start, int64_t spp, int64_t pixels) {
     return bounds;
 }
 
+int64_t pass_pixels(const Scene& scene) {
+    if (splats(scene.settings.estimator.kind)) return kMinPassPaths;
+    return int64_t(scene.settings.width) * int64_t(scene.settings.height);
+}
+
 std::vector<Tile> image_tiles(int width, int height) {
     std::vector<Tile> tiles;
     for (int y = 0; y < height; y += kTileSize)
@@ -245,8 +250,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
             result.film = resume->film;
             st.spp_resumed = resume->spp_done;
         }
-        std::vector<int64_t> bounds = pass_bounds(resume ? resume->spp_done : 0, rs.spp,
-                                                  int64_t(rs.width) * int64_t(rs.height));
+        std::vector<int64_t> bounds =
+            pass_bounds(resume ? resume->spp_done : 0, rs.spp, pass_pixels(scene));
         Progress progress(options.progress && isatty(STDERR_FILENO),
                           tiles.size() * (bounds.size() - 1));
         Coordinator coord(scene, options, tiles, bounds, result.film, start, progress, pool);

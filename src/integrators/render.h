@@ -161,8 +161,14 @@ struct Tile {
 // small image's 1-, 2- and 4-path passes took a third of the render, and a small image's
 // early passes are over in milliseconds anyway. From `start` (a resumed render), the same
 // boundaries above `start`.
+// An estimator that splats is the exception (pass_pixels): its error is estimated from the
+// spread of the passes' means (Film::merge_batch), which fewer passes would make coarser.
 inline constexpr int64_t kMinPassPaths = int64_t(1) << 20;
 std::vector<int64_t> pass_bounds(int64_t start, int64_t spp, int64_t pixels);
+
+// The `pixels` pass_bounds takes for a render of `scene`: its image's, or for an estimator
+// that splats kMinPassPaths (no pass joined).
+int64_t pass_pixels(const Scene& scene);
 
 // The tiles of a width × height image, kTileSize square, in row order.
 std::vector<Tile> image_tiles(int width, int height);

@@ -116,7 +116,12 @@ TEST(Bidirectional, FindsAPointLightInsideAGlassBall) {
         SCOPED_TRACE(v.integrator + " " + v.isa + " " + estimator_name(e));
         const RenderResult r = run(scene_of(json, e, spp(512, 64), 0.4f), v);
         const Mean m = image_mean(r.film, 0);
-        EXPECT_NEAR(m.mean, expected, std::max(4 * m.sigma, 0.002 * expected));
+        // (ppm's pixels share their photons, the tile's light paths', so its pixels are far
+        // from independent and their own variances understate the mean's: its bound is the
+        // relative one alone)
+        if (e != Estimator::kPpm) {
+            EXPECT_NEAR(m.mean, expected, std::max(4 * m.sigma, 0.002 * expected));
+        }
         EXPECT_NEAR(m.mean, expected, 0.01 * expected * (test::lighter_settings() ? 4 : 1));
       }
 }
