@@ -53,7 +53,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     std::vector<int> samplers;
     for (const std::string& s : a.samplers) samplers.push_back(int(*parse_sampler(s)));
     if (samplers.empty()) samplers.push_back(-1);
-    // (vcm's radius and exponent: swept for vcm alone)
+    // (the merging radius and exponent: swept for vcm, bpm and ppm alone)
     const std::vector<float> radii = a.merge_radii.empty() ? std::vector<float>{-1.0f} : a.merge_radii;
     const std::vector<float> alphas = a.merge_alphas.empty() ? std::vector<float>{-1.0f} : a.merge_alphas;
     std::vector<ConvergeConfig> out;
@@ -127,7 +127,7 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
         p.estimator.survival_cap, diffuse_name(p.estimator), roulette_label(p.estimator),
         triangle_sampling_name(p.estimator), sampler_name(p.estimator.sampler),
         estimator_name(p.estimator.kind),
-        // (vcm's radius as rendered, the scene's rule resolved; empty for the others)
+        // (the merging radius as rendered, the scene's rule resolved; empty for the others)
         merges(p.estimator.kind) ? fmt::format("{:.6g}", p.merge_radius) : std::string(),
         merges(p.estimator.kind) ? fmt::format("{:.6g}", p.estimator.merge_alpha) : std::string(),
         p.stats.threads,
@@ -223,12 +223,13 @@ CLI::App* add_converge_command(CLI::App& app) {
         },
         "(0, 1)");
     c->add_option("--merge-radius", a.merge_radii,
-                  "vcm's first merging radii r0 to sweep (scene units, each > 0; render's "
+                  "The first merging radii r0 of vcm, bpm and ppm to sweep (scene units, each > 0; render's "
                   "--merge-radius); default: the scene's")
         ->delimiter(',')
         ->check(positive);
     c->add_option("--merge-alpha", a.merge_alphas,
-                  "vcm's radius exponents alpha to sweep, each in (0, 1); default: the scene's")
+                  "The merging radius exponents alpha of vcm, bpm and ppm to sweep, each in (0, 1); "
+                  "default: the scene's")
         ->delimiter(',')
         ->check(open_unit);
     c->add_option("--roulette", a.roulettes,
