@@ -38,13 +38,17 @@ struct Recorder {
     int strategy(uint32_t s, uint32_t t) const { return tile ? tile->layout().index(s, t) : -1; }
 };
 
-// trace_request for a recorded strategy: the shadow ray of `weighted` and of `unweighted`
-// (the same ray, every weight 1), traced once if either wants it. Both values, times the
-// camera subpath's throughput, go to the strategy's image; what the weighted one adds is
-// returned (what trace_request would return).
-Vec3f trace_recorded(const Scene& scene, const ShadowRequest<float>& weighted,
-                     const ShadowRequest<float>& unweighted, const Vec3f& throughput,
-                     int strategy, Recorder& rec, RayCounts& rays) {
+// trace_request for the request `make(context)` makes, of strategy number `strategy`: when
+// that strategy is recorded, the shadow ray of the weighted request and of its unweighted
+// twin (make(rec.unweighted): the same ray, every weight 1), traced once if either wants it,
+// both values, times the camera subpath's throughput, going to the strategy's image. Returns
+// what the weighted one adds (what trace_request would return).
+template <class Make>
+Vec3f trace_strategy(const Scene& scene, const PathContext& c, int strategy, const Make& make,
+                     const Vec3f& throughput, Recorder& rec, RayCounts& rays) {
+    const ShadowRequest<float> weighted = make(c);
+    if (strategy < 0) return trace_request(scene, weighted, rays);
+    const ShadowRequest<float> unweighted = make(rec.unweighted);
     if (!weighted.want && !unweighted.want) return Vec3f(0.0f);
     const ShadowRequest<float>& r = weighted.want ? weighted : unweighted;
     ++rays.shadow;
@@ -201,39 +205,25 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
             const bool connecting = connects(c.estimator.kind);
             if (connecting && counts(bounce + 2)) {
                 Vec3f direct(0.0f);
-                if (const int i = rec.strategy(1, bounce + 2); i >= 0) {
-                    const PathContext& u = rec.unweighted;
-                    if (c.emitters.count > 0)
-                        direct += trace_recorded(
-                            scene, nee_emitter(c, lights, cv, mw, rng, bounce, true),
-                            nee_emitter(u, lights, cv, mw, rng, bounce, true), throughput, i,
-                            rec, rays);
-                    for (int32_t j = 0; j < lights.point_count; ++j)
-                        direct += trace_recorded(scene, nee_point_light(c, lights, j, cv, mw, true),
-                                                 nee_point_light(u, lights, j, cv, mw, true),
-                                                 throughput, i, rec, rays);
-                } else {
-                    if (c.emitters.count > 0)
-                        direct += trace_request(
-                            scene, nee_emitter(c, lights, cv, mw, rng, bounce, true), rays);
-                    for (int32_t j = 0; j < lights.point_count; ++j)
-                        direct +=
-                            trace_request(scene, nee_point_light(c, lights, j, cv, mw, true), rays);
-                }
+                const int i = rec.strategy(1, bounce + 2);
+                if (c.emitters.count > 0)
+                    direct += trace_strategy(scene, c, i, [&](const PathContext& x) {
+                        return nee_emitter(x, lights, cv, mw, rng, bounce, true);
+                    }, throughput, rec, rays);
+                for (int32_t j = 0; j < lights.point_count; ++j)
+                    direct += trace_strategy(scene, c, i, [&](const PathContext& x) {
+                        return nee_point_light(x, lights, j, cv, mw, true);
+                    }, throughput, rec, rays);
                 radiance += throughput * direct;
             }
             // s, t ≥ 2: every stored vertex of this sample's light subpath
             Vec3f connected(0.0f);
             for (size_t k = 0; connecting && k < light_count; ++k) {
                 if (!counts(light[k].length + bounce + 2)) continue;
-                if (const int i = rec.strategy(light[k].length + 1, bounce + 2); i >= 0)
-                    connected += trace_recorded(
-                        scene, connect_vertices(c, cv, light[k], mw, true),
-                        connect_vertices(rec.unweighted, cv, light[k], mw, true), throughput, i,
-                        rec, rays);
-                else
-                    connected +=
-                        trace_request(scene, connect_vertices(c, cv, light[k], mw, true), rays);
+                connected += trace_strategy(
+                    scene, c, rec.strategy(light[k].length + 1, bounce + 2),
+                    [&](const PathContext& x) { return connect_vertices(x, cv, light[k], mw, true); },
+                    throughput, rec, rays);
             }
             radiance += throughput * connected;
             // vcm, bpm, ppm: the light vertices near it
