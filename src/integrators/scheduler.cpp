@@ -70,7 +70,8 @@ Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
       progress_(progress), pool_(pool), width_(scene.settings.width),
       splat_pixels_(splats(scene.settings.estimator.kind)
                         ? size_t(scene.settings.width) * size_t(scene.settings.height)
-                        : 0) {
+                        : 0),
+      from_zero_(bounds_.empty() || bounds_[0] == 0) {
     passes_ = int32_t(bounds_.size()) - 1;
     for (PassWork& w : work_) w.reset(tiles_.size(), splat_pixels_);
     if (passes_ <= 0) stopping_ = true;
@@ -88,7 +89,10 @@ void Coordinator::restore_pending(const RenderState& state) {
         FilmTile sums(g.x0, g.y0, g.x1, g.y1, width_);
         for (int y = g.y0; y < g.y1; ++y)
             for (int x = g.x0; x < g.x1; ++x) sums.at(x, y) = state.pending.at(x, y);
-        w.sums[t] = std::move(sums);
+        if (straight_to_film())
+            film_.merge(sums);
+        else
+            w.sums[t] = std::move(sums);
         w.done[t] = 1;
         ++w.done_count;
     }
@@ -123,7 +127,12 @@ void Coordinator::complete(UnitResult&& r) {
         w.splats.add(r.sums.splats);
         r.sums.splats = {};
     }
-    w.sums[t] = std::move(r.sums);
+    if (ahead == 0 && straight_to_film()) {
+        film_.merge(r.sums);
+        pool_.give(std::move(r.sums));
+    } else {
+        w.sums[t] = std::move(r.sums);
+    }
     w.done[t] = 1;
     ++w.done_count;
     progress_.units_done(1, r.rays.total());
@@ -168,15 +177,19 @@ RenderState Coordinator::snapshot(const RenderState* resumed) const {
     if (resumed) s.rays += resumed->rays;
     s.seconds = seconds_since(start_) + (resumed ? resumed->seconds : 0.0);
     const PassWork& w = work_[first_];
+    // (the done tiles of a first pass from zero are in the film: they are read back out)
+    const bool in_film = straight_to_film();
+    if (in_film) s.film = Film(film_.width(), film_.height());
     if (frontier_ < passes_ && w.done_count > 0 && !splat_pixels_) {
         s.pending_end = bounds_[size_t(frontier_) + 1];
         s.pending_tiles = w.done;
         s.pending = Film(film_.width(), film_.height());
         for (size_t t = 0; t < tiles_.size(); ++t) {
             if (!w.done[t]) continue;
-            const FilmTile& f = *w.sums[t];
-            for (int y = f.y0(); y < f.y1(); ++y)
-                for (int x = f.x0(); x < f.x1(); ++x) s.pending.at(x, y) = f.at(x, y);
+            const Tile& g = tiles_[t];
+            for (int y = g.y0; y < g.y1; ++y)
+                for (int x = g.x0; x < g.x1; ++x)
+                    s.pending.at(x, y) = in_film ? film_.at(x, y) : w.sums[t]->at(x, y);
         }
     }
     return s;
@@ -205,10 +218,15 @@ std::optional<Unit> Coordinator::take(int32_t ahead) {
     return Unit{int32_t(w.cursor++), pass, bounds_[size_t(pass)], bounds_[size_t(pass) + 1]};
 }
 
+bool Coordinator::straight_to_film() const {
+    return frontier_ == 0 && from_zero_ && !splat_pixels_ && !options_.strategies;
+}
+
 void Coordinator::commit_passes() {
     while (!stopping_ && work_[first_].done_count == tiles_.size()) {
         PassWork& w = work_[first_];
         for (size_t t = 0; t < tiles_.size(); ++t) {
+            if (!w.sums[t]) continue;  // (already in the film)
             FilmTile& f = *w.sums[t];
             if (tiles_[t].light) continue;  // (its splats are in w.splats)
             if (splat_pixels_)

@@ -5,7 +5,12 @@
 // tile of that pass is in, so each pixel's sums are always film + pass 0 + pass 1 + ..., in
 // that order, whoever rendered each pass: the image is bit-identical for any number of
 // threads and processes. The film thus always holds whole passes, and a stop or a checkpoint
-// at any moment has the same paths in every pixel. An estimator that splats (light tracing)
+// at any moment has the same paths in every pixel. One exception costs nothing of this: in
+// the first pass of a render from zero, a unit's sums go into the film as soon as they come
+// (0 + x is x, bit for bit), so that its memory is used again while still in cache instead
+// of a fresh tile's for every unit (a one-pass render kept the whole image twice); nothing
+// but a failure stops a render in its first pass, and a checkpoint then reads the done
+// tiles back out of the film. An estimator that splats (light tracing)
 // has units of a second kind, batches of light paths (Tile::light, work_units): their splats
 // land anywhere in the image, are added up exactly as units come in (SplatSums: integer
 // sums, the same bits in any order), and join the tiles' sums once the pass is whole; a
@@ -130,6 +135,8 @@ private:
 
     // The next unit of the pass in progress (ahead = 0) or of the next one (ahead = 1).
     std::optional<Unit> take(int32_t ahead);
+    // True while units' sums go straight into the film (the first pass from zero).
+    bool straight_to_film() const;
     // Adds every whole pass at the front to the film, then applies the stopping rules.
     void commit_passes();
     void stop_locked();
@@ -143,6 +150,7 @@ private:
     TilePool& pool_;
     int width_;
     size_t splat_pixels_;  // the image's pixels for an estimator that splats, else 0
+    bool from_zero_;       // the film starts empty (not a resumed render's)
     int32_t passes_ = 0;
     int32_t frontier_ = 0;  // the pass in progress; passes before it are in the film
     int first_ = 0;         // work_[first_] is the pass in progress, the other the next

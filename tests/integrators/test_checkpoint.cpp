@@ -177,6 +177,52 @@ TEST(Checkpoint, EveryStateResumesToTheUninterruptedFilm) {
     if (mid_total == 0) GTEST_SKIP() << "every render ended before a checkpoint was taken";
 }
 
+// In the first pass of a render from zero, units' sums go into the film as they come (the
+// memory of each is used again at once); a state taken then must still hold an empty film
+// and the done tiles apart, and resume to the uninterrupted film, from 1 and from 2
+// threads. A snapshot that copied the film as it is would hold tiles of the first pass in
+// its film (counts other than 0) and render them twice.
+TEST(Checkpoint, AStateTakenInTheFirstPassHoldsAnEmptyFilm) {
+    const test::Variant v = test::variants().front();  // (scalar: the longest first pass)
+    ASSERT_EQ(v.integrator, "scalar");
+    // (one pass of 64: 64 x 48 pixels are far below the 2^20 paths of a pass)
+    Scene scene = scene_at("cornell.json", 64, 48, 64);
+    const RenderResult full = render(scene, options_for(v, 1));
+    size_t seen = 0;
+    for (int threads : {1, 2}) {
+        SCOPED_TRACE(std::to_string(threads) + " threads");
+        for (int attempt = 0; attempt < 8; ++attempt) {
+            std::vector<RenderState> states;
+            std::mutex m;
+            RenderOptions o = options_for(v, threads);
+            o.checkpoint_every = 0.0005;
+            o.checkpoint = [&](const RenderState& s) {
+                std::lock_guard lock(m);
+                if (s.spp_done == 0 && !s.pending_tiles.empty()) states.push_back(s);
+            };
+            const RenderResult again = render(scene, o);
+            ASSERT_TRUE(same_film(full.film, again.film)) << "checkpointing changed the image";
+            if (states.empty()) continue;  // (the pass ended before a checkpoint was due)
+            const RenderState& s = states[states.size() / 2];
+            for (const PixelSums& p : s.film.pixels()) {
+                ASSERT_EQ(p.count + p.nonfinite, 0u) << "a first-pass state's film holds paths";
+                ASSERT_EQ(p.sum[0], 0.0);
+            }
+            uint64_t have = 0;
+            for (const PixelSums& p : s.pending.pixels()) have += p.count + p.nonfinite;
+            ASSERT_GT(have, 0u);
+            RenderOptions r = options_for(v, 3 - threads);
+            r.resume = &s;
+            const RenderResult resumed = render(scene, r);
+            ASSERT_TRUE(same_film(full.film, resumed.film));
+            EXPECT_EQ(resumed.stats.rays.camera, uint64_t(64 * 48 * 64) - have);
+            ++seen;
+            break;
+        }
+    }
+    if (seen == 0) GTEST_SKIP() << "every render ended its first pass before a checkpoint";
+}
+
 // An interrupted render's final state keeps the tiles done of the pass in progress; resumed,
 // it ends in the uninterrupted film. The cancel flag is set by the checkpoint callback once
 // a state holds a first pass and some tiles of the next; the render threads may still finish
