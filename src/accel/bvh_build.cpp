@@ -10,8 +10,6 @@
 //     instances).
 #include "accel/bvh.h"
 
-#include <sys/mman.h>
-
 #include <algorithm>
 #include <array>
 #include <cstdlib>
@@ -29,6 +27,7 @@
 #include <oneapi/tbb/parallel_invoke.h>
 
 #include "core/error.h"
+#include "core/huge_pages.h"
 
 namespace cierzo {
 
@@ -98,36 +97,8 @@ Vec3f affine(const float m[12], const Vec3f& p) {
 // - its vectors grow without writing their new elements (resize() constructs nothing):
 //   value-initialising them first was a serial pass over 100+ MB that faulted in every page
 //   (a fifth of a 1M-triangle build);
-// - an array of 4 MiB or more is asked for in huge pages (madvise, where the kernel offers
-//   transparent huge pages on request): a page fault costs microseconds under
-//   virtualisation, and a 1M-triangle build faulted in 69,000 small pages.
-inline void* allocate_build_array(size_t bytes) {
-    constexpr size_t kHuge = size_t(2) << 20;
-    if (bytes < 2 * kHuge) return ::operator new(bytes);
-    const size_t rounded = (bytes + kHuge - 1) / kHuge * kHuge;
-    void* p = std::aligned_alloc(kHuge, rounded);
-    if (!p) throw std::bad_alloc();
-    ::madvise(p, rounded, MADV_HUGEPAGE);  // (a hint: refused, the pages are small ones)
-    return p;
-}
-
-// The same request for memory already allocated (the tree's own arrays, reserved): the
-// whole 2 MiB pages within [p, p + bytes).
-inline void advise_huge_pages(const void* p, size_t bytes) {
-    constexpr uintptr_t kHuge = uintptr_t(2) << 20;
-    const uintptr_t lo = (reinterpret_cast<uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
-    const uintptr_t hi = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHuge - 1);
-    if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
-}
-
-inline void free_build_array(void* p, size_t bytes) {
-    constexpr size_t kHuge = size_t(2) << 20;
-    if (bytes < 2 * kHuge)
-        ::operator delete(p);
-    else
-        std::free(p);
-}
-
+// - an array of 4 MiB or more is asked for in huge pages (core/huge_pages.h): a 1M-triangle
+//   build faulted in 69,000 small pages.
 template <class T>
 struct Uninitialised {
     using value_type = T;
@@ -138,8 +109,8 @@ struct Uninitialised {
     Uninitialised() = default;
     template <class U>
     Uninitialised(const Uninitialised<U>&) noexcept {}
-    T* allocate(size_t n) { return static_cast<T*>(allocate_build_array(n * sizeof(T))); }
-    void deallocate(T* p, size_t n) noexcept { free_build_array(p, n * sizeof(T)); }
+    T* allocate(size_t n) { return static_cast<T*>(allocate_large(n * sizeof(T))); }
+    void deallocate(T* p, size_t n) noexcept { free_large(p, n * sizeof(T)); }
     template <class U>
     bool operator==(const Uninitialised<U>&) const noexcept { return true; }
     template <class U>

@@ -234,6 +234,9 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
     put("cierzo:spp", std::to_string(id.spp));
     put("cierzo:spp_reached", std::to_string(state.spp_done));
     put("cierzo:pending_end", std::to_string(state.pending_end));
+    // (the pending tiles' sums hold the film's with the pass added; files written before
+    // this attribute hold the pass's own sums, and are read as such)
+    put("cierzo:pending_form", "added");
     put("cierzo:rays", fmt::format("{} {} {} {}", state.rays.camera, state.rays.extension,
                                    state.rays.shadow, state.rays.light));
     // (estimators that splat: the film's passes are batches; see Film::merge_batch)
@@ -361,7 +364,7 @@ Checkpoint read_checkpoint(const fs::path& path) {
         s.film.set_batches(batch_count, nonfinite_splats);
 
         // Consistency: every pixel of the film has spp_done paths; a pending tile's pixels
-        // all have pending_end - spp_done, the others none
+        // all have pending_end (pending_end - spp_done in an older file), the others none
         if (s.spp_done < 0 || s.spp_done > id.spp)
             throw InputError(path.string() + ": checkpoint claims " + std::to_string(s.spp_done) +
                              " of " + std::to_string(id.spp) + " paths per pixel");
@@ -376,7 +379,10 @@ Checkpoint read_checkpoint(const fs::path& path) {
             words_to_film(pending_words, s.pending);
             const std::vector<Tile> tiles = image_tiles(int(w), int(h));
             s.pending_tiles.assign(tiles.size(), 0);
-            const uint64_t paths = uint64_t(s.pending_end - s.spp_done);
+            const bool added =
+                header.findTypedAttribute<Imf::StringAttribute>("cierzo:pending_form") &&
+                get(header, path, "cierzo:pending_form") == "added";
+            const uint64_t paths = uint64_t(added ? s.pending_end : s.pending_end - s.spp_done);
             for (size_t t = 0; t < tiles.size(); ++t) {
                 const Tile& g = tiles[t];
                 const PixelSums& first = s.pending.at(g.x0, g.y0);
@@ -390,6 +396,14 @@ Checkpoint read_checkpoint(const fs::path& path) {
                             throw InputError(path.string() + ": checkpoint tile " + std::to_string(t) + " of the pass in progress is damaged");
                     }
                 s.pending_tiles[t] = have != 0;
+                // (an older file's pass sums: the film's added first, as a render adds them)
+                if (!added && have != 0)
+                    for (int y = g.y0; y < g.y1; ++y)
+                        for (int x = g.x0; x < g.x1; ++x) {
+                            PixelSums p = s.film.at(x, y);
+                            p.merge(s.pending.at(x, y));
+                            s.pending.at(x, y) = p;
+                        }
             }
         }
         return c;

@@ -4,10 +4,17 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/huge_pages.h"
+
 namespace cierzo {
 
-Film::Film(int width, int height)
-    : width_(width), height_(height), pixels_(size_t(width) * size_t(height)) {}
+Film::Film(int width, int height) : width_(width), height_(height) {
+    // (in huge pages where offered: a 960x540 film is 33 MB, 8,000 small pages faulted in)
+    const size_t n = size_t(std::max(width, 0)) * size_t(std::max(height, 0));
+    pixels_.reserve(n);
+    advise_huge_pages(pixels_.data(), n * sizeof(PixelSums));
+    pixels_.resize(n);
+}
 
 void Film::merge(const FilmTile& tile) {
     const std::vector<PixelSums>& src = tile.pixels();

@@ -48,8 +48,9 @@ struct RayCounts {
 
 // What a render has reached, as a checkpoint holds it: the film of the passes finished
 // (every pixel has `spp_done` paths) and, for the pass in progress [spp_done, pending_end),
-// the sums of the tiles already done (`pending_tiles`, by tile index of kTileSize tiles in
-// row order; their pixels' sums in `pending`, the rest zero).
+// the tiles already done (`pending_tiles`, by tile index of kTileSize tiles in row order):
+// `pending` holds their pixels' sums with that pass added (`pending_end` paths; the film's
+// pixel plus the pass, in that order), the rest zero.
 struct RenderState {
     Film film{0, 0};
     int64_t spp_done = 0;

@@ -1,6 +1,7 @@
 // Units, their memory and their one owner (see scheduler.h).
 #include "integrators/scheduler.h"
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
 
@@ -71,10 +72,16 @@ Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
       splat_pixels_(splats(scene.settings.estimator.kind)
                         ? size_t(scene.settings.width) * size_t(scene.settings.height)
                         : 0),
-      from_zero_(bounds_.empty() || bounds_[0] == 0) {
+      from_zero_(bounds_.empty() || bounds_[0] == 0),
+      early_(!splat_pixels_ && !options.strategies) {
     passes_ = int32_t(bounds_.size()) - 1;
     for (PassWork& w : work_) w.reset(tiles_.size(), splat_pixels_);
-    if (passes_ <= 0) stopping_ = true;
+    if (early_ && (passes_ > 1 || !from_zero_)) {
+        const size_t n = size_t(film.width()) * size_t(film.height());
+        next_.reserve(n);
+        advise_huge_pages(next_.data(), n * sizeof(PixelSums));
+        next_.resize(n);
+    }
 }
 
 void Coordinator::restore_pending(const RenderState& state) {
@@ -82,22 +89,33 @@ void Coordinator::restore_pending(const RenderState& state) {
     if (passes_ <= 0 || state.pending_end != bounds_[1] || state.pending_tiles.empty() ||
         splat_pixels_)
         return;
+    if (!early_) throw std::logic_error("tiles of a pass restored where units wait aside");
     PassWork& w = work_[0];
     for (size_t t = 0; t < tiles_.size() && t < state.pending_tiles.size(); ++t) {
         if (!state.pending_tiles[t]) continue;
+        // (the state holds the film's tile with the pass added)
         const Tile& g = tiles_[t];
-        FilmTile sums(g.x0, g.y0, g.x1, g.y1, width_);
         for (int y = g.y0; y < g.y1; ++y)
-            for (int x = g.x0; x < g.x1; ++x) sums.at(x, y) = state.pending.at(x, y);
-        if (straight_to_film())
-            film_.merge(sums);
-        else
-            w.sums[t] = std::move(sums);
+            for (int x = g.x0; x < g.x1; ++x)
+                (into_next() ? next_[size_t(y) * size_t(width_) + size_t(x)] : film_.at(x, y)) =
+                    state.pending.at(x, y);
         w.done[t] = 1;
         ++w.done_count;
     }
     progress_.units_done(w.done_count, 0);
     if (w.done_count == tiles_.size()) commit_passes();
+}
+
+void Coordinator::settle() {
+    std::lock_guard lock(mutex_);
+    if (frontier_ >= passes_ || into_next()) return;
+    for (size_t t = 0; t < tiles_.size(); ++t) {
+        if (!in_film(t)) continue;
+        const Tile& g = tiles_[t];
+        for (int y = g.y0; y < g.y1; ++y)
+            for (int x = g.x0; x < g.x1; ++x) film_.at(x, y) = PixelSums{};
+        work_[first_].done[t] = 0;
+    }
 }
 
 std::vector<Unit> Coordinator::grant(size_t n) {
@@ -114,7 +132,7 @@ std::vector<Unit> Coordinator::grant(size_t n) {
 }
 
 void Coordinator::complete(UnitResult&& r) {
-    std::lock_guard lock(mutex_);
+    std::unique_lock lock(mutex_);
     add(lane_stats_, r.lanes);
     if (stopping_) return;  // a pass after the last one kept
     const int32_t ahead = r.unit.pass - frontier_;
@@ -127,9 +145,15 @@ void Coordinator::complete(UnitResult&& r) {
         w.splats.add(r.sums.splats);
         r.sums.splats = {};
     }
-    if (ahead == 0 && straight_to_film()) {
-        film_.merge(r.sums);
-        pool_.give(std::move(r.sums));
+    if (ahead == 0 && early_) {
+        // Into the film, outside the lock: nothing else writes this tile's pixels, and the
+        // pass in progress cannot end before this unit is marked done
+        ++adding_;
+        const bool next = into_next();
+        lock.unlock();
+        add_to_film(t, std::move(r.sums), next);
+        lock.lock();
+        if (--adding_ == 0) added_.notify_all();
     } else {
         w.sums[t] = std::move(r.sums);
     }
@@ -169,7 +193,8 @@ void Coordinator::wait(std::chrono::microseconds timeout) {
 }
 
 RenderState Coordinator::snapshot(const RenderState* resumed) const {
-    std::lock_guard lock(mutex_);
+    std::unique_lock lock(mutex_);
+    added_.wait(lock, [&] { return adding_ == 0; });
     RenderState s;
     s.film = film_;
     s.spp_done = bounds_[size_t(frontier_)];
@@ -177,20 +202,26 @@ RenderState Coordinator::snapshot(const RenderState* resumed) const {
     if (resumed) s.rays += resumed->rays;
     s.seconds = seconds_since(start_) + (resumed ? resumed->seconds : 0.0);
     const PassWork& w = work_[first_];
-    // (the done tiles of a first pass from zero are in the film: they are read back out)
-    const bool in_film = straight_to_film();
-    if (in_film) s.film = Film(film_.width(), film_.height());
     if (frontier_ < passes_ && w.done_count > 0 && !splat_pixels_) {
         s.pending_end = bounds_[size_t(frontier_) + 1];
         s.pending_tiles = w.done;
         s.pending = Film(film_.width(), film_.height());
-        for (size_t t = 0; t < tiles_.size(); ++t) {
-            if (!w.done[t]) continue;
-            const Tile& g = tiles_[t];
-            for (int y = g.y0; y < g.y1; ++y)
-                for (int x = g.x0; x < g.x1; ++x)
-                    s.pending.at(x, y) = in_film ? film_.at(x, y) : w.sums[t]->at(x, y);
-        }
+    }
+    // The done tiles of the pass in progress: the film's tile before it, and with it added
+    for (size_t t = 0; t < tiles_.size() && frontier_ < passes_; ++t) {
+        if (!w.done[t] || tiles_[t].light) continue;
+        const Tile& g = tiles_[t];
+        for (int y = g.y0; y < g.y1; ++y)
+            for (int x = g.x0; x < g.x1; ++x) {
+                if (in_film(t)) {
+                    if (!splat_pixels_) s.pending.at(x, y) = added(x, y);
+                    s.film.at(x, y) = before(x, y);
+                } else if (!splat_pixels_) {
+                    PixelSums p = film_.at(x, y);
+                    p.merge(w.sums[t]->at(x, y));
+                    s.pending.at(x, y) = p;
+                }
+            }
     }
     return s;
 }
@@ -218,8 +249,40 @@ std::optional<Unit> Coordinator::take(int32_t ahead) {
     return Unit{int32_t(w.cursor++), pass, bounds_[size_t(pass)], bounds_[size_t(pass) + 1]};
 }
 
-bool Coordinator::straight_to_film() const {
-    return frontier_ == 0 && from_zero_ && !splat_pixels_ && !options_.strategies;
+bool Coordinator::into_next() const { return frontier_ > 0 || !from_zero_; }
+
+void Coordinator::add_to_film(size_t t, FilmTile&& sums, bool next) {
+    const Tile& g = tiles_[t];
+    const size_t n = size_t(g.x1 - g.x0);
+    for (int y = g.y0; y < g.y1; ++y) {
+        PixelSums* film = &film_.at(g.x0, y);
+        const PixelSums* add = &sums.at(g.x0, y);
+        if (next) {
+            // (as Film::merge adds: the film's sums plus the pass's)
+            PixelSums* out = next_.data() + size_t(y) * size_t(width_) + size_t(g.x0);
+            for (size_t i = 0; i < n; ++i) {
+                out[i] = film[i];
+                out[i].merge(add[i]);
+            }
+        } else {
+            for (size_t i = 0; i < n; ++i) film[i].merge(add[i]);
+        }
+    }
+    sums.strategies.reset();
+    pool_.give(std::move(sums));
+}
+
+PixelSums Coordinator::before(int x, int y) const {
+    return into_next() ? film_.at(x, y) : PixelSums{};
+}
+
+const PixelSums& Coordinator::added(int x, int y) const {
+    return into_next() ? next_[size_t(y) * size_t(width_) + size_t(x)] : film_.at(x, y);
+}
+
+bool Coordinator::in_film(size_t t) const {
+    const PassWork& w = work_[first_];
+    return w.done[t] && !w.sums[t] && !tiles_[t].light;
 }
 
 void Coordinator::commit_passes() {
@@ -238,6 +301,8 @@ void Coordinator::commit_passes() {
             pool_.give(std::move(f));
         }
         if (splat_pixels_) film_.end_batch(w.splats.nonfinite());
+        // (units added into the second film: it is the film now)
+        if (early_ && into_next()) std::swap(film_.pixels(), next_);
         rays_ += w.rays;
         w.reset(tiles_.size(), splat_pixels_);
         first_ ^= 1;
@@ -257,7 +322,19 @@ void Coordinator::commit_passes() {
             // (from 16 paths per pixel on: fewer give no trustworthy variance)
             stopped_by_ = "target error";
         }
-        if (!stopped_by_.empty()) stopping_ = true;
+        if (!stopped_by_.empty()) {
+            stopping_ = true;
+            break;
+        }
+        // The next pass is now the one in progress: its units done early join the film
+        if (early_) {
+            PassWork& next = work_[first_];
+            for (size_t t = 0; t < tiles_.size(); ++t)
+                if (next.sums[t]) {
+                    add_to_film(t, std::move(*next.sums[t]), into_next());
+                    next.sums[t].reset();
+                }
+        }
     }
     // (a new pass can be handed out, or the render stops)
     cv_.notify_all();

@@ -1,31 +1,34 @@
 // The work of a render and its one owner. The image is split into tiles and the paths per
 // pixel into passes; a unit is one tile's samples [s0, s1) of one pass, rendered from zero
 // into its own sums by any thread of any process. The coordinator (the only one, on rank 0)
-// keeps the units of the pass in progress aside and adds them to the film only once every
-// tile of that pass is in, so each pixel's sums are always film + pass 0 + pass 1 + ..., in
-// that order, whoever rendered each pass: the image is bit-identical for any number of
-// threads and processes. The film thus always holds whole passes, and a stop or a checkpoint
-// at any moment has the same paths in every pixel. One exception costs nothing of this: in
-// the first pass of a render from zero, a unit's sums go into the film as soon as they come
-// (0 + x is x, bit for bit), so that its memory is used again while still in cache instead
-// of a fresh tile's for every unit (a one-pass render kept the whole image twice); nothing
-// but a failure stops a render in its first pass, and a checkpoint then reads the done
-// tiles back out of the film. An estimator that splats (light tracing)
-// has units of a second kind, batches of light paths (Tile::light, work_units): their splats
-// land anywhere in the image, are added up exactly as units come in (SplatSums: integer
-// sums, the same bits in any order), and join the tiles' sums once the pass is whole; a
-// checkpoint then keeps whole passes only.
+// adds each pixel's passes to the film in pass order, film + pass 0 + pass 1 + ..., whoever
+// rendered each pass: the image is bit-identical for any number of threads and processes.
+// A unit of the pass in progress is added as soon as it comes (its tile memory is then used
+// again at once, while in cache), into a second film (`next_`: the film with the pass in
+// progress added, tile by tile), which becomes the film when the pass is whole (a swap). A
+// unit of the next pass, which idle workers may start early, waits aside until its pass is
+// the one in progress. So the film always holds whole passes, for the stopping rules at
+// pass ends, a stop in the middle of a pass (an interruption) and a checkpoint (which keeps
+// the done tiles of `next_` beside it). A first pass from zero needs no second film: its
+// units go straight into the (empty) film, 0 + x being x; a checkpoint then reads them back
+// out, and nothing but a failure stops a render in its first pass. An
+// estimator that splats (light tracing) has units of a second kind, batches of light paths
+// (Tile::light, work_units): their splats land anywhere in the image, are added up exactly
+// as units come in (SplatSums: integer sums, the same bits in any order), and all its units
+// wait aside until the pass is whole; a checkpoint then keeps whole passes only.
 #pragma once
 
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "core/huge_pages.h"
 #include "integrators/film.h"
 #include "integrators/progress.h"
 #include "integrators/render.h"
@@ -104,6 +107,9 @@ public:
 
     // Puts back the tiles of the first pass that a checkpoint had already done.
     void restore_pending(const RenderState& state);
+    // After the render (and its final checkpoint): if it stopped in the middle of a pass,
+    // the film's tiles of that pass are put back as they were, so the film holds whole passes.
+    void settle();
     // Up to `n` units (fewer, or none, when none can be handed out now).
     std::vector<Unit> grant(size_t n);
     void complete(UnitResult&& r);
@@ -135,8 +141,18 @@ private:
 
     // The next unit of the pass in progress (ahead = 0) or of the next one (ahead = 1).
     std::optional<Unit> take(int32_t ahead);
-    // True while units' sums go straight into the film (the first pass from zero).
-    bool straight_to_film() const;
+    // True if the pass in progress is added into `next_` (not straight into the film: a
+    // first pass from zero).
+    bool into_next() const;
+    // Adds unit `t` of the pass in progress (into `next_` if `next`, else into the film).
+    // Called without the lock: it touches the tile's pixels alone.
+    void add_to_film(size_t t, FilmTile&& sums, bool next);
+    // Pixel (x, y) of a done tile of the pass in progress: the film's before the pass, and
+    // with the pass added.
+    PixelSums before(int x, int y) const;
+    const PixelSums& added(int x, int y) const;
+    // True if tile `t` of the pass in progress is done and added (not waiting aside).
+    bool in_film(size_t t) const;
     // Adds every whole pass at the front to the film, then applies the stopping rules.
     void commit_passes();
     void stop_locked();
@@ -151,6 +167,16 @@ private:
     int width_;
     size_t splat_pixels_;  // the image's pixels for an estimator that splats, else 0
     bool from_zero_;       // the film starts empty (not a resumed render's)
+    // Units are added to the film as they come (not for estimators that splat, whose
+    // tiles join the pass's splats at its end, nor when strategy images are recorded)
+    bool early_;
+    // The film with the pass in progress added, for its done tiles (see above); allocated
+    // when a pass needs it
+    std::vector<PixelSums> next_;
+    // Units of the pass in progress being added to the film now, outside the lock (each
+    // into its own tile); a snapshot waits until none is
+    int adding_ = 0;
+    mutable std::condition_variable added_;
     int32_t passes_ = 0;
     int32_t frontier_ = 0;  // the pass in progress; passes before it are in the film
     int first_ = 0;         // work_[first_] is the pass in progress, the other the next

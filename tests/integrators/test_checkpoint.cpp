@@ -58,6 +58,18 @@ Scene scene_at(const char* file, int w, int h, int64_t spp) {
 // scalar reference and one wavefront ISA, on smaller images.
 bool emulated() { return test::lighter_settings(); }
 
+// The paths of the pass in progress that a state holds: its pending tiles hold the film's
+// pixels with the pass added (pending_end paths each).
+uint64_t pass_paths_done(const RenderState& s) {
+    uint64_t have = 0;
+    for (const PixelSums& p : s.pending.pixels())
+        if (p.count + p.nonfinite > 0) {
+            EXPECT_EQ(int64_t(p.count + p.nonfinite), s.pending_end);
+            have += p.count + p.nonfinite - uint64_t(s.spp_done);
+        }
+    return have;
+}
+
 std::vector<test::Variant> checked_variants() {
     std::vector<test::Variant> v = test::variants();
     if (emulated() && v.size() > 2) v.resize(2);
@@ -163,10 +175,8 @@ TEST(Checkpoint, EveryStateResumesToTheUninterruptedFilm) {
             EXPECT_EQ(resumed.stats.spp_resumed, s.spp_done);
             // ...and it rendered only what the state lacked (a resume that started over
             // would end in the same film, so the paths traced tell them apart)
-            uint64_t have = 0;
-            for (const PixelSums& p : s.pending.pixels()) have += p.count + p.nonfinite;
             EXPECT_EQ(resumed.stats.rays.camera,
-                      uint64_t(w * h) * uint64_t(scene.settings.spp - s.spp_done) - have);
+                      uint64_t(w * h) * uint64_t(scene.settings.spp - s.spp_done) - pass_paths_done(s));
         }
         std::printf("%s %s: %zu mid-render states resumed, %zu with tiles of a pass\n",
                     v.integrator.c_str(), v.isa.c_str(), mid, with_pending);
@@ -208,8 +218,7 @@ TEST(Checkpoint, AStateTakenInTheFirstPassHoldsAnEmptyFilm) {
                 ASSERT_EQ(p.count + p.nonfinite, 0u) << "a first-pass state's film holds paths";
                 ASSERT_EQ(p.sum[0], 0.0);
             }
-            uint64_t have = 0;
-            for (const PixelSums& p : s.pending.pixels()) have += p.count + p.nonfinite;
+            const uint64_t have = pass_paths_done(s);
             ASSERT_GT(have, 0u);
             RenderOptions r = options_for(v, 3 - threads);
             r.resume = &s;
@@ -256,8 +265,7 @@ TEST(Checkpoint, AnInterruptedStateWithTilesOfAPassResumesExactly) {
         r.resume = &last;
         const RenderResult resumed = render(scene, r);
         EXPECT_TRUE(same_film(full.film, resumed.film));
-        uint64_t have = 0;
-        for (const PixelSums& p : last.pending.pixels()) have += p.count + p.nonfinite;
+        const uint64_t have = pass_paths_done(last);
         EXPECT_GT(have, 0u);
         EXPECT_EQ(resumed.stats.rays.camera, uint64_t(80 * 64) * uint64_t(64 - last.spp_done) - have);
         std::printf("stopped mid-pass in render %d, at %lld paths per pixel with %zu tiles of the next pass\n",
@@ -308,7 +316,7 @@ TEST(CheckpointFile, KeepsTheStateExactlyWithTilesOfAPass) {
         for (int y = tiles[t].y0; y < tiles[t].y1; ++y)
             for (int x = tiles[t].x0; x < tiles[t].x1; ++x) {
                 PixelSums& p = s.pending.at(x, y);
-                p.sum[0] = 0.1 * x + 1e-17, p.sum_sq[2] = -0.0, p.count = 6, p.nonfinite = 1;
+                p.sum[0] = 0.1 * x + 1e-17, p.sum_sq[2] = -0.0, p.count = 14, p.nonfinite = 1;
             }
     const CheckpointIdentity id = checkpoint_identity(scene, "scalar", "scalar", 0);
     write_checkpoint(kDir / "k.exr", id, s);
@@ -365,6 +373,54 @@ TEST(CheckpointFile, AResumeOfAnotherRenderIsRefusedNamingWhatDiffers) {
     Scene reseeded = scene;
     reseeded.settings.seed = 77;
     EXPECT_EQ(scene_fingerprint(reseeded), id.fingerprint);
+}
+
+// A file written before pending tiles held the film's sums with the pass added holds the
+// pass's own sums: it is read as the film plus the pass, added as a render adds them. (The
+// older file is made by renaming the attribute that marks the newer form: same length, so
+// the uncompressed file stays whole.)
+TEST(CheckpointFile, AnOlderFilesPassSumsAreAddedToTheFilm) {
+    fs::create_directories(kDir);
+    Scene scene = scene_at("cornell.json", 37, 21, 8);
+    RenderState s;
+    s.film = render(scene, options_for(test::variants().front(), 2)).film;
+    s.spp_done = 8;
+    s.pending_end = 15;
+    const std::vector<Tile> tiles = image_tiles(37, 21);
+    s.pending_tiles.assign(tiles.size(), 0);
+    s.pending = Film(37, 21);
+    s.pending_tiles[2] = 1;
+    for (int y = tiles[2].y0; y < tiles[2].y1; ++y)
+        for (int x = tiles[2].x0; x < tiles[2].x1; ++x) {
+            PixelSums& p = s.pending.at(x, y);
+            p.sum[1] = 0.3 * y + 0.1, p.sum_sq[1] = 0.7, p.count = 7;
+        }
+    write_checkpoint(kDir / "older.exr", checkpoint_identity(scene, "scalar", "scalar", 0), s);
+    // (as written, 7 paths are not the 15 of the newer form: a damaged tile)
+    EXPECT_THROW(read_checkpoint(kDir / "older.exr"), InputError);
+    std::string bytes;
+    {
+        std::ifstream in(kDir / "older.exr", std::ios::binary);
+        bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const size_t at = bytes.find("cierzo:pending_form");
+    ASSERT_NE(at, std::string::npos);
+    bytes.replace(at, 19, "cierzo:pending_xxxx");
+    std::ofstream(kDir / "older.exr", std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    const Checkpoint c = read_checkpoint(kDir / "older.exr");
+    EXPECT_TRUE(same_film(c.state.film, s.film));
+    EXPECT_EQ(c.state.pending_tiles, s.pending_tiles);
+    for (int y = tiles[2].y0; y < tiles[2].y1; ++y)
+        for (int x = tiles[2].x0; x < tiles[2].x1; ++x) {
+            PixelSums want = s.film.at(x, y);
+            want.merge(s.pending.at(x, y));
+            const PixelSums& got = c.state.pending.at(x, y);
+            ASSERT_EQ(got.count, 15u);
+            ASSERT_EQ(got.sum[1], want.sum[1]);
+            ASSERT_EQ(got.sum_sq[1], want.sum_sq[1]);
+            ASSERT_EQ(got.sum[0], s.film.at(x, y).sum[0]);
+        }
+    EXPECT_EQ(c.state.pending.at(0, 0).count, 0u);  // (tile 0 is not pending)
 }
 
 TEST(CheckpointFile, ADamagedOrForeignFileIsRefusedNamingIt) {
