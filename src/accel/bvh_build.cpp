@@ -92,36 +92,10 @@ Vec3f affine(const float m[12], const Vec3f& p) {
             m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
 }
 
-// An allocator for the build's large arrays of plain structs, every element of which is
-// written before it is read (by parallel loops):
-// - its vectors grow without writing their new elements (resize() constructs nothing):
-//   value-initialising them first was a serial pass over 100+ MB that faulted in every page
-//   (a fifth of a 1M-triangle build);
-// - an array of 4 MiB or more is asked for in huge pages (core/huge_pages.h): a 1M-triangle
-//   build faulted in 69,000 small pages.
-template <class T>
-struct Uninitialised {
-    using value_type = T;
-    template <class U>
-    struct rebind {
-        using other = Uninitialised<U>;
-    };
-    Uninitialised() = default;
-    template <class U>
-    Uninitialised(const Uninitialised<U>&) noexcept {}
-    T* allocate(size_t n) { return static_cast<T*>(allocate_large(n * sizeof(T))); }
-    void deallocate(T* p, size_t n) noexcept { free_large(p, n * sizeof(T)); }
-    template <class U>
-    bool operator==(const Uninitialised<U>&) const noexcept { return true; }
-    template <class U>
-    void construct(U*) noexcept {
-        static_assert(std::is_trivially_copyable_v<U> && std::is_trivially_destructible_v<U>);
-    }
-    template <class U, class... Args>
-    void construct(U* p, Args&&... args) {
-        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-};
+// The build's large arrays of plain structs (Uninitialised, core/huge_pages.h): every
+// element is written before it is read (by parallel loops). Value-initialising them first
+// was a serial pass over 100+ MB that faulted in every page (a fifth of a 1M-triangle
+// build), and small pages faulted 69,000 times.
 
 // A primitive as the build sees it.
 struct Ref {

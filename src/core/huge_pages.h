@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <cstdlib>
 #include <new>
+#include <type_traits>
+#include <utility>
 
 namespace cierzo {
 
@@ -40,5 +42,32 @@ inline void advise_huge_pages(const void* p, size_t bytes) {
     const uintptr_t hi = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHugePage - 1);
     if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
 }
+
+// An allocator for large arrays of plain structs whose elements are written before they
+// are read: a vector grows without writing its new elements (resize() constructs nothing;
+// construction from a value still copies), in huge pages from 4 MiB up.
+template <class T>
+struct Uninitialised {
+    using value_type = T;
+    template <class U>
+    struct rebind {
+        using other = Uninitialised<U>;
+    };
+    Uninitialised() = default;
+    template <class U>
+    Uninitialised(const Uninitialised<U>&) noexcept {}
+    T* allocate(size_t n) { return static_cast<T*>(allocate_large(n * sizeof(T))); }
+    void deallocate(T* p, size_t n) noexcept { free_large(p, n * sizeof(T)); }
+    template <class U>
+    bool operator==(const Uninitialised<U>&) const noexcept { return true; }
+    template <class U>
+    void construct(U*) noexcept {
+        static_assert(std::is_trivially_copyable_v<U> && std::is_trivially_destructible_v<U>);
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
 
 }  // namespace cierzo

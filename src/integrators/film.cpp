@@ -4,16 +4,13 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/huge_pages.h"
 
 namespace cierzo {
 
 Film::Film(int width, int height) : width_(width), height_(height) {
-    // (in huge pages where offered: a 960x540 film is 33 MB, 8,000 small pages faulted in)
-    const size_t n = size_t(std::max(width, 0)) * size_t(std::max(height, 0));
-    pixels_.reserve(n);
-    advise_huge_pages(pixels_.data(), n * sizeof(PixelSums));
-    pixels_.resize(n);
+    // (in huge pages: a 960x540 film is 33 MB, 8,000 small pages faulted in)
+    pixels_.resize(size_t(std::max(width, 0)) * size_t(std::max(height, 0)));
+    std::fill(pixels_.begin(), pixels_.end(), PixelSums{});
 }
 
 void Film::merge(const FilmTile& tile) {

@@ -8,6 +8,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/huge_pages.h"
 #include "io/image.h"
 #include "kernels/vec3.h"
 
@@ -140,6 +141,9 @@ private:
     std::vector<PixelSums> pixels_;
 };
 
+// A film's pixels: in huge pages, and grown without being written (Film zeroes its own).
+using PixelArray = std::vector<PixelSums, Uninitialised<PixelSums>>;
+
 class Film {
 public:
     Film(int width, int height);
@@ -167,8 +171,8 @@ public:
         batches_ = batches, nonfinite_splats_ = nonfinite_splats;
     }
     // Every pixel, row by row (for checkpoints).
-    std::vector<PixelSums>& pixels() { return pixels_; }
-    const std::vector<PixelSums>& pixels() const { return pixels_; }
+    PixelArray& pixels() { return pixels_; }
+    const PixelArray& pixels() const { return pixels_; }
 
     // The mean radiance per pixel.
     Image mean() const;
@@ -187,7 +191,7 @@ private:
     double variance_of_mean(const PixelSums& p, int channel) const;
 
     int width_, height_;
-    std::vector<PixelSums> pixels_;
+    PixelArray pixels_;
     int64_t batches_ = 0;
     uint64_t nonfinite_splats_ = 0;
 };

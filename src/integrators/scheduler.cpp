@@ -2,7 +2,12 @@
 #include "integrators/scheduler.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <limits>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <stdexcept>
 
 #include "integrators/scalar.h"
@@ -77,10 +82,7 @@ Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
     passes_ = int32_t(bounds_.size()) - 1;
     for (PassWork& w : work_) w.reset(tiles_.size(), splat_pixels_);
     if (early_ && (passes_ > 1 || !from_zero_)) {
-        const size_t n = size_t(film.width()) * size_t(film.height());
-        next_.reserve(n);
-        advise_huge_pages(next_.data(), n * sizeof(PixelSums));
-        next_.resize(n);
+        next_.resize(size_t(film.width()) * size_t(film.height()));
     }
 }
 
@@ -249,6 +251,31 @@ std::optional<Unit> Coordinator::take(int32_t ahead) {
     return Unit{int32_t(w.cursor++), pass, bounds_[size_t(pass)], bounds_[size_t(pass) + 1]};
 }
 
+namespace {
+
+// A pixel's sums written around the caches where the CPU can (x86-64: SSE2's streaming
+// stores, weakly ordered, so store_fence() follows them before the memory is handed on).
+inline void store_streaming(PixelSums& out, const PixelSums& p) {
+    static_assert(sizeof(PixelSums) == 64 && alignof(PixelSums) >= 8);
+#if defined(__SSE2__)
+    if ((reinterpret_cast<uintptr_t>(&out) & 15) == 0) {
+        const double* src = reinterpret_cast<const double*>(&p);
+        double* dst = reinterpret_cast<double*>(&out);
+        for (int k = 0; k < 8; k += 2) _mm_stream_pd(dst + k, _mm_loadu_pd(src + k));
+        return;
+    }
+#endif
+    out = p;
+}
+
+inline void store_fence() {
+#if defined(__SSE2__)
+    _mm_sfence();
+#endif
+}
+
+}  // namespace
+
 bool Coordinator::into_next() const { return frontier_ > 0 || !from_zero_; }
 
 void Coordinator::add_to_film(size_t t, FilmTile&& sums, bool next) {
@@ -258,16 +285,20 @@ void Coordinator::add_to_film(size_t t, FilmTile&& sums, bool next) {
         PixelSums* film = &film_.at(g.x0, y);
         const PixelSums* add = &sums.at(g.x0, y);
         if (next) {
-            // (as Film::merge adds: the film's sums plus the pass's)
+            // (as Film::merge adds: the film's sums plus the pass's). The second film is
+            // written past the caches: it is read again only a pass later, and an ordinary
+            // store would first read each line in (a third of this copy's memory traffic).
             PixelSums* out = next_.data() + size_t(y) * size_t(width_) + size_t(g.x0);
             for (size_t i = 0; i < n; ++i) {
-                out[i] = film[i];
-                out[i].merge(add[i]);
+                PixelSums p = film[i];
+                p.merge(add[i]);
+                store_streaming(out[i], p);
             }
         } else {
             for (size_t i = 0; i < n; ++i) film[i].merge(add[i]);
         }
     }
+    if (next) store_fence();
     sums.strategies.reset();
     pool_.give(std::move(sums));
 }

@@ -28,7 +28,6 @@
 #include <string>
 #include <vector>
 
-#include "core/huge_pages.h"
 #include "integrators/film.h"
 #include "integrators/progress.h"
 #include "integrators/render.h"
@@ -172,7 +171,7 @@ private:
     bool early_;
     // The film with the pass in progress added, for its done tiles (see above); allocated
     // when a pass needs it
-    std::vector<PixelSums> next_;
+    PixelArray next_;  // (not zeroed: a tile is written before it is read)
     // Units of the pass in progress being added to the film now, outside the lock (each
     // into its own tile); a snapshot waits until none is
     int adding_ = 0;
