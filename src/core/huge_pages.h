@@ -17,10 +17,15 @@ namespace cierzo {
 
 inline constexpr size_t kHugePage = size_t(2) << 20;
 
-// `bytes` of memory, uninitialised; from 4 MiB up, 2 MiB-aligned and advised into huge pages.
-// Freed with free_large(p, bytes).
+// From this size up an array is given whole huge pages (the last one partly unused): one
+// fault clears 2 MiB where small pages fault 512 times, at some 10 µs each on the virtual
+// machines measured here (a 160x160 render's 1.2 MB splat sums alone cost 3 ms in faults).
+inline constexpr size_t kHugePageFrom = size_t(1) << 20;
+
+// `bytes` of memory, uninitialised; from kHugePageFrom up, 2 MiB-aligned and advised into
+// huge pages. Freed with free_large(p, bytes).
 inline void* allocate_large(size_t bytes) {
-    if (bytes < 2 * kHugePage) return ::operator new(bytes);
+    if (bytes < kHugePageFrom) return ::operator new(bytes);
     const size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
     void* p = std::aligned_alloc(kHugePage, rounded);
     if (!p) throw std::bad_alloc();
@@ -29,7 +34,7 @@ inline void* allocate_large(size_t bytes) {
 }
 
 inline void free_large(void* p, size_t bytes) {
-    if (bytes < 2 * kHugePage)
+    if (bytes < kHugePageFrom)
         ::operator delete(p);
     else
         std::free(p);
@@ -45,7 +50,7 @@ inline void advise_huge_pages(const void* p, size_t bytes) {
 
 // An allocator for large arrays of plain structs whose elements are written before they
 // are read: a vector grows without writing its new elements (resize() constructs nothing;
-// construction from a value still copies), in huge pages from 4 MiB up.
+// construction from a value still copies), in huge pages from kHugePageFrom up.
 template <class T>
 struct Uninitialised {
     using value_type = T;

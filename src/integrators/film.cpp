@@ -14,7 +14,7 @@ Film::Film(int width, int height) : width_(width), height_(height) {
 }
 
 void Film::merge(const FilmTile& tile) {
-    const std::vector<PixelSums>& src = tile.pixels();
+    const std::span<const PixelSums> src = tile.pixels();
     const size_t w = size_t(tile.x1() - tile.x0());
     for (int y = tile.y0(); y < tile.y1(); ++y)
         for (int x = tile.x0(); x < tile.x1(); ++x)

@@ -3,9 +3,11 @@
 // left out, so no NaN or Inf ever reaches an image.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "core/huge_pages.h"
@@ -84,7 +86,7 @@ public:
     uint64_t nonfinite() const { return nonfinite_; }
 
 private:
-    std::vector<Fixed> sums_;
+    std::vector<Fixed, Uninitialised<Fixed>> sums_;  // (in huge pages: see core/huge_pages.h)
     uint64_t nonfinite_ = 0;
 };
 
@@ -96,25 +98,58 @@ private:
 class FilmTile {
 public:
     FilmTile() = default;
+    // A tile owning its zeroed memory.
     FilmTile(int x0, int y0, int x1, int y1, int image_width)
         : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
-          pixels_(size_t(x1 - x0) * size_t(y1 - y0)) {}
-    // The same in the memory of `storage` (a tile given back with release()), zeroed.
-    FilmTile(int x0, int y0, int x1, int y1, int image_width, std::vector<PixelSums>&& storage)
-        : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
-          pixels_(std::move(storage)) {
-        pixels_.assign(size_t(x1 - x0) * size_t(y1 - y0), PixelSums{});
+          n_(size_t(x1 - x0) * size_t(y1 - y0)), own_(n_) {
+        px_ = own_.data();
     }
-    std::vector<PixelSums> release() { return std::move(pixels_); }
+    // The same in borrowed memory of at least its pixels (a TilePool's, given back to it
+    // with release()), zeroed here.
+    FilmTile(int x0, int y0, int x1, int y1, int image_width, PixelSums* memory)
+        : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
+          n_(size_t(x1 - x0) * size_t(y1 - y0)), px_(memory), borrowed_(true) {
+        std::fill(px_, px_ + n_, PixelSums{});
+    }
+    FilmTile(FilmTile&& o) noexcept { *this = std::move(o); }
+    FilmTile& operator=(FilmTile&& o) noexcept {
+        x0_ = o.x0_, y0_ = o.y0_, x1_ = o.x1_, y1_ = o.y1_, image_width_ = o.image_width_;
+        n_ = o.n_, borrowed_ = o.borrowed_;
+        own_ = std::move(o.own_);
+        px_ = borrowed_ ? o.px_ : own_.data();
+        o.px_ = nullptr, o.n_ = 0, o.borrowed_ = false;
+        splats = std::move(o.splats);
+        strategies = std::move(o.strategies);
+        return *this;
+    }
+    // (a copy owns its memory)
+    FilmTile(const FilmTile& o)
+        : splats(o.splats), strategies(o.strategies), x0_(o.x0_), y0_(o.y0_), x1_(o.x1_),
+          y1_(o.y1_), image_width_(o.image_width_), n_(o.n_), own_(o.px_, o.px_ + o.n_) {
+        px_ = own_.data();
+    }
+    FilmTile& operator=(const FilmTile& o) {
+        if (this != &o) *this = FilmTile(o);
+        return *this;
+    }
+
+    // The borrowed memory, handed back (null if the tile owns its memory or none); the tile
+    // then has no pixels.
+    PixelSums* release() {
+        PixelSums* m = borrowed_ ? px_ : nullptr;
+        own_.clear();
+        px_ = nullptr, n_ = 0, borrowed_ = false;
+        return m;
+    }
     int x0() const { return x0_; }
     int y0() const { return y0_; }
     int x1() const { return x1_; }
     int y1() const { return y1_; }
     PixelSums& at(int x, int y) {
-        return pixels_[size_t(y - y0_) * size_t(x1_ - x0_) + size_t(x - x0_)];
+        return px_[size_t(y - y0_) * size_t(x1_ - x0_) + size_t(x - x0_)];
     }
     const PixelSums& at(int x, int y) const {
-        return pixels_[size_t(y - y0_) * size_t(x1_ - x0_) + size_t(x - x0_)];
+        return px_[size_t(y - y0_) * size_t(x1_ - x0_) + size_t(x - x0_)];
     }
     // The pixel whose index in the whole image is y * image width + x.
     PixelSums& at_index(size_t image_index) {
@@ -123,10 +158,11 @@ public:
     // Counts `paths` more finite samples in every pixel, for paths whose radiance is then
     // given with PixelSums::add_counted (or not at all, if zero).
     void count_paths(uint64_t paths) {
-        for (PixelSums& p : pixels_) p.count += paths;
+        for (PixelSums& p : pixels()) p.count += paths;
     }
-    std::vector<PixelSums>& pixels() { return pixels_; }
-    const std::vector<PixelSums>& pixels() const { return pixels_; }
+    // Every pixel, row by row within the tile.
+    std::span<PixelSums> pixels() { return {px_, n_}; }
+    std::span<const PixelSums> pixels() const { return {px_, n_}; }
 
     // What paths from the lights traced for this unit added to the image, anywhere in it
     // (in the order they were traced; the coordinator adds them up exactly, SplatSums).
@@ -138,7 +174,10 @@ public:
 
 private:
     int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0, image_width_ = 0;
-    std::vector<PixelSums> pixels_;
+    size_t n_ = 0;
+    PixelSums* px_ = nullptr;  // own_'s, or borrowed
+    bool borrowed_ = false;
+    std::vector<PixelSums> own_;
 };
 
 // A film's pixels: in huge pages, and grown without being written (Film zeroes its own).

@@ -87,7 +87,7 @@ void encode_result(std::vector<char>& msg, const UnitResult& r) {
     append(msg, ResultHeader{r.unit.tile, r.unit.pass, r.unit.s0, r.unit.s1,
                              {r.rays.camera, r.rays.extension, r.rays.shadow, r.rays.light},
                              r.lanes, r.sums.splats.size()});
-    const auto& px = r.sums.pixels();
+    const std::span<const PixelSums> px = std::as_const(r.sums).pixels();
     const char* p = reinterpret_cast<const char*>(px.data());
     msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
     if (!r.sums.splats.empty()) {
@@ -103,7 +103,7 @@ UnitResult decode_result(const std::vector<char>& msg, size_t& at, const std::ve
         throw std::runtime_error("a rank sent a unit of an unknown tile");
     UnitResult r{Unit{rh.tile, rh.pass, rh.s0, rh.s1}, pool.make(tiles[size_t(rh.tile)], 0),
                  RayCounts{rh.rays[0], rh.rays[1], rh.rays[2], rh.rays[3]}, rh.lanes};
-    auto& px = r.sums.pixels();
+    const std::span<PixelSums> px = r.sums.pixels();
     const size_t bytes = px.size() * sizeof(PixelSums);
     if (at + bytes > msg.size()) throw std::runtime_error("truncated unit from a rank");
     // (a batch of light paths has no pixels: memcpy may not be given an empty vector's null data)

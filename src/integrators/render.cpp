@@ -226,8 +226,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     const RenderSettings& rs = scene.settings;
     const std::vector<Tile> tiles =
         work_units(rs.width, rs.height, scene.settings.estimator.kind == Estimator::kLt);
-    // (enough for two passes in flight and every thread's unit)
-    TilePool pool(2 * tiles.size() + 8 * size_t(threads));
+    TilePool pool;
     const UnitRenderer renderer(scene, wavefront.get(), tiles, pool, options.light_store_limit,
                                 options.strategies);
     RenderResult result{root ? Film(rs.width, rs.height) : Film(0, 0), {}};

@@ -24,21 +24,30 @@ void add(LaneStats& a, const LaneStats& b) {
 
 FilmTile TilePool::make(const Tile& g, int image_width) {
     if (g.light) return FilmTile(g.x0, g.y0, g.x0, g.y0, image_width);  // (owns no pixels)
-    std::vector<PixelSums> memory;
+    if (size_t(g.x1 - g.x0) * size_t(g.y1 - g.y0) > kChunk)
+        return FilmTile(g.x0, g.y0, g.x1, g.y1, image_width);  // (larger than a tile: its own)
+    PixelSums* memory;
     {
         std::lock_guard lock(mutex_);
         if (!free_.empty()) {
-            memory = std::move(free_.back());
+            memory = free_.back();
             free_.pop_back();
+        } else {
+            if (carved_ == kChunksPerSlab) {
+                slabs_.emplace_back(static_cast<PixelSums*>(allocate_large(kSlabBytes)));
+                carved_ = 0;
+            }
+            memory = slabs_.back().get() + kChunk * carved_++;
         }
     }
-    return FilmTile(g.x0, g.y0, g.x1, g.y1, image_width, std::move(memory));
+    return FilmTile(g.x0, g.y0, g.x1, g.y1, image_width, memory);
 }
 
 void TilePool::give(FilmTile&& tile) {
-    std::vector<PixelSums> memory = tile.release();
+    PixelSums* memory = tile.release();
+    if (!memory) return;
     std::lock_guard lock(mutex_);
-    if (free_.size() < keep_) free_.push_back(std::move(memory));
+    free_.push_back(memory);
 }
 
 UnitResult UnitRenderer::render(const Unit& u) const {
