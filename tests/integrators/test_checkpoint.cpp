@@ -85,6 +85,15 @@ RenderOptions options_for(const test::Variant& v, int threads) {
     return o;
 }
 
+// A state holding a finished render of `scene` (its film; every pixel at its spp).
+RenderState finished_state(const Scene& scene) {
+    fs::create_directories(kDir);
+    RenderState s;
+    s.film = render(scene, options_for(test::variants().front(), 2)).film;
+    s.spp_done = scene.settings.spp;
+    return s;
+}
+
 TEST(PassBounds, StartAtZeroOrAtAResumedCountAndEndAtSpp) {
     // (an image of 2^20 pixels: every pass of one path per pixel or more has enough paths)
     const int64_t kLarge = kMinPassPaths;
@@ -300,11 +309,8 @@ TEST(Checkpoint, AFinishedRenderOnABoundaryContinuesToTheBitsOfALongerOne) {
 }
 
 TEST(CheckpointFile, KeepsTheStateExactlyWithTilesOfAPass) {
-    fs::create_directories(kDir);
     Scene scene = scene_at("cornell.json", 37, 21, 8);  // tiles cut at the edges
-    RenderState s;
-    s.film = render(scene, options_for(test::variants().front(), 2)).film;
-    s.spp_done = 8;
+    RenderState s = finished_state(scene);
     s.pending_end = 15;
     s.rays = {1, 2, 3};
     s.seconds = 1.5;
@@ -380,11 +386,8 @@ TEST(CheckpointFile, AResumeOfAnotherRenderIsRefusedNamingWhatDiffers) {
 // older file is made by renaming the attribute that marks the newer form: same length, so
 // the uncompressed file stays whole.)
 TEST(CheckpointFile, AnOlderFilesPassSumsAreAddedToTheFilm) {
-    fs::create_directories(kDir);
     Scene scene = scene_at("cornell.json", 37, 21, 8);
-    RenderState s;
-    s.film = render(scene, options_for(test::variants().front(), 2)).film;
-    s.spp_done = 8;
+    RenderState s = finished_state(scene);
     s.pending_end = 15;
     const std::vector<Tile> tiles = image_tiles(37, 21);
     s.pending_tiles.assign(tiles.size(), 0);
@@ -424,11 +427,8 @@ TEST(CheckpointFile, AnOlderFilesPassSumsAreAddedToTheFilm) {
 }
 
 TEST(CheckpointFile, ADamagedOrForeignFileIsRefusedNamingIt) {
-    fs::create_directories(kDir);
     Scene scene = scene_at("cornell.json", 32, 32, 4);
-    RenderState s;
-    s.film = render(scene, options_for(test::variants().front(), 2)).film;
-    s.spp_done = 4;
+    RenderState s = finished_state(scene);
     write_checkpoint(kDir / "good.exr", checkpoint_identity(scene, "scalar", "scalar", 0), s);
     auto refused = [&](const fs::path& p, const std::string& needle) {
         try {
