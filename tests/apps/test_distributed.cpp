@@ -309,7 +309,9 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     const bool heavy = std::any_of(estimator.begin(), estimator.end(), [](const std::string& e) {
         return e == "bdpt" || e == "vcm" || e == "bpm" || e == "ppm";
     });
-    const std::string spp = emulated() ? "300" : heavy ? "800" : "2000";
+    // (under an emulator a bidirectional path costs seconds per pass already: 100 paths
+    // per pixel outlast the first checkpoint many times over)
+    const std::string spp = emulated() ? (heavy ? "100" : "300") : heavy ? "800" : "2000";
     const bool small = emulated() || heavy;
     std::vector<std::string> scene = {"--spp", spp, "--width", small ? "64" : "160",
                                       "--height", small ? "48" : "120", "--variance"};
