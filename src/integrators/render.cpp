@@ -299,7 +299,6 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         // The final state (with the tiles done of the pass in progress, after a stop)
         if (options.checkpoint)
             st.checkpoint_final_failed = !checkpoints.write(coord.snapshot(resume));
-        coord.settle();  // (a stop mid-pass: the film back to whole passes)
         mine.rays = totals.rays, mine.units = totals.units;
         mine.seconds = double(totals.last_ns.load()) * 1e-9;
         st.units = totals.units;

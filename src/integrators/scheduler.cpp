@@ -108,25 +108,12 @@ void Coordinator::restore_pending(const RenderState& state) {
         const Tile& g = tiles_[t];
         for (int y = g.y0; y < g.y1; ++y)
             for (int x = g.x0; x < g.x1; ++x)
-                (into_next() ? next_[size_t(y) * size_t(width_) + size_t(x)] : film_.at(x, y)) =
-                    state.pending.at(x, y);
+                added(x, y) = state.pending.at(x, y);
         w.done[t] = 1;
         ++w.done_count;
     }
     progress_.units_done(w.done_count, 0);
     if (w.done_count == tiles_.size()) commit_passes();
-}
-
-void Coordinator::settle() {
-    std::lock_guard lock(mutex_);
-    if (frontier_ >= passes_ || into_next()) return;
-    for (size_t t = 0; t < tiles_.size(); ++t) {
-        if (!in_film(t)) continue;
-        const Tile& g = tiles_[t];
-        for (int y = g.y0; y < g.y1; ++y)
-            for (int x = g.x0; x < g.x1; ++x) film_.at(x, y) = PixelSums{};
-        work_[first_].done[t] = 0;
-    }
 }
 
 std::vector<Unit> Coordinator::grant(size_t n) {
@@ -316,8 +303,12 @@ PixelSums Coordinator::before(int x, int y) const {
     return into_next() ? film_.at(x, y) : PixelSums{};
 }
 
-const PixelSums& Coordinator::added(int x, int y) const {
+PixelSums& Coordinator::added(int x, int y) {
     return into_next() ? next_[size_t(y) * size_t(width_) + size_t(x)] : film_.at(x, y);
+}
+
+const PixelSums& Coordinator::added(int x, int y) const {
+    return const_cast<Coordinator&>(*this).added(x, y);
 }
 
 bool Coordinator::in_film(size_t t) const {

@@ -119,9 +119,6 @@ public:
 
     // Puts back the tiles of the first pass that a checkpoint had already done.
     void restore_pending(const RenderState& state);
-    // After the render (and its final checkpoint): if it stopped in the middle of a pass,
-    // the film's tiles of that pass are put back as they were, so the film holds whole passes.
-    void settle();
     // Up to `n` units (fewer, or none, when none can be handed out now).
     std::vector<Unit> grant(size_t n);
     void complete(UnitResult&& r);
@@ -162,6 +159,7 @@ private:
     // Pixel (x, y) of a done tile of the pass in progress: the film's before the pass, and
     // with the pass added.
     PixelSums before(int x, int y) const;
+    PixelSums& added(int x, int y);
     const PixelSums& added(int x, int y) const;
     // True if tile `t` of the pass in progress is done and added (not waiting aside).
     bool in_film(size_t t) const;
