@@ -11,7 +11,8 @@ round's own ratio. Parts:
    (scenes/box.json) and the box with a 200k-triangle mesh: whole renders of the same
    scene and estimator, their rays/s and image means (equal means prove equal work).
 3. The traversal alone: `cierzo trace` against `embree_pt --trace-rays` on the same file of
-   incoherent rays (embree_pt --dump-rays: every ray after the camera's).
+   incoherent rays (embree_pt --dump-rays: every ray after the camera's), and cierzo's ray
+   streams (`cierzo trace --stream 1024 --single-below 16`) against its single rays.
 4. Build: a 1M-triangle mesh loaded and built on 2 threads (`--stats` bvh.build_seconds),
    bytes per triangle, and Embree's build of the same mesh on 2 threads.
 5. With --baseline BIN (a cierzo built from an earlier commit): scenes/cornell.json's
@@ -116,6 +117,10 @@ def main():
                     k = keys(run([CIERZO, "trace", scene, "--rays", rays[name]]))
                     add(("trace", name, "cierzo"), {"rays_per_s": float(k["rays_per_second"]),
                                                     "hits": int(k["hits"])})
+                    k = keys(run([CIERZO, "trace", scene, "--rays", rays[name], "--stream", 1024,
+                                  "--single-below", 16]))
+                    add(("trace", name, "stream"), {"rays_per_s": float(k["rays_per_second"]),
+                                                    "hits": int(k["hits"])})
                     k = keys(run([EMBREE, scene, "--trace-rays", rays[name]]))
                     add(("trace", name, "embree"), {"rays_per_s": float(k["rays_per_second"]),
                                                     "hits": int(k["hits"])})
@@ -163,6 +168,13 @@ def main():
             ratio = median_ratio(rays(c), rays(e))
             result[f"trace_{name}"] = {"cierzo": med(c), "embree": med(e), "ratio": ratio}
             print(f"| {name} | {med(c):.2f} | {med(e):.2f} | {ratio:.2f} | {samples[c][0]['hits']}, {samples[e][0]['hits']} |")
+        print("\n| ray streams (cierzo trace --stream 1024 --single-below 16) | M rays/s | streams / single rays | hits |")
+        print("|---|---|---|---|")
+        for name in triangles:
+            c, s = ("trace", name, "cierzo"), ("trace", name, "stream")
+            ratio = median_ratio(rays(s), rays(c))
+            result[f"stream_{name}"] = {"stream": med(s), "single": med(c), "ratio": ratio}
+            print(f"| {name} | {med(s):.2f} | {ratio:.2f} | {samples[s][0]['hits']} |")
     b = min(builds, key=lambda x: x["build_seconds"])
     result["build_1m"] = {"seconds": b["build_seconds"], "bytes_per_triangle": b["bytes"] / b["primitives"],
                           "embree_seconds": min(embree_builds) if embree_builds else None}

@@ -182,6 +182,103 @@ uint32_t alpha_filter(const BvhView& bvh, const AlphaTable& table, int32_t objec
     return hits;
 }
 
+// ---- Leaves --------------------------------------------------------------------------------
+// A ray in every lane, as the leaf kernels read it: for triangles the origin with its axes
+// already permuted (kx, ky, kz) and the shear's factors, and the plain ray for spheres.
+template <class N>
+struct LeafRay {
+    Ray<N> tri;
+    N sx, sy, sz;
+    Ray<N> ray;
+};
+
+template <class N>
+inline LeafRay<N> make_leaf_ray(const TraversalRay& r) {
+    const int32_t* axis = r.axis;
+    return {{{N(r.o[axis[0]]), N(r.o[axis[1]]), N(r.o[axis[2]])}, Vec3<N>(N(0.0f))},
+            N(r.shear[0]),
+            N(r.shear[1]),
+            N(r.shear[2]),
+            {{N(r.o[0]), N(r.o[1]), N(r.o[2])}, {N(r.d[0]), N(r.d[1]), N(r.d[2])}}};
+}
+
+// Lanes `hits` of a block tested at distances th: the nearest below t (t and lane updated;
+// the first on a tie).
+template <class N>
+inline void nearest_lane(uint32_t hits, const N& th, uint32_t lane0, float& t, uint32_t& lane) {
+    alignas(32) float ts[kNodeLanes<N>];
+    store_lanes(th, ts);
+    for (; hits; hits &= hits - 1) {
+        const uint32_t h = uint32_t(std::countr_zero(hits));
+        if (ts[h] < t) t = ts[h], lane = lane0 + h;
+    }
+}
+
+// A leaf of triangle blocks (`count` triangles from block `start`) for ray r (lr: in every
+// lane): whether one is hit below t; closest hit: t and lane (block lane) updated to the
+// nearest. alpha: the masks (alpha_filter; object and world as there), or null.
+template <bool kAnyHit, class N>
+inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r, const LeafRay<N>& lr,
+                              uint32_t start, uint32_t count, float& t, uint32_t& lane,
+                              const AlphaTable* alpha = nullptr, int32_t object = -1,
+                              const TraversalRay* world = nullptr) {
+    constexpr int kLanes = kNodeLanes<N>;
+    const int32_t* axis = r.axis;
+    // The vertices are handed to the kernel with their axes permuted as the origin is, so
+    // its per-lane picks are the identity, built here as constants that fold away (it
+    // computes exactly what it would unpermuted: it reads no direction)
+    const Mask<N> yes(true), no(false);
+    const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes}, {no, no},
+                            lr.sx, lr.sy, lr.sz};
+    bool any = false;
+    const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
+    for (uint32_t j = start; j < start + blocks; ++j) {
+        const float(*v)[kWideBvhWidth] = bvh.triangles[j].v;
+        for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+            const auto vertex = [&](int k) {
+                return Vec3<N>(row<N>(v, 3 * k + axis[0], at), row<N>(v, 3 * k + axis[1], at),
+                               row<N>(v, 3 * k + axis[2], at));
+            };
+            N th(0.0f), b1(0.0f), b2(0.0f);
+            uint32_t hits = mask_bits(intersect_triangle(lr.tri, shear, vertex(0), vertex(1),
+                                                         vertex(2), N(t), th, b1, b2));
+            if (hits == 0) continue;
+            if (alpha) {
+                hits = alpha_filter(bvh, *alpha, object, world ? *world : r, hits,
+                                    j * kWideBvhWidth + uint32_t(at), b1, b2);
+                if (hits == 0) continue;
+            }
+            if constexpr (kAnyHit) return true;
+            any = true;
+            nearest_lane(hits, th, j * kWideBvhWidth + uint32_t(at), t, lane);
+        }
+    }
+    return any;
+}
+
+// A leaf of sphere blocks, likewise.
+template <bool kAnyHit, class N>
+inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t start,
+                            uint32_t count, float& t, uint32_t& lane) {
+    constexpr int kLanes = kNodeLanes<N>;
+    bool any = false;
+    const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
+    for (uint32_t j = start; j < start + blocks; ++j) {
+        const float(*c)[kWideBvhWidth] = bvh.spheres[j].c;
+        for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+            const Vec3<N> centre(row<N>(c, 0, at), row<N>(c, 1, at), row<N>(c, 2, at));
+            N th(0.0f);
+            const uint32_t hits =
+                mask_bits(intersect_sphere(lr.ray, centre, row<N>(c, 3, at), N(t), th));
+            if (hits == 0) continue;
+            if constexpr (kAnyHit) return true;
+            any = true;
+            nearest_lane(hits, th, j * kWideBvhWidth + uint32_t(at), t, lane);
+        }
+    }
+    return any;
+}
+
 // ---- Traversal -----------------------------------------------------------------------------
 // A ray through the tree. A node's children are tested at once with the robust slab test
 // over [0, t] (a NaN distance leaves the interval as it was; far distances scaled by
@@ -195,12 +292,13 @@ uint32_t alpha_filter(const BvhView& bvh, const AlphaTable& table, int32_t objec
 // tree (kTop = false: a mesh's tree holds triangles only).
 // Closest hit: whether anything is hit in (0, tmax), then tmax and `hit`: the nearest, and
 // on a tie the first found. Any hit (kAnyHit): whether anything is, stopping at the first.
+// `root`: the node to start from (a ray stream's subtree, kernels/traverse_stream.h).
 // (flatten: the kernels are inlined, so the identity picks below fold away.)
 template <bool kAnyHit, class N, bool kTop = true>
 [[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax,
                                BvhHit& hit, const AlphaTable* alpha = nullptr,
-                               int32_t object = -1, const TraversalRay* world = nullptr) {
-    using B = Mask<N>;
+                               int32_t object = -1, const TraversalRay* world = nullptr,
+                               uint32_t root = 0) {
     constexpr int kLanes = kNodeLanes<N>;
     if (bvh.node_count == 0) return false;
     // The ray in every lane, and the bounds row of each axis' near and far plane
@@ -212,16 +310,7 @@ template <bool kAnyHit, class N, bool kTop = true>
         near_row[k] = std::signbit(r.inv[k]) ? k + 3 : k;
         far_row[k] = std::signbit(r.inv[k]) ? k : k + 3;
     }
-    // The triangle kernel's shear is the same in every lane, so the origin and the vertices
-    // are handed to it with their axes already permuted (kx, ky, kz): its per-lane picks are
-    // then the identity, and it computes exactly what it would unpermuted (it reads no
-    // direction)
-    const int32_t* axis = r.axis;
-    const Ray<N> tri_ray{{N(r.o[axis[0]]), N(r.o[axis[1]]), N(r.o[axis[2]])}, Vec3<N>(N(0.0f))};
-    const B yes(true), no(false);
-    const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes}, {no, no},
-                            N(r.shear[0]), N(r.shear[1]), N(r.shear[2])};
-    const Ray<N> ray{{N(r.o[0]), N(r.o[1]), N(r.o[2])}, {N(r.d[0]), N(r.d[1]), N(r.d[2])}};
+    const LeafRay<N> lr = make_leaf_ray<N>(r);
     float t = tmax;  // the closest hit so far (a local: the stack cannot alias it)
     BvhHit best{0, 0, -1};
     bool found = false;
@@ -229,57 +318,20 @@ template <bool kAnyHit, class N, bool kTop = true>
     // One leaf (kind, start, count); whether it hit (closest hit: t and best updated)
     const auto test_leaf = [&](uint32_t kind, uint32_t start, uint32_t count) {
         bool any = false;
-        // Lanes `hits` of a block test at distances th: the nearest below t, first on a tie
-        const auto record = [&](uint32_t hits, const N& th, uint32_t lane0) {
-            alignas(32) float ts[kLanes];
-            store_lanes(th, ts);
-            for (; hits; hits &= hits - 1) {
-                const uint32_t h = uint32_t(std::countr_zero(hits));
-                if (ts[h] < t) t = ts[h], best = {kind, lane0 + h, -1};
-            }
-        };
         if (kind == kLeafTriangles) {
-            const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
-            for (uint32_t j = start; j < start + blocks; ++j) {
-                const float(*v)[kWideBvhWidth] = bvh.triangles[j].v;
-                for (int at = 0; at < kWideBvhWidth; at += kLanes) {
-                    const auto vertex = [&](int k) {
-                        return Vec3<N>(row<N>(v, 3 * k + axis[0], at), row<N>(v, 3 * k + axis[1], at),
-                                       row<N>(v, 3 * k + axis[2], at));
-                    };
-                    N th(0.0f), b1(0.0f), b2(0.0f);
-                    uint32_t hits = mask_bits(intersect_triangle(
-                        tri_ray, shear, vertex(0), vertex(1), vertex(2), N(t), th, b1, b2));
-                    if (hits == 0) continue;
-                    if (alpha) {
-                        hits = alpha_filter(bvh, *alpha, object, world ? *world : r, hits,
-                                            j * kWideBvhWidth + uint32_t(at), b1, b2);
-                        if (hits == 0) continue;
-                    }
-                    if constexpr (kAnyHit) return true;
-                    any = true;
-                    record(hits, th, j * kWideBvhWidth + uint32_t(at));
-                }
-            }
-            return any;
+            uint32_t lane = best.lane;
+            if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object,
+                                            world))
+                return false;
+            best = {kLeafTriangles, lane, -1};
+            return true;
         }
         if constexpr (kTop) {
             if (kind == kLeafSpheres) {
-                const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
-                for (uint32_t j = start; j < start + blocks; ++j) {
-                    const float(*c)[kWideBvhWidth] = bvh.spheres[j].c;
-                    for (int at = 0; at < kWideBvhWidth; at += kLanes) {
-                        const Vec3<N> centre(row<N>(c, 0, at), row<N>(c, 1, at), row<N>(c, 2, at));
-                        N th(0.0f);
-                        const uint32_t hits =
-                            mask_bits(intersect_sphere(ray, centre, row<N>(c, 3, at), N(t), th));
-                        if (hits == 0) continue;
-                        if constexpr (kAnyHit) return true;
-                        any = true;
-                        record(hits, th, j * kWideBvhWidth + uint32_t(at));
-                    }
-                }
-                return any;
+                uint32_t lane = best.lane;
+                if (!hit_sphere_leaf<kAnyHit>(bvh, lr, start, count, t, lane)) return false;
+                best = {kLeafSpheres, lane, -1};
+                return true;
             }
             const Ray<float> ray1{{r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}};
             for (uint32_t j = start; j < start + count; ++j) {
@@ -319,7 +371,7 @@ template <bool kAnyHit, class N, bool kTop = true>
     };
     Entry stack[kWideBvhStackSize];
     int size = 0;
-    Entry e{0, 0.0f};  // the root
+    Entry e{root, 0.0f};
     for (;;) {
         // The slab test of every child over [0, t]
         const WideBvhNode& node = bvh.nodes[e.node];

@@ -27,6 +27,8 @@ struct TraceArgs {
     std::string integrator = "wavefront";
     std::string isa = "auto";
     int repeat = 1;
+    int stream_rays = 0;
+    int single_below = TraceOptions{}.single_below;
 };
 TraceArgs g_args;
 
@@ -78,6 +80,18 @@ CLI::App* add_trace_command(CLI::App& app) {
                                            usable_isa_names())
         ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2", "neon"}))
         ->capture_default_str();
+    t->add_option("--stream", g_args.stream_rays,
+                  "Wavefront: trace the rays as ordered streams of this many rays (node by node; "
+                  "kernels/traverse_stream.h) where the tree allows it (triangles and spheres, "
+                  "no instances, no alpha masks), instead of K rays at a time each on its own; "
+                  "0: no streams")
+        ->check(CLI::Range(0, 65536))
+        ->capture_default_str();
+    t->add_option("--single-below", g_args.single_below,
+                  "With --stream: a stream of fewer rays than this finishes its subtree one ray "
+                  "at a time")
+        ->check(CLI::Range(1, 65536))
+        ->capture_default_str();
     t->add_option("--repeat", g_args.repeat, "Timed passes over the rays (after one warm-up pass)")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
@@ -89,13 +103,17 @@ int run_trace_command() {
     const Isa isa = parse_isa(a.isa);
     const bool simd = integrator_of(a.integrator) == Integrator::kWavefront;
     if (simd) require_isa(isa, "--isa");
+    if (!simd && a.stream_rays > 0)
+        throw InputError("--stream: the scalar integrator traces one ray at a time; streams are "
+                         "the wavefront's (--integrator wavefront)");
     const Scene scene = load_scene(a.scene);
     const std::vector<float> rays = read_rays(a.rays);
     const size_t count = rays.size() / 7;
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (simd) wavefront = std::make_unique<WavefrontRenderer>(scene, isa);
     const auto pass = [&](TraceTotals& totals) {
-        if (wavefront) return wavefront->trace(rays.data(), count, totals);
+        if (wavefront)
+            return wavefront->trace(rays.data(), count, {a.stream_rays, a.single_below}, totals);
         for (size_t i = 0; i < count; ++i) {
             const float* r = &rays[7 * i];
             Hit hit;
@@ -113,10 +131,10 @@ int run_trace_command() {
         timed.rays += t.rays;
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::printf("integrator: %s\nisa: %s\nrays: %zu\nrepeat: %d\ntrace_seconds: %.6f\n"
+    std::printf("integrator: %s\nisa: %s\nstream: %d\nstreamed_rays: %llu\nrays: %zu\nrepeat: %d\ntrace_seconds: %.6f\n"
                 "rays_per_second: %.0f\nhits: %llu\nsum_t: %.9g\n",
                 a.integrator.c_str(), wavefront ? isa_name(wavefront->isa()).c_str() : "none",
-                count, a.repeat, seconds, double(timed.rays) / seconds,
+                a.stream_rays, static_cast<unsigned long long>(warm.streamed), count, a.repeat, seconds, double(timed.rays) / seconds,
                 static_cast<unsigned long long>(warm.hits), warm.sum_t);
     return 0;
 }

@@ -681,6 +681,66 @@ TEST_F(cli, TraceFindsTheSameHitsWithEveryIntegratorAndIsa) {
     }
 }
 
+// Ray streams (`--stream`) find the same hits at the same distances as single rays, on a
+// tree of many nodes, with every ISA; where they cannot be used (a one-node tree, the
+// scalar integrator) they are not, or refused.
+TEST_F(cli, TraceWithRayStreamsFindsWhatSingleRaysFind) {
+    std::string objects;
+    for (int i = 0; i < 400; ++i) {
+        const int x = i % 20, z = i / 20;
+        objects += std::string(i ? ",\n" : "") + "{\"type\": \"sphere\", \"center\": [" +
+                   std::to_string(x - 10) + ", " + std::to_string(0.3 * (i % 7)) + ", " +
+                   std::to_string(z) + "], \"radius\": " + std::to_string(0.2 + 0.05 * (i % 5)) +
+                   ", \"material\": {\"kd\": 0.5}}";
+        objects += ",\n{\"type\": \"triangle\", \"vertices\": [[" + std::to_string(x - 10.4) +
+                   ", 0, " + std::to_string(z) + "], [" + std::to_string(x - 9.6) + ", 0, " +
+                   std::to_string(z) + "], [" + std::to_string(x - 10) + ", 1.5, " +
+                   std::to_string(z + 0.3) + "]], \"material\": {\"kd\": 0.5}}";
+    }
+    const fs::path scene = write("field.json", R"({"render": {"width": 8, "height": 8},
+        "camera": {"position": [0, 4, -12], "look_at": [0, 0, 8], "vfov": 50},
+        "objects": [)" + objects + "]}");
+    std::vector<std::array<float, 7>> rays;
+    uint32_t h = 12345;
+    const auto unit = [&] { h = h * 1664525u + 1013904223u; return float(h >> 8) * 0x1p-24f * 2 - 1; };
+    for (int i = 0; i < 3000; ++i) {
+        // From in front of the field towards a point in it
+        const float o[3] = {unit() * 8, 1 + unit(), unit() * 2 - 8};
+        float d[3] = {unit() * 10 - o[0], 0.5f + 0.5f * unit() - o[1], 10 + 10 * unit() - o[2]};
+        const float n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        rays.push_back({o[0], o[1], o[2], d[0] / n, d[1] / n, d[2] / n, 3.4028235e38f});
+    }
+    const fs::path file = write("field.rays", ray_file(rays, rays.size()));
+    const std::string args = quote(scene) + " --rays " + quote(file);
+    for (const cierzo::Isa isa : cierzo::compiled_isas()) {
+        if (!cierzo::isa_supported(isa)) continue;
+        const std::string with_isa = args + " --isa " + cierzo::isa_name(isa);
+        const Outcome single = run(with_isa, "trace");
+        ASSERT_EQ(single.exit_code, 0) << single.err;
+        const auto want = key_values(single.out);
+        EXPECT_EQ(want.at("streamed_rays"), "0");
+        EXPECT_GT(std::stoi(want.at("hits")), 1000);
+        EXPECT_LT(std::stoi(want.at("hits")), 3000);
+        for (const char* stream : {" --stream 16 --single-below 1", " --stream 1000",
+                                   " --stream 65536 --single-below 8"}) {
+            const Outcome s = run(with_isa + stream, "trace");
+            ASSERT_EQ(s.exit_code, 0) << s.err;
+            const auto got = key_values(s.out);
+            EXPECT_EQ(got.at("streamed_rays"), "3000") << stream;
+            EXPECT_EQ(got.at("hits"), want.at("hits")) << cierzo::isa_name(isa) << stream;
+            EXPECT_EQ(got.at("sum_t"), want.at("sum_t")) << cierzo::isa_name(isa) << stream;
+        }
+    }
+    const Outcome scalar = run(args + " --integrator scalar --stream 64", "trace");
+    EXPECT_EQ(scalar.exit_code, 1);
+    EXPECT_NE(scalar.err.find("--stream"), std::string::npos) << scalar.err;
+    const Outcome tiny = run(quote(write("s.json", kTinyScene)) + " --rays " + quote(file) +
+                                 " --stream 64",
+                             "trace");
+    ASSERT_EQ(tiny.exit_code, 0) << tiny.err;
+    EXPECT_EQ(key_values(tiny.out).at("streamed_rays"), "0") << "a one-node tree is not streamed";
+}
+
 TEST_F(cli, TraceRefusesABadRayFileNamingIt) {
     const fs::path scene = write("s.json", kTinyScene);
     const std::array<float, 7> ray{0, 0, -3, 0, 0, 1, 1e30f};

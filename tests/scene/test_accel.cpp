@@ -16,6 +16,7 @@
 
 #include "integrators/wavefront/intersect_stage.h"
 #include "kernels/traverse.h"
+#include "kernels/traverse_stream.h"
 #include "scene/scene_json.h"
 #include "support/emulator.h"
 #include "support/uv_sphere.h"
@@ -458,6 +459,68 @@ TEST(Accel, PacketsOfCameraRaysMatchSingleRaysThroughInstances) {
     EXPECT_GT(hits, 1000);
     EXPECT_GT(through_instances, 20);
     EXPECT_LE(disagreements, 3);
+}
+
+// Ray streams (kernels/traverse_stream.h) find what single rays find: whether a ray hits,
+// the same t bit for bit (the same kernels), and the same primitive but on an exact tie of
+// two primitives' distances, where either may be named; with every stream cut-off, from
+// streams traced node by node to the leaves (1) to streams that go one ray at a time from
+// the root (more rays than the stream). Trees with quadrics or instances are not streamed.
+TEST(Accel, RayStreamsFindWhatSingleRaysFind) {
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(40, 60));
+    const Scene s = scene_of(mixture_objects(21, 400, 1500, 0) + R"(,
+        {"type": "mesh", "file": "ball.ply", "scale": [3, 3, 3], "translate": [2, 1, 0], "material": {"kd": 0.5}})",
+                             dir.path / "stream.json");
+    const BvhView bvh = s.bvh.view();
+    ASSERT_TRUE(stream_tree(bvh, false));
+    EXPECT_FALSE(stream_tree(bvh, true)) << "alpha masks are not streamed";
+    const Scene quadrics = scene_of(mixture_objects(22, 40, 150, 6), dir.path / "quadrics.json");
+    EXPECT_FALSE(stream_tree(quadrics.bvh.view(), false)) << "quadric leaves are not streamed";
+
+    using N = NodeLanes<TestArch>;
+    const std::vector<Ray<float>> rays = random_rays(3000, 14.0f, 23);
+    const int n = int(rays.size());
+    std::vector<TraversalRay> setup;
+    for (const Ray<float>& r : rays) setup.push_back(make_traversal_ray(r.o, r.d));
+    // What single rays find
+    std::vector<float> want_t(rays.size(), kRayFar);
+    std::vector<BvhHit> want(rays.size());
+    std::vector<uint8_t> want_found(rays.size());
+    int hits = 0;
+    for (int r = 0; r < n; ++r) {
+        want_found[size_t(r)] = traverse<false, N>(bvh, setup[size_t(r)], want_t[size_t(r)], want[size_t(r)]);
+        hits += want_found[size_t(r)];
+    }
+    ASSERT_GT(hits, 1000);
+    for (const int single_below : {1, 2, 4, 16, 100000}) {
+        std::vector<float> t(rays.size(), kRayFar);
+        std::vector<BvhHit> got(rays.size());
+        std::vector<uint8_t> found(rays.size()), masks(rays.size());
+        std::vector<uint16_t> ids(stream_scratch_ids(n));
+        for (int r = 0; r < n; ++r) ids[size_t(r)] = uint16_t(r);
+        stream_closest<N>(bvh, setup.data(), n, t.data(), got.data(), found.data(), ids.data(),
+                          masks.data(), single_below);
+        int ties = 0;
+        for (size_t r = 0; r < rays.size(); ++r) {
+            ASSERT_EQ(found[r], want_found[r]) << "ray " << r << ", streams below " << single_below;
+            ASSERT_EQ(t[r], want_t[r]) << "ray " << r << ", streams below " << single_below;
+            if (!found[r] || (got[r].kind == want[r].kind && got[r].lane == want[r].lane)) continue;
+            // Another primitive: it must be hit at exactly the same distance
+            ++ties;
+            ASSERT_EQ(got[r].kind, uint32_t(kLeafTriangles)) << "ray " << r;
+            const float(*v)[kWideBvhWidth] = bvh.triangles[got[r].lane / kWideBvhWidth].v;
+            const uint32_t l = got[r].lane % kWideBvhWidth;
+            const Vec3f v0{v[0][l], v[1][l], v[2][l]}, v1{v[3][l], v[4][l], v[5][l]},
+                v2{v[6][l], v[7][l], v[8][l]};
+            float th, b1, b2;
+            ASSERT_TRUE(intersect_triangle(rays[r], make_ray_shear(rays[r].d), v0, v1, v2,
+                                           kRayFar, th, b1, b2))
+                << "ray " << r;
+            EXPECT_EQ(th, t[r]) << "ray " << r;
+        }
+        EXPECT_LE(ties, 3) << "streams below " << single_below;
+    }
 }
 
 // ---- Degenerate and extreme inputs --------------------------------------------------------

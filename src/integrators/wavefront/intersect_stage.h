@@ -6,9 +6,12 @@
 #pragma once
 
 #include <type_traits>
+#include <vector>
 
+#include "core/huge_pages.h"
 #include "integrators/wavefront/wave.h"
 #include "kernels/traverse.h"
+#include "kernels/traverse_stream.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -165,14 +168,90 @@ void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) 
                        [&](int l, const BvhHit& hit) { record_tree_hit(p, bvh, i + l, hit); });
 }
 
-// Closest hits of `count` rays (7 floats each: origin, direction, tmax) through the whole
-// scene, K at a time as the extension stage traces them: the traversal alone, for
-// measuring it (`cierzo trace`). Adds the rays, hits and the sum of hit distances.
+// trace_rays_isa's streams: the unbounded primitives K rays at a time, then the tree in
+// streams of options.stream_rays.
 template <class A>
-void trace_rays_isa(const FlatScene& s, const float* rays, size_t count, TraceTotals& out) {
+void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
+                       const TraceOptions& options, TraceTotals& out) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int K = Wave<A>::K;
+    const int chunk = std::max(K, std::min(options.stream_rays, kMaxStreamRays) / K * K);
+    const size_t m = size_t(chunk);
+    std::vector<TraversalRay> setup(m);
+    std::vector<float, xsimd::aligned_allocator<float, 64>> t(m);
+    std::vector<BvhHit> hit(m);
+    std::vector<uint8_t> found(m), masks(m);
+    std::vector<uint16_t> order(m);
+    const auto octant = [](const TraversalRay& r) {
+        return int(std::signbit(r.d[0])) | int(std::signbit(r.d[1])) << 1 |
+               int(std::signbit(r.d[2])) << 2;
+    };
+    std::vector<uint16_t, Uninitialised<uint16_t>> ids(stream_scratch_ids(chunk));
+    for (size_t c0 = 0; c0 < count; c0 += size_t(chunk)) {
+        const int n = int(std::min<size_t>(size_t(chunk), count - c0));
+        for (int i = 0; i < n; i += K) {
+            alignas(64) float c[7][K];
+            const int lanes = std::min(K, n - i);
+            for (int l = 0; l < K; ++l)
+                for (int k = 0; k < 7; ++k)
+                    c[k][l] = rays[7 * (c0 + size_t(i + std::min(l, lanes - 1))) + k];
+            const auto at = [&](int k) { return F::load_aligned(c[k]); };
+            const Ray<F> ray{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
+            F tt = at(6);
+            I prim(-1);
+            closest_unbounded(ray, tt, prim, s.plane_count, PlaneTable<F>{s.plane_lanes},
+                              kPrimPlane << kPrimShift, s.unbounded_quadric_count,
+                              QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics},
+                              kPrimQuadric << kPrimShift);
+            tt.store_aligned(t.data() + i);
+            alignas(64) int32_t p[K];
+            prim.store_aligned(p);
+            const WideRays<A> wide(ray);
+            for (int l = 0; l < K; ++l) {
+                found[size_t(i + l)] = p[l] >= 0;
+                setup[size_t(i + l)] = wide.lane(l);
+            }
+        }
+        // One stream per octant of directions: its rays order the children alike
+        int first[9] = {};
+        for (int r = 0; r < n; ++r) ++first[octant(setup[size_t(r)]) + 1];
+        for (int o = 0; o < 8; ++o) first[o + 1] += first[o];
+        int next[8];
+        std::copy(first, first + 8, next);
+        for (int r = 0; r < n; ++r) order[size_t(next[octant(setup[size_t(r)])]++)] = uint16_t(r);
+        for (int o = 0; o < 8; ++o) {
+            const int rays_in = first[o + 1] - first[o];
+            if (rays_in == 0) continue;
+            std::copy(order.begin() + first[o], order.begin() + first[o + 1], ids.begin());
+            stream_closest<NodeLanes<A>>(*s.bvh, setup.data(), rays_in, t.data(), hit.data(),
+                                         found.data(), ids.data(), masks.data(),
+                                         options.single_below);
+        }
+        for (int r = 0; r < n; ++r) {
+            if (!found[size_t(r)]) continue;
+            ++out.hits;
+            out.sum_t += double(t[size_t(r)]);
+        }
+        out.rays += uint64_t(n);
+        out.streamed += uint64_t(n);
+    }
+}
+
+// Closest hits of `count` rays (7 floats each: origin, direction, tmax) through the whole
+// scene: the traversal alone, for measuring it (`cierzo trace`). K at a time as the
+// extension stage traces them, or in ordered streams (options). Adds the rays, hits and
+// the sum of hit distances.
+template <class A>
+void trace_rays_isa(const FlatScene& s, const float* rays, size_t count,
+                    const TraceOptions& options, TraceTotals& out) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    constexpr int K = Wave<A>::K;
+    if (options.stream_rays > 0 && s.features.bvh && stream_tree(*s.bvh, s.alpha != nullptr)) {
+        trace_ray_streams<A>(s, rays, count, options, out);
+        return;
+    }
     for (size_t i = 0; i < count; i += K) {
         alignas(64) float c[7][K];
         const int lanes = int(std::min<size_t>(K, count - i));

@@ -11,8 +11,8 @@ void render_tile_avx2(const FlatScene& scene, PathPool& pool, const TileJob& job
 }
 
 void trace_rays_avx2(const FlatScene& scene, const float* rays, size_t count,
-                     TraceTotals& totals) {
-    trace_rays_isa<xsimd::fma3<xsimd::avx2>>(scene, rays, count, totals);
+                     const TraceOptions& options, TraceTotals& totals) {
+    trace_rays_isa<xsimd::fma3<xsimd::avx2>>(scene, rays, count, options, totals);
 }
 
 }  // namespace cierzo

@@ -11,8 +11,8 @@ void render_tile_avx512(const FlatScene& scene, PathPool& pool, const TileJob& j
 }
 
 void trace_rays_avx512(const FlatScene& scene, const float* rays, size_t count,
-                       TraceTotals& totals) {
-    trace_rays_isa<xsimd::avx512bw>(scene, rays, count, totals);
+                       const TraceOptions& options, TraceTotals& totals) {
+    trace_rays_isa<xsimd::avx512bw>(scene, rays, count, options, totals);
 }
 
 }  // namespace cierzo

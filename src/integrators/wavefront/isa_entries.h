@@ -17,18 +17,19 @@ using RenderTileEntry = void (*)(const FlatScene&, PathPool&, const TileJob&,
 
 // Closest hits of ray records (7 floats: origin, direction, tmax) through the scene: the
 // traversal alone (`cierzo trace`).
-using TraceRaysEntry = void (*)(const FlatScene&, const float*, size_t, TraceTotals&);
+using TraceRaysEntry = void (*)(const FlatScene&, const float*, size_t, const TraceOptions&,
+                                TraceTotals&);
 
 #if defined(__x86_64__) || defined(__i386__)
 void render_tile_avx512(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
 void render_tile_avx2(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
 void render_tile_sse42(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
-void trace_rays_avx512(const FlatScene&, const float*, size_t, TraceTotals&);
-void trace_rays_avx2(const FlatScene&, const float*, size_t, TraceTotals&);
-void trace_rays_sse42(const FlatScene&, const float*, size_t, TraceTotals&);
+void trace_rays_avx512(const FlatScene&, const float*, size_t, const TraceOptions&, TraceTotals&);
+void trace_rays_avx2(const FlatScene&, const float*, size_t, const TraceOptions&, TraceTotals&);
+void trace_rays_sse42(const FlatScene&, const float*, size_t, const TraceOptions&, TraceTotals&);
 #elif defined(__aarch64__)
 void render_tile_neon(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
-void trace_rays_neon(const FlatScene&, const float*, size_t, TraceTotals&);
+void trace_rays_neon(const FlatScene&, const float*, size_t, const TraceOptions&, TraceTotals&);
 #endif
 
 }  // namespace cierzo

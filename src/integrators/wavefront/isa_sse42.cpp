@@ -11,8 +11,8 @@ void render_tile_sse42(const FlatScene& scene, PathPool& pool, const TileJob& jo
 }
 
 void trace_rays_sse42(const FlatScene& scene, const float* rays, size_t count,
-                      TraceTotals& totals) {
-    trace_rays_isa<xsimd::sse4_2>(scene, rays, count, totals);
+                       const TraceOptions& options, TraceTotals& totals) {
+    trace_rays_isa<xsimd::sse4_2>(scene, rays, count, options, totals);
 }
 
 }  // namespace cierzo

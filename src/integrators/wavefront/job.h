@@ -26,9 +26,18 @@ struct TileJob {
                   const float* g, const float* b);
 };
 
-// What `cierzo trace` counts: rays, hits and the sum of the hits' distances.
+// How `cierzo trace` takes the rays through the tree: K at a time, each alone (the
+// extension stage's way), or as ordered streams of `stream_rays` rays (kernels/
+// traverse_stream.h) whose streams below `single_below` rays go on one ray at a time.
+struct TraceOptions {
+    int stream_rays = 0;  // 0: no streams
+    int single_below = 4;
+};
+
+// What `cierzo trace` counts: rays, hits and the sum of the hits' distances, and the rays
+// traced as streams.
 struct TraceTotals {
-    uint64_t rays = 0, hits = 0;
+    uint64_t rays = 0, hits = 0, streamed = 0;
     double sum_t = 0.0;
 };
 

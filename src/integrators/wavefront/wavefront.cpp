@@ -237,8 +237,9 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
     lanes.shadow_active += c.shadow_active, lanes.shadow_total += c.shadow_total;
 }
 
-void WavefrontRenderer::trace(const float* rays, size_t count, TraceTotals& totals) const {
-    trace_entry_of(isa_)(data_->view.scene, rays, count, totals);
+void WavefrontRenderer::trace(const float* rays, size_t count, const TraceOptions& options,
+                              TraceTotals& totals) const {
+    trace_entry_of(isa_)(data_->view.scene, rays, count, options, totals);
 }
 
 }  // namespace cierzo

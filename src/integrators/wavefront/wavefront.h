@@ -38,7 +38,8 @@ public:
     void render_tile(const Tile& tile, FilmTile& film, RayCounts& rays, LaneStats& lanes) const;
     // Closest hits of `count` ray records (7 floats: origin, direction, tmax) through the
     // scene, with this ISA's traversal alone; adds to `totals`.
-    void trace(const float* rays, size_t count, TraceTotals& totals) const;
+    void trace(const float* rays, size_t count, const TraceOptions& options,
+               TraceTotals& totals) const;
 
 private:
     struct Data;
