@@ -299,6 +299,7 @@ template <bool kAnyHit, class N, bool kTop = true>
                                BvhHit& hit, const AlphaTable* alpha = nullptr,
                                int32_t object = -1, const TraversalRay* world = nullptr,
                                uint32_t root = 0) {
+    using B = Mask<N>;
     constexpr int kLanes = kNodeLanes<N>;
     if (bvh.node_count == 0) return false;
     // The ray in every lane, and the bounds row of each axis' near and far plane
@@ -310,28 +311,77 @@ template <bool kAnyHit, class N, bool kTop = true>
         near_row[k] = std::signbit(r.inv[k]) ? k + 3 : k;
         far_row[k] = std::signbit(r.inv[k]) ? k : k + 3;
     }
-    const LeafRay<N> lr = make_leaf_ray<N>(r);
+    // The triangle kernel's shear is the same in every lane, so the origin and the vertices
+    // are handed to it with their axes already permuted (kx, ky, kz): its per-lane picks are
+    // then the identity, and it computes exactly what it would unpermuted (it reads no
+    // direction)
+    const int32_t* axis = r.axis;
+    const Ray<N> tri_ray{{N(r.o[axis[0]]), N(r.o[axis[1]]), N(r.o[axis[2]])}, Vec3<N>(N(0.0f))};
+    const B yes(true), no(false);
+    const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes}, {no, no},
+                            N(r.shear[0]), N(r.shear[1]), N(r.shear[2])};
+    const Ray<N> ray{{N(r.o[0]), N(r.o[1]), N(r.o[2])}, {N(r.d[0]), N(r.d[1]), N(r.d[2])}};
     float t = tmax;  // the closest hit so far (a local: the stack cannot alias it)
     BvhHit best{0, 0, -1};
     bool found = false;
 
-    // One leaf (kind, start, count); whether it hit (closest hit: t and best updated)
+    // One leaf (kind, start, count); whether it hit (closest hit: t and best updated). (The
+    // triangle and sphere blocks' loops are those of hit_triangle_leaf and hit_sphere_leaf,
+    // which ray streams call, written out here: called here, they cost 2.9% more
+    // instructions in the wavefront's render loop, callgrind, AVX2.)
     const auto test_leaf = [&](uint32_t kind, uint32_t start, uint32_t count) {
         bool any = false;
+        // Lanes `hits` of a block test at distances th: the nearest below t, first on a tie
+        const auto record = [&](uint32_t hits, const N& th, uint32_t lane0) {
+            alignas(32) float ts[kLanes];
+            store_lanes(th, ts);
+            for (; hits; hits &= hits - 1) {
+                const uint32_t h = uint32_t(std::countr_zero(hits));
+                if (ts[h] < t) t = ts[h], best = {kind, lane0 + h, -1};
+            }
+        };
         if (kind == kLeafTriangles) {
-            uint32_t lane = best.lane;
-            if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object,
-                                            world))
-                return false;
-            best = {kLeafTriangles, lane, -1};
-            return true;
+            const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
+            for (uint32_t j = start; j < start + blocks; ++j) {
+                const float(*v)[kWideBvhWidth] = bvh.triangles[j].v;
+                for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+                    const auto vertex = [&](int k) {
+                        return Vec3<N>(row<N>(v, 3 * k + axis[0], at), row<N>(v, 3 * k + axis[1], at),
+                                       row<N>(v, 3 * k + axis[2], at));
+                    };
+                    N th(0.0f), b1(0.0f), b2(0.0f);
+                    uint32_t hits = mask_bits(intersect_triangle(
+                        tri_ray, shear, vertex(0), vertex(1), vertex(2), N(t), th, b1, b2));
+                    if (hits == 0) continue;
+                    if (alpha) {
+                        hits = alpha_filter(bvh, *alpha, object, world ? *world : r, hits,
+                                            j * kWideBvhWidth + uint32_t(at), b1, b2);
+                        if (hits == 0) continue;
+                    }
+                    if constexpr (kAnyHit) return true;
+                    any = true;
+                    record(hits, th, j * kWideBvhWidth + uint32_t(at));
+                }
+            }
+            return any;
         }
         if constexpr (kTop) {
             if (kind == kLeafSpheres) {
-                uint32_t lane = best.lane;
-                if (!hit_sphere_leaf<kAnyHit>(bvh, lr, start, count, t, lane)) return false;
-                best = {kLeafSpheres, lane, -1};
-                return true;
+                const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
+                for (uint32_t j = start; j < start + blocks; ++j) {
+                    const float(*c)[kWideBvhWidth] = bvh.spheres[j].c;
+                    for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+                        const Vec3<N> centre(row<N>(c, 0, at), row<N>(c, 1, at), row<N>(c, 2, at));
+                        N th(0.0f);
+                        const uint32_t hits =
+                            mask_bits(intersect_sphere(ray, centre, row<N>(c, 3, at), N(t), th));
+                        if (hits == 0) continue;
+                        if constexpr (kAnyHit) return true;
+                        any = true;
+                        record(hits, th, j * kWideBvhWidth + uint32_t(at));
+                    }
+                }
+                return any;
             }
             const Ray<float> ray1{{r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}};
             for (uint32_t j = start; j < start + count; ++j) {

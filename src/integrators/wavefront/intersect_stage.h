@@ -168,6 +168,28 @@ void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) 
                        [&](int l, const BvhHit& hit) { record_tree_hit(p, bvh, i + l, hit); });
 }
 
+// Ray records first, first + 1, ... (7 floats: origin, direction, tmax; `lanes` of them, the
+// last repeated to fill K) as K rays, their tmax, and their closest hits among the unbounded
+// primitives: t and prim (-1: none) updated.
+template <class A>
+Ray<typename Wave<A>::F> record_batch(const FlatScene& s, const float* first, int lanes,
+                                      typename Wave<A>::F& t, typename Wave<A>::I& prim) {
+    using F = typename Wave<A>::F;
+    constexpr int K = Wave<A>::K;
+    alignas(64) float c[7][K];
+    for (int l = 0; l < K; ++l)
+        for (int k = 0; k < 7; ++k) c[k][l] = first[7 * std::min(l, lanes - 1) + k];
+    const auto at = [&](int k) { return F::load_aligned(c[k]); };
+    const Ray<F> ray{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
+    t = at(6);
+    prim = typename Wave<A>::I(-1);
+    closest_unbounded(ray, t, prim, s.plane_count, PlaneTable<F>{s.plane_lanes},
+                      kPrimPlane << kPrimShift, s.unbounded_quadric_count,
+                      QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics},
+                      kPrimQuadric << kPrimShift);
+    return ray;
+}
+
 // trace_rays_isa's streams: the unbounded primitives K rays at a time, then the tree in
 // streams of options.stream_rays.
 template <class A>
@@ -191,19 +213,10 @@ void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
     for (size_t c0 = 0; c0 < count; c0 += size_t(chunk)) {
         const int n = int(std::min<size_t>(size_t(chunk), count - c0));
         for (int i = 0; i < n; i += K) {
-            alignas(64) float c[7][K];
-            const int lanes = std::min(K, n - i);
-            for (int l = 0; l < K; ++l)
-                for (int k = 0; k < 7; ++k)
-                    c[k][l] = rays[7 * (c0 + size_t(i + std::min(l, lanes - 1))) + k];
-            const auto at = [&](int k) { return F::load_aligned(c[k]); };
-            const Ray<F> ray{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
-            F tt = at(6);
-            I prim(-1);
-            closest_unbounded(ray, tt, prim, s.plane_count, PlaneTable<F>{s.plane_lanes},
-                              kPrimPlane << kPrimShift, s.unbounded_quadric_count,
-                              QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics},
-                              kPrimQuadric << kPrimShift);
+            F tt;
+            I prim;
+            const Ray<F> ray =
+                record_batch<A>(s, rays + 7 * (c0 + size_t(i)), std::min(K, n - i), tt, prim);
             tt.store_aligned(t.data() + i);
             alignas(64) int32_t p[K];
             prim.store_aligned(p);
@@ -253,18 +266,10 @@ void trace_rays_isa(const FlatScene& s, const float* rays, size_t count,
         return;
     }
     for (size_t i = 0; i < count; i += K) {
-        alignas(64) float c[7][K];
         const int lanes = int(std::min<size_t>(K, count - i));
-        for (int l = 0; l < K; ++l)
-            for (int k = 0; k < 7; ++k) c[k][l] = rays[7 * (i + size_t(std::min(l, lanes - 1))) + k];
-        const auto at = [&](int k) { return F::load_aligned(c[k]); };
-        const Ray<F> ray{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
-        F t = at(6);
-        I prim(-1);
-        closest_unbounded(ray, t, prim, s.plane_count, PlaneTable<F>{s.plane_lanes},
-                          kPrimPlane << kPrimShift, s.unbounded_quadric_count,
-                          QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics},
-                          kPrimQuadric << kPrimShift);
+        F t;
+        I prim;
+        const Ray<F> ray = record_batch<A>(s, rays + 7 * i, lanes, t, prim);
         alignas(64) float tt[K];
         t.store_aligned(tt);
         uint32_t hit = mask_bits(mask_f32(prim >= I(0)));
