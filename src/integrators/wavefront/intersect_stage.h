@@ -8,7 +8,6 @@
 #include <type_traits>
 #include <vector>
 
-#include "core/huge_pages.h"
 #include "integrators/wavefront/wave.h"
 #include "kernels/traverse.h"
 #include "kernels/traverse_stream.h"
@@ -190,6 +189,11 @@ Ray<typename Wave<A>::F> record_batch(const FlatScene& s, const float* first, in
     return ray;
 }
 
+// A vector whose type is this ISA's own, by xsimd's allocator (which kernels/isa.h renames
+// per ISA): a std::vector<uint8_t> would share its inline code with other objects.
+template <class T>
+using IsaVector = std::vector<T, xsimd::aligned_allocator<T, 64>>;
+
 // trace_rays_isa's streams: the unbounded primitives K rays at a time, then the tree in
 // streams of options.stream_rays.
 template <class A>
@@ -200,16 +204,15 @@ void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
     constexpr int K = Wave<A>::K;
     const int chunk = std::max(K, std::min(options.stream_rays, kMaxStreamRays) / K * K);
     const size_t m = size_t(chunk);
-    std::vector<TraversalRay> setup(m);
-    std::vector<float, xsimd::aligned_allocator<float, 64>> t(m);
-    std::vector<BvhHit> hit(m);
-    std::vector<uint8_t> found(m), masks(m);
-    std::vector<uint16_t> order(m);
+    IsaVector<TraversalRay> setup(m);
+    IsaVector<float> t(m);
+    IsaVector<BvhHit> hit(m);
+    IsaVector<uint8_t> found(m), masks(m);
+    IsaVector<uint16_t> order(m), ids(stream_scratch_ids(chunk));
     const auto octant = [](const TraversalRay& r) {
         return int(std::signbit(r.d[0])) | int(std::signbit(r.d[1])) << 1 |
                int(std::signbit(r.d[2])) << 2;
     };
-    std::vector<uint16_t, Uninitialised<uint16_t>> ids(stream_scratch_ids(chunk));
     for (size_t c0 = 0; c0 < count; c0 += size_t(chunk)) {
         const int n = int(std::min<size_t>(size_t(chunk), count - c0));
         for (int i = 0; i < n; i += K) {
@@ -231,12 +234,12 @@ void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
         for (int r = 0; r < n; ++r) ++first[octant(setup[size_t(r)]) + 1];
         for (int o = 0; o < 8; ++o) first[o + 1] += first[o];
         int next[8];
-        std::copy(first, first + 8, next);
+        for (int o = 0; o < 8; ++o) next[o] = first[o];
         for (int r = 0; r < n; ++r) order[size_t(next[octant(setup[size_t(r)])]++)] = uint16_t(r);
         for (int o = 0; o < 8; ++o) {
             const int rays_in = first[o + 1] - first[o];
             if (rays_in == 0) continue;
-            std::copy(order.begin() + first[o], order.begin() + first[o + 1], ids.begin());
+            for (int j = first[o]; j < first[o + 1]; ++j) ids[size_t(j - first[o])] = order[size_t(j)];
             stream_closest<NodeLanes<A>>(*s.bvh, setup.data(), rays_in, t.data(), hit.data(),
                                          found.data(), ids.data(), masks.data(),
                                          options.single_below);
