@@ -592,7 +592,7 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         const Vec3<T> axis = select(inside, Vec3<T>(T(0.0f), T(0.0f), T(1.0f)),
                                     to_c * (T(1.0f) / sqrt(dc2)));
         const Vec3<T> dir = to_world(local, axis);
-        T t;
+        T t(0.0f);
         const auto hit = intersect_sphere(Ray<T>{x, dir}, p0, size, T(kRayFar), t);
         // A direction inside the cone that rounding makes miss (at the silhouette of a
         // small, far sphere) stops at its closest approach: it touches the sphere there

@@ -26,6 +26,10 @@ Mask<T> intersect_sphere(const Ray<T>& ray, const Vec3<T>& center, const T& radi
     const Vec3<T> v = oc - ray.d * b;
     const T r2 = radius * radius;
     const T disc = r2 - dot(v, v);
+    const Mask<T> touches = disc >= T(0.0f);
+    // (most rays that reach a sphere's lanes pass them all by: they skip the root and the
+    // division; t is then left as it was, as on every lane missed)
+    if (none(touches)) return touches;
     const T root = sqrt(max(disc, T(0.0f)));
     // Stable pair of roots: q = -b - sign(b)·root, t0 = c/q, t1 = q.
     const T q = select(b >= T(0.0f), -b - root, -b + root);
@@ -34,7 +38,7 @@ Mask<T> intersect_sphere(const Ray<T>& ray, const Vec3<T>& center, const T& radi
     const T near = min(t0, q);
     const T far = max(t0, q);
     t = select(near > T(0.0f), near, far);
-    return (disc >= T(0.0f)) & (t > T(0.0f)) & (t < tmax);
+    return touches & (t > T(0.0f)) & (t < tmax);
 }
 
 // Plane n·p + d = 0 (the report's normal-and-distance form): with n = (1,0,0) and d = 1
