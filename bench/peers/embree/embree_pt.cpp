@@ -6,16 +6,22 @@
 //
 //   embree_pt SCENE.json [--spp N] [--width W --height H] [--out image.pfm]
 //   embree_pt SCENE.json --dump-rays FILE --count N     extension rays to a file
-//   embree_pt SCENE.json --trace-rays FILE [--repeat R] time rtcIntersect1 alone over them
+//   embree_pt SCENE.json --trace-rays FILE [--repeat R] [--api 1|16|1M]
+//                                   time Embree alone over them, through one of its APIs:
+//                                   rtcIntersect1 (default), rtcIntersect16 (the file's rays
+//                                   in groups of 16, as they come) or the stream API
+//                                   rtcIntersect1M (groups of 1024, incoherent)
 //
 // Any option may also be followed by --embree-config STRING, given to rtcNewDevice as is
-// (e.g. "verbose=1" or "isa=sse4.2"); "threads=1" is always added in front of it.
+// (e.g. "verbose=1" or "isa=sse4.2"); "threads=1" is always added in front of it; and by
+// --quality low|medium|high, the build quality (default high).
 #include <embree3/rtcore.h>
 #if defined(__SSE__)
 #include <pmmintrin.h>
 #include <xmmintrin.h>
 #endif
 
+#include <algorithm>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -113,16 +119,18 @@ struct Pcg32 {
 };
 
 // ---- Embree ---------------------------------------------------------------------------
-// One triangle geometry holding every mesh (one BVH, no instancing level), built with
-// RTC_BUILD_QUALITY_HIGH (spatial splits): the best trace speed Embree offers, at the price
-// of a slower build, which is timed separately. Default scene flags: Embree's fast (not
-// RTC_SCENE_FLAG_ROBUST) triangle test, as renderers built on it normally run.
-RTCScene build_scene(RTCDevice device, const Triangles& t) {
+// One triangle geometry holding every mesh (one BVH, no instancing level), built by default
+// with RTC_BUILD_QUALITY_HIGH (spatial splits), meant as the best trace speed Embree offers,
+// at the price of a slower build, which is timed separately (--quality medium is the binned
+// SAH without spatial splits, which traces as fast or faster on some meshes: measure both).
+// Default scene flags: Embree's fast (not RTC_SCENE_FLAG_ROBUST) triangle test, as
+// renderers built on it normally run.
+RTCScene build_scene(RTCDevice device, const Triangles& t, RTCBuildQuality quality) {
     RTCScene scene = rtcNewScene(device);
-    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
+    rtcSetSceneBuildQuality(scene, quality);
     if (!t.material.empty()) {
         RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_HIGH);
+        rtcSetGeometryBuildQuality(g, quality);
         // Embree's own buffers, padded as its SIMD loads need
         void* v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                           sizeof(Vec3f), t.positions.size());
@@ -305,7 +313,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 // ---- The three modes ------------------------------------------------------------------
 struct Options {
-    std::string scene, out, dump_file, trace_file, config = "threads=1";
+    std::string scene, out, dump_file, trace_file, config = "threads=1", api = "1";
+    RTCBuildQuality quality = RTC_BUILD_QUALITY_HIGH;
     long long spp = 0, width = 0, height = 0, count = 1000000, repeat = 1;
 };
 
@@ -333,23 +342,75 @@ void run_dump(Tracer& tracer, const Scene& scene, const Triangles& tris, const O
     std::printf("rays_written: %zu\nray_file: %s\n", rays.size(), o.dump_file.c_str());
 }
 
-// rtcIntersect1 alone over a ray file: one untimed warm-up pass, then `repeat` timed ones
+// rtcIntersect16 over rays [first, first + count), count <= 16 (the rest of the packet
+// invalid); the hits' count and distances are added.
+void intersect16(RTCScene scene, const RayRecord* rays, int count, uint64_t& hits, double& sum_t) {
+    alignas(64) int valid[16];
+    alignas(64) RTCRayHit16 rh;
+    for (int l = 0; l < 16; ++l) {
+        const RayRecord& r = rays[l < count ? l : 0];
+        valid[l] = l < count ? -1 : 0;
+        rh.ray.org_x[l] = r.o[0], rh.ray.org_y[l] = r.o[1], rh.ray.org_z[l] = r.o[2];
+        rh.ray.dir_x[l] = r.d[0], rh.ray.dir_y[l] = r.d[1], rh.ray.dir_z[l] = r.d[2];
+        rh.ray.tnear[l] = 0.0f, rh.ray.tfar[l] = r.tmax, rh.ray.time[l] = 0.0f;
+        rh.ray.mask[l] = ~0u, rh.ray.id[l] = unsigned(l), rh.ray.flags[l] = 0;
+        rh.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+    }
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    rtcIntersect16(valid, scene, &context, &rh);
+    for (int l = 0; l < count; ++l)
+        if (rh.hit.geomID[l] != RTC_INVALID_GEOMETRY_ID) ++hits, sum_t += rh.ray.tfar[l];
+}
+
+// rtcIntersect1M over `count` rays (the stream API), incoherent, as extension rays are.
+void intersect1m(RTCScene scene, const RayRecord* rays, int count, std::vector<RTCRayHit>& rh,
+                 uint64_t& hits, double& sum_t) {
+    for (int k = 0; k < count; ++k) {
+        const RayRecord& r = rays[k];
+        rh[size_t(k)].ray = {r.o[0], r.o[1], r.o[2], 0.0f, r.d[0], r.d[1], r.d[2], 0.0f,
+                             r.tmax, ~0u, unsigned(k), 0u};
+        rh[size_t(k)].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    }
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    rtcIntersect1M(scene, &context, rh.data(), unsigned(count), sizeof(RTCRayHit));
+    for (int k = 0; k < count; ++k)
+        if (rh[size_t(k)].hit.geomID != RTC_INVALID_GEOMETRY_ID) ++hits, sum_t += rh[size_t(k)].ray.tfar;
+}
+
+// Embree alone over a ray file through the API asked for: one untimed warm-up pass, then
+// `repeat` timed ones (the time includes writing the rays into the API's structures).
 void run_trace(RTCScene scene, const Options& o) {
     const std::vector<RayRecord> rays = read_rays(o.trace_file);
+    constexpr int kStream = 1024;
+    std::vector<RTCRayHit> stream(kStream);
+    const size_t n = rays.size();
     uint64_t hits = 0;
     double sum_t = 0.0, seconds = 0.0;
     for (long long pass = 0; pass <= o.repeat; ++pass) {
         hits = 0, sum_t = 0.0;
         const auto t0 = std::chrono::steady_clock::now();
-        for (const RayRecord& r : rays) {
-            RTCRayHit rh;
-            if (intersect1(scene, r.o, r.d, r.tmax, rh)) ++hits, sum_t += rh.ray.tfar;
+        if (o.api == "1") {
+            for (const RayRecord& r : rays) {
+                RTCRayHit rh;
+                if (intersect1(scene, r.o, r.d, r.tmax, rh)) ++hits, sum_t += rh.ray.tfar;
+            }
+        } else if (o.api == "16") {
+            for (size_t i = 0; i < n; i += 16)
+                intersect16(scene, rays.data() + i, int(std::min<size_t>(16, n - i)), hits, sum_t);
+        } else {
+            for (size_t i = 0; i < n; i += kStream)
+                intersect1m(scene, rays.data() + i, int(std::min<size_t>(kStream, n - i)), stream,
+                            hits, sum_t);
         }
         if (pass > 0) seconds += seconds_since(t0);
     }
-    std::printf("rays: %zu\nrepeat: %lld\ntrace_seconds: %.6f\nrays_per_second: %.0f\n"
-                "hits: %llu\nsum_t: %.17g\n", rays.size(), o.repeat, seconds,
-                double(rays.size()) * double(o.repeat) / seconds, (unsigned long long)hits, sum_t);
+    std::printf("api: rtcIntersect%s\nrays: %zu\nrepeat: %lld\ntrace_seconds: %.6f\n"
+                "rays_per_second: %.0f\nhits: %llu\nsum_t: %.17g\n", o.api.c_str(), rays.size(),
+                o.repeat, seconds, double(rays.size()) * double(o.repeat) / seconds,
+                (unsigned long long)hits, sum_t);
 }
 
 Options parse_options(int argc, char** argv) {
@@ -357,7 +418,8 @@ Options parse_options(int argc, char** argv) {
     if (argc < 2 || argv[1][0] == '-')
         throw InputError("usage: embree_pt SCENE.json [--spp N] [--width W] [--height H] "
                          "[--out image.pfm] [--dump-rays FILE [--count N]] "
-                         "[--trace-rays FILE [--repeat R]] [--embree-config STRING]");
+                         "[--trace-rays FILE [--repeat R] [--api 1|16|1M]] "
+                         "[--quality low|medium|high] [--embree-config STRING]");
     o.scene = argv[1];
     for (int i = 2; i < argc; i += 2) {  // every option takes one value
         const std::string key = argv[i];
@@ -378,6 +440,13 @@ Options parse_options(int argc, char** argv) {
         else if (key == "--dump-rays") o.dump_file = value;
         else if (key == "--trace-rays") o.trace_file = value;
         else if (key == "--embree-config") o.config += "," + value;
+        else if (key == "--api" && (value == "1" || value == "16" || value == "1M")) o.api = value;
+        else if (key == "--api") throw InputError("--api: expected 1, 16 or 1M, got '" + value + "'");
+        else if (key == "--quality" && value == "low") o.quality = RTC_BUILD_QUALITY_LOW;
+        else if (key == "--quality" && value == "medium") o.quality = RTC_BUILD_QUALITY_MEDIUM;
+        else if (key == "--quality" && value == "high") o.quality = RTC_BUILD_QUALITY_HIGH;
+        else if (key == "--quality")
+            throw InputError("--quality: expected low, medium or high, got '" + value + "'");
         else throw InputError("unknown option '" + key + "'");
     }
     return o;
@@ -409,7 +478,7 @@ int main(int argc, char** argv) try {
 
     const Triangles tris = collect_triangles(scene);
     const auto t0 = std::chrono::steady_clock::now();
-    Tracer tracer{build_scene(device, tris)};
+    Tracer tracer{build_scene(device, tris, o.quality)};
     std::printf("embree_version: %d.%d.%d\ntriangles: %zu\nbuild_seconds: %.6f\n",
                 RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH, tris.material.size(),
                 seconds_since(t0));
