@@ -280,6 +280,13 @@ inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t s
 }
 
 // ---- Traversal -----------------------------------------------------------------------------
+// Trees of at most this many wide nodes (256 bytes each, with about as many bytes of leaf
+// blocks: some 0.5 MB in all) stay in a core's L2 cache during a traversal, and are not
+// prefetched: on a Xeon (AVX-512) skipping it made bdpt renders of 22- and 36-node trees 1-3%
+// faster; on the 6,609-node tree of a 200k-triangle mesh the prefetch made traversal 14%
+// faster on a Zen 3 (AVX2) and is neutral on that Xeon.
+inline constexpr uint32_t kPrefetchAbove = 1024;
+
 // A ray through the tree. A node's children are tested at once with the robust slab test
 // over [0, t] (a NaN distance leaves the interval as it was; far distances scaled by
 // kBvhFarScale). The leaves entered are tested there and then, in slot order, each unless a
@@ -422,6 +429,7 @@ template <bool kAnyHit, class N, bool kTop = true>
     Entry stack[kWideBvhStackSize];
     int size = 0;
     Entry e{root, 0.0f};
+    const bool prefetch = uint32_t(bvh.node_count) > kPrefetchAbove;
     for (;;) {
         // The slab test of every child over [0, t]
         const WideBvhNode& node = bvh.nodes[e.node];
@@ -442,8 +450,9 @@ template <bool kAnyHit, class N, bool kTop = true>
         // direction leaves every interval as it was: they are masked off too
         enter &= (1u << node.slots) - 1u;
         // What the ray goes on to read is fetched now: the blocks of the leaves entered and
-        // the boxes of the inner children (a traversal waits mostly on memory)
-        for (uint32_t bits = enter; bits; bits &= bits - 1) {
+        // the boxes of the inner children (a traversal of a big tree waits mostly on memory;
+        // a small one stays in the caches, where the prefetches only cost)
+        for (uint32_t bits = prefetch ? enter : 0u; bits; bits &= bits - 1) {
             const int i = std::countr_zero(bits);
             const char* p = (node.leaves >> i) & 1u
                                 ? (node.kind[i] == kLeafTriangles
