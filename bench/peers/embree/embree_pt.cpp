@@ -479,9 +479,12 @@ int main(int argc, char** argv) try {
     const Triangles tris = collect_triangles(scene);
     const auto t0 = std::chrono::steady_clock::now();
     Tracer tracer{build_scene(device, tris, o.quality)};
-    std::printf("embree_version: %d.%d.%d\ntriangles: %zu\nbuild_seconds: %.6f\n",
-                RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH, tris.material.size(),
-                seconds_since(t0));
+    const char* quality = o.quality == RTC_BUILD_QUALITY_LOW      ? "low"
+                          : o.quality == RTC_BUILD_QUALITY_MEDIUM ? "medium"
+                                                                  : "high";
+    std::printf("embree_version: %d.%d.%d\ntriangles: %zu\nbuild_quality: %s\n"
+                "build_seconds: %.6f\n", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH,
+                tris.material.size(), quality, seconds_since(t0));
     if (!o.dump_file.empty()) run_dump(tracer, scene, tris, o);
     else if (!o.trace_file.empty()) run_trace(tracer.scene, o);
     else run_render(tracer, scene, tris, o);
