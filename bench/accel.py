@@ -181,12 +181,12 @@ def main():
             ratio_fastest = statistics.median(x / y for x, y in zip(rays(c), fastest))
             result[f"trace_{name}"] = {"cierzo": med(c), "embree": med(e), "ratio": ratio,
                                        "embree_fastest": statistics.median(fastest) / 1e6,
-                                       "embree_fastest_usually": "rtcIntersect%s, %s" % best,
+                                       "embree_best_median": "rtcIntersect%s, %s" % best,
                                        "ratio_fastest": ratio_fastest,
                                        "embree_all": {"rtcIntersect%s, %s" % t: med(("trace", name, "embree") + t)
                                                       for t in EMBREE_TRACES}}
             print(f"| {name} | {med(c):.2f} | {med(e):.2f} | {ratio:.2f} | {statistics.median(fastest) / 1e6:.2f} "
-                  f"(mostly rtcIntersect{best[0]}, {best[1]}) | {ratio_fastest:.2f} | {samples[c][0]['hits']}, {samples[e][0]['hits']} |")
+                  f"(best median: rtcIntersect{best[0]}, {best[1]}) | {ratio_fastest:.2f} | {samples[c][0]['hits']}, {samples[e][0]['hits']} |")
         for name in triangles:  # every API finds the same hits, or the comparison is void
             found = {t: samples[("trace", name, "embree") + t][0]["hits"] for t in EMBREE_TRACES}
             if len(set(found.values())) != 1:
