@@ -12,12 +12,15 @@
    efficiency over --base's (default mis; the median of the rounds' ratios). An estimator
    written vcm@R renders with --merge-radius R (vcm alone: the scene's rule).
 2. Speed. The wavefront's rays/s per core over the scalar reference's for bdpt, on every ISA
-   this CPU runs (one thread, interleaved rounds; the median of the rounds' ratios).
+   this CPU runs (one thread, interleaved rounds; the median of the rounds' ratios). In each
+   round every configuration renders --speed-repeat times in a row and keeps its fastest:
+   these renders take milliseconds, and a shared machine now and then stalls one of them
+   several times over.
 
 Usage: /usr/bin/python3 bench/bidirectional.py [--scenes caustic,PATH.json,...] [--size 160]
        [--seconds 4] [--rounds 3] [--estimators report,mis,lt,bdpt,vcm,vcm@0.05] [--base mis]
        [--reference-spp 4096]
-       [--speed-scenes caustic,cornell,...] [--speed-spp 8]
+       [--speed-scenes caustic,cornell,...] [--speed-spp 8] [--speed-repeat 3]
 The CPU is named in the output; say which one a number came from.
 """
 import argparse
@@ -77,7 +80,11 @@ def main():
     ap.add_argument("--region", default="0.35,0.85,0.65,0.98")
     ap.add_argument("--speed-scenes", default="")
     ap.add_argument("--speed-spp", type=int, default=8)
+    ap.add_argument("--speed-repeat", type=int, default=3,
+                    help="renders per configuration and round, the fastest kept")
     a = ap.parse_args()
+    if a.speed_repeat < 1:
+        ap.error("--speed-repeat: expected at least 1")
     import numpy as np
     import cierzo
     print(f"CPU: {cpu_name()}")
@@ -123,7 +130,7 @@ def main():
             isas = [l.split()[0] for l in subprocess.run([str(CIERZO), "isas"], capture_output=True,
                                                          text=True).stdout.splitlines() if "yes" in l]
             print(f"\nbdpt wavefront over scalar, rays/s per core, 1 thread, {a.rounds} rounds "
-                  f"({a.size}x{a.size}, {a.speed_spp} spp)")
+                  f"of the fastest of {a.speed_repeat} ({a.size}x{a.size}, {a.speed_spp} spp)")
             print(f"{'scene':22s} {'scalar Mrays/s':>14s} " + " ".join(f"{i:>8s}" for i in isas))
             for name in speed:
                 scene = scene_path(name)
@@ -132,8 +139,8 @@ def main():
                     for key in per:
                         args = size + ["--estimator", "bdpt", "--threads", "1", "--spp", str(a.speed_spp)]
                         args += ["--integrator", "scalar"] if key == "scalar" else ["--isa", key]
-                        s = render(scene, tmp / "s.exr", args, tmp / "s.json")
-                        per[key].append(s["rays_per_second"])
+                        per[key].append(max(render(scene, tmp / "s.exr", args, tmp / "s.json")
+                                            ["rays_per_second"] for _ in range(a.speed_repeat)))
                 ratios = [statistics.median(w / s for w, s in zip(per[i], per["scalar"])) for i in isas]
                 print(f"{name:22s} {statistics.median(per['scalar']) / 1e6:14.2f} " +
                       " ".join(f"{r:8.2f}" for r in ratios))
