@@ -282,10 +282,10 @@ inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t s
 // ---- Traversal -----------------------------------------------------------------------------
 // Trees of at most this many wide nodes (a triangle tree takes about 2 kB a node with its
 // leaf blocks: some 1 MB in all) stay in a core's L2 cache during a traversal, and are not
-// prefetched: on a Xeon (AVX-512) skipping it made renders of 22- to 36-node trees 1-7%
-// faster, a 294-node tree of 10,000 spheres (357 kB) about 5% and a 401-node mesh tree
-// (820 kB, instanced 100 times) 3%; on the 6,609-node tree of a 200k-triangle mesh (13.6 MB)
-// the prefetch made traversal 14% faster on a Zen 3 (AVX2) and is neutral on that Xeon.
+// prefetched: on a Xeon (AVX-512) skipping it made renders of a 36-node tree up to 7% faster
+// (a 22-node one unchanged) and of a 401-node mesh tree (820 kB, instanced 100 times) 3%; on
+// the 6,609-node tree of a 200k-triangle mesh (13.6 MB) the prefetch made traversal 14%
+// faster on a Zen 3 (AVX2) and is neutral on that Xeon.
 inline constexpr uint32_t kPrefetchAbove = 512;
 
 // A ray through the tree. A node's children are tested at once with the robust slab test

@@ -22,6 +22,7 @@
 #endif
 
 #include <algorithm>
+#include <iterator>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -29,6 +30,7 @@
 #include <cstring>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -312,9 +314,14 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 // ---- The three modes ------------------------------------------------------------------
+// --quality's values, parsed and printed by the same names.
+constexpr std::pair<const char*, RTCBuildQuality> kQualities[] = {
+    {"low", RTC_BUILD_QUALITY_LOW}, {"medium", RTC_BUILD_QUALITY_MEDIUM},
+    {"high", RTC_BUILD_QUALITY_HIGH}};
+
 struct Options {
     std::string scene, out, dump_file, trace_file, config = "threads=1", api = "1";
-    RTCBuildQuality quality = RTC_BUILD_QUALITY_HIGH;
+    std::string quality = "high";
     long long spp = 0, width = 0, height = 0, count = 1000000, repeat = 1;
 };
 
@@ -342,8 +349,8 @@ void run_dump(Tracer& tracer, const Scene& scene, const Triangles& tris, const O
     std::printf("rays_written: %zu\nray_file: %s\n", rays.size(), o.dump_file.c_str());
 }
 
-// rtcIntersect16 over rays [first, first + count), count <= 16 (the rest of the packet
-// invalid); the hits' count and distances are added.
+// rtcIntersect16 over rays[0, count), count <= 16 (the rest of the packet invalid); the
+// hits' count and distances are added.
 void intersect16(RTCScene scene, const RayRecord* rays, int count, uint64_t& hits, double& sum_t) {
     alignas(64) int valid[16];
     alignas(64) RTCRayHit16 rh;
@@ -442,9 +449,9 @@ Options parse_options(int argc, char** argv) {
         else if (key == "--embree-config") o.config += "," + value;
         else if (key == "--api" && (value == "1" || value == "16" || value == "1M")) o.api = value;
         else if (key == "--api") throw InputError("--api: expected 1, 16 or 1M, got '" + value + "'");
-        else if (key == "--quality" && value == "low") o.quality = RTC_BUILD_QUALITY_LOW;
-        else if (key == "--quality" && value == "medium") o.quality = RTC_BUILD_QUALITY_MEDIUM;
-        else if (key == "--quality" && value == "high") o.quality = RTC_BUILD_QUALITY_HIGH;
+        else if (key == "--quality" && std::any_of(std::begin(kQualities), std::end(kQualities),
+                                                   [&](const auto& q) { return value == q.first; }))
+            o.quality = value;
         else if (key == "--quality")
             throw InputError("--quality: expected low, medium or high, got '" + value + "'");
         else throw InputError("unknown option '" + key + "'");
@@ -478,13 +485,12 @@ int main(int argc, char** argv) try {
 
     const Triangles tris = collect_triangles(scene);
     const auto t0 = std::chrono::steady_clock::now();
-    Tracer tracer{build_scene(device, tris, o.quality)};
-    const char* quality = o.quality == RTC_BUILD_QUALITY_LOW      ? "low"
-                          : o.quality == RTC_BUILD_QUALITY_MEDIUM ? "medium"
-                                                                  : "high";
+    const auto quality = std::find_if(std::begin(kQualities), std::end(kQualities),
+                                      [&](const auto& q) { return o.quality == q.first; });
+    Tracer tracer{build_scene(device, tris, quality->second)};
     std::printf("embree_version: %d.%d.%d\ntriangles: %zu\nbuild_quality: %s\n"
                 "build_seconds: %.6f\n", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH,
-                tris.material.size(), quality, seconds_since(t0));
+                tris.material.size(), quality->first, seconds_since(t0));
     if (!o.dump_file.empty()) run_dump(tracer, scene, tris, o);
     else if (!o.trace_file.empty()) run_trace(tracer.scene, o);
     else run_render(tracer, scene, tris, o);
