@@ -10,7 +10,8 @@
    glass ball); efficiency = 1 / (relMSE x seconds), seconds the render's own. Each round
    runs every estimator in turn; the table gives the medians, and each estimator's
    efficiency over --base's (default mis; the median of the rounds' ratios). An estimator
-   written vcm@R renders with --merge-radius R (vcm alone: the scene's rule).
+   written vcm@R renders with --merge-radius R (vcm alone: the scene's rule), one written
+   bdpt@cN (or vcm@R@cN) with --light-connections N (draws from the light vertex cache).
 2. Speed. The wavefront's rays/s per core over the scalar reference's for bdpt, on every ISA
    this CPU runs (one thread, interleaved rounds; the median of the rounds' ratios). In each
    round every configuration renders --speed-repeat times in a row and keeps its fastest:
@@ -104,8 +105,11 @@ def main():
             for rnd in range(a.rounds):
                 for e in estimators:
                     out, st = tmp / f"{e}.exr", tmp / f"{e}.json"
-                    name_e, _, radius = e.partition("@")
-                    extra = ["--merge-radius", radius] if radius else []
+                    name_e, *knobs = e.split("@")
+                    extra = []
+                    for k in knobs:
+                        extra += (["--light-connections", k[1:]] if k.startswith("c")
+                                  else ["--merge-radius", k])
                     s = render(scene, out, size + extra + ["--estimator", name_e, "--threads", "1", "--spp", "1000000",
                                                    "--time-budget", str(a.seconds),
                                                    "--seed", str(1000 + rnd)], st)

@@ -496,6 +496,42 @@ ShadowRequest<T> connect_vertices(const PathContext& c, const CameraVertex<T>& v
     return r;
 }
 
+// ---- The light vertex cache (EstimatorSettings::light_connections n ≥ 1) -----------------
+//
+// Instead of every vertex of its own light subpath, a Phong camera vertex connects to n
+// vertices drawn uniformly, with replacement, from the V stored vertices of the N light
+// subpaths of its sample index in its tile (the set vcm merges with; Davidovič et al. 2014's
+// light vertex cache). Draw j takes vertex ⌊u_j·V⌋ (connection_uniform) and counts V/(N·n)
+// times: the n draws' sum then has the expectation of (1/N)·Σ over the N subpaths of the
+// connections to all their vertices, which is the pairing's, as every subpath is an
+// independent light subpath. The MIS weights are the pairing's: each strategy's estimate stays
+// unbiased, and a path's weights still sum to 1. What a draw costs is one connection where
+// the pairing makes one per vertex of the light subpath.
+
+// The vertex of draw u among a set of `vertices` (> 0), from 0.
+template <class T>
+I32<T> cache_vertex(const T& u, const I32<T>& vertices) {
+    return min(to_int(u * to_float(vertices)), vertices - I32<T>(1));
+}
+
+// What each of n draws from a set of `vertices` stored by `paths` light subpaths counts.
+template <class T>
+T cache_draw_weight(const I32<T>& vertices, int32_t paths, int32_t n) {
+    return to_float(vertices) * T(1.0f / (float(paths) * float(n)));
+}
+
+// A drawn connection: connect_vertices's request, its value counting `weight` times.
+template <class T>
+ShadowRequest<T> connect_drawn_vertex(const PathContext& c, const CameraVertex<T>& v,
+                                      const LightVertex<T>& l, const MergeWeights<T>& mw,
+                                      const T& weight, const Mask<T>& want) {
+    ShadowRequest<T> r = connect_vertices(c, v, l, mw, want);
+    r.value = r.value * weight;
+    r.want = r.want & (r.value.x < T(kRayFar)) & (r.value.y < T(kRayFar)) &
+             (r.value.z < T(kRayFar));
+    return r;
+}
+
 // ---- Vertex merging (vcm, bpm, ppm) ------------------------------------------------------
 
 // Whether camera vertex v merges: every Phong vertex under vcm and bpm; under ppm

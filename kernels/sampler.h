@@ -349,6 +349,17 @@ inline void lobe_uniforms(const SampleStream<T>& s, const U32<T>& bounce, bool r
     u_roulette = unit_float<T>(y);
 }
 
+// The light vertex cache's draw j (from 0, below kMaxLightConnections) at a camera vertex
+// of `bounce`: a hash of the stream's key and index (a path's own numbers under every
+// sampler), outside every sampler's dimensions, so that no other decision's numbers change.
+template <class T>
+inline T connection_uniform(const SampleStream<T>& s, const U32<T>& bounce, uint32_t j) {
+    using U = U32<T>;
+    const U counter = (bounce * U(kMaxLightConnections) + U(j)) * splat<U, 0x27d4eb2fu>() +
+                      s.index * splat<U, 0x165667b1u>();
+    return unit_float<T>(hash32(s.key ^ hash32(counter ^ splat<U, 0x5bd1e995u>())));
+}
+
 // The throughput roulette's draw alone: the lobe slot's second number.
 template <class T>
 inline T second_uniform(const SampleStream<T>& s, const U32<T>& bounce, Purpose purpose) {

@@ -56,6 +56,13 @@ inline constexpr float kMergeAlpha = 0.75f;
 inline constexpr int32_t kMergeTilePaths = 256;
 inline constexpr float kMergeRadiusFraction = 0.05f;
 
+// bdpt's and vcm's connections (render.light_connections, --light-connections): 0 joins a
+// Phong camera vertex to every stored vertex of its own light subpath (the pairing of
+// SmallVCM); n ≥ 1 to n vertices drawn from the light vertex cache, every stored vertex of
+// the light subpaths of its sample index in its tile (kernels/bidirectional.h, "The light
+// vertex cache"). At most kMaxLightConnections.
+inline constexpr int32_t kMaxLightConnections = 64;
+
 // The roulette that ends paths (render.roulette, --roulette).
 enum class Roulette : int32_t {
     // The report's: one draw picks a lobe or the path's death at every vertex, P(lobe) the
@@ -133,6 +140,10 @@ struct EstimatorSettings {
     // in (0, 1) of its decrease (kMergeAlpha)
     float merge_radius = 0.0f;
     float merge_alpha = kMergeAlpha;
+    // bdpt, vcm: 0 connects to every vertex of the camera sample's own light subpath; n ≥ 1
+    // to n vertices drawn from the light vertex cache (kMaxLightConnections; 1 measured the
+    // most efficient on most scenes of scenes/, docs/estimators.md)
+    int32_t light_connections = 1;
     // Which of the four knobs whose default depends on the estimator (diffuse sampling,
     // roulette, triangle sampling, sampler) a scene, the command line or a sweep chose;
     // use_estimator (src/integrators/registry.h) gives the others the estimator's defaults

@@ -173,7 +173,8 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
                  std::optional<std::string> triangle_sampling, std::optional<std::string> sampler,
                  std::optional<int> min_length, std::optional<int> max_length,
                  std::optional<std::pair<int, int>> strategy, bool unweighted,
-                 bool strategies, std::optional<float> merge_radius, std::optional<float> merge_alpha, int pool, bool variance, double time_budget, double target_error,
+                 bool strategies, std::optional<float> merge_radius, std::optional<float> merge_alpha,
+                 std::optional<int> light_connections, int pool, bool variance, double time_budget, double target_error,
                  bool progress, const py::object& cancel,
                  const std::optional<fs::path>& checkpoint,
                  std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
@@ -217,6 +218,7 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
     job.strategies = strategies;
     job.integrator_given = integrator != std::string(integrator_name(Integrator::kWavefront));
     job.merge_radius = merge_radius, job.merge_alpha = merge_alpha;
+    job.light_connections = light_connections;
     job.estimator = estimator;
     job.threads = threads;
     job.integrator = integrator;
@@ -472,7 +474,7 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
           py::arg("min_length") = py::none(), py::arg("max_length") = py::none(),
           py::arg("strategy") = py::none(), py::arg("unweighted") = false,
           py::arg("strategies") = false, py::arg("merge_radius") = py::none(), py::arg("merge_alpha") = py::none(),
-          py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
+          py::arg("light_connections") = py::none(), py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
           py::arg("target_error") = 0.0, py::arg("progress") = false,
           py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
           py::arg("checkpoint_every") = py::none(), py::arg("resume") = py::none(),
@@ -497,7 +499,9 @@ or be 'scalar'). Keywords left at None keep the scene's value:
   strategy (bdpt: a pair (s, t), only the paths of s light and t camera vertices count, with
   their MIS weight, or with unweighted=True without it); merge_radius, merge_alpha (vcm, bpm, ppm:
   the first sample's merging radius r0 > 0, scene units, and alpha in (0, 1); sample n
-  merges within r0 * (n + 1)^((alpha - 1) / 2));
+  merges within r0 * (n + 1)^((alpha - 1) / 2)); light_connections (bdpt, vcm: 0 connects
+  a camera vertex to every vertex of its sample's own light subpath, n in 1..64 to n vertices
+  drawn from the light vertex cache; default 1);
 and as the command line's options: integrator 'wavefront' or 'scalar', isa 'auto', 'avx512',
 'avx2', 'sse4.2' or 'neon', threads (0 = every CPU), pool (wavefront paths per thread, a
 multiple of 16; 0 = 512), time_budget (seconds, 0 = none) and target_error (mean relative

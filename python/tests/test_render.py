@@ -164,6 +164,21 @@ def test_vcm_as_the_program_and_its_options_checked(cierzo, tmp_path):
         cierzo.render(scene_path("caustic"), estimator="bdpt", merge_radius=0.1, **SMALL)
 
 
+def test_light_connections_as_the_program_and_checked(cierzo, tmp_path):
+    exr, _ = cli_render(tmp_path, scene_path("caustic"),
+                        extra=("--estimator", "bdpt", "--light-connections", "3"))
+    image, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", light_connections=3, **SMALL)
+    assert same_bits(image, cierzo.read_exr(exr))
+    # the pairing (0) and the default draws are other images
+    pairing, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", light_connections=0, **SMALL)
+    default, _ = cierzo.render(scene_path("caustic"), estimator="bdpt", **SMALL)
+    assert not same_bits(image, pairing) and not same_bits(image, default)
+    with pytest.raises(ValueError, match="light-connections"):
+        cierzo.render(scene_path("caustic"), estimator="bdpt", light_connections=65, **SMALL)
+    with pytest.raises(ValueError, match="bdpt's and vcm's"):
+        cierzo.render(scene_path("caustic"), estimator="mis", light_connections=1, **SMALL)
+
+
 def test_isa_this_cpu_lacks_has_the_programs_message(cierzo):
     lacking = [i["name"] for i in cierzo.isas() if not i["supported"]]
     if not lacking:

@@ -186,6 +186,12 @@ int run_main(int argc, char** argv) {
     r->add_option("--merge-alpha", a.job.merge_alpha,
                   "vcm, bpm, ppm: how fast the merging radius shrinks, alpha in (0, 1): the error's bias "
                   "vanishes as the radius does (overrides render.merge_alpha; default 0.75)");
+    r->add_option("--light-connections", a.job.light_connections,
+                  "bdpt, vcm: what a Phong camera vertex connects to: 0, every stored vertex of "
+                  "its own light subpath; N (1..64), N vertices drawn from the light vertex "
+                  "cache, every stored vertex of the light subpaths of its sample in its tile "
+                  "(overrides render.light_connections; default 1)")
+        ->type_name("N");
     r->add_flag("--unweighted", a.job.unweighted,
                 "With --strategy: without its MIS weight (each strategy alone is an unbiased "
                 "image of the paths it can make)");

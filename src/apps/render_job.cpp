@@ -176,6 +176,18 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
                              fmt::format("{}", *a.merge_alpha) + ")");
         e.merge_alpha = *a.merge_alpha;
     }
+    if (a.light_connections) {
+        if (*a.light_connections < 0 || *a.light_connections > kMaxLightConnections)
+            throw InputError("--light-connections: must be 0 (every vertex of the sample's own "
+                             "light subpath) or 1.." + std::to_string(kMaxLightConnections) +
+                             " draws from the light vertex cache (got " +
+                             std::to_string(*a.light_connections) + ")");
+        if (!connects(e.kind))
+            throw InputError(std::string("--light-connections: connections are bdpt's and vcm's "
+                                         "(this render's estimator is ") +
+                             estimator_name(e.kind) + ")");
+        e.light_connections = *a.light_connections;
+    }
     if ((a.merge_radius || a.merge_alpha) && !merges(e.kind))
         throw InputError(std::string(a.merge_radius ? "--merge-radius" : "--merge-alpha") +
                          ": merging is vcm's, bpm's and ppm's (this render's estimator is " +

@@ -35,6 +35,7 @@ struct RenderJob {
     std::vector<int> strategy;                    // bdpt: {s, t}, the one strategy kept
     bool unweighted = false;                      // ... without its weight
     std::optional<float> merge_radius, merge_alpha;  // vcm: r0 and α
+    std::optional<int32_t> light_connections;       // bdpt, vcm: the light vertex cache's draws
     std::optional<std::string> estimator;         // report, nee or mis
     // bdpt: also record every strategy's image (integrators/strategies.h), written to
     // `strategies_dir` when outputs are written (the Python module keeps them)

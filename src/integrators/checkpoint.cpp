@@ -188,6 +188,9 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     if (merges(s.estimator.kind))
         id.estimator += fmt::format(" r0 {:a} alpha {:a}", s.estimator.merge_radius,
                                     s.estimator.merge_alpha);
+    // (and the connections: a cache's draws, 0 for the pairing)
+    if (connects(s.estimator.kind) && s.estimator.light_connections > 0)
+        id.estimator += fmt::format(" draws {}", s.estimator.light_connections);
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);

@@ -137,11 +137,15 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
     }
 }
 
-// vcm: the grid of the light vertices a camera vertex merges with (every one of its sample
-// index in the tile), and the sample's merging quantities.
+// The light vertices of a camera sample's sample index in the tile: vcm's grid of them (a
+// camera vertex merges with every one near it) and the sample's merging quantities; the
+// light vertex cache (light_connections ≥ 1): all of them and the light subpaths that stored
+// them.
 struct Merging {
     const MergeGrid* grid = nullptr;
     MergeWeights<float> weights;
+    const LightVertex<float>* cache = nullptr;
+    int32_t cache_vertices = 0, cache_paths = 0;
 };
 
 // The camera subpath of one sample, with every strategy that ends on it: what it brings to
@@ -216,9 +220,26 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                     }, throughput, rec, rays);
                 radiance += throughput * direct;
             }
-            // s, t ≥ 2: every stored vertex of this sample's light subpath
+            // s, t ≥ 2: every stored vertex of this sample's light subpath, or draws from the
+            // light vertex cache
             Vec3f connected(0.0f);
-            for (size_t k = 0; connecting && k < light_count; ++k) {
+            const int32_t draws = c.estimator.light_connections;
+            if (connecting && draws > 0 && merging.cache_vertices > 0) {
+                const float weight =
+                    cache_draw_weight<float>(merging.cache_vertices, merging.cache_paths, draws);
+                for (int32_t j = 0; j < draws; ++j) {
+                    const LightVertex<float>& l = merging.cache[cache_vertex<float>(
+                        connection_uniform<float>(rng, bounce, uint32_t(j)), merging.cache_vertices)];
+                    if (!counts(l.length + bounce + 2)) continue;
+                    connected += trace_strategy(
+                        scene, c, rec.strategy(l.length + 1, bounce + 2),
+                        [&](const PathContext& x) {
+                            return connect_drawn_vertex(x, cv, l, mw, weight, true);
+                        },
+                        throughput, rec, rays);
+                }
+            }
+            for (size_t k = 0; connecting && draws == 0 && k < light_count; ++k) {
                 if (!counts(light[k].length + bounce + 2)) continue;
                 connected += trace_strategy(
                     scene, c, rec.strategy(light[k].length + 1, bounce + 2),
@@ -284,7 +305,8 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
             light, light_count, rec, rays));
     };
     std::vector<LightVertex<float>> store;
-    if (!merges(c.estimator.kind)) {
+    const bool cached = c.estimator.light_connections > 0 && connects(c.estimator.kind);
+    if (!merges(c.estimator.kind) && !cached) {
         // bdpt: each sample's light subpath, then its camera subpath
         const Merging none;
         for (int y = tile.y0; y < tile.y1; ++y)
@@ -299,17 +321,18 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
                 }
         return;
     }
-    // vcm: per sample index, the light subpaths of every pixel, their grid, then the camera
-    // subpaths
+    // vcm and the light vertex cache: per sample index, the light subpaths of every pixel
+    // (vcm: their grid), then the camera subpaths
     const int32_t width = tile.x1 - tile.x0, pixels = width * (tile.y1 - tile.y0);
     std::vector<uint32_t> begin(size_t(pixels) + 1);
     std::vector<Photon> photons;
     MergeGrid grid;
     for (int64_t s = tile.s0; s < tile.s1; ++s) {
         Merging merging;
-        merging.weights = merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha, s,
-                                        has_lights ? pixels : 0, kMergeTilePaths,
-                                        connects(c.estimator.kind));
+        if (merges(c.estimator.kind))
+            merging.weights = merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha, s,
+                                            has_lights ? pixels : 0, kMergeTilePaths,
+                                            connects(c.estimator.kind));
         store.clear();
         for (int32_t k = 0; k < pixels; ++k) {
             begin[size_t(k)] = uint32_t(store.size());
@@ -319,11 +342,18 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
                                     merging.weights, store, store_limit, film, rec, rays);
         }
         begin[size_t(pixels)] = uint32_t(store.size());
-        photons.clear();
-        for (const LightVertex<float>& l : store) photons.push_back(photon_of(l, 0u));
-        const float radius = std::sqrt(merging.weights.radius2);
-        grid.build(photons.data(), photons.size(), &radius, 1);
-        merging.grid = &grid;
+        if (cached) {
+            merging.cache = store.data();
+            merging.cache_vertices = int32_t(store.size());
+            merging.cache_paths = pixels;
+        }
+        if (merges(c.estimator.kind)) {
+            photons.clear();
+            for (const LightVertex<float>& l : store) photons.push_back(photon_of(l, 0u));
+            const float radius = std::sqrt(merging.weights.radius2);
+            grid.build(photons.data(), photons.size(), &radius, 1);
+            merging.grid = &grid;
+        }
         for (int32_t k = 0; k < pixels; ++k) {
             const int x = tile.x0 + k % width, y = tile.y0 + k / width;
             camera(x, y, stream(x, y, s), merging, store.data() + begin[size_t(k)],

@@ -1147,6 +1147,20 @@ struct Loader {
         } else {
             r.allow({"merge_alpha"});
         }
+        if (r.has("light_connections")) {
+            const double n = r.number("light_connections", 0.0);
+            if (!(n >= 0.0 && n <= double(kMaxLightConnections)) || n != std::floor(n))
+                r.fail("'light_connections' must be a whole number in 0.." +
+                       std::to_string(kMaxLightConnections) +
+                       " (0: every vertex of the sample's own light subpath; n: n draws from the "
+                       "light vertex cache)");
+            if (!connects(e.kind))
+                r.fail("'light_connections' is bdpt's and vcm's (the estimator is \"" +
+                       std::string(estimator_name(e.kind)) + "\")");
+            e.light_connections = int32_t(n);
+        } else {
+            r.allow({"light_connections"});
+        }
         if ((r.has("merge_radius") || r.has("merge_alpha")) && !merges(e.kind))
             r.fail("'merge_radius' and 'merge_alpha' are vcm's, bpm's and ppm's (the estimator is \"" +
                    std::string(estimator_name(e.kind)) + "\")");

@@ -359,6 +359,9 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
         {" --estimator vcm --merge-alpha 1.5", "--merge-alpha"},
         {" --estimator bdpt --merge-radius 0.1", "merging is vcm's"},
         {" --estimator vcm --strategy 1,2", "--strategy"},
+        {" --estimator bdpt --light-connections -1", "--light-connections"},
+        {" --estimator bdpt --light-connections 65", "--light-connections"},
+        {" --estimator mis --light-connections 2", "connections are bdpt's and vcm's"},
     };
     for (const auto& [args, message] : cases) {
         SCOPED_TRACE(args);
@@ -374,10 +377,26 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
     EXPECT_EQ(b.exit_code, 1);
     EXPECT_NE(b.err.find("bad_radius.json"), std::string::npos) << b.err;
     EXPECT_NE(b.err.find("'merge_radius' must be a positive length"), std::string::npos) << b.err;
+    for (const std::string& value : {"1.5", "-2", "100"}) {
+        text = kTinyScene;
+        text.replace(text.find("\"seed\": 3"), 9,
+                     "\"seed\": 3, \"estimator\": \"bdpt\", \"light_connections\": " + value);
+        const Outcome c = run(quote(write("bad_draws.json", text)) + kQuiet + " --out " + quote(out));
+        EXPECT_EQ(c.exit_code, 1) << value;
+        EXPECT_NE(c.err.find("bad_draws.json"), std::string::npos) << c.err;
+        EXPECT_NE(c.err.find("'light_connections' must be a whole number in 0..64"),
+                  std::string::npos) << c.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
     // (and accepted in range: the image is written)
     const Outcome ok = run(quote(scene) + kQuiet + " --estimator vcm --merge-radius 0.05 "
                            "--merge-alpha 0.5 --spp 2 --out " + quote(out));
     EXPECT_EQ(ok.exit_code, 0) << ok.err;
+    EXPECT_TRUE(fs::exists(out));
+    fs::remove(out);
+    const Outcome drawn = run(quote(scene) + kQuiet + " --estimator bdpt --light-connections 3 "
+                              "--spp 2 --out " + quote(out));
+    EXPECT_EQ(drawn.exit_code, 0) << drawn.err;
     EXPECT_TRUE(fs::exists(out));
 }
 

@@ -14,6 +14,9 @@
 //     length alone (2 to 5); scalar against the wavefront on every ISA, and a pool smaller
 //     than a job (several waves, the shadow queue traced as it fills) against the default;
 //   - the image is the same bits for 1, 2 and 3 threads (MPI and resume: test_distributed);
+//   - the light vertex cache's draws (the default) against the pairing with the sample's own
+//     light subpath: each connection strategy's image the same in expectation, both
+//     integrators alike for either;
 //   - vcm: the furnaces and the glass ball hold for it exactly, with a large radius (on a
 //     sphere the surface within distance r of a point has area π r², Archimedes' cap, so
 //     merging is unbiased there: a wrong normalisation or weight shows); merging's weights
@@ -558,8 +561,56 @@ TEST(Bidirectional, ScalarAndWavefrontAgree) {
     s.settings.seed = 5;
     test::expect_wavefront_agrees(s, "bdpt box, area and uniform sampling");
     test::expect_wavefront_agrees(scene_of(kBox, Estimator::kVcm, spp(256, 48), 0.1f), "vcm box");
+    // (both ways of connecting: every vertex of the sample's own light subpath, and draws from
+    // the light vertex cache)
+    for (int32_t draws : {0, 3}) {
+        Scene d = scene_of(kBox, Estimator::kBdpt, spp(256, 48));
+        d.settings.estimator.light_connections = draws;
+        d.settings.seed = 6;
+        test::expect_wavefront_agrees(d, "bdpt box, light_connections " + std::to_string(draws));
+        Scene m = scene_of(kBox, Estimator::kVcm, spp(256, 48), 0.1f);
+        m.settings.estimator.light_connections = draws;
+        test::expect_wavefront_agrees(m, "vcm box, light_connections " + std::to_string(draws));
+    }
     test::expect_wavefront_agrees(scene_of(kBox, Estimator::kBpm, spp(256, 48), 0.1f), "bpm box");
     test::expect_wavefront_agrees(scene_of(kBox, Estimator::kPpm, spp(256, 48), 0.1f), "ppm box");
+}
+
+// The light vertex cache (light_connections n ≥ 1) against the pairing (0, every vertex of
+// the sample's own light subpath): each connection strategy's weighted image, alone, is the
+// same in expectation, per pixel and in mean, for 1 and 3 draws (a draw's count V/(N·n)
+// wrong by 5% shows: four standard deviations of the means' difference are below 2.5% of
+// the mean, checked).
+TEST(Bidirectional, LightVertexCacheAgreesWithThePairing) {
+    const int n = spp(1024, 256);
+    const Variant v = variants().back();
+    for (const auto& [s, t] : {std::pair{2, 2}, std::pair{3, 2}, std::pair{2, 3}}) {
+        Scene pairing = scene_of(kBox, Estimator::kBdpt, n);
+        pairing.settings.width = 40, pairing.settings.height = 32;
+        pairing.settings.estimator.light_connections = 0;
+        pairing.settings.estimator.strategy_s = s, pairing.settings.estimator.strategy_t = t;
+        const RenderResult a = run(pairing, v);
+        for (int32_t draws : {1, 3}) {
+            SCOPED_TRACE("strategy s=" + std::to_string(s) + " t=" + std::to_string(t) + ", " +
+                         std::to_string(draws) + " draws");
+            Scene cached = pairing;
+            cached.settings.estimator.light_connections = draws;
+            cached.settings.seed = 40 + uint32_t(draws);
+            const RenderResult b = run(cached, v);
+            EXPECT_GE(pixels_agreeing(a.film, b.film), 0.99);
+            for (int c = 0; c < 3; ++c) {
+                const Mean x = image_mean(a.film, c), y = image_mean(b.film, c);
+                std::printf("s=%d t=%d, %d draws, channel %d: %.5f ± %.5f (pairing %.5f ± %.5f)\n",
+                            s, t, draws, c, y.mean, y.sigma, x.mean, x.sigma);
+                ASSERT_GT(x.mean, 0.0);
+                EXPECT_NEAR(x.mean, y.mean, 4 * std::hypot(x.sigma, y.sigma)) << "channel " << c;
+                // (the lighter settings' fewer paths resolve less)
+                if (!test::lighter_settings())
+                    EXPECT_LT(4 * std::hypot(x.sigma, y.sigma), 0.025 * x.mean) << "channel " << c;
+            }
+            EXPECT_EQ(b.film.nonfinite_samples(), 0u);
+        }
+    }
 }
 
 // Each band of path lengths alone agrees with mis's. (Without the point light: it shines
@@ -673,13 +724,23 @@ TEST(Bidirectional, StrategyImagesOfOneRenderAreEachStrategysOwnRender) {
             for (size_t k = 0; k < want.rgb.size(); ++k)
                 ASSERT_NEAR(got.rgb[k], want.rgb[k], 1e-5f * (peak + std::abs(want.rgb[k])))
                     << "value " << k;
-            if (weighted)
-                for (size_t k = 0; k < sum.size(); ++k) sum[k] += got.rgb[k];
         }
     }
     EXPECT_GE(lit, 20);  // (most strategies see light in this box)
-    // Every length up to 4 alone: the weighted images add up to it
-    Scene upto = s;
+    // Every length up to 4 alone: the weighted images add up to it. (With the pairing: the
+    // light vertex cache's draws are from every stored vertex of the tile's light subpaths,
+    // which a length limit cuts short, so with the cache the two agree in expectation only.)
+    Scene paired = s;
+    paired.settings.estimator.light_connections = 0;
+    StrategyFilm paired_film(s.settings.width, s.settings.height, layout);
+    o.strategies = &paired_film;
+    render(paired, o);
+    o.strategies = nullptr;
+    for (int i = 0; i < layout.count(); ++i) {
+        const Image got = paired_film.image(i, true, s.settings.spp);
+        for (size_t k = 0; k < sum.size(); ++k) sum[k] += got.rgb[k];
+    }
+    Scene upto = paired;
     upto.settings.estimator.max_length = 4;
     const Image whole = render(upto, o).film.mean();
     for (size_t k = 0; k < sum.size(); ++k)
@@ -699,6 +760,11 @@ TEST(Bidirectional, StrategyImagesOfOneRenderAreEachStrategysOwnRender) {
 
 TEST(Bidirectional, SameBitsForAnyNumberOfThreads) {
     test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kBdpt, 20));
+    for (int32_t draws : {0, 2}) {
+        Scene s = scene_of(kBox, Estimator::kBdpt, 20);
+        s.settings.estimator.light_connections = draws;
+        test::expect_same_bits_for_any_threads(s);
+    }
     test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kVcm, 20, 0.1f));
     test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kBpm, 20, 0.1f));
     test::expect_same_bits_for_any_threads(scene_of(kBox, Estimator::kPpm, 20, 0.1f));

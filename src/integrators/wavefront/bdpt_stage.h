@@ -412,6 +412,48 @@ void queue_owned(Wave<A>& w, int32_t i, const ShadowRequest<typename Wave<A>::F>
     queued += std::popcount(bits);
 }
 
+// The light vertex cache (light_connections n ≥ 1): each lane in `phong` connects its camera
+// vertex cv to n vertices drawn from its sample's set (kernels/bidirectional.h), queued as
+// shadow rays owned by the lane.
+template <class A>
+void draw_connections(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
+                      const Vec3<typename Wave<A>::F>& beta,
+                      const MergeWeights<typename Wave<A>::F>& mw, const typename Wave<A>::M& phong,
+                      const typename Wave<A>::U& bounce, int32_t& queued) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const EstimatorSettings& est = s.path.estimator;
+    const LightVertexStore& st = *p.light_store;
+    // Each lane's set: its first vertex in `order` and its count
+    alignas(64) int32_t first[K], count[K];
+    const uint32_t per = uint32_t(st.paths_per_sample), last = uint32_t(st.samples) - 1u;
+    for (int32_t l = 0; l < K; ++l) {
+        const uint32_t set = std::min(p.path_id[i + l] / per, last);
+        first[l] = int32_t(st.begin[set * per]);
+        count[l] = int32_t(st.begin[(set + 1u) * per]) - first[l];
+    }
+    const I lo = I::load_aligned(first);
+    const I n = I::load_aligned(count);
+    const auto some = phong & mask_f32(n > I(0));
+    if (!any(some)) return;
+    const I vertices = max(n, I(1));
+    const F weight = cache_draw_weight<F>(vertices, st.paths_per_sample, est.light_connections);
+    const SampleStream<F> rng = stream_at<A>(s, p, i);
+    for (int32_t j = 0; j < est.light_connections; ++j) {
+        const I k = cache_vertex<F>(connection_uniform<F>(rng, bounce, uint32_t(j)), vertices);
+        const I idx = gather_lanes<A>(st.order, select(mask_i32(some), lo + k, I(0)));
+        const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
+        auto has = some;
+        if (limits_length(est)) has = has & length_counts<F>(est, lv.length + bounce + U(2u));
+        const ShadowRequest<F> r = connect_drawn_vertex(s.path, cv, lv, mw, weight, has);
+        queue_owned(w, i, r, beta * r.value, queued);
+    }
+}
+
 // One batch of camera-subpath vertices: s = 0 at once; s = 1 and s, t ≥ 2 queued as shadow
 // rays; the roulette and the lobe, the new state stored in place (compact_bdpt follows).
 template <class A, class Read>
@@ -494,7 +536,9 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
         n.store_aligned(lane_n);
         int32_t most = 0;
         for (int32_t l = 0; l < K; ++l) most = std::max(most, lane_n[l]);
-        for (int32_t k = 0; connecting && k < most; ++k) {
+        const int32_t draws = est.light_connections;
+        if (connecting && draws > 0) draw_connections(w, i, cv, beta, mw, phong, bounce, queued);
+        for (int32_t k = 0; connecting && draws == 0 && k < most; ++k) {
             auto has = mask_f32(I(k) < n);
             const I idx = gather_lanes<A>(st.order, select(mask_i32(has), lo + I(k), I(0)));
             const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
@@ -580,6 +624,8 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
         s.light_starts.emitter_probability > 0.0f || s.light_starts.point_count > 0;
     LightVertexStore& st = *p.light_store;
     st.count = 0;
+    st.paths_per_sample = (job.x1 - job.x0) * (job.y1 - job.y0);
+    st.samples = int32_t(job.sample_end - job.sample_begin);
     if (merging) merging_table(*st.merging, s.path, job, has_lights);
     // Batch i's rays, their closest hits and surfaces
     const auto trace = [&](int32_t i, Ray<F>& ray) {

@@ -41,6 +41,9 @@ struct LightVertexStore {
     uint32_t* path = nullptr;    // the path's index in its job
     int32_t* order = nullptr;
     uint32_t* begin = nullptr;   // the job's paths + 1 entries
+    // The job's light subpaths per sample index (its pixels) and its sample indices: path k
+    // is of sample k / paths_per_sample (the light vertex cache's sets)
+    int32_t paths_per_sample = 1, samples = 1;
     void* owner = nullptr;
     void (*grow)(LightVertexStore& store, int32_t vertices) = nullptr;
     // vcm: the grid over the job's vertices and its samples' merging quantities
