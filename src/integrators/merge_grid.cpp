@@ -13,12 +13,17 @@ namespace {
 // shares its cell with its neighbours, which the distance test sorts out).
 int32_t cell_of(double v) { return int32_t(std::clamp(std::floor(v), -1.0e9, 1.0e9)); }
 
-uint32_t hash_cell(int32_t ix, int32_t iy, int32_t iz) {
-    uint32_t h = uint32_t(ix) * 73856093u ^ uint32_t(iy) * 19349663u ^ uint32_t(iz) * 83492791u;
+// A cell's hash, from its coordinates' products with the three multipliers (hash_cell).
+uint32_t hash_mixed(uint32_t h) {
     h ^= h >> 15;
     h *= 0x2C1B3C6Du;
     h ^= h >> 12;
     return h;
+}
+constexpr uint32_t kHashX = 73856093u, kHashY = 19349663u, kHashZ = 83492791u;
+
+uint32_t hash_cell(int32_t ix, int32_t iy, int32_t iz) {
+    return hash_mixed(uint32_t(ix) * kHashX ^ uint32_t(iy) * kHashY ^ uint32_t(iz) * kHashZ);
 }
 
 }  // namespace
@@ -92,15 +97,23 @@ int MergeGrid::cells(float x, float y, float z, int32_t set, Range out[8]) const
     // The 2 × 2 × 2 cells around the cell corner nearest the position
     const int32_t ix = cell_of(x * inv - 0.5), iy = cell_of(y * inv - 0.5),
                   iz = cell_of(z * inv - 0.5);
-    uint32_t seen[8];
+    // (hash_cell of the 8 cells, from each axis's two products)
+    const uint32_t hx[2] = {uint32_t(ix) * kHashX, uint32_t(ix + 1) * kHashX};
+    const uint32_t hy[2] = {uint32_t(iy) * kHashY, uint32_t(iy + 1) * kHashY};
+    const uint32_t hz[2] = {uint32_t(iz) * kHashZ, uint32_t(iz + 1) * kHashZ};
+    uint32_t bucket[8];
+    for (int k = 0; k < 8; ++k)
+        bucket[k] = first + (hash_mixed(hx[k & 1] ^ hy[(k >> 1) & 1] ^ hz[k >> 2]) & mask);
+    // The buckets that hold points, each once, kept without a branch: half of them are
+    // empty, at random, which a branch would mispredict (measured: this query was a quarter
+    // of vcm's time on caustic.json)
     int count = 0;
     for (int k = 0; k < 8; ++k) {
-        const uint32_t b =
-            first + (hash_cell(ix + (k & 1), iy + ((k >> 1) & 1), iz + (k >> 2)) & mask);
-        if (begin_[b] == begin_[b + 1] || std::find(seen, seen + count, b) != seen + count)
-            continue;
-        seen[count] = b;
-        out[count++] = {begin_[b], begin_[b + 1]};
+        const Range r{begin_[bucket[k]], begin_[bucket[k] + 1]};
+        bool fresh = r.begin != r.end;
+        for (int j = 0; j < k; ++j) fresh &= bucket[j] != bucket[k];
+        out[count] = r;
+        count += int(fresh);
     }
     return count;
 }
