@@ -300,6 +300,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
                   const std::vector<std::string>& sampler,
                   const std::vector<std::string>& estimator,
                   const std::vector<float>& merge_radius, const std::vector<float>& merge_alpha,
+                  const std::vector<int>& light_connections,
                   std::optional<std::string> reference_estimator, std::optional<int> width,
                   std::optional<int> height, int threads, int repeats,
                   const std::optional<fs::path>& out, bool verbose, const py::object& cancel) {
@@ -323,6 +324,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
     for (float v : merge_alpha)
         if (!(v > 0.0f && v < 1.0f))
             throw py::value_error("merge_alpha: each must be in (0, 1), exclusive");
+    for (int v : light_connections) check_range<int>("light_connections", v, 0, kMaxLightConnections);
     check_member("reference_estimator", reference_estimator, kEstimatorNames);
     check_range<int>("width", width, 1, 1 << 16);
     check_range<int>("height", height, 1, 1 << 16);
@@ -351,6 +353,7 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
     a.samplers = sampler;
     a.estimators = estimator;
     a.merge_radii = merge_radius, a.merge_alphas = merge_alpha;
+    a.light_connections = light_connections;
     a.reference_estimator = reference_estimator;
     a.width = width, a.height = height;
     a.threads = threads;
@@ -533,6 +536,7 @@ seed, estimator or integrator is refused).)");
           py::arg("sampler") = std::vector<std::string>{},
           py::arg("estimator") = std::vector<std::string>{},
           py::arg("merge_radius") = std::vector<float>{}, py::arg("merge_alpha") = std::vector<float>{},
+          py::arg("light_connections") = std::vector<int>{},
           py::arg("reference_estimator") = py::none(), py::arg("width") = py::none(),
           py::arg("height") = py::none(), py::arg("threads") = 0, py::arg("repeats") = 1,
           py::arg("out") = py::none(), py::arg("verbose") = false, py::arg("cancel") = py::none(),
@@ -541,11 +545,13 @@ seed, estimator or integrator is refused).)");
 Renders (or reads, reference=PATH to an .exr or .pfm) a reference, then the scene at each
 paths-per-pixel count of spp for every combination of integrator, isa, pool, survival_cap,
 diffuse_sampling, roulette, triangle_sampling, sampler and estimator, and for vcm, bpm and ppm
-merge_radius and merge_alpha (lists; an empty list keeps the scene's value; roulette_depth
+merge_radius and merge_alpha, for bdpt and vcm light_connections (lists; an empty list
+keeps the scene's value; roulette_depth
 one value or None). Returns one dict per render, keyed by the CSV's columns (scene,
 integrator, isa, pool, survival_cap, diffuse_sampling, roulette ('lobe', or e.g.
 'throughput3': from vertex 3), triangle_sampling, sampler, estimator, merge_radius and
-merge_alpha (vcm's, bpm's and ppm's, as rendered; empty for the others), threads, width, height, spp, repeats, seconds, rays,
+merge_alpha (vcm's, bpm's and ppm's, as rendered; empty for the others), light_connections
+(bdpt's and vcm's; empty for the others), threads, width, height, spp, repeats, seconds, rays,
 rays_per_second, mse, rmse, rel_mse, reference_mse, reference_rel_mse, mse_corrected,
 rmse_corrected, rel_mse_corrected, estimated_relative_error, efficiency). out writes the
 same rows as CSV, save_reference the rendered reference (.exr); verbose prints the table and

@@ -56,6 +56,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     // (the merging radius and exponent: swept for vcm, bpm and ppm alone)
     const std::vector<float> radii = a.merge_radii.empty() ? std::vector<float>{-1.0f} : a.merge_radii;
     const std::vector<float> alphas = a.merge_alphas.empty() ? std::vector<float>{-1.0f} : a.merge_alphas;
+    // (and the connections' draws for bdpt and vcm alone)
+    const std::vector<int> draws =
+        a.light_connections.empty() ? std::vector<int>{-1} : a.light_connections;
     std::vector<ConvergeConfig> out;
     for (const std::string& integrator : a.integrators) {
         const bool scalar = integrator_of(integrator) == Integrator::kScalar;
@@ -70,8 +73,10 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                                 for (int t : triangles)
                                     for (int smp : samplers) {
                                         const bool vcm = merges(Estimator(e));
+                                        const bool connecting = connects(Estimator(e));
                                         for (float radius : vcm ? radii : std::vector<float>{-1.0f})
-                                            for (float alpha : vcm ? alphas : std::vector<float>{-1.0f})
+                                          for (float alpha : vcm ? alphas : std::vector<float>{-1.0f})
+                                            for (int n : connecting ? draws : std::vector<int>{-1})
                                                 out.push_back({.integrator = integrator,
                                                                .isa = scalar ? "auto" : isa,
                                                                .pool_size = pool,
@@ -84,7 +89,8 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                                                                    a.roulette_depth.value_or(-1),
                                                                .sampler = smp,
                                                                .merge_radius = radius,
-                                                               .merge_alpha = alpha});
+                                                               .merge_alpha = alpha,
+                                                               .light_connections = n});
                                     }
     }
     return out;
@@ -94,7 +100,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
 
 std::string converge_csv_header() {
     return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,roulette,triangle_sampling,"
-           "sampler,estimator,merge_radius,merge_alpha,threads,width,"
+           "sampler,estimator,merge_radius,merge_alpha,light_connections,threads,width,"
            "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
@@ -121,7 +127,7 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
         p.estimator.survival_cap, diffuse_name(p.estimator), roulette_label(p.estimator),
@@ -130,6 +136,8 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
         // (the merging radius as rendered, the scene's rule resolved; empty for the others)
         merges(p.estimator.kind) ? fmt::format("{:.6g}", p.merge_radius) : std::string(),
         merges(p.estimator.kind) ? fmt::format("{:.6g}", p.estimator.merge_alpha) : std::string(),
+        // (the connections' draws as rendered, bdpt's and vcm's; empty for the others)
+        connects(p.estimator.kind) ? std::to_string(p.estimator.light_connections) : std::string(),
         p.stats.threads,
         scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
         p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
@@ -232,6 +240,12 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "default: the scene's")
         ->delimiter(',')
         ->check(open_unit);
+    c->add_option("--light-connections", a.light_connections,
+                  "The light vertex cache's draws of bdpt and vcm to sweep, each in 0..64 (0: "
+                  "every vertex of the sample's own light subpath; render's --light-connections); "
+                  "default: the scene's")
+        ->delimiter(',')
+        ->check(CLI::Range(0, int(kMaxLightConnections)));
     c->add_option("--roulette", a.roulettes,
                   "Roulettes to sweep, comma-separated: " + describe_roulettes() +
                       "; default: the scene's")
@@ -293,6 +307,13 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         if (pool % 16 != 0)
             throw InputError(fmt::format("--pool: {} is not a multiple of 16", pool));
     for (const std::string& isa : a.isas) require_isa(parse_isa(isa), "--isa");
+    if (!a.light_connections.empty() &&
+        std::none_of(a.estimators.begin(), a.estimators.end(), [](const std::string& e) {
+            const std::optional<Estimator> kind = parse_estimator(e);
+            return kind && connects(*kind);
+        }))
+        throw InputError("--light-connections: connections are bdpt's and vcm's; sweep them with "
+                         "--estimator bdpt (or vcm)");
     if (!a.merge_radii.empty() || !a.merge_alphas.empty()) {
         // (the radii are swept for the configurations of --estimator vcm, bpm or ppm alone: a
         // scene's own vcm without --estimator would ignore them)

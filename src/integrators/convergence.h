@@ -53,6 +53,7 @@ struct ConvergeConfig {
     int sampler = -1;             // -1: the scene's; else a Sampler
     float merge_radius = -1.0f;   // vcm: < 0 the scene's (0: from the scene's size)
     float merge_alpha = -1.0f;    // vcm: < 0 the scene's
+    int light_connections = -1;   // bdpt, vcm: < 0 the scene's
 };
 
 struct ConvergePoint {

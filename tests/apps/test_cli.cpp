@@ -619,6 +619,38 @@ TEST_F(cli, ConvergeSweepsTheEstimator) {
     EXPECT_GT(run(quote(scene) + kQuiet + " --estimator mcmc", "converge").exit_code, 0);
 }
 
+// --light-connections sweeps bdpt's and vcm's draws (the others' rows once, the column
+// empty); out of range, or with no estimator that connects, it is refused naming itself.
+TEST_F(cli, ConvergeSweepsTheLightConnections) {
+    const fs::path scene = write("tiny.json", kTinyScene);
+    const fs::path csv = dir_ / "c.csv";
+    const Outcome r = run(quote(scene) + kQuiet + " --spp 2 --integrator wavefront " +
+                              "--estimator mis,bdpt --light-connections 0,3 --reference-spp 16 " +
+                              "--reference-estimator mis --out " + quote(csv),
+                          "converge");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto rows = read_csv(csv);
+    ASSERT_EQ(rows.size(), 4u);
+    const auto& h = rows[0];
+    const auto col = [&](const char* name) {
+        return size_t(std::find(h.begin(), h.end(), name) - h.begin());
+    };
+    ASSERT_LT(col("light_connections"), h.size());
+    EXPECT_EQ(rows[1][col("estimator")], "mis");
+    EXPECT_EQ(rows[1][col("light_connections")], "");
+    EXPECT_EQ(rows[2][col("estimator")], "bdpt");
+    EXPECT_EQ(rows[2][col("light_connections")], "0");
+    EXPECT_EQ(rows[3][col("light_connections")], "3");
+    // (another number of draws is another image: another error)
+    EXPECT_NE(rows[2][col("mse")], rows[3][col("mse")]);
+    for (const std::string& args : {std::string(" --estimator bdpt --light-connections 65"),
+                                    std::string(" --estimator mis --light-connections 1")}) {
+        const Outcome bad = run(quote(scene) + kQuiet + args, "converge");
+        EXPECT_GT(bad.exit_code, 0) << args;
+        EXPECT_NE(bad.err.find("--light-connections"), std::string::npos) << bad.err;
+    }
+}
+
 TEST_F(cli, ConvergeRefusesBadReferencesAndKnobs) {
     const fs::path scene = write("tiny.json", kTinyScene);
     const fs::path small = dir_ / "small.pfm";
