@@ -370,6 +370,13 @@ TEST(CheckpointFile, AResumeOfAnotherRenderIsRefusedNamingWhatDiffers) {
     refused(other, "integrator wavefront (this render: scalar)");
     Scene box = scene_at("box.json", 16, 16, 4);
     refused(checkpoint_identity(box, "wavefront", "avx2", 512), "scene content fingerprint");
+    // bdpt's connections: the light vertex cache's draws (0: the pairing) are the estimator's
+    Scene drawn = scene;
+    use_estimator(drawn.settings.estimator, Estimator::kBdpt);
+    const CheckpointIdentity one = checkpoint_identity(drawn, "wavefront", "avx2", 512);
+    EXPECT_NE(one.estimator.find("bdpt draws 1"), std::string::npos) << one.estimator;
+    drawn.settings.estimator.light_connections = 0;
+    EXPECT_EQ(checkpoint_identity(drawn, "wavefront", "avx2", 512).estimator, "bdpt");
     // Other kernels: allowed, with a warning that the bits may differ
     other = id, other.isa = "sse4.2";
     const std::vector<std::string> w = check_resume(kDir / "id.exr", c, other);
