@@ -377,10 +377,10 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
     EXPECT_EQ(b.exit_code, 1);
     EXPECT_NE(b.err.find("bad_radius.json"), std::string::npos) << b.err;
     EXPECT_NE(b.err.find("'merge_radius' must be a positive length"), std::string::npos) << b.err;
-    for (const std::string& value : {"1.5", "-2", "100"}) {
+    for (const char* value : {"1.5", "-2", "100"}) {
         text = kTinyScene;
         text.replace(text.find("\"seed\": 3"), 9,
-                     "\"seed\": 3, \"estimator\": \"bdpt\", \"light_connections\": " + value);
+                     std::string("\"seed\": 3, \"estimator\": \"bdpt\", \"light_connections\": ") + value);
         const Outcome c = run(quote(write("bad_draws.json", text)) + kQuiet + " --out " + quote(out));
         EXPECT_EQ(c.exit_code, 1) << value;
         EXPECT_NE(c.err.find("bad_draws.json"), std::string::npos) << c.err;
