@@ -526,25 +526,28 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
                 queue_owned(w, i, r, beta * r.value, queued);
             }
         }
-        // s, t ≥ 2: the k-th vertex of each lane's light subpath, for every k some lane has
-        const LightVertexStore& st = *p.light_store;
-        const I id = select(mask_i32(phong), xsimd::bitwise_cast<I>(U::load_aligned(p.path_id + i)), I(0));
-        const I lo = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id));
-        const I hi = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id + I(1)));
-        const I n = select(mask_i32(phong), hi - lo, I(0));
-        alignas(64) int32_t lane_n[K];
-        n.store_aligned(lane_n);
-        int32_t most = 0;
-        for (int32_t l = 0; l < K; ++l) most = std::max(most, lane_n[l]);
-        const int32_t draws = est.light_connections;
-        if (connecting && draws > 0) draw_connections(w, i, cv, beta, mw, phong, bounce, queued);
-        for (int32_t k = 0; connecting && draws == 0 && k < most; ++k) {
-            auto has = mask_f32(I(k) < n);
-            const I idx = gather_lanes<A>(st.order, select(mask_i32(has), lo + I(k), I(0)));
-            const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
-            if (limited) has = has & length_counts<F>(est, lv.length + bounce + U(2u));
-            const ShadowRequest<F> r = connect_vertices(c, cv, lv, mw, has);
-            queue_owned(w, i, r, beta * r.value, queued);
+        // s, t ≥ 2: draws from the light vertex cache, or (the pairing) the k-th vertex of
+        // each lane's light subpath, for every k some lane has
+        if (connecting && est.light_connections > 0) {
+            draw_connections(w, i, cv, beta, mw, phong, bounce, queued);
+        } else if (connecting) {
+            const LightVertexStore& st = *p.light_store;
+            const I id = select(mask_i32(phong), xsimd::bitwise_cast<I>(U::load_aligned(p.path_id + i)), I(0));
+            const I lo = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id));
+            const I hi = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id + I(1)));
+            const I n = select(mask_i32(phong), hi - lo, I(0));
+            alignas(64) int32_t lane_n[K];
+            n.store_aligned(lane_n);
+            int32_t most = 0;
+            for (int32_t l = 0; l < K; ++l) most = std::max(most, lane_n[l]);
+            for (int32_t k = 0; k < most; ++k) {
+                auto has = mask_f32(I(k) < n);
+                const I idx = gather_lanes<A>(st.order, select(mask_i32(has), lo + I(k), I(0)));
+                const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
+                if (limited) has = has & length_counts<F>(est, lv.length + bounce + U(2u));
+                const ShadowRequest<F> r = connect_vertices(c, cv, lv, mw, has);
+                queue_owned(w, i, r, beta * r.value, queued);
+            }
         }
         // vcm, bpm, ppm: the stored vertices near it
         if (merges(est.kind)) merge_lanes<A>(w, i, cv, beta, mw, phong & camera_vertex_merges<F>(est, cv));
