@@ -11,7 +11,9 @@
    runs every estimator in turn; the table gives the medians, and each estimator's
    efficiency over --base's (default mis; the median of the rounds' ratios). An estimator
    written vcm@R renders with --merge-radius R (vcm alone: the scene's rule), one written
-   bdpt@cN (or vcm@R@cN) with --light-connections N (draws from the light vertex cache).
+   bdpt@cN (or vcm@R@cN) with --light-connections N (draws from the light vertex cache), one
+   ending in @other with the build --other-binary names (two commits side by side, in the
+   same interleaved rounds).
 2. Speed. The wavefront's rays/s per core over the scalar reference's for bdpt, on every ISA
    this CPU runs (one thread, interleaved rounds; the median of the rounds' ratios). In each
    round every configuration renders --speed-repeat times in a row and keeps its fastest:
@@ -49,8 +51,8 @@ def scene_path(name):
     return p if p.suffix == ".json" else ROOT / "scenes" / (name + ".json")
 
 
-def render(scene, out, args, stats=None):
-    cmd = [str(CIERZO), "render", str(scene), "--out", str(out), "--quiet"] + args
+def render(scene, out, args, stats=None, binary=CIERZO):
+    cmd = [str(binary), "render", str(scene), "--out", str(out), "--quiet"] + args
     if stats:
         cmd += ["--stats", str(stats)]
     subprocess.run(cmd, check=True, capture_output=True, text=True)
@@ -79,6 +81,8 @@ def main():
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--reference", default=None, help="reference EXR (one scene only)")
     ap.add_argument("--region", default="0.35,0.85,0.65,0.98")
+    ap.add_argument("--other-binary", default=None,
+                    help="another cierzo build: an estimator written NAME@...@other renders with it")
     ap.add_argument("--speed-scenes", default="")
     ap.add_argument("--speed-spp", type=int, default=8)
     ap.add_argument("--speed-repeat", type=int, default=3,
@@ -106,13 +110,18 @@ def main():
                 for e in estimators:
                     out, st = tmp / f"{e}.exr", tmp / f"{e}.json"
                     name_e, *knobs = e.split("@")
-                    extra = []
+                    extra, binary = [], CIERZO
                     for k in knobs:
-                        extra += (["--light-connections", k[1:]] if k.startswith("c")
-                                  else ["--merge-radius", k])
+                        if k == "other":
+                            if not a.other_binary:
+                                ap.error(f"{e}: @other needs --other-binary")
+                            binary = a.other_binary
+                        else:
+                            extra += (["--light-connections", k[1:]] if k.startswith("c")
+                                      else ["--merge-radius", k])
                     s = render(scene, out, size + extra + ["--estimator", name_e, "--threads", "1", "--spp", "1000000",
                                                    "--time-budget", str(a.seconds),
-                                                   "--seed", str(1000 + rnd)], st)
+                                                   "--seed", str(1000 + rnd)], st, binary)
                     img = np.asarray(cierzo.read_exr(str(out)))
                     secs = s["seconds"]
                     whole, part = rel_mse(img, ref), rel_mse(img, ref, region)

@@ -45,6 +45,18 @@ T mis2(const T& x) {
     return x * x;
 }
 
+// c² for the light vertex cache's c = PathContext::connection_count (1 with the pairing):
+// how many times more often than the other strategies a connection (s, t ≥ 2) is made.
+// Every quantity a subpath carries is a sum of other strategies' densities over a
+// connection's, each times the squared ratio of their counts; those of the strategies made
+// once per path (s = 0, s = 1, t = 1) enter them divided by c² (camera_start_mis,
+// light_start_mis), merging's with η/c for η (merge_weights). The weight of a strategy made
+// once multiplies them back by c².
+template <class T>
+T connection_count2(const PathContext& c) {
+    return T(c.connection_count * c.connection_count);
+}
+
 // The three quantities a subpath carries (already squared: the power heuristic's terms).
 template <class T>
 struct SubpathMis {
@@ -62,7 +74,9 @@ struct SubpathMis {
 // The weights take N as a full tile's pixels in every tile: a light vertex's t = 1
 // connection lands in any tile, and its weight must be the one the merging there gives
 // the same path (a tile at the image's edge, with fewer paths, would otherwise lose the
-// difference: measured −2% on a 24 × 24 image of 16 × 16 tiles).
+// difference: measured −2% on a 24 × 24 image of 16 × 16 tiles). With the light vertex
+// cache a connection is made c times (connection_count2), so merging against a connection
+// counts η/c in the weights (not in the normalization, which is the estimate's own).
 template <class T>
 struct MergeWeights {
     T vm_weight = T(0.0f);
@@ -73,17 +87,19 @@ struct MergeWeights {
 
 // The merging quantities of sample n (from 0) of a tile whose light subpaths for that
 // sample number `light_paths` (0: none, nothing merges), with merging radius r0 and exponent
-// α (EstimatorSettings); the weights' N is `tile_paths`, a full tile's. Without connections
-// (bpm, ppm: `connections` false) the connections' weight 1/η² is 0, so merging is weighed
-// against merging alone.
+// α (EstimatorSettings); the weights' N is `tile_paths`, a full tile's, and a connection counts
+// `connection_count` times (PathContext::connection_count). Without connections (bpm, ppm:
+// `connections` false) the connections' weight 1/η² is 0, so merging is weighed against
+// merging alone.
 inline MergeWeights<float> merge_weights(float r0, float alpha, int64_t n, int64_t light_paths,
-                                         int64_t tile_paths, bool connections) {
+                                         int64_t tile_paths, bool connections,
+                                         float connection_count = 1.0f) {
     MergeWeights<float> m;
     const double r = double(r0) * std::pow(double(n + 1), 0.5 * (double(alpha) - 1.0));
     const double area = kPi * r * r;
     // (η kept within 10^±12, so that η² and 1/η² are finite floats whatever the radius:
     // every strategy's weight takes the same η, so the weights still sum to 1)
-    const double eta = std::clamp(area * double(tile_paths), 1e-12, 1e12);
+    const double eta = std::clamp(area * double(tile_paths) / double(connection_count), 1e-12, 1e12);
     if (light_paths <= 0 || !(area > 0.0) || !std::isfinite(area)) return m;
     m.vm_weight = float(eta * eta);
     m.vc_weight = connections ? float(1.0 / (eta * eta)) : 0.0f;
@@ -152,12 +168,15 @@ T strategy_weight(const EstimatorSettings& e, const U32<T>& s, const U32<T>& t, 
 // ---- Starts -------------------------------------------------------------------------------
 
 // A camera subpath's quantities at the pinhole, for the direction d of its first ray:
-// dVCM = 1/p², p = 1/(A·cos³θ) the film's density of d; dVC = dVM = 0.
+// dVCM = 1/(c²p²), p = 1/(A·cos³θ) the film's density of d (the t = 1 strategy, made once:
+// connection_count2); dVC = dVM = 0.
 template <class T>
-SubpathMis<T> camera_start_mis(const PinholeFrame& c, const Vec3<T>& d) {
-    const Vec3<T> n(Vec3f{c.film_normal[0], c.film_normal[1], c.film_normal[2]});
+SubpathMis<T> camera_start_mis(const PathContext& c, const PinholeFrame& pinhole,
+                               const Vec3<T>& d) {
+    const Vec3<T> n(Vec3f{pinhole.film_normal[0], pinhole.film_normal[1], pinhole.film_normal[2]});
     const T cos_c = dot(d, n);
-    return {mis2(T(c.film_area) * cos_c * cos_c * cos_c), T(0.0f), T(0.0f)};
+    return {mis2(T(pinhole.film_area) * cos_c * cos_c * cos_c) / connection_count2<T>(c), T(0.0f),
+            T(0.0f)};
 }
 
 // A light subpath's quantities at its start, before its first hit. Its dVCM needs the
@@ -166,13 +185,16 @@ SubpathMis<T> camera_start_mis(const PinholeFrame& c, const Vec3<T>& d) {
 // 1/p_e² (p_e the start's density: the light's choice, its point and its direction) and
 // completed by start_direct_pdf_area. dVC = |cos θ|² / p_e² for an emitter, 0 for a point
 // light (a delta position: no strategy hits it); dVM = dVC / η² (vcm: merging at the first
-// hit against the connection that makes that segment; 0 for bdpt).
+// hit against the connection that makes that segment; 0 for bdpt). dVCM and dVC stand for
+// strategies made once (s = 1, s = 0): both divided by c² (connection_count2).
 template <class T>
-SubpathMis<T> light_start_mis(const LightStart<T>& s, const MergeWeights<T>& mw) {
+SubpathMis<T> light_start_mis(const PathContext& c, const LightStart<T>& s,
+                              const MergeWeights<T>& mw) {
     const T inv = T(1.0f) / s.pdf_emit;
+    const T once = T(1.0f) / connection_count2<T>(c);
     SubpathMis<T> m;
-    m.vcm = mis2(inv);
-    m.vc = select(s.on_surface, mis2(s.cos_light * inv), T(0.0f));
+    m.vcm = mis2(inv) * once;
+    m.vc = select(s.on_surface, mis2(s.cos_light * inv) * once, T(0.0f));
     m.vm = m.vc * mw.vc_weight;
     return m;
 }
@@ -281,7 +303,9 @@ T emitter_hit_mis(const PathContext& c, const LightStartTable& lights, const Sub
     const T direct_a = direct_w * cos_l / (t * t);
     const T emit = T(lights.emitter_probability) * emitter_position_pdf<T>(c.emitters, e) * cos_l *
                    T(0.5f * kInvPi);
-    const T w = mis2(direct_a) * m.vcm + mis2(emit) * m.vc;
+    // (dVCM: next-event estimation from the previous vertex, made once as this is; dVC: the
+    // connections and the strategies before them, relative to a connection)
+    const T w = mis2(direct_a) * m.vcm + mis2(emit) * m.vc * connection_count2<T>(c);
     return strategy_weight(c.estimator, U32<T>(0u), vertices,
                            select(sampled, T(1.0f) / (T(1.0f) + w), T(1.0f)));
 }
@@ -334,7 +358,7 @@ T emitter_sample_mis(const PathContext& c, const LightStartTable& lights,
                        dot(wi, v.nf) * T(0.5f * kInvPi) / light_pdf;
         const T rest = mw.vm_weight + v.mis.vcm +
                        v.mis.vc * mis2(b.pdf_reverse * T(c.estimator.reverse_pdf_scale));
-        w_camera = select(finite, mis2(emit) * rest, T(0.0f));
+        w_camera = select(finite, mis2(emit) * rest * connection_count2<T>(c), T(0.0f));
     }
     return T(1.0f) / (T(1.0f) + w_light + w_camera);
 }
@@ -380,7 +404,7 @@ T point_light_mis(const PathContext& c, const LightStartTable& lights, int32_t j
     const T emit = T(lights.point_source[4 * j + 3] * (0.25f * kInvPi)) * dot(wi, v.nf) / d2;
     const T rest = mw.vm_weight + v.mis.vcm +
                    v.mis.vc * mis2(b.pdf_reverse * T(c.estimator.reverse_pdf_scale));
-    return T(1.0f) / (T(1.0f) + mis2(emit) * rest);
+    return T(1.0f) / (T(1.0f) + mis2(emit) * rest * connection_count2<T>(c));
 }
 
 // s = 1 from point light j (every one, from every Phong vertex): I·f·cos θ / d² times its
@@ -441,8 +465,9 @@ T camera_connection_mis(const PathContext& c, const LightVertex<T>& l,
     const T camera_area = cc.factor * dot(cc.wc, l.nf);
     const T rest = mw.vm_weight + l.mis.vcm +
                    l.mis.vc * mis2(b.pdf_reverse * T(c.estimator.reverse_pdf_scale));
-    return strategy_weight(c.estimator, l.length + U32<T>(1u), U32<T>(1u),
-                           T(1.0f) / (T(1.0f) + mis2(camera_area) * rest));
+    return strategy_weight(
+        c.estimator, l.length + U32<T>(1u), U32<T>(1u),
+        T(1.0f) / (T(1.0f) + mis2(camera_area) * rest * connection_count2<T>(c)));
 }
 
 // s, t ≥ 2: the weight of connecting camera vertex v to light vertex l along w (unit, from
@@ -504,9 +529,14 @@ ShadowRequest<T> connect_vertices(const PathContext& c, const CameraVertex<T>& v
 // light vertex cache). Draw j takes vertex ⌊u_j·V⌋ (connection_uniform) and counts V/(N·n)
 // times: the n draws' sum then has the expectation of (1/N)·Σ over the N subpaths of the
 // connections to all their vertices, which is the pairing's, as every subpath is an
-// independent light subpath. The MIS weights are the pairing's: each strategy's estimate stays
-// unbiased, and a path's weights still sum to 1. What a draw costs is one connection where
-// the pairing makes one per vertex of the light subpath.
+// independent light subpath. In the MIS weights a connection to a light vertex of a given
+// index is made c = n·N/V times per camera vertex on average (V/N: the mean number of
+// vertices a light subpath stores, PathContext::connection_count, estimated before the
+// render), where the pairing makes it once: the power heuristic takes each strategy's
+// density times its count (Veach 1997, §9.2.2; connection_count2). Any c keeps every
+// strategy's estimate unbiased and a path's weights summing to 1; the expected one weighs
+// the strategies as often as they are made. What a draw costs is one connection where the
+// pairing makes one per vertex of the light subpath.
 
 // The vertex of draw u among a set of `vertices` (> 0), from 0.
 template <class T>

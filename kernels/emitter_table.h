@@ -103,6 +103,12 @@ struct PathContext {
     // Light no path from the lights starts at: emitters not sampled (planes, quadrics,
     // textured emission) or an environment (ppm's camera paths then go on past a merge)
     bool unstarted_light = false;
+    // bdpt and vcm with the light vertex cache (EstimatorSettings::light_connections n ≥ 1):
+    // how many times a camera vertex connects, on average, to the light vertices of a given
+    // index where the pairing connects once, c = n / L (L: the mean number of vertices a
+    // light subpath stores, Scene::light_subpath_vertices); their MIS weights count each
+    // connection c times (kernels/bidirectional.h, connection_count2). 1 otherwise.
+    float connection_count = 1.0f;
 };
 
 // Whether emitter hits are weighed (so a hit needs its emitter's id): nee and mis (emitters

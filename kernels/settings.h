@@ -62,6 +62,14 @@ inline constexpr float kMergeRadiusFraction = 0.05f;
 // the light subpaths of its sample index in its tile (kernels/bidirectional.h, "The light
 // vertex cache"). At most kMaxLightConnections.
 inline constexpr int32_t kMaxLightConnections = 64;
+// The cache's MIS weights need the mean number of vertices a light subpath stores
+// (PathContext::connection_count): estimated before the render from kLightPilotPaths light
+// subpaths of seed kLightPilotSeed (Scene::light_subpath_vertices), and taken at least
+// kMinLightPilotVertices (a scene whose light subpaths store nearly nothing connects nearly
+// never, whatever weight it has).
+inline constexpr int32_t kLightPilotPaths = 1024;
+inline constexpr uint32_t kLightPilotSeed = 0x6c696768u;
+inline constexpr double kMinLightPilotVertices = 1.0 / 64.0;
 
 // The roulette that ends paths (render.roulette, --roulette).
 enum class Roulette : int32_t {
@@ -144,6 +152,11 @@ struct EstimatorSettings {
     // to n vertices drawn from the light vertex cache (kMaxLightConnections; 1 measured the
     // most efficient on most scenes of scenes/, docs/estimators.md)
     int32_t light_connections = 1;
+    // The cache's connections count this many times in the MIS weights
+    // (PathContext::connection_count); 0, always but in tests: light_connections over the
+    // light subpaths' mean number of stored vertices (Scene::light_subpath_vertices). The
+    // tests set 1, the pairing's count, to compare the cache's weighted images with it.
+    float connection_count = 0.0f;
     // Which of the four knobs whose default depends on the estimator (diffuse sampling,
     // roulette, triangle sampling, sampler) a scene, the command line or a sweep chose;
     // use_estimator (src/integrators/registry.h) gives the others the estimator's defaults

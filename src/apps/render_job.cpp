@@ -353,6 +353,15 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         {"spp_resumed", st.spp_resumed},
         {"warnings", st.warnings},
     };
+    const EstimatorSettings& est = scene.settings.estimator;
+    if (connects(est.kind) && est.light_connections > 0) {
+        // (the light vertex cache's MIS: its estimate of the light subpaths' stored vertices,
+        // made once before the render and kept by the scene)
+        const PathContext pc = scene.path_context();
+        j["light_vertex_cache"] = {{"draws", est.light_connections},
+                                   {"mean_light_vertices", scene.light_subpath_vertices(pc)},
+                                   {"connection_count", pc.connection_count}};
+    }
     if (!checkpoint.empty()) {
         std::error_code ec;
         const auto bytes = fs::file_size(checkpoint, ec);

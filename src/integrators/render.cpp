@@ -216,6 +216,9 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
          options.checkpoint || options.strategies->width() != scene.settings.width ||
          options.strategies->height() != scene.settings.height))
         throw std::logic_error("strategy images are scalar bdpt's, in one process, from zero");
+    // (the light vertex cache's estimate of the light subpaths' vertices, once per scene and
+    // settings, here before the clock for both integrators, as the trees' build is)
+    scene.path_context();
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == Integrator::kWavefront)
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),

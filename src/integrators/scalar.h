@@ -36,4 +36,11 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
 void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film,
                              RayCounts& rays, size_t light_store_limit = kLightStoreLimit);
 
+// The mean number of vertices a light subpath of the scene stores (bdpt's and vcm's Phong
+// vertices), over `paths` light subpaths traced as the render's are, with the estimator
+// settings of `context` but independent numbers of a fixed seed (kLightPilotSeed): the same
+// answer for every render, thread count, rank and resume of the scene with these settings.
+// 0 when the scene has no light to start from.
+double light_subpath_vertices(const Scene& scene, const PathContext& context, int32_t paths);
+
 }  // namespace cierzo

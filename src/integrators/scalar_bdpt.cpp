@@ -60,14 +60,15 @@ Vec3f trace_strategy(const Scene& scene, const PathContext& c, int strategy, con
 }
 
 // One light subpath, with the numbers of the camera sample whose stream it takes: its Phong
-// vertices appended to `store`, each one's connection to the pinhole splatted (t = 1).
+// vertices appended to `store`, each one's connection to the pinhole splatted (t = 1) on
+// `film` (none without one).
 CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext& c,
                                           const LightStartTable& lights,
                                           const PinholeFrame& pinhole,
                                           const SampleStream<float>& camera_rng,
                                           const MergeWeights<float>& mw,
                                           std::vector<LightVertex<float>>& store,
-                                          const StoreLimit& limit, FilmTile& film,
+                                          const StoreLimit& limit, FilmTile* film,
                                           const Recorder& rec, RayCounts& rays) {
     const SampleStream<float> rng = light_stream(camera_rng);
     const LightStart<float> start = sample_light_start<float>(c.emitters, lights, rng);
@@ -75,7 +76,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
     ++rays.light;
     const bool limited = limits_length(c.estimator);
     if (limited && !may_extend<float>(c.estimator, 0u)) return;
-    SubpathMis<float> mis = light_start_mis(start, mw);
+    SubpathMis<float> mis = light_start_mis(c, start, mw);
     Ray<float> ray{start.on_surface
                        ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
                                            max_abs(start.p))
@@ -101,7 +102,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
             if (store.size() >= limit.vertices) refuse_light_store(scene, limit.bytes, store.size());
             store.push_back(lv);
             // t = 1: the vertex seen from the pinhole
-            if (connects(c.estimator.kind) &&
+            if (film && connects(c.estimator.kind) &&
                 (!limited || length_counts<float>(c.estimator, bounce + 1))) {
                 const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
                 if (cc.ok && on_arriving_side(cc.wc, v.nf)) {
@@ -114,7 +115,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
                         ++rays.shadow;
                         if (!scene.occluded({offset_ray_origin(hit.p, v.nf, magnitude), cc.wc},
                                             cc.dist * (1.0f - 1e-5f))) {
-                            if (max_component(value) > 0.0f) film.splat(uint32_t(cc.pixel), value);
+                            if (max_component(value) > 0.0f) film->splat(uint32_t(cc.pixel), value);
                             if (strategy >= 0)
                                 rec.tile->splat(uint32_t(cc.pixel), strategy, value, unweighted);
                         }
@@ -161,7 +162,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
-    SubpathMis<float> mis = camera_start_mis(pinhole, ray.d);
+    SubpathMis<float> mis = camera_start_mis(c, pinhole, ray.d);
     const bool limited = limits_length(c.estimator);
     const float cap = c.estimator.survival_cap;
     const auto counts = [&](uint32_t length) {
@@ -271,6 +272,28 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
 
 }  // namespace
 
+double light_subpath_vertices(const Scene& scene, const PathContext& context, int32_t paths) {
+    PathContext c = context;
+    c.sampler = SamplerSetup{};  // (independent numbers, whatever the render's sampler)
+    const LightStartTable lights = scene.light_starts.table();
+    if (!(lights.emitter_probability > 0.0f || lights.point_count > 0) || paths <= 0) return 0.0;
+    const PinholeFrame pinhole = scene.pinhole();
+    const StoreLimit limit{kLightStoreLimit / sizeof(LightVertex<float>), kLightStoreLimit};
+    const Recorder rec;
+    RayCounts rays;
+    std::vector<LightVertex<float>> store;
+    size_t vertices = 0;
+    for (int32_t k = 0; k < paths; ++k) {
+        const uint32_t x = uint32_t(k) % 64u, y = uint32_t(k) / 64u;
+        store.clear();
+        trace_light_subpath(scene, c, lights, pinhole,
+                            camera_stream<float>(c.sampler, kLightPilotSeed, uint32_t(k), x, y, 0u),
+                            MergeWeights<float>{}, store, limit, nullptr, rec, rays);
+        vertices += store.size();
+    }
+    return double(vertices) / double(paths);
+}
+
 void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film,
                              RayCounts& rays, size_t light_store_limit) {
     // (with vcm each vertex also takes a photon)
@@ -316,7 +339,7 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
                     store.clear();
                     if (has_lights)
                         trace_light_subpath(scene, c, lights, pinhole, rng, none.weights, store,
-                                            store_limit, film, rec, rays);
+                                            store_limit, &film, rec, rays);
                     camera(x, y, rng, none, store.data(), store.size());
                 }
         return;
@@ -332,14 +355,14 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
         if (merges(c.estimator.kind))
             merging.weights = merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha, s,
                                             has_lights ? pixels : 0, kMergeTilePaths,
-                                            connects(c.estimator.kind));
+                                            connects(c.estimator.kind), c.connection_count);
         store.clear();
         for (int32_t k = 0; k < pixels; ++k) {
             begin[size_t(k)] = uint32_t(store.size());
             if (has_lights)
                 trace_light_subpath(scene, c, lights, pinhole,
                                     stream(tile.x0 + k % width, tile.y0 + k / width, s),
-                                    merging.weights, store, store_limit, film, rec, rays);
+                                    merging.weights, store, store_limit, &film, rec, rays);
         }
         begin[size_t(pixels)] = uint32_t(store.size());
         if (cached) {

@@ -10,6 +10,7 @@
 #include <map>
 
 #include "core/error.h"
+#include "integrators/scalar.h"
 #include "kernels/prim_id.h"
 #include "kernels/shading.h"
 #include "kernels/traverse.h"
@@ -66,6 +67,7 @@ std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& p,
 
 void Scene::finalize() {
     const auto start = std::chrono::steady_clock::now();
+    light_pilot_ = std::make_shared<LightPilot>();
     // (hit records hold an index of 24 bits: kernels/prim_id.h)
     for (const auto& [count, what] : {std::pair{spheres.size(), "spheres"},
                                       std::pair{planes.size(), "planes"},
@@ -204,7 +206,26 @@ PathContext Scene::path_context() const {
     c.scene_ior = scene_ior;
     c.smooth = smooth_shading;
     if (merges(e)) c.estimator.merge_radius = merge_radius();
+    if (connects(e) && settings.estimator.connection_count > 0.0f) {
+        c.connection_count = settings.estimator.connection_count;
+    } else if (connects(e) && settings.estimator.light_connections > 0) {
+        const double vertices = std::max(light_subpath_vertices(c), kMinLightPilotVertices);
+        c.connection_count = float(double(settings.estimator.light_connections) / vertices);
+    }
     return c;
+}
+
+double Scene::light_subpath_vertices(const PathContext& base) const {
+    const EstimatorSettings& e = base.estimator;
+    std::lock_guard lock(light_pilot_->mutex);
+    for (const LightPilot::Entry& k : light_pilot_->entries)
+        if (k.survival_cap == e.survival_cap && k.cosine_diffuse == e.cosine_diffuse &&
+            k.min_length == e.min_length && k.max_length == e.max_length)
+            return k.vertices;
+    const double vertices = cierzo::light_subpath_vertices(*this, base, kLightPilotPaths);
+    light_pilot_->entries.push_back(
+        {e.survival_cap, e.cosine_diffuse, e.min_length, e.max_length, vertices});
+    return vertices;
 }
 
 float Scene::merge_radius() const {

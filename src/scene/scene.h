@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -304,6 +305,13 @@ public:
     // (vcm's merge_radius resolved: merge_radius()).
     PathContext path_context() const;
 
+    // The mean number of vertices a light subpath stores under the estimator settings of
+    // `base` (a path_context() without it): the light vertex cache's MIS
+    // (PathContext::connection_count). Estimated once for the scene and the settings that
+    // shape light subpaths (survival cap, diffuse sampling, length limits) by
+    // light_subpath_vertices (src/integrators/scalar.h), kept for the scene and its copies.
+    double light_subpath_vertices(const PathContext& base) const;
+
     // vcm's r0: render.merge_radius / --merge-radius if set, else kMergeRadiusFraction of
     // half the diagonal of the box around the bounded primitives and the camera (1 if that
     // is empty or not finite).
@@ -322,6 +330,20 @@ public:
     Vec3f shading_normal(const Mesh& object, const Hit& hit) const;
 
 private:
+    // light_subpath_vertices's estimates, by the settings they were made with (finalize()
+    // starts afresh; copies share them, as they share the geometry)
+    struct LightPilot {
+        struct Entry {
+            float survival_cap;
+            bool cosine_diffuse;
+            int32_t min_length, max_length;
+            double vertices;
+        };
+        std::mutex mutex;
+        std::vector<Entry> entries;
+    };
+    std::shared_ptr<LightPilot> light_pilot_ = std::make_shared<LightPilot>();
+
     void build_alpha();
     void build_emitters();
     void build_environment();

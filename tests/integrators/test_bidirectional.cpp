@@ -89,6 +89,44 @@ TEST(Bidirectional, PbrtFurnacesHaveRadianceOne) {
     }
 }
 
+// The light vertex cache's connections count c = n / L times in the weights (L: the mean
+// number of vertices a light subpath stores). In the furnace every light subpath hits the
+// sphere, stores a vertex there and goes on with probability P = min(0.5, cap), so
+// L = 1/(1 − P) exactly: 2, or 1/0.7 with a cap of 0.3. The pairing counts 1, as do the
+// estimators that do not connect; the estimate is the same for a copy of the scene and a
+// scene read again.
+TEST(Bidirectional, LightVertexCacheCountsItsConnectionsAsOftenAsTheyAreMade) {
+    const std::string one = R"({"position": [0, 0, 0], "intensity": [1, 1, 1]})";
+    for (const auto& [cap, p] : {std::pair{0.9f, 0.5}, std::pair{0.3f, 0.3}}) {
+        for (int32_t draws : {1, 3}) {
+            SCOPED_TRACE("cap " + std::to_string(cap) + ", " + std::to_string(draws) + " draws");
+            Scene s = scene_of(furnace(one), Estimator::kBdpt, 1);
+            s.settings.estimator.survival_cap = cap;
+            s.settings.estimator.light_connections = draws;
+            const PathContext c = s.path_context();
+            const double l = s.light_subpath_vertices(c);
+            // (four standard deviations of the mean of kLightPilotPaths geometric counts)
+            EXPECT_NEAR(l, 1.0 / (1.0 - p),
+                        4.0 * std::sqrt(p) / (1.0 - p) / std::sqrt(double(kLightPilotPaths)));
+            EXPECT_FLOAT_EQ(c.connection_count, float(double(draws) / l));
+            const Scene copy = s;
+            EXPECT_EQ(copy.path_context().connection_count, c.connection_count);
+            Scene again = scene_of(furnace(one), Estimator::kVcm, 1);
+            again.settings.estimator.survival_cap = cap;
+            again.settings.estimator.light_connections = draws;
+            EXPECT_EQ(again.path_context().connection_count, c.connection_count);
+        }
+    }
+    Scene s = scene_of(furnace(one), Estimator::kBdpt, 1);
+    s.settings.estimator.light_connections = 0;
+    EXPECT_EQ(s.path_context().connection_count, 1.0f);
+    s.settings.estimator.light_connections = 2;
+    s.settings.estimator.connection_count = 0.25f;
+    EXPECT_EQ(s.path_context().connection_count, 0.25f);
+    Scene bpm = scene_of(furnace(one), Estimator::kBpm, 1);
+    EXPECT_EQ(bpm.path_context().connection_count, 1.0f);
+}
+
 TEST(Bidirectional, CameraInsideAnEmittingSphereSeesLeExactly) {
     const std::string json = R"({"render": {"width": 16, "height": 12, "seed": 2},
         "camera": {"position": [0.3, -0.2, 0.1], "look_at": [1, 0, 0], "up": [0, 1, 0], "vfov": 60},
@@ -178,7 +216,7 @@ double weight_sum(const Scene& scene, const PathContext& c, const RandomPath& pa
                                 : lights.emitter_probability * emitter_position_pdf<float>(c.emitters, 0) *
                                       start.cos_light * (0.5f * kInvPi);
     std::vector<SubpathMis<float>> light_at(static_cast<size_t>(k));
-    SubpathMis<float> m = light_start_mis(start, mw);
+    SubpathMis<float> m = light_start_mis(c, start, mw);
     for (int i = 0; i < k; ++i) {
         const Vec3f from = toward_light(i);
         const float t = length(path.x[size_t(i)] - from);
@@ -192,7 +230,7 @@ double weight_sum(const Scene& scene, const PathContext& c, const RandomPath& pa
     }
     // The camera subpath's, at x[k-1] down to x[0]
     std::vector<SubpathMis<float>> camera_at(static_cast<size_t>(k));
-    m = camera_start_mis(pin, normalize(path.x[size_t(k - 1)] - cam));
+    m = camera_start_mis(c, pin, normalize(path.x[size_t(k - 1)] - cam));
     for (int i = k - 1; i >= 0; --i) {
         const Vec3f from = toward_camera(i);
         const float t = length(path.x[size_t(i)] - from);
@@ -312,16 +350,21 @@ std::vector<RandomPath> random_paths(std::mt19937& rng, bool point, bool mirrors
 TEST(Bidirectional, WeightsOfEveryStrategyOfAPathSumToOne) {
     Scene scene = scene_of(kWeightScene, Estimator::kBdpt, 1);
     std::mt19937 rng(17);
+    // The pairing (each connection made once), and the light vertex cache's connections
+    // made fewer or more times than the other strategies (PathContext::connection_count)
+    for (float count : {1.0f, 0.37f, 3.1f}) {
     // bdpt, and vcm with η = π r² N small and large (merging weak and strong)
     for (double eta : {0.0, 0.05, 20.0}) {
     const MergeWeights<float> mw =
         eta == 0.0 ? MergeWeights<float>{}
-                   : merge_weights(float(std::sqrt(eta / (M_PI * 256.0))), 0.75f, 0, 256, 256, true);
+                   : merge_weights(float(std::sqrt(eta / (M_PI * 256.0))), 0.75f, 0, 256, 256,
+                                   true, count);
     for (bool point : {false, true}) {
         for (bool solid_angle : {true, false}) {
           for (bool mirrors : {false, true}) {
             scene.settings.estimator.triangle_solid_angle = solid_angle;
-            const PathContext c = scene.path_context();
+            PathContext c = scene.path_context();
+            c.connection_count = count;
             int planted = 0, dropped = 0, merge_dropped = 0, n = 0;
             for (const RandomPath& p : random_paths(rng, point, mirrors, 300)) {
                 SCOPED_TRACE(std::string(point ? "point light" : "triangle") + ", " +
@@ -329,7 +372,7 @@ TEST(Bidirectional, WeightsOfEveryStrategyOfAPathSumToOne) {
                 // (from a point light, a path whose every strategy ends on a mirror has none)
                 const double sum = weight_sum(scene, c, p, -1, mw);
                 if (sum == 0.0 && point) continue;
-                EXPECT_NEAR(sum, 1.0, 2e-4) << "eta " << eta;
+                EXPECT_NEAR(sum, 1.0, 2e-4) << "eta " << eta << ", connections made " << count;
                 PathContext wrong = c;
                 wrong.estimator.reverse_pdf_scale = 1.05f;
                 planted += std::abs(weight_sum(scene, wrong, p, -1, mw) - 1.0) > 1e-3;
@@ -349,6 +392,7 @@ TEST(Bidirectional, WeightsOfEveryStrategyOfAPathSumToOne) {
             }
           }
         }
+    }
     }
     }
 }
@@ -580,7 +624,10 @@ TEST(Bidirectional, ScalarAndWavefrontAgree) {
 // the sample's own light subpath): each connection strategy's weighted image, alone, is the
 // same in expectation, per pixel and in mean, for 1 and 3 draws (a draw's count V/(N·n)
 // wrong by 5% shows: four standard deviations of the means' difference are below 2.5% of
-// the mean, checked).
+// the mean, checked). Both weigh a connection as made once (EstimatorSettings::
+// connection_count 1; the cache's own count, n over the light subpaths' mean number of
+// vertices, changes its weights: WeightsOfEveryStrategyOfAPathSumToOne checks them with
+// other counts, and the whole estimator's agreement with mis checks its own).
 TEST(Bidirectional, LightVertexCacheAgreesWithThePairing) {
     // (the lighter settings, under sanitizers and emulation: an eighth of the paths, the same
     // tests at less resolution)
@@ -591,6 +638,7 @@ TEST(Bidirectional, LightVertexCacheAgreesWithThePairing) {
         pairing.settings.width = spp(40, 20), pairing.settings.height = spp(32, 16);
         pairing.settings.estimator.light_connections = 0;
         pairing.settings.estimator.strategy_s = s, pairing.settings.estimator.strategy_t = t;
+        pairing.settings.estimator.connection_count = 1.0f;
         const RenderResult a = run(pairing, v);
         for (int32_t draws : {1, 3}) {
             SCOPED_TRACE("strategy s=" + std::to_string(s) + " t=" + std::to_string(t) + ", " +

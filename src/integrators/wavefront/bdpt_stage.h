@@ -137,7 +137,7 @@ inline void merging_table(MergeTable& t, const PathContext& c, const TileJob& jo
         const MergeWeights<float> m =
             merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha,
                           job.sample_begin + int64_t(j), has_lights ? pixels : 0,
-                          kMergeTilePaths, connects(c.estimator.kind));
+                          kMergeTilePaths, connects(c.estimator.kind), c.connection_count);
         t.vm_weight[j] = m.vm_weight, t.vc_weight[j] = m.vc_weight;
         t.normalization[j] = m.normalization, t.radius2[j] = m.radius2;
         t.radius[j] = std::sqrt(m.radius2);
@@ -232,7 +232,7 @@ CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor) {
             ls.p);
         const auto starts = extends ? ls.ok : (ls.ok & !ls.ok);
         const Vec3<F> beta = select(starts, ls.beta, Vec3<F>(F(0.0f)));
-        const SubpathMis<F> mis = light_start_mis(ls, lane_merge_weights(w, i));
+        const SubpathMis<F> mis = light_start_mis(s.path, ls, lane_merge_weights(w, i));
         const auto keep = [&](const F& v, float* a) {
             select(fresh, v, F::load_aligned(a + i)).store_aligned(a + i);
         };
@@ -698,7 +698,7 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
             const F lane = Wave<A>::lane_index();
             const auto fresh = (lane >= F(float(first - i))) & (lane < F(float(w.live - i)));
             const SubpathMis<F> mis =
-                camera_start_mis(s.pinhole, load3<F>(p.dx, p.dy, p.dz, i));
+                camera_start_mis(s.path, s.pinhole, load3<F>(p.dx, p.dy, p.dz, i));
             select(fresh, mis.vcm, F::load_aligned(p.mis_vcm + i)).store_aligned(p.mis_vcm + i);
             select(fresh, mis.vc, F::load_aligned(p.mis_vc + i)).store_aligned(p.mis_vc + i);
             select(fresh, mis.vm, F::load_aligned(p.mis_vm + i)).store_aligned(p.mis_vm + i);
