@@ -115,7 +115,7 @@ inline void build_merge_grid(LightVertexStore& st) {
     MergeTable& t = *st.merging;
     const uint32_t per = uint32_t(t.paths_per_sample);
     t.reserve_photons(size_t(st.count));
-    const auto f = [&](int k, int32_t v) { return st.field[k][v]; };
+    const auto f = [&](int k, int32_t v) { return st.record(v)[k]; };
     for (int32_t v = 0; v < st.count; ++v) {
         Photon& p = t.photons[size_t(v)];
         p.p[0] = f(kLvPx, v), p.p[1] = f(kLvPy, v), p.p[2] = f(kLvPz, v);
@@ -151,7 +151,8 @@ template <class A>
 LightVertex<typename Wave<A>::F> gather_light_vertex(const FlatScene& s, const LightVertexStore& st,
                                                      const typename Wave<A>::I& idx) {
     using F = typename Wave<A>::F;
-    const auto g = [&](int k) { return gather_lanes<A>(st.field[k], idx); };
+    const typename Wave<A>::I at = idx * typename Wave<A>::I(kLightVertexStride);
+    const auto g = [&](int k) { return gather_lanes<A>(st.records + k, at); };
     LightVertex<F> l;
     l.p = {g(kLvPx), g(kLvPy), g(kLvPz)};
     l.nf = {g(kLvNx), g(kLvNy), g(kLvNz)};
@@ -190,11 +191,13 @@ void append_light_vertices(const FlatScene& s, LightVertexStore& st, uint32_t bi
         &l.phong.kd.x,  &l.phong.kd.y,  &l.phong.kd.z,  &l.phong.ks.x,     &l.phong.ks.y,
         &l.phong.ks.z,  &l.phong.shininess, &l.phong.p_diffuse, &l.phong.p_specular,
         &l.mis.vcm,     &l.mis.vc,      &l.mis.vm,      &l.magnitude};
-    for (int k = 0; k < kLightVertexFloats; ++k) {
-        const bool unread = (!s.path.smooth && k >= kLvSx && k <= kLvSz) ||
-                            (!s.features.specular && (k == kLvShininess || k == kLvPs ||
-                                                      (k >= kLvKsR && k <= kLvKsB)));
-        if (!unread) compress<A>(*v[k], bits).store_unaligned(st.field[k] + st.count);
+    // (the lanes' fields side by side, then each kept lane's column into its record)
+    alignas(64) float lanes[kLightVertexFloats][K];
+    for (int k = 0; k < kLightVertexFloats; ++k) v[k]->store_aligned(lanes[k]);
+    float* out = st.record(st.count);
+    for (uint32_t b = bits; b; b &= b - 1, out += kLightVertexStride) {
+        const int lane = std::countr_zero(b);
+        for (int k = 0; k < kLightVertexFloats; ++k) out[k] = lanes[k][lane];
     }
     compress<A>(l.length, bits).store_unaligned(st.length + st.count);
     compress<A>(path, bits).store_unaligned(st.path + st.count);

@@ -14,7 +14,7 @@ struct MergeTable;
 inline constexpr int kMaxLanes = 16;
 
 // The fields of a stored light-subpath vertex (bdpt: kernels/bidirectional.h, LightVertex),
-// one float array each.
+// in its record of kLightVertexStride floats.
 enum LightVertexField : int32_t {
     kLvPx, kLvPy, kLvPz,     // position
     kLvNx, kLvNy, kLvNz,     // geometric normal on the arriving side
@@ -28,15 +28,23 @@ enum LightVertexField : int32_t {
     kLvMagnitude,
     kLightVertexFloats
 };
+// A record's floats: the fields and padding to two 64-byte lines, so that a connection's
+// reads of a vertex drawn anywhere in the store touch two lines (one array per field made
+// them 28 lines, one per field: measured below, LightVertexStore).
+inline constexpr int32_t kLightVertexStride = 32;
+static_assert(kLightVertexFloats <= kLightVertexStride);
 
-// One thread's store of the light subpaths' vertices of a job (bdpt), structure of arrays:
-// vertices are appended as the light paths' waves reach them, then each path's are found
+// One thread's store of the light subpaths' vertices of a job (bdpt), a record per vertex
+// (the connections and merges read vertices in random order; their lengths and paths, which
+// the grouping reads in order, are arrays of their own): vertices are appended as the light
+// paths' waves reach them, then each path's are found
 // through `begin` and `order` (begin[k]..begin[k+1] indexes `order`, path k's vertices in
 // the order they were reached). `grow` (the renderer's) makes room for at least `vertices`
 // vertices, keeping those stored; the memory is the thread's and is kept between jobs.
 struct LightVertexStore {
     int32_t count = 0, capacity = 0;
-    float* field[kLightVertexFloats] = {};
+    float* records = nullptr;    // kLightVertexStride floats a vertex, 64-byte aligned
+    float* record(int32_t v) const { return records + size_t(v) * kLightVertexStride; }
     uint32_t* length = nullptr;  // segments from the light
     uint32_t* path = nullptr;    // the path's index in its job
     int32_t* order = nullptr;
@@ -52,7 +60,7 @@ struct LightVertexStore {
 };
 
 // Bytes per stored vertex.
-inline constexpr size_t kLightVertexBytes = (kLightVertexFloats + 3) * 4;
+inline constexpr size_t kLightVertexBytes = (kLightVertexStride + 3) * 4;
 
 struct PathPool {
     int32_t capacity = 0;

@@ -36,7 +36,11 @@ void splat_paths(void* film, int32_t count, const uint32_t* pixel, const float* 
 
 // One thread's light-vertex store (bdpt), grown as a job's light subpaths need.
 struct LightStoreMemory {
-    std::vector<float> field[kLightVertexFloats];
+    struct Free {
+        void operator()(float* p) const { std::free(p); }
+    };
+    std::unique_ptr<float[], Free> records;  // 64-byte aligned (a record: two lines)
+    size_t record_floats = 0;
     std::vector<uint32_t> length, path, begin;
     std::vector<int32_t> order;
     MergeGrid grid;
@@ -49,7 +53,8 @@ struct LightStoreMemory {
     LightStoreMemory(const Scene& s, size_t limit_bytes) : scene(s), limit(limit_bytes) {
         const size_t each =
             kLightVertexBytes + (merges(s.settings.estimator.kind) ? sizeof(Photon) : 0);
-        most = int32_t(std::min<size_t>(limit / each, INT32_MAX / 2));
+        // (a record's first float's index, kLightVertexStride·v, within an int32 lane)
+        most = int32_t(std::min<size_t>(limit / each, INT32_MAX / kLightVertexStride));
         store.owner = this;
         store.grid = &grid;
         store.merging = &merging;
@@ -61,10 +66,13 @@ struct LightStoreMemory {
         resize(std::min(4096, most));
     }
     void resize(int32_t capacity) {
-        for (int k = 0; k < kLightVertexFloats; ++k) {
-            field[k].resize(size_t(capacity));
-            store.field[k] = field[k].data();
-        }
+        const size_t floats = size_t(capacity) * kLightVertexStride;
+        float* fresh = static_cast<float*>(std::aligned_alloc(64, floats * sizeof(float)));
+        if (!fresh) throw std::bad_alloc();
+        if (records) std::copy_n(records.get(), std::min(floats, record_floats), fresh);
+        records.reset(fresh);
+        record_floats = floats;
+        store.records = records.get();
         length.resize(size_t(capacity)), path.resize(size_t(capacity)), order.resize(size_t(capacity));
         store.length = length.data(), store.path = path.data(), store.order = order.data();
         store.capacity = capacity;
