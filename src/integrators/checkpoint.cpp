@@ -188,9 +188,11 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     if (merges(s.estimator.kind))
         id.estimator += fmt::format(" r0 {:a} alpha {:a}", s.estimator.merge_radius,
                                     s.estimator.merge_alpha);
-    // (and the connections: a cache's draws, 0 for the pairing)
+    // (and the connections: a cache's draws, 0 for the pairing, and how many times its MIS
+    // weights count each, which a build whose weights differ would not match)
     if (connects(s.estimator.kind) && s.estimator.light_connections > 0)
-        id.estimator += fmt::format(" draws {}", s.estimator.light_connections);
+        id.estimator += fmt::format(" draws {} counted {:a}", s.estimator.light_connections,
+                                    scene.path_context().connection_count);
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);

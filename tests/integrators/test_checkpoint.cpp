@@ -375,6 +375,12 @@ TEST(CheckpointFile, AResumeOfAnotherRenderIsRefusedNamingWhatDiffers) {
     use_estimator(drawn.settings.estimator, Estimator::kBdpt);
     const CheckpointIdentity one = checkpoint_identity(drawn, "wavefront", "avx2", 512);
     EXPECT_NE(one.estimator.find("bdpt draws 1"), std::string::npos) << one.estimator;
+    // (and the count its weights give each connection)
+    Scene counted = drawn;
+    counted.settings.estimator.connection_count = 0.5f;
+    const CheckpointIdentity half = checkpoint_identity(counted, "wavefront", "avx2", 512);
+    EXPECT_NE(half.estimator.find("counted 0x1p-1"), std::string::npos) << half.estimator;
+    EXPECT_NE(half.estimator, one.estimator);
     drawn.settings.estimator.light_connections = 0;
     EXPECT_EQ(checkpoint_identity(drawn, "wavefront", "avx2", 512).estimator, "bdpt");
     // Other kernels: allowed, with a warning that the bits may differ
