@@ -394,10 +394,22 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
     EXPECT_EQ(ok.exit_code, 0) << ok.err;
     EXPECT_TRUE(fs::exists(out));
     fs::remove(out);
+    const fs::path stats = dir_ / "drawn.json";
     const Outcome drawn = run(quote(scene) + kQuiet + " --estimator bdpt --light-connections 3 "
-                              "--spp 2 --out " + quote(out));
+                              "--spp 2 --out " + quote(out) + " --stats " + quote(stats));
     EXPECT_EQ(drawn.exit_code, 0) << drawn.err;
     EXPECT_TRUE(fs::exists(out));
+    // --stats gives the cache's draws, its estimate of the light subpaths' vertices and the
+    // count its weights give each connection (draws over vertices)
+    const json cache = json::parse(read_file(stats))["light_vertex_cache"];
+    EXPECT_EQ(cache["draws"], 3);
+    const double vertices = cache["mean_light_vertices"], count = cache["connection_count"];
+    EXPECT_GT(vertices, 0.0);
+    EXPECT_NEAR(count, 3.0 / vertices, 1e-5 * count);
+    fs::remove(out);
+    ASSERT_EQ(run(quote(scene) + kQuiet + " --estimator mis --spp 1 --out " + quote(out) +
+                  " --stats " + quote(stats)).exit_code, 0);
+    EXPECT_FALSE(json::parse(read_file(stats)).contains("light_vertex_cache"));
 }
 
 // --strategies DIR: every strategy's image of paths up to --max-length, weighted and
