@@ -177,7 +177,7 @@ LightVertex<typename Wave<A>::F> gather_light_vertex(const FlatScene& s, const L
 
 // Appends the lanes in `bits` of vertex l (of paths `path`) to the store.
 template <class A>
-void append_light_vertices(const FlatScene& s, LightVertexStore& st, uint32_t bits,
+void append_light_vertices(LightVertexStore& st, uint32_t bits,
                            const LightVertex<typename Wave<A>::F>& l,
                            const typename Wave<A>::U& path) {
     using F = typename Wave<A>::F;
@@ -363,7 +363,7 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     if (any(phong)) {
         const LightVertex<F> lv{sf.pos, v.nf, v.nsf, -d, beta, pv, mis, sf.magnitude, bounce};
-        append_light_vertices<A>(s, *p.light_store, mask_bits(phong), lv,
+        append_light_vertices<A>(*p.light_store, mask_bits(phong), lv,
                                  U::load_aligned(p.path_id + i));
         auto seen = connects(est.kind) ? phong : decltype(phong)(false);
         if (limits_length(est)) seen = seen & length_counts<F>(est, bounce + U(1u));

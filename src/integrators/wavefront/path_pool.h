@@ -30,7 +30,7 @@ enum LightVertexField : int32_t {
 };
 // A record's floats: the fields and padding to two 64-byte lines, so that a connection's
 // reads of a vertex drawn anywhere in the store touch two lines (one array per field made
-// them 28 lines, one per field: measured below, LightVertexStore).
+// them 28, one per field).
 inline constexpr int32_t kLightVertexStride = 32;
 static_assert(kLightVertexFloats <= kLightVertexStride);
 
