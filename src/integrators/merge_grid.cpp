@@ -19,7 +19,7 @@ int32_t cell_of(double v) {
     return i - int32_t(c < double(i));
 }
 
-// A cell's hash, from its coordinates' products with the three multipliers (hash_cell).
+// A hash of a block of cells, from its coordinates' products with three multipliers.
 uint32_t hash_mixed(uint32_t h) {
     h ^= h >> 15;
     h *= 0x2C1B3C6Du;
@@ -28,8 +28,17 @@ uint32_t hash_mixed(uint32_t h) {
 }
 constexpr uint32_t kHashX = 73856093u, kHashY = 19349663u, kHashZ = 83492791u;
 
-uint32_t hash_cell(int32_t ix, int32_t iy, int32_t iz) {
-    return hash_mixed(uint32_t(ix) * kHashX ^ uint32_t(iy) * kHashY ^ uint32_t(iz) * kHashZ);
+// A cell's bucket in a table of mask + 1 ≥ 8 buckets: the hash of its 2 × 2 × 2 block of
+// cells, with the parities of its three coordinates as the low 3 bits. The 8 cells a query
+// reads are the 8 parities, so they never share a bucket (a query needs no test for a
+// bucket named twice).
+uint32_t parity_bits(int32_t ix, int32_t iy, int32_t iz) {
+    return uint32_t(ix & 1) | uint32_t(iy & 1) << 1 | uint32_t(iz & 1) << 2;
+}
+uint32_t bucket_of(int32_t ix, int32_t iy, int32_t iz, uint32_t mask) {
+    const uint32_t block = hash_mixed(uint32_t(ix >> 1) * kHashX ^ uint32_t(iy >> 1) * kHashY ^
+                                      uint32_t(iz >> 1) * kHashZ);
+    return (block << 3 | parity_bits(ix, iy, iz)) & mask;
 }
 
 }  // namespace
@@ -42,14 +51,14 @@ void MergeGrid::build(const Photon* points_in, size_t count, const float* radius
         const double r = radius[k];
         inverse_cell_[k] = r > 0.0 && std::isfinite(r) ? 0.5 / r : 0.0;
     }
-    // Each set's table: a power of two at least twice its points
+    // Each set's table: a power of two at least twice its points, and at least 8 (bucket_of)
     scratch_.assign(sets, 0u);
     for (const Photon& p : points)
         if (p.set < sets) ++scratch_[p.set];
     table_.resize(2 * sets);
     uint32_t buckets = 0;
     for (size_t k = 0; k < sets; ++k) {
-        const uint32_t size = std::bit_ceil(std::max(scratch_[k], 1u) * 2u);
+        const uint32_t size = std::max(std::bit_ceil(std::max(scratch_[k], 1u) * 2u), 8u);
         table_[2 * k] = buckets, table_[2 * k + 1] = size - 1u;
         buckets += size;
     }
@@ -64,10 +73,9 @@ void MergeGrid::build(const Photon* points_in, size_t count, const float* radius
             scratch_[v] = ~0u;
             continue;
         }
-        const uint32_t b = table_[2 * p.set] +
-                           (hash_cell(cell_of(p.p[0] * inv), cell_of(p.p[1] * inv),
-                                      cell_of(p.p[2] * inv)) &
-                            table_[2 * p.set + 1]);
+        const uint32_t b = table_[2 * p.set] + bucket_of(cell_of(p.p[0] * inv),
+                                                         cell_of(p.p[1] * inv),
+                                                         cell_of(p.p[2] * inv), table_[2 * p.set + 1]);
         scratch_[v] = b;
         ++begin_[size_t(b) + 1];
     }
@@ -103,23 +111,22 @@ int MergeGrid::cells(float x, float y, float z, int32_t set, Range out[8]) const
     // The 2 × 2 × 2 cells around the cell corner nearest the position
     const int32_t ix = cell_of(x * inv - 0.5), iy = cell_of(y * inv - 0.5),
                   iz = cell_of(z * inv - 0.5);
-    // (hash_cell of the 8 cells, from each axis's two products)
-    const uint32_t hx[2] = {uint32_t(ix) * kHashX, uint32_t(ix + 1) * kHashX};
-    const uint32_t hy[2] = {uint32_t(iy) * kHashY, uint32_t(iy + 1) * kHashY};
-    const uint32_t hz[2] = {uint32_t(iz) * kHashZ, uint32_t(iz + 1) * kHashZ};
-    uint32_t bucket[8];
-    for (int k = 0; k < 8; ++k)
-        bucket[k] = first + (hash_mixed(hx[k & 1] ^ hy[(k >> 1) & 1] ^ hz[k >> 2]) & mask);
-    // The buckets that hold points, each once, kept without a branch: half of them are
-    // empty, at random, which a branch would mispredict (measured: this query was a quarter
-    // of vcm's time on caustic.json)
+    // (bucket_of the 8 cells, from each axis's two blocks' products)
+    const uint32_t hx[2] = {uint32_t(ix >> 1) * kHashX, uint32_t((ix + 1) >> 1) * kHashX};
+    const uint32_t hy[2] = {uint32_t(iy >> 1) * kHashY, uint32_t((iy + 1) >> 1) * kHashY};
+    const uint32_t hz[2] = {uint32_t(iz >> 1) * kHashZ, uint32_t((iz + 1) >> 1) * kHashZ};
+    const uint32_t parity = parity_bits(ix, iy, iz);
+    // The buckets that hold points, kept without a branch: half of them are empty, at
+    // random, which a branch would mispredict (measured: this query was a quarter of vcm's
+    // time on caustic.json)
     int count = 0;
     for (int k = 0; k < 8; ++k) {
-        const Range r{begin_[bucket[k]], begin_[bucket[k] + 1]};
-        bool fresh = r.begin != r.end;
-        for (int j = 0; j < k; ++j) fresh &= bucket[j] != bucket[k];
+        const uint32_t block = hash_mixed(hx[k & 1] ^ hy[(k >> 1) & 1] ^ hz[k >> 2]);
+        // (cell k's parities: the corner's, flipped along the axes k steps along)
+        const uint32_t b = first + ((block << 3 | (parity ^ uint32_t(k))) & mask);
+        const Range r{begin_[b], begin_[b + 1]};
         out[count] = r;
-        count += int(fresh);
+        count += int(r.begin != r.end);
     }
     return count;
 }
