@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace cierzo {
 
@@ -21,6 +23,25 @@ void Film::merge(const FilmTile& tile) {
             at(x, y).merge(src[size_t(y - tile.y0()) * w + size_t(x - tile.x0())]);
 }
 
+namespace {
+
+// x rounded to the nearest integer, ties to even (as std::nearbyint in the default rounding
+// mode), as a 128-bit integer, for |x| < 2^81. Below 2^62 in one instruction: on the
+// baseline x86-64 std::nearbyint and the conversion to 128 bits are two library calls, and
+// a bdpt render makes one per channel of every splat (measured: 5% of `caustic.json`).
+SplatSums::Fixed round_to_fixed(double x) {
+    if (std::abs(x) < 0x1.0p62) {
+#if defined(__SSE2__)
+        return SplatSums::Fixed(_mm_cvtsd_si64(_mm_set_sd(x)));  // (MXCSR: to nearest even)
+#else
+        return SplatSums::Fixed(std::llrint(x));
+#endif
+    }
+    return SplatSums::Fixed(std::nearbyint(x));
+}
+
+}  // namespace
+
 void SplatSums::add(const std::vector<Splat>& splats) {
     for (const Splat& s : splats) {
         const double v[3] = {s.value.x, s.value.y, s.value.z};
@@ -31,7 +52,7 @@ void SplatSums::add(const std::vector<Splat>& splats) {
             continue;
         }
         for (int c = 0; c < 3; ++c)
-            sums_[3 * size_t(s.pixel) + size_t(c)] += Fixed(std::nearbyint(v[c] * kScale));
+            sums_[3 * size_t(s.pixel) + size_t(c)] += round_to_fixed(v[c] * kScale);
     }
 }
 

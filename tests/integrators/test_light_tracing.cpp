@@ -272,6 +272,48 @@ TEST(SplatSums, SameBitsInAnyOrderAndSplit) {
     EXPECT_EQ(bad.at(1, 0), 0.0);
 }
 
+// Each value is rounded to the nearest multiple of 2^-40, ties to even, on both sides of
+// 2^22 (where a value stops fitting a 64-bit count of 2^-40 units and is rounded another
+// way), and of either sign.
+TEST(SplatSums, RoundEachValueToTheNearestUnitTiesToEven) {
+    const float unit = 0x1.0p-40f;
+    struct Case {
+        float value;
+        double expected;
+    };
+    const std::vector<Case> cases = {
+        {0.5f * unit, 0.0},             // a tie: to the even 0
+        {1.5f * unit, 2.0 * unit},      // a tie: to the even 2
+        {2.5f * unit, 2.0 * unit},      // a tie: to the even 2
+        {-1.5f * unit, -2.0 * unit},
+        {0.75f * unit, 1.0 * unit},
+        {0.25f * unit, 0.0},
+        {3.0f, 3.0},
+        {0x1.0p21f, 0x1.0p21},          // below 2^22: one instruction
+        {0x1.fffffep21f, 0x1.fffffep21},
+        {0x1.0p22f, 0x1.0p22},          // from 2^22 on: the other way
+        {-0x1.8p40f, -0x1.8p40},
+        {0x1.fffffep79f, 0x1.fffffep79},  // the largest kept
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.value);
+        SplatSums s;
+        s.reset(1);
+        s.add({{0, Vec3f(c.value, -c.value, 0.0f)}});
+        EXPECT_EQ(s.at(0, 0), c.expected);
+        EXPECT_EQ(s.at(0, 1), -c.expected);
+        EXPECT_EQ(s.nonfinite(), 0u);
+    }
+    // Sums across 2^22 units: a value of each kind in one pixel
+    SplatSums mixed;
+    mixed.reset(1);
+    mixed.add({{0, Vec3f(0x1.0p30f, 1.5f * unit, 0)},
+               {0, Vec3f(1.0f, 0x1.0p23f, 0)},
+               {0, Vec3f(-3.0f, -0x1.0p23f, 0)}});
+    EXPECT_EQ(mixed.at(0, 0), 0x1.0p30 - 2.0);
+    EXPECT_EQ(mixed.at(0, 1), 2.0 * unit);
+}
+
 TEST(WorkUnits, LightBatchesAndTilesEachCoverTheImageOnce) {
     for (const auto& [w, h] : std::vector<std::pair<int, int>>{
              {1, 1}, {7, 3}, {48, 40}, {250, 250}, {1000, 3}, {5000, 2}, {33, 2049}}) {
