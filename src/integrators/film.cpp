@@ -43,7 +43,20 @@ SplatSums::Fixed round_to_fixed(double x) {
 }  // namespace
 
 void SplatSums::add(const std::vector<Splat>& splats) {
-    for (const Splat& s : splats) {
+    // Splats land anywhere in the image, whose sums (48 bytes a pixel) outgrow the caches
+    // from about 200x200 on: each pixel's sums are asked for kAhead splats before they are
+    // added, so the misses overlap (measured: this loop was 6.6% of a 500x500 bdpt render).
+    constexpr size_t kAhead = 8;
+    const auto prefetch = [&](size_t k) {
+        if (k >= splats.size()) return;
+        const char* at = reinterpret_cast<const char*>(sums_.data() + 3 * size_t(splats[k].pixel));
+        __builtin_prefetch(at, 1);
+        __builtin_prefetch(at + 3 * sizeof(Fixed) - 1, 1);
+    };
+    for (size_t k = 0; k < kAhead; ++k) prefetch(k);
+    for (size_t k = 0; k < splats.size(); ++k) {
+        prefetch(k + kAhead);
+        const Splat& s = splats[k];
         const double v[3] = {s.value.x, s.value.y, s.value.z};
         bool ok = true;
         for (double c : v) ok = ok && std::isfinite(c) && std::abs(c) < 0x1.0p80;
