@@ -151,6 +151,14 @@ struct LineReader {
                 if (x.size() != 1 || std::string_view("rgbmlz").find(x[0]) == std::string_view::npos)
                     fail(fmt::format("'{}' option -imfchan takes r, g, b, m, l or z, got '{}'", key, x));
                 m.channel = x[0];
+            } else if (t == "-colorspace") {
+                // (tinyobjloader's extension: how an 8-bit file's values are encoded)
+                std::string x(next_token(rest));
+                for (char& c : x) c = char(std::tolower(static_cast<unsigned char>(c)));
+                if (x != "srgb" && x != "linear")
+                    fail(fmt::format("'{}' option -colorspace takes sRGB or linear, got '{}'", key,
+                                     x));
+                m.srgb = x == "srgb" ? 1 : 0;
             } else if (t == "-type") {
                 next_token(rest);
             } else {

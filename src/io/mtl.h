@@ -22,6 +22,7 @@ struct MtlMap {
     float offset[2] = {0.0f, 0.0f};  // -o u v
     bool clamp = false;              // -clamp on
     char channel = 0;                // -imfchan r|g|b|m|l|z (0: not given)
+    int srgb = -1;                   // -colorspace sRGB (1) | linear (0); -1: not given
     size_t line = 0;
 };
 

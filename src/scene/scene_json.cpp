@@ -420,7 +420,8 @@ struct Loader {
             ColorSource s;
             s.kind = TextureKind::kImage;
             s.a = Vec3f(1.0f);
-            s.image = images.request(folder / map.file, srgb,
+            // (-colorspace, where the file gives it, over the map's default)
+            s.image = images.request(folder / map.file, map.srgb >= 0 ? map.srgb == 1 : srgb,
                                      lib.path.string() + ": line " + std::to_string(map.line));
             s.uv_scale[0] = map.scale[0], s.uv_scale[1] = map.scale[1];
             s.uv_offset[0] = map.offset[0], s.uv_offset[1] = map.offset[1];

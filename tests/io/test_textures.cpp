@@ -260,6 +260,9 @@ TEST(Mtl, EveryKeyIsReadAndBadValuesNameTheLine) {
     EXPECT_NE(refused("newmtl a\nmap_Kd -s\n").find("needs a number"), std::string::npos);
     EXPECT_NE(refused("newmtl a\nmap_Kd -clamp on\n").find("names no file"), std::string::npos);
     EXPECT_NE(refused("newmtl a\nnewmtl a\n").find("defined twice"), std::string::npos);
+    EXPECT_NE(refused("newmtl a\nmap_Kd -colorspace rec2020 x.png\n")
+                  .find("-colorspace takes sRGB or linear, got 'rec2020'"),
+              std::string::npos);
 }
 
 // A folder with an OBJ of two quads (materials a and b, and a triangle before any usemtl),
@@ -351,6 +354,31 @@ TEST(Mtl, GlassTexturesAndOverrides) {
     const Scene one = f.load(R"(, "material": "red")");
     ASSERT_EQ(one.meshes.size(), 1u);
     EXPECT_EQ(one.materials[size_t(one.meshes[0].material)].name, "red");
+}
+
+// tinyobjloader's -colorspace: how a map's 8-bit values are encoded, over the map's own
+// default (sRGB for colours)
+TEST(Mtl, ColorspaceOptionChoosesTheDecoding) {
+    const MtlLibrary lib = parse_mtl("newmtl a\nmap_Kd -colorspace linear -s 2 2 x.png\n"
+                                     "map_Ks -colorspace SRGB y.png\nmap_Ke z.png\n",
+                                     "lib.mtl");
+    ASSERT_TRUE(lib.materials[0].map_kd && lib.materials[0].map_ks && lib.materials[0].map_ke);
+    EXPECT_EQ(lib.materials[0].map_kd->srgb, 0);
+    EXPECT_EQ(lib.materials[0].map_kd->file, "x.png");
+    EXPECT_FLOAT_EQ(lib.materials[0].map_kd->scale[0], 2.0f);
+    EXPECT_EQ(lib.materials[0].map_ks->srgb, 1);
+    EXPECT_EQ(lib.materials[0].map_ke->srgb, -1);
+    // The same 2 × 2 PNG of 128s: sRGB-decoded by default, byte / 255 when linear
+    const auto kd_of = [](const std::string& name, const std::string& option) {
+        const ObjFolder f(name, "newmtl a\nKd 0 0 0\nnewmtl b\nmap_Kd " + option + "tex.png\n");
+        const Scene s = f.load();
+        const Material* b = material_named(s, "model.mtl:b");
+        EXPECT_TRUE(b && b->kd.kind == TextureKind::kImage);
+        return b ? b->kd.b.x : -1.0f;
+    };
+    EXPECT_NEAR(kd_of("colorspace_default", ""), srgb_to_linear(128), 1e-6);
+    EXPECT_NEAR(kd_of("colorspace_srgb", "-colorspace sRGB "), srgb_to_linear(128), 1e-6);
+    EXPECT_NEAR(kd_of("colorspace_linear", "-colorspace linear "), 128.0f / 255.0f, 1e-6);
 }
 
 TEST(Mtl, BadMaterialsAndTexturesAreRefusedNamingTheFile) {
