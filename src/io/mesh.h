@@ -22,6 +22,8 @@ struct MeshData {
     std::vector<std::string> material_names;
     std::vector<uint32_t> triangle_material;
     std::vector<std::string> libraries;
+    // What the reader let pass but a user should hear of, each naming the file and line
+    std::vector<std::string> warnings;
 };
 
 // Reads a mesh file by its extension (case-insensitive): .ply (read_ply) or .obj (read_obj).

@@ -49,6 +49,7 @@ struct Header {
     std::vector<Element> elements;
     size_t body_offset = 0;  // first byte after the end_header line
     size_t body_line = 0;    // line number of that byte, counting from 1
+    std::vector<std::string> warnings;
 };
 
 // Where each interesting property sits in its element; -1 when absent.
@@ -261,7 +262,14 @@ Header parse_header(std::string_view file, const Source& src) {
         } else if (keyword == "end_header") {
             ended = true;
         } else if (keyword != "comment" && keyword != "obj_info" && !keyword.empty()) {
-            src.fail_at(line_no, fmt::format("unknown header keyword '{}'", keyword));
+            // Before the first element nothing can be lost (a misspelt 'element' leaves the
+            // properties after it without one, which is refused): a line there is read as a
+            // comment, as Blender 2.4x wrote 'Created by Blender3D ...' without the keyword
+            if (!header.elements.empty())
+                src.fail_at(line_no, fmt::format("unknown header keyword '{}'", keyword));
+            header.warnings.push_back(fmt::format(
+                "{}: line {}: '{}' is not a PLY header keyword; the line is read as a comment",
+                src.path, line_no, keyword));
         }
     }
     if (line_no == 0) src.fail("file is empty");
@@ -758,6 +766,7 @@ MeshData parse_ply(std::string_view file, const std::filesystem::path& name) {
 
     // Sizes are now known to fit in the file, so the arrays can be allocated.
     MeshData mesh;
+    mesh.warnings = std::move(header.warnings);
     const Element& vertex = header.elements[layout.vertex_element];
     const Element& face = header.elements[layout.face_element];
     mesh.positions.resize(size_t(vertex.count) * 3);

@@ -676,6 +676,7 @@ struct Loader {
                 t.fail(std::string("mesh file: ") + e.what());
             }
             if (data.indices.empty()) t.fail("'" + ply.string() + "' has no faces");
+            for (const std::string& w : data.warnings) scene.warnings.push_back(w);
             scene.files.push_back(ply);
             raw = raw_meshes.emplace(key, std::move(data)).first;
         }

@@ -469,6 +469,25 @@ TEST_F(PlyTest, CrLfLineEndingsCommentsAndTrailingGarbage) {
     EXPECT_EQ(from_binary.indices, reference_indices);
 }
 
+// Blender 2.4x wrote 'Created by Blender3D ...' after the format line, without 'comment'
+// (assimp's test model Wuson.ply): before the first element such a line is a comment, with a
+// warning naming the file and line.
+TEST_F(PlyTest, AnUnknownLineBeforeTheFirstElementIsACommentWithAWarning) {
+    const std::string text = "ply\nformat ascii 1.0\nCreated by Blender3D 247 - www.blender.org\n"
+                             "element vertex 3\nproperty float x\nproperty float y\n"
+                             "property float z\nelement face 1\n"
+                             "property list uchar int vertex_indices\nend_header\n"
+                             "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    const MeshData mesh = read_ply(write("blender247.ply", text));
+    EXPECT_EQ(mesh.indices, (std::vector<uint32_t>{0, 1, 2}));
+    ASSERT_EQ(mesh.warnings.size(), 1u);
+    EXPECT_NE(mesh.warnings[0].find("blender247.ply: line 3: 'Created' is not a PLY header keyword"),
+              std::string::npos)
+        << mesh.warnings[0];
+    // A file without such a line has no warnings
+    EXPECT_TRUE(read_ply(write("plain.ply", reference_ply(Fmt::Ascii, Layout{}))).warnings.empty());
+}
+
 TEST_F(PlyTest, EmptyMeshIsAllowed) {
     std::string header = "element vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
                          "element face 0\nproperty list uchar int vertex_indices\n";
@@ -586,7 +605,11 @@ TEST_F(PlyTest, HeaderErrors) {
          "'vertex_indices' is not a list"},
         {"ply\nformat ascii 1.0\nelement vertex x12\n", "bad element line"},
         {"ply\nformat ascii 1.0\nproperty float x\n", "property before any element"},
-        {"ply\nformat ascii 1.0\nfrobnicate 3\n", "unknown header keyword 'frobnicate'"},
+        {"ply\nformat ascii 1.0\n" + vertex + "frobnicate 3\n" + face + "end_header\n" + ok_body,
+         "line 7: unknown header keyword 'frobnicate'"},
+        // (before the first element a line is a comment, so a misspelt first 'element'
+        // leaves its properties without one)
+        {"ply\nformat ascii 1.0\nelment vertex 1\nproperty float x\n", "property before any element"},
     };
     for (size_t i = 0; i < cases.size(); ++i) {
         SCOPED_TRACE("case " + std::to_string(i));

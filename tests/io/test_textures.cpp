@@ -562,6 +562,40 @@ TEST(RealFiles, EveryAssimpTestModelObjRendersOrIsRefusedCleanly) {
     RecordProperty("refused", int(refused));
 }
 
+TEST(RealFiles, EveryAssimpTestModelPlyRendersOrIsRefusedCleanly) {
+    const fs::path root = "/usr/share/assimp/models/PLY";
+    if (!fs::exists(root))
+        GTEST_SKIP() << root << " is missing (Debian package assimp-testmodels, which "
+                                "scripts/install_deps.sh installs for the tests)";
+    size_t rendered = 0;
+    bool wuson = false;
+    for (const auto& entry : fs::directory_iterator(root)) {
+        if (entry.path().extension() != ".ply") continue;
+        SCOPED_TRACE(entry.path().string());
+        try {
+            Scene scene = load_scene(entry.path());
+            scene.set_resolution(8, 8);
+            scene.settings.spp = 2;
+            const RenderResult r = test::run(scene, test::variants().back());
+            for (const float v : r.film.mean().rgb) ASSERT_TRUE(std::isfinite(v));
+            ++rendered;
+            if (entry.path().filename() == "Wuson.ply") {
+                // (Blender 2.47's 'Created by' header line: a comment, with a warning)
+                wuson = true;
+                ASSERT_FALSE(scene.warnings.empty());
+                EXPECT_NE(scene.warnings[0].find("line 3: 'Created'"), std::string::npos)
+                    << scene.warnings[0];
+            }
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(entry.path().filename().string()),
+                      std::string::npos)
+                << e.what();
+        }
+    }
+    EXPECT_GE(rendered, 4u);
+    if (fs::exists(root / "Wuson.ply")) EXPECT_TRUE(wuson);
+}
+
 TEST(Mtl, GlassWithoutAnIndexIsRefusedWithItsLine) {
     const ObjFolder f("glass-ni", "newmtl a\nillum 7\nNi 0\nnewmtl b\nKd 0.5\n");
     const std::string m = refusal_of([&] { f.load(); });
