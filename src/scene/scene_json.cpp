@@ -393,11 +393,23 @@ struct Loader {
     std::map<std::pair<fs::path, std::string>, int32_t> mtl_ids;  // (library, name) → material
     int32_t default_material = -1;  // faces without a material, or with an unknown one
 
-    const MtlLibrary& library(const fs::path& path, Reader& t) {
+    // The library at `path`, which the OBJ file `obj` names
+    const MtlLibrary& library(const fs::path& path, Reader& t, const fs::path& obj) {
         const fs::path key = path.lexically_normal();
         auto it = libraries.find(key);
         if (it != libraries.end()) return it->second;
         MtlLibrary lib;
+        lib.path = path;
+        std::error_code ec;
+        if (!fs::exists(path, ec) && !ec) {
+            // (OBJ files are often passed around without their MTL: tinyobjloader, Blender and
+            // assimp read them all the same; so does cierzo, with the default material)
+            scene.warnings.push_back(
+                obj.string() + ": material library (mtllib) " + path.string() +
+                ": file does not exist; the materials it would define take the default "
+                "(diffuse grey 0.8)");
+            return libraries.emplace(key, std::move(lib)).first->second;
+        }
         try {
             lib = read_mtl(path);
         } catch (const InputError& e) {
@@ -698,7 +710,7 @@ struct Loader {
             t.allow({"material"});
             std::vector<const MtlLibrary*> libs;
             for (const std::string& name : data.libraries)
-                libs.push_back(&library(ply.parent_path() / name, t));
+                libs.push_back(&library(ply.parent_path() / name, t, ply));
             std::map<std::string, int32_t> overrides;
             if (t.has("materials")) {
                 const json& o = t.get("materials");

@@ -391,12 +391,26 @@ TEST(Mtl, BadMaterialsAndTexturesAreRefusedNamingTheFile) {
     EXPECT_NE(m.find("a, b"), std::string::npos) << m;
     m = refusal_of([&] { f.load(R"(, "material": "red", "materials": {"a": "red"})"); });
     EXPECT_NE(m.find("'materials'"), std::string::npos) << m;
-    // A missing library, with the line of the OBJ that names it unknown: the file
+    // A missing library: a warning naming the OBJ and the library, and every material it
+    // would define the default grey (as tinyobjloader, Blender and assimp read such a file)
     const ObjFolder g("nolib", "");
     fs::remove(g.dir / "model.mtl");
+    const Scene nolib = g.load();
+    ASSERT_FALSE(nolib.warnings.empty());
+    EXPECT_NE(nolib.warnings[0].find("model.obj: material library (mtllib)"), std::string::npos)
+        << nolib.warnings[0];
+    EXPECT_NE(nolib.warnings[0].find("model.mtl: file does not exist"), std::string::npos)
+        << nolib.warnings[0];
+    for (const Mesh& mesh : nolib.meshes) {
+        const Material& mat = nolib.materials[size_t(mesh.material)];
+        EXPECT_EQ(mat.kd.a.x, 0.8f) << mat.name;
+        EXPECT_EQ(mat.kd.a.z, 0.8f) << mat.name;
+        EXPECT_FALSE(mat.is_emitter()) << mat.name;
+    }
+    // A library that is there but cannot be read is still refused
+    fs::create_directories(g.dir / "model.mtl");
     m = refusal_of([&] { g.load(); });
     EXPECT_NE(m.find("model.mtl"), std::string::npos) << m;
-    EXPECT_NE(m.find("does not exist"), std::string::npos) << m;
     // An image texture on a mesh without texture coordinates, or on a quadric
     write_text(f.dir / "plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     write_text(f.dir / "s.json",
