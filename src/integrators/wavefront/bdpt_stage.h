@@ -431,6 +431,9 @@ void draw_connections(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>
     const FlatScene& s = w.scene;
     const EstimatorSettings& est = s.path.estimator;
     const LightVertexStore& st = *p.light_store;
+    // (a job whose light subpaths stored nothing: no lights to start from, or every light
+    // path lost at once; the sets' bounds below take a division per lane)
+    if (st.count == 0) return;
     // Each lane's set: its first vertex in `order` and its count
     alignas(64) int32_t first[K], count[K];
     const uint32_t per = uint32_t(st.paths_per_sample), last = uint32_t(st.samples) - 1u;
