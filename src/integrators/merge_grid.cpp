@@ -19,7 +19,7 @@ int32_t cell_of(double v) {
     return i - int32_t(c < double(i));
 }
 
-// A hash of a block of cells, from its coordinates' products with three multipliers.
+// A block of cells' hash, from its coordinates' products with the three multipliers.
 uint32_t hash_mixed(uint32_t h) {
     h ^= h >> 15;
     h *= 0x2C1B3C6Du;
@@ -35,10 +35,15 @@ constexpr uint32_t kHashX = 73856093u, kHashY = 19349663u, kHashZ = 83492791u;
 uint32_t parity_bits(int32_t ix, int32_t iy, int32_t iz) {
     return uint32_t(ix & 1) | uint32_t(iy & 1) << 1 | uint32_t(iz & 1) << 2;
 }
+// (from the block's products, summed by xor, and the cell's parities: a query forms the
+// products of its 8 cells' blocks from each axis's two)
+uint32_t bucket_in_block(uint32_t block_products, uint32_t parity, uint32_t mask) {
+    return (hash_mixed(block_products) << 3 | parity) & mask;
+}
 uint32_t bucket_of(int32_t ix, int32_t iy, int32_t iz, uint32_t mask) {
-    const uint32_t block = hash_mixed(uint32_t(ix >> 1) * kHashX ^ uint32_t(iy >> 1) * kHashY ^
-                                      uint32_t(iz >> 1) * kHashZ);
-    return (block << 3 | parity_bits(ix, iy, iz)) & mask;
+    return bucket_in_block(uint32_t(ix >> 1) * kHashX ^ uint32_t(iy >> 1) * kHashY ^
+                               uint32_t(iz >> 1) * kHashZ,
+                           parity_bits(ix, iy, iz), mask);
 }
 
 }  // namespace
@@ -121,9 +126,9 @@ int MergeGrid::cells(float x, float y, float z, int32_t set, Range out[8]) const
     // time on caustic.json)
     int count = 0;
     for (int k = 0; k < 8; ++k) {
-        const uint32_t block = hash_mixed(hx[k & 1] ^ hy[(k >> 1) & 1] ^ hz[k >> 2]);
         // (cell k's parities: the corner's, flipped along the axes k steps along)
-        const uint32_t b = first + ((block << 3 | (parity ^ uint32_t(k))) & mask);
+        const uint32_t b = first + bucket_in_block(hx[k & 1] ^ hy[(k >> 1) & 1] ^ hz[k >> 2],
+                                                   parity ^ uint32_t(k), mask);
         const Range r{begin_[b], begin_[b + 1]};
         out[count] = r;
         count += int(r.begin != r.end);
