@@ -2,8 +2,8 @@
 // triangles of every mesh (in world space), spheres, bounded quadrics and mesh instances —
 // whose leaves hold SoA blocks of one primitive kind, tested together. An instance is a
 // mesh's own BVH (built once, however many objects use the mesh) reached through the
-// object's transform. Built here (bvh_build.cpp: binned SAH, TBB-parallel for big inputs,
-// collapsed to 8-wide nodes); traversed by kernels/traverse.h, the one traversal both
+// object's transform. Built here (bvh_build.cpp: binned SAH, spatial splits on request,
+// TBB-parallel for big inputs, collapsed to 8-wide nodes); traversed by kernels/traverse.h, the one traversal both
 // integrators call, over the plain layout of kernels/bvh_layout.h. Design and measurements:
 // docs/acceleration.md.
 #pragma once
@@ -43,8 +43,16 @@ struct BvhObjectInstance {
     uint32_t mesh;
 };
 
+// Spatial splits (SBVH: Stich, Friedrich and Dietrich, "Spatial Splits in Bounding Volume
+// Hierarchies", HPG 2009): a triangle's reference may be split at a plane, so that the two
+// children's boxes overlap less, for up to this fraction of extra references (0: none).
+// The default was measured (docs/acceleration.md, "Spatial splits").
+constexpr float kBvhDefaultSplitBudget = 0.0f;
+constexpr float kBvhMaxSplitBudget = 4.0f;
+
 struct BvhInput {
     std::vector<BvhTriangles> triangles;
+    float split_budget = kBvhDefaultSplitBudget;  // in [0, kBvhMaxSplitBudget]
     std::span<const float> sphere_x, sphere_y, sphere_z, sphere_r;
     std::vector<BvhQuadric> quadrics;
     std::span<const float> quadric_table;  // 16 floats per quadric (BvhView::quadrics)
@@ -54,6 +62,7 @@ struct BvhInput {
 // Build statistics, for --stats and the benchmarks.
 struct BvhStats {
     size_t primitives = 0;  // in the tree (degenerate triangles are left out)
+    size_t references = 0;  // in the leaves: primitives plus the spatial splits' copies
     size_t nodes = 0, triangle_blocks = 0, sphere_blocks = 0, items = 0;
     size_t bytes = 0;       // everything the traversal reads (not the shared geometry)
     int depth = 0;          // of the binary build tree
@@ -81,7 +90,8 @@ public:
     // Inputs of more than a few thousand primitives are built in parallel (TBB).
     void build(const BvhInput& in);
     // One mesh's triangles (mesh id 0).
-    void build(std::span<const Vec3f> positions, std::span<const uint32_t> indices);
+    void build(std::span<const Vec3f> positions, std::span<const uint32_t> indices,
+               float split_budget = kBvhDefaultSplitBudget);
 
     const BvhView& view() const { return view_; }
     bool empty() const { return nodes_.empty(); }

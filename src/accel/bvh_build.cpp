@@ -8,6 +8,11 @@
 //     leaf, a wide node, or is spread over several slots of its parent, whichever costs least;
 //  3. leaves written as SoA blocks of 8 (triangles, spheres) or index lists (quadrics,
 //     instances).
+// Spatial splits (SBVH, Stich et al. 2009): where the best object split's children overlap
+// (by more than kSplitOverlap of the root's area), triangles' references may instead be cut
+// at a plane, each side keeping the box of its part of the triangle; a node's refs then take
+// more room than it had, so every node owns an extended range of `order` (its refs, then
+// free slots) whose free slots its children share in proportion to their refs.
 #include "accel/bvh.h"
 
 #include <algorithm>
@@ -38,6 +43,10 @@ constexpr uint32_t kLeafSize = 8;       // always a leaf at or below this many (
 constexpr int kMaxSahDepth = 64;        // below this, object-median splits bound the depth
 constexpr float kTraversalCost = 1.0f;  // relative to one triangle test
 constexpr uint32_t kParallelBelow = 4096;
+constexpr int kSpatialBins = 16;
+// A spatial split is sought where the object split's children overlap by more than this
+// fraction of the root's half area (Stich et al.'s alpha)
+constexpr float kSplitOverlap = 1e-5f;
 
 // Test cost of one primitive of each kind, in triangle tests (the SAH weights and the
 // collapse's leaf costs): a sphere is about a triangle, a quadric a few, an instance a
@@ -156,18 +165,24 @@ Bvh& Bvh::operator=(Bvh&& o) noexcept {
 }
 
 struct Bvh::Builder {
+    const BvhInput& in;
     std::vector<Ref, Uninitialised<Ref>> refs;
     std::vector<uint32_t, Uninitialised<uint32_t>> order;  // the refs being partitioned
     NodeArray nodes;  // allocated by `next`, each written whole
     std::atomic<uint32_t> next{0};
     std::atomic<int> depth{0};
+    std::atomic<uint32_t> ref_count{0};  // refs in use (the spatial splits add some)
+    float root_area = 0.0f;
+    bool spatial = false;  // spatial splits allowed (a budget and triangles to cut)
+
+    explicit Builder(const BvhInput& input) : in(input) {}
 
     // The bin of a centroid along an axis; the same formula for binning and partitioning.
     // Clamped in float first: near ±3e38 the scale can be 0 and the position NaN or out of
     // int range, and converting such a float to int is undefined (NaN goes to bin 0).
-    static int bin_of(float c, float lo, float scale) {
+    static int bin_of(float c, float lo, float scale, int bins) {
         const float x = (c - lo) * scale;
-        return x > 0.0f ? int(std::min(x, float(kBins - 1))) : 0;
+        return x > 0.0f ? int(std::min(x, float(bins - 1))) : 0;
     }
 
     float cost(uint32_t begin, uint32_t end) const {
@@ -176,7 +191,26 @@ struct Bvh::Builder {
         return c;
     }
 
-    uint32_t add_leaf(Bvh& bvh, const BvhInput& in, const Node& leaf) const;
+    uint32_t add_leaf(Bvh& bvh, const BvhInput& in, uint32_t binary, uint32_t& count) const;
+
+    // The refs of binary subtree `node`'s leaves, left to right, each primitive once (a
+    // triangle a spatial split cut is in more than one leaf). A subtree's refs are not
+    // contiguous in `order` where its nodes had free slots.
+    void gather(uint32_t node, std::vector<uint32_t>& ids) const {
+        const Node& n = nodes[node];
+        if (n.inner) {
+            gather(n.left, ids);
+            gather(n.right, ids);
+            return;
+        }
+        for (uint32_t i = n.first; i < n.first + n.count; ++i) {
+            const Ref& r = refs[order[i]];
+            const bool seen = std::any_of(ids.begin(), ids.end(), [&](uint32_t id) {
+                return refs[id].kind == r.kind && refs[id].a == r.a && refs[id].b == r.b;
+            });
+            if (!seen) ids.push_back(order[i]);
+        }
+    }
 
     // What a node's refs span: their boxes, their centroids, and the kinds among them (a bit
     // per kind). The partition that makes a node measures its children's, so each ref is read
@@ -227,8 +261,179 @@ struct Bvh::Builder {
         }
     }
 
-    // Builds the subtree over order[begin, end), whose extent is `e`, into node `node`.
-    void build(uint32_t node, uint32_t begin, uint32_t end, int level, const Extent& e) {
+    // The box of the part of triangle ref `r` whose coordinate along `axis` lies in [a, b],
+    // within the ref's box (empty when there is none): the triangle's vertices in the slab
+    // and its edges' crossings of the slab's planes. The crossings are rounded, so the box is
+    // padded by a relative 2^-21 across the axis; along it the planes are exact.
+    Box clipped(const Ref& r, int axis, float a, float b) const {
+        Vec3f v[3];
+        vertices(r, v);
+        Box out = slab_box(v, axis, a, b);
+        if (!(out.lo.x <= out.hi.x)) return Box{};
+        const Vec3f pad(std::max(largest_abs(out.lo), largest_abs(out.hi)) * 0x1p-21f);
+        out.lo = vmax(out.lo - pad, r.box.lo), out.hi = vmin(out.hi + pad, r.box.hi);
+        float& lo = axis == 0 ? out.lo.x : (axis == 1 ? out.lo.y : out.lo.z);
+        float& hi = axis == 0 ? out.hi.x : (axis == 1 ? out.hi.y : out.hi.z);
+        lo = std::max(lo, a), hi = std::min(hi, b);
+        if (!(out.lo.x <= out.hi.x && out.lo.y <= out.hi.y && out.lo.z <= out.hi.z)) return Box{};
+        return out;
+    }
+
+    void vertices(const Ref& r, Vec3f v[3]) const {
+        const BvhTriangles& set = in.triangles[r.a];
+        const uint32_t* tri = &set.indices[3 * size_t(r.b)];
+        v[0] = set.positions[tri[0]], v[1] = set.positions[tri[1]], v[2] = set.positions[tri[2]];
+    }
+
+    // The box of triangle v's part in the slab [a, b] along `axis` (unpadded).
+    static Box slab_box(const Vec3f v[3], int axis, float a, float b) {
+        Box out;
+        for (int i = 0; i < 3; ++i) {
+            const Vec3f& p = v[i];
+            const Vec3f& q = v[i == 2 ? 0 : i + 1];
+            const float pa = component(p, axis), qa = component(q, axis);
+            if (pa >= a && pa <= b) out.grow(p);
+            for (const float plane : {a, b}) {
+                if ((pa < plane && qa > plane) || (pa > plane && qa < plane)) {
+                    Vec3f x = p + (q - p) * ((plane - pa) / (qa - pa));
+                    (axis == 0 ? x.x : (axis == 1 ? x.y : x.z)) = plane;
+                    out.grow(x);
+                }
+            }
+        }
+        return out;
+    }
+
+    // The cheapest spatial split of a node of triangles: kSpatialBins slabs over its bounds
+    // along each axis, each ref's part in each slab it spans binned by its clipped box, a ref
+    // counted on the left of every plane right of its first slab and on the right of every
+    // plane left of its last (Stich et al. 2009, section 4.1).
+    struct SpatialSplit {
+        float cost = kInf;
+        int axis = 0, plane = 0;  // the plane between slabs plane - 1 and plane
+        float lo = 0.0f, scale = 0.0f, width = 0.0f;
+        uint32_t left = 0, right = 0;  // refs on each side, the cut ones on both
+        float position() const { return lo + float(plane) * width; }
+        int slab(float x) const { return bin_of(x, lo, scale, kSpatialBins); }
+    };
+
+    SpatialSplit find_spatial_split(uint32_t begin, uint32_t end, const Box& bounds) const {
+        SpatialSplit best[3];
+        auto axis_split = [&](int axis) { best[axis] = find_spatial_split(begin, end, bounds, axis); };
+        if (end - begin > kParallelBelow)  // (the axes in parallel where the tree is not yet)
+            oneapi::tbb::parallel_invoke([&] { axis_split(0); }, [&] { axis_split(1); },
+                                         [&] { axis_split(2); });
+        else
+            for (int axis = 0; axis < 3; ++axis) axis_split(axis);
+        const int first = best[1].cost < best[0].cost ? 1 : 0;
+        return best[2].cost < best[first].cost ? best[2] : best[first];
+    }
+
+    // The cheapest spatial split along one axis (cost infinite when there is none).
+    SpatialSplit find_spatial_split(uint32_t begin, uint32_t end, const Box& bounds, int axis) const {
+        SpatialSplit best, s;
+        s.axis = axis, s.lo = component(bounds.lo, axis);
+        const float extent = component(bounds.hi, axis) - s.lo;
+        if (!(extent > 0.0f) || !std::isfinite(extent)) return best;
+        s.scale = kSpatialBins / extent, s.width = extent / kSpatialBins;
+        Box slabs[kSpatialBins];
+        uint32_t enter[kSpatialBins] = {}, leave[kSpatialBins] = {};
+        for (uint32_t i = begin; i < end; ++i) {
+            const Ref& r = refs[order[i]];
+            const int b0 = s.slab(component(r.box.lo, axis));
+            const int b1 = s.slab(component(r.box.hi, axis));
+            ++enter[b0], ++leave[b1];
+            if (b0 == b1) {
+                slabs[b0].grow(r.box);
+                continue;
+            }
+            // (the SAH's estimate: each part's box unpadded, within the ref's)
+            Vec3f v[3];
+            vertices(r, v);
+            for (int b = b0; b <= b1; ++b) {
+                Box part = slab_box(v, axis, b == b0 ? -kInf : s.lo + float(b) * s.width,
+                                    b == b1 ? kInf : s.lo + float(b + 1) * s.width);
+                part.lo = vmax(part.lo, r.box.lo), part.hi = vmin(part.hi, r.box.hi);
+                if (part.lo.x <= part.hi.x && part.lo.y <= part.hi.y && part.lo.z <= part.hi.z)
+                    slabs[b].grow(part);
+            }
+        }
+        float right_area[kSpatialBins];
+        uint32_t right_count[kSpatialBins];
+        Box right;
+        uint32_t count = 0;
+        for (int b = kSpatialBins - 1; b > 0; --b) {
+            right.grow(slabs[b]);
+            count += leave[b];
+            right_area[b] = right.half_area(), right_count[b] = count;
+        }
+        Box left;
+        count = 0;
+        for (int b = 1; b < kSpatialBins; ++b) {
+            left.grow(slabs[b - 1]);
+            count += enter[b - 1];
+            if (count == 0 || right_count[b] == 0) continue;
+            const float c = float(count) * left.half_area() + float(right_count[b]) * right_area[b];
+            if (c < best.cost) {
+                best = s;
+                best.cost = c, best.plane = b, best.left = count, best.right = right_count[b];
+            }
+        }
+        return best;
+    }
+
+    // order[begin, end) split by `sp` into order[begin, begin + nl) and
+    // order[second, second + nr), each side's extent measured; a ref the plane cuts
+    // becomes two (the new one at the end of refs). Returns where the second side starts:
+    // after the first side and its share of the free slots up to ext_end.
+    uint32_t spatial_partition(uint32_t begin, uint32_t end, uint32_t ext_end,
+                               const SpatialSplit& sp, Extent& a, Extent& b, uint32_t& nl,
+                               uint32_t& nr) {
+        std::vector<uint32_t> left, right;
+        left.reserve(sp.left), right.reserve(sp.right);
+        const float plane = sp.position();
+        auto set_box = [](Ref& r, const Box& box) {
+            r.box = box;
+            r.centroid = (box.lo + box.hi) * 0.5f;
+        };
+        for (uint32_t i = begin; i < end; ++i) {
+            const uint32_t id = order[i];
+            Ref& r = refs[id];
+            const int b0 = sp.slab(component(r.box.lo, sp.axis));
+            const int b1 = sp.slab(component(r.box.hi, sp.axis));
+            if (b1 < sp.plane || b0 >= sp.plane) {
+                (b1 < sp.plane ? left : right).push_back(id);
+                (b1 < sp.plane ? a : b).add(r);
+                continue;
+            }
+            const Box l = clipped(r, sp.axis, -kInf, plane), h = clipped(r, sp.axis, plane, kInf);
+            const bool has_l = l.lo.x <= l.hi.x, has_h = h.lo.x <= h.hi.x;
+            if (has_l && has_h) {
+                const uint32_t copy = ref_count.fetch_add(1, std::memory_order_relaxed);
+                refs[copy] = r;
+                set_box(r, l), set_box(refs[copy], h);
+                left.push_back(id), right.push_back(copy);
+                a.add(r), b.add(refs[copy]);
+            } else if (has_h) {
+                set_box(r, h);
+                right.push_back(id), b.add(r);
+            } else {
+                if (has_l) set_box(r, l);
+                left.push_back(id), a.add(r);
+            }
+        }
+        nl = uint32_t(left.size()), nr = uint32_t(right.size());
+        const uint32_t free = ext_end - begin - nl - nr;
+        const uint32_t second = begin + nl + uint32_t(uint64_t(free) * nl / (nl + nr));
+        std::copy(left.begin(), left.end(), order.data() + begin);
+        std::copy(right.begin(), right.end(), order.data() + second);
+        return second;
+    }
+
+    // Builds the subtree over order[begin, end), whose extent is `e`, into node `node`;
+    // order[end, ext_end) is free for the spatial splits' new refs.
+    void build(uint32_t node, uint32_t begin, uint32_t end, uint32_t ext_end, int level,
+               const Extent& e) {
         int d = depth.load(std::memory_order_relaxed);
         while (level > d && !depth.compare_exchange_weak(d, level)) {}
         const Box& bounds = e.bounds;
@@ -242,32 +447,56 @@ struct Bvh::Builder {
         out.left = out.right = 0;
         auto leaf = [&] { out.inner = false; };
         if (n <= kLeafSize && homogeneous) return leaf();
-        // Split: binned SAH, or by kind where a small mixed node would otherwise be a leaf,
-        // or an object median when the SAH is not usable
+        // Split: binned SAH (over the centroids, or spatial), or by kind where a small mixed
+        // node would otherwise be a leaf, or an object median when the SAH is not usable
         uint32_t mid = begin;
         Extent left_extent, right_extent;
         bool measured = false;  // (the children's extents, from the partition)
         const Vec3f extent = centroid_bounds.hi - centroid_bounds.lo;
+        int axis = 0, bin = -1;
+        float best = kInf;
+        Box object_left, object_right;
+        bool evaluated = false;
         if (level < kMaxSahDepth && max_component(extent) > 0.0f) {
-            int axis = 0, bin = -1;
-            const float best = find_sah_split(begin, end, centroid_bounds, axis, bin);
+            best = find_sah_split(begin, end, centroid_bounds, axis, bin, object_left, object_right);
+            evaluated = true;
+        }
+        SpatialSplit sp;
+        if (spatial && level < kMaxSahDepth && e.kinds == 1u << kLeafTriangles && ext_end > end) {
+            Box overlap;
+            overlap.lo = vmax(object_left.lo, object_right.lo);
+            overlap.hi = vmin(object_left.hi, object_right.hi);
+            const bool apart = overlap.lo.y > overlap.hi.y || overlap.lo.z > overlap.hi.z;
+            if (bin < 0 || (!apart && overlap.half_area() > kSplitOverlap * root_area)) {
+                sp = find_spatial_split(begin, end, bounds);
+                if (!(sp.cost < best) || sp.left + sp.right - n > ext_end - end) sp.cost = kInf;
+                else best = sp.cost, evaluated = true;
+            }
+        }
+        if (evaluated) {
             const float split_cost = kTraversalCost + best / std::max(bounds.half_area(), 1e-30f);
             if (homogeneous && n <= kBvhMaxLeafSize && split_cost >= cost(begin, end))
                 return leaf();
-            if (bin >= 0) {
+            if (sp.cost < kInf) {
+                uint32_t left_count = 0, right_count = 0;
+                const uint32_t second = spatial_partition(begin, end, ext_end, sp, left_extent,
+                                                          right_extent, left_count, right_count);
+                return split(out, level, {begin, begin + left_count, second},
+                             {second, second + right_count, ext_end}, left_extent, right_extent);
+            } else if (bin >= 0) {
                 const float lo = component(centroid_bounds.lo, axis);
                 const float scale = kBins / component(extent, axis);
                 mid = partition(begin, end, [&](const Ref& r) {
-                    return bin_of(component(r.centroid, axis), lo, scale) < bin;
+                    return bin_of(component(r.centroid, axis), lo, scale, kBins) < bin;
                 }, left_extent, right_extent);
                 measured = true;
             }
         }
         if ((mid == begin || mid == end) && !homogeneous && n <= 4 * kBvhMaxLeafSize) {
             const uint8_t k = refs[order[begin]].kind;
-            auto* split = std::stable_partition(order.data() + begin, order.data() + end,
+            auto* other = std::stable_partition(order.data() + begin, order.data() + end,
                                                 [&](uint32_t r) { return refs[r].kind == k; });
-            mid = uint32_t(split - order.data());
+            mid = uint32_t(other - order.data());
             measured = false;
         }
         if (mid == begin || mid == end) {
@@ -281,23 +510,45 @@ struct Bvh::Builder {
             measured = false;
         }
         if (!measured) left_extent = extent_of(begin, mid), right_extent = extent_of(mid, end);
+        // The free slots shared in proportion: the second child's refs move up by the first's
+        // share
+        uint32_t shift = 0;
+        if (ext_end > end) {
+            shift = uint32_t(uint64_t(ext_end - end) * (mid - begin) / n);
+            if (shift > 0)
+                std::memmove(order.data() + mid + shift, order.data() + mid,
+                             (end - mid) * sizeof(uint32_t));
+        }
+        split(out, level, {begin, mid, mid + shift}, {mid + shift, end + shift, ext_end},
+              left_extent, right_extent);
+    }
+
+    // A child's range of `order`: its refs [begin, end), free slots up to ext_end.
+    struct Range {
+        uint32_t begin, end, ext_end;
+    };
+
+    // Makes `out` an inner node over two new children, built in parallel when large.
+    void split(Node& out, int level, const Range& a, const Range& b, const Extent& ea,
+               const Extent& eb) {
         const uint32_t left = next.fetch_add(2, std::memory_order_relaxed);
         out.left = left, out.right = left + 1, out.inner = true;
-        if (n > kParallelBelow) {
+        if ((a.end - a.begin) + (b.end - b.begin) > kParallelBelow) {
             oneapi::tbb::parallel_invoke(
-                [&] { build(left, begin, mid, level + 1, left_extent); },
-                [&] { build(left + 1, mid, end, level + 1, right_extent); });
+                [&] { build(left, a.begin, a.end, a.ext_end, level + 1, ea); },
+                [&] { build(left + 1, b.begin, b.end, b.ext_end, level + 1, eb); });
         } else {
-            build(left, begin, mid, level + 1, left_extent);
-            build(left + 1, mid, end, level + 1, right_extent);
+            build(left, a.begin, a.end, a.ext_end, level + 1, ea);
+            build(left + 1, b.begin, b.end, b.ext_end, level + 1, eb);
         }
     }
 
     // The cheapest binned split plane over the three axes, binned in one pass: returns its
     // SAH cost (the sum of child half-areas times test costs) and sets the axis and the first
-    // bin of the second child (bin stays -1 when no plane separates anything).
+    // bin of the second child (bin stays -1 when no plane separates anything), and the two
+    // children's boxes.
     float find_sah_split(uint32_t begin, uint32_t end, const Box& centroid_bounds, int& best_axis,
-                         int& best_bin) const {
+                         int& best_bin, Box& best_left, Box& best_right) const {
         float lo[3], scale[3];
         bool usable[3];
         for (int axis = 0; axis < 3; ++axis) {
@@ -313,7 +564,7 @@ struct Bvh::Builder {
             const Ref& r = refs[order[i]];
             const float c = kKindCost[r.kind];
             for (int axis = 0; axis < 3; ++axis) {
-                const int b = bin_of(component(r.centroid, axis), lo[axis], scale[axis]);
+                const int b = bin_of(component(r.centroid, axis), lo[axis], scale[axis], kBins);
                 bin_boxes[axis][b].grow(r.box);
                 bin_cost[axis][b] += c;
                 ++bin_count[axis][b];
@@ -323,12 +574,13 @@ struct Bvh::Builder {
         for (int axis = 0; axis < 3; ++axis) {
             if (!usable[axis]) continue;
             float right_cost[kBins];
-            Box right;
+            Box right[kBins];
             float right_sum = 0.0f;
             for (int b = kBins - 1; b > 0; --b) {
-                right.grow(bin_boxes[axis][b]);
+                right[b] = right[b < kBins - 1 ? b + 1 : b];
+                right[b].grow(bin_boxes[axis][b]);
                 right_sum += bin_cost[axis][b];
-                right_cost[b] = right_sum * right.half_area();
+                right_cost[b] = right_sum * right[b].half_area();
             }
             Box left;
             float left_sum = 0.0f;
@@ -339,7 +591,10 @@ struct Bvh::Builder {
                 left_count += bin_count[axis][b - 1];
                 if (left_count == 0 || left_count == end - begin) continue;
                 const float c = left_sum * left.half_area() + right_cost[b];
-                if (c < best) best = c, best_axis = axis, best_bin = b;
+                if (c < best) {
+                    best = c, best_axis = axis, best_bin = b;
+                    best_left = left, best_right = right[b];
+                }
             }
         }
         return best;
@@ -435,15 +690,17 @@ void Bvh::update_view() {
     view_ = v;
 }
 
-void Bvh::build(std::span<const Vec3f> positions, std::span<const uint32_t> indices) {
+void Bvh::build(std::span<const Vec3f> positions, std::span<const uint32_t> indices,
+                float split_budget) {
     BvhInput in;
     in.triangles.push_back({positions, indices, 0});
+    in.split_budget = split_budget;
     build(in);
 }
 
 void Bvh::build(const BvhInput& in) {
     *this = Bvh();
-    Builder b;
+    Builder b(in);
     // References: every primitive with a finite, hittable box
     for (size_t s = 0; s < in.triangles.size(); ++s) {
         const BvhTriangles& set = in.triangles[s];
@@ -546,14 +803,27 @@ void Bvh::build(const BvhInput& in) {
         return;
     }
 
-    // The binary tree
+    // The binary tree, with room for the spatial splits' new refs
     const uint32_t n = uint32_t(b.refs.size());
-    b.order.resize(n);
+    const float budget = in.split_budget > 0.0f ? std::min(in.split_budget, kBvhMaxSplitBudget)
+                                                : 0.0f;  // (NaN: none)
+    const bool triangles = std::any_of(b.refs.begin(), b.refs.end(),
+                                       [](const Ref& r) { return r.kind == kLeafTriangles; });
+    const uint32_t capacity = uint32_t(std::min<double>(
+        triangles ? double(n) + std::floor(double(n) * double(budget)) : double(n),
+        double(std::numeric_limits<uint32_t>::max() / 2)));
+    b.spatial = capacity > n;
+    b.refs.resize(capacity);
+    b.ref_count = n;
+    b.order.resize(capacity);
     oneapi::tbb::parallel_for(uint32_t(0), n, [&](uint32_t i) { b.order[i] = i; });
-    b.nodes.resize(2 * size_t(n));  // (at most 2n - 1 are used; pages untouched cost nothing)
+    b.nodes.resize(2 * size_t(capacity));  // (at most 2 refs - 1; pages untouched cost nothing)
     b.next = 1;
-    b.build(0, 0, n, 1, b.extent_of(0, n));
+    const Builder::Extent all = b.extent_of(0, n);
+    b.root_area = all.bounds.half_area();
+    b.build(0, 0, n, capacity, 1, all);
     stats_.depth = b.depth;
+    stats_.references = b.ref_count.load();
     const Box root = b.nodes[0].box;
     view_.bounds[0] = root.lo.x, view_.bounds[1] = root.lo.y, view_.bounds[2] = root.lo.z;
     view_.bounds[3] = root.hi.x, view_.bounds[4] = root.hi.y, view_.bounds[5] = root.hi.z;
@@ -563,10 +833,9 @@ void Bvh::build(const BvhInput& in) {
     // partial block per binary leaf, so they never move while they grow)
     const Collapser c(b.nodes, b.next.load());
     {
-        size_t triangle_refs = 0, leaves = 0;
+        size_t leaves = 0;
         for (uint32_t i = 0; i < b.next.load(); ++i) leaves += !b.nodes[i].inner;
-        for (const BvhTriangles& set : in.triangles) triangle_refs += set.indices.size() / 3;
-        const size_t blocks = triangle_refs / kWideBvhWidth + leaves;
+        const size_t blocks = b.ref_count.load() / kWideBvhWidth + leaves;
         triangles_.reserve(blocks);
         triangle_mesh_.reserve(blocks * kWideBvhWidth);
         triangle_index_.reserve(blocks * kWideBvhWidth);
@@ -604,8 +873,9 @@ void Bvh::build(const BvhInput& in) {
                                   kid.box.hi.x, kid.box.hi.y, kid.box.hi.z};
             for (int k = 0; k < 6; ++k) node.bounds[k][i] = box[k];
             if (c.plan[kids[i]].leaf) {
-                node.child[i] = b.add_leaf(*this, in, kid);
-                node.count[i] = uint16_t(kid.count);
+                uint32_t count = 0;
+                node.child[i] = b.add_leaf(*this, in, kids[i], count);
+                node.count[i] = uint16_t(count);
                 node.kind[i] = kid.kind;
                 node.leaves |= 1u << i;
             } else {
@@ -628,10 +898,19 @@ void Bvh::build(const BvhInput& in) {
     update_view();
 }
 
-// Writes the primitives of binary leaf `leaf` as blocks or items; returns where they start.
-uint32_t Bvh::Builder::add_leaf(Bvh& bvh, const BvhInput& in, const Node& leaf) const {
+// Writes the primitives of binary node `binary` (a leaf, or a subtree the collapse made one)
+// as blocks or items; returns where they start and sets their count.
+uint32_t Bvh::Builder::add_leaf(Bvh& bvh, const BvhInput& in, uint32_t binary,
+                                uint32_t& count) const {
+    const Node& leaf = nodes[binary];
     const uint32_t* order = this->order.data() + leaf.first;
-    const uint32_t n = leaf.count;
+    uint32_t n = leaf.count;
+    std::vector<uint32_t> gathered;
+    if (leaf.inner) {  // (a subtree the collapse made one leaf)
+        gather(binary, gathered);
+        order = gathered.data(), n = uint32_t(gathered.size());
+    }
+    count = n;
     const uint32_t block_count = (n + kWideBvhWidth - 1) / kWideBvhWidth;
     switch (leaf.kind) {
         case kLeafTriangles: {

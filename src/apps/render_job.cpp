@@ -399,7 +399,9 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         instances += m.instanced();
         if (m.bvh) mesh_bytes += m.bvh->stats().bytes;
     }
-    j["bvh"] = {{"primitives", b.primitives}, {"nodes", b.nodes}, {"bytes", b.bytes},
+    j["bvh"] = {{"primitives", b.primitives}, {"references", b.references},
+                {"spatial_splits", scene.settings.spatial_splits},
+                {"nodes", b.nodes}, {"bytes", b.bytes},
                 {"instances", instances}, {"instanced_mesh_bytes", mesh_bytes},
                 {"unbounded", scene.planes.size() + scene.unbounded_quadrics.size()},
                 {"build_seconds", scene.bvh_seconds}};

@@ -93,7 +93,7 @@ void Scene::finalize() {
         Mesh& m = meshes[i];
         if (m.geometry != int32_t(i)) continue;
         auto bvh = std::make_shared<Bvh>();
-        bvh->build(m.positions, m.indices);
+        bvh->build(m.positions, m.indices, settings.spatial_splits);
         m.bvh = std::move(bvh);
     }
     for (size_t i = 0; i < meshes.size(); ++i) {
@@ -129,6 +129,7 @@ void Scene::finalize() {
             unbounded_quadrics.push_back(int32_t(i));
     }
     in.quadric_table = table;
+    in.split_budget = settings.spatial_splits;
     bvh.build(in);
     bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     build_alpha();

@@ -107,6 +107,9 @@ struct RenderSettings {
     uint32_t seed = 1;
     std::filesystem::path output;  // resolved against the scene file's folder
     EstimatorSettings estimator;
+    // The BVH's spatial splits: at most this fraction of extra triangle references
+    // (BvhInput::split_budget; 0: none)
+    float spatial_splits = kBvhDefaultSplitBudget;
 };
 
 // Which features a scene uses, so a render pays only for those.

@@ -1098,6 +1098,10 @@ struct Loader {
                    " pixels exceeds the limit of 2^28 pixels");
         s.spp = r.integer("spp", s.spp, 1, int64_t(UINT32_MAX));
         s.seed = uint32_t(r.integer("seed", s.seed, 0, int64_t(UINT32_MAX)));
+        s.spatial_splits = float(r.number("spatial_splits", s.spatial_splits));
+        if (!(s.spatial_splits >= 0.0f && s.spatial_splits <= kBvhMaxSplitBudget))
+            r.fail("'spatial_splits' must be in [0, 4]: the fraction of extra triangle references "
+                   "the BVH's spatial splits may make (0: none)");
         s.estimator.survival_cap = float(r.number("survival_cap", s.estimator.survival_cap));
         if (!(s.estimator.survival_cap > 0.0f && s.estimator.survival_cap < 1.0f))
             r.fail("'survival_cap' must be in (0, 1): every path needs a chance to die");

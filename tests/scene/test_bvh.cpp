@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -68,9 +69,9 @@ Mesh grid(int n) {
     return mesh;
 }
 
-Bvh build(const Mesh& mesh) {
+Bvh build(const Mesh& mesh, float split_budget = kBvhDefaultSplitBudget) {
     Bvh bvh;
-    bvh.build(mesh.positions, mesh.indices);
+    bvh.build(mesh.positions, mesh.indices, split_budget);
     return bvh;
 }
 
@@ -502,9 +503,17 @@ TEST(WideBvh, AxisParallelRaysThroughBoxPlanesAndSharedEdges) {
 // Each non-degenerate triangle of the mesh in exactly one leaf lane, inside its slot's box;
 // padding lanes zero; the slots in use at the front, the others empty. Returns the mean
 // number of slots in use.
+// Checks the wide layout: node slots, the leaf mask, padding lanes, and that the leaves hold
+// every triangle before `degenerate_from` and none after it. Without spatial splits
+// (references == primitives) each triangle is in exactly one leaf whose box holds its
+// vertices; with them, in one or more leaves whose boxes together cover the whole triangle
+// (checked on a grid of points over it, vertices and edges included, to a relative 2^-22).
+// Returns the mean slots per node.
 double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degenerate_from) {
     constexpr uint32_t W = kWideBvhWidth;
+    const bool splits = bvh.stats().references > bvh.stats().primitives;
     std::vector<int> seen(mesh.size(), 0);
+    std::vector<std::vector<std::array<float, 6>>> boxes(mesh.size());
     size_t slots = 0;
     for (size_t n = 0; n < size_t(bvh.view().node_count); ++n) {
         const WideBvhNode& node = bvh.view().nodes[n];
@@ -535,15 +544,46 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
                         EXPECT_EQ(v, 0.0f);
                         continue;
                     }
+                    if (splits) continue;
                     EXPECT_GE(v, node.bounds[k % 3][i]);
                     EXPECT_LE(v, node.bounds[k % 3 + 3][i]);
                 }
-                if (j < node.count[i]) ++seen[bvh.view().triangle_index[lane]];
+                if (j >= node.count[i]) continue;
+                const uint32_t t = bvh.view().triangle_index[lane];
+                ++seen[t];
+                boxes[t].push_back({node.bounds[0][i], node.bounds[1][i], node.bounds[2][i],
+                                    node.bounds[3][i], node.bounds[4][i], node.bounds[5][i]});
             }
         }
     }
-    for (size_t t = 0; t < mesh.size(); ++t)
-        EXPECT_EQ(seen[t], t < degenerate_from ? 1 : 0) << "triangle " << t;
+    size_t lanes = 0;
+    for (size_t t = 0; t < mesh.size(); ++t) {
+        lanes += size_t(seen[t]);
+        if (t >= degenerate_from || !splits) {
+            EXPECT_EQ(seen[t], t < degenerate_from ? 1 : 0) << "triangle " << t;
+            continue;
+        }
+        EXPECT_GE(seen[t], 1) << "triangle " << t;
+        constexpr int kSteps = 12;
+        for (int u = 0; u <= kSteps; ++u) {
+            for (int v = 0; u + v <= kSteps; ++v) {
+                const float bu = float(u) / kSteps, bv = float(v) / kSteps;
+                const Vec3f p = u == kSteps ? mesh.vertex(t, 1)
+                              : v == kSteps ? mesh.vertex(t, 2)
+                              : mesh.vertex(t, 0) * (1.0f - bu - bv) + mesh.vertex(t, 1) * bu +
+                                    mesh.vertex(t, 2) * bv;
+                const float tol = 0x1p-22f * std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+                const bool covered = std::any_of(boxes[t].begin(), boxes[t].end(), [&](const auto& b) {
+                    return p.x >= b[0] - tol && p.y >= b[1] - tol && p.z >= b[2] - tol &&
+                           p.x <= b[3] + tol && p.y <= b[4] + tol && p.z <= b[5] + tol;
+                });
+                EXPECT_TRUE(covered) << "triangle " << t << ", point " << u << "," << v
+                                     << " in none of its " << boxes[t].size() << " leaves";
+            }
+        }
+    }
+    // (a leaf the collapse made of a subtree holds a cut triangle once)
+    EXPECT_LE(lanes, bvh.stats().references);
     return double(slots) / double(std::max<size_t>(size_t(bvh.view().node_count), 1));
 }
 
@@ -552,9 +592,9 @@ TEST(WideBvh, HoldsEveryTriangleOnceInMostlyFullNodes) {
     // centroid the same)
     Mesh soup = random_soup(2000, 16);
     soup.indices.insert(soup.indices.end(), {0, 0, 1, 2, 2, 2});
-    EXPECT_GT(expect_valid_wide_layout(soup, build(soup), 2000), 5.0);
+    EXPECT_GT(expect_valid_wide_layout(soup, build(soup, 0.0f), 2000), 5.0);
     const Mesh sphere = uv_sphere(32, 64);
-    EXPECT_GT(expect_valid_wide_layout(sphere, build(sphere), sphere.size()), 5.0);
+    EXPECT_GT(expect_valid_wide_layout(sphere, build(sphere, 0.0f), sphere.size()), 5.0);
     Mesh median;
     for (int i = 0; i < 1000; ++i) {
         const float s = 1.0f + float(i) * 1e-3f, h = float(i) * 1e-3f;
@@ -563,7 +603,7 @@ TEST(WideBvh, HoldsEveryTriangleOnceInMostlyFullNodes) {
                                 {{-s, -s, -h}, {s, -s, h}, {0.0f, s, 0.0f}});
         median.indices.insert(median.indices.end(), {base, base + 1, base + 2});
     }
-    EXPECT_GT(expect_valid_wide_layout(median, build(median), median.size()), 5.0);
+    EXPECT_GT(expect_valid_wide_layout(median, build(median, 0.0f), median.size()), 5.0);
 }
 
 TEST(WideBvh, BoxAreasThatOverflowStillGiveAValidTree) {
@@ -612,6 +652,153 @@ TEST(WideBvh, EmptyAndSingleTriangle) {
     EXPECT_EQ(hit.t, 1.0f);
     EXPECT_FALSE(trace_wide<false>(one, {ray}, {1.0f})[0].hit);
     EXPECT_FALSE(trace_wide<true>(one, {ray}, {1.0f})[0].hit);
+}
+
+// ---- Spatial splits -----------------------------------------------------------------------------
+// Long thin triangles across a soup: the case spatial splits are for (a sliver's box overlaps
+// everything it crosses).
+Mesh slivers_in_a_soup(uint32_t seed) {
+    Mesh mesh = random_soup(1500, seed);
+    std::mt19937 rng(seed + 1);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int i = 0; i < 300; ++i) {
+        const Vec3f a = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
+        const Vec3f b = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
+        const Vec3f c = a + Vec3f(unit(rng), unit(rng), unit(rng)) * 0.05f;
+        const uint32_t base = uint32_t(mesh.positions.size());
+        mesh.positions.insert(mesh.positions.end(), {a, b, c});
+        mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
+    }
+    return mesh;
+}
+
+TEST(SpatialSplits, CutReferencesWithinTheBudgetAndNoneWithout) {
+    const Mesh mesh = slivers_in_a_soup(30);
+    const Bvh none = build(mesh, 0.0f);
+    EXPECT_EQ(none.stats().references, none.stats().primitives);
+    for (const float budget : {0.1f, 0.25f, 1.0f}) {
+        const Bvh bvh = build(mesh, budget);
+        EXPECT_EQ(bvh.stats().primitives, mesh.size());
+        EXPECT_GT(bvh.stats().references, bvh.stats().primitives) << "budget " << budget;
+        EXPECT_LE(double(bvh.stats().references), double(mesh.size()) * (1.0 + budget))
+            << "budget " << budget;
+    }
+    // (a budget out of range is clamped: negative or NaN is none)
+    EXPECT_EQ(build(mesh, -1.0f).stats().references, mesh.size());
+    EXPECT_EQ(build(mesh, std::nanf("")).stats().references, mesh.size());
+}
+
+TEST(SpatialSplits, TreesMatchBruteForceAndCoverEveryTriangle) {
+    const Mesh mesh = slivers_in_a_soup(31);
+    const Bvh bvh = build(mesh, 1.0f);
+    ASSERT_GT(bvh.stats().references, bvh.stats().primitives + 100);
+    expect_valid_wide_layout(mesh, bvh, mesh.size());
+    std::mt19937 rng(32);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::vector<Ray<float>> rays;
+    std::vector<float> tmax;
+    for (int r = 0; r < 4000; ++r) {
+        const Ray<float> ray{Vec3f(unit(rng), unit(rng), unit(rng)) * 14.0f, random_direction(rng)};
+        expect_same_closest_hit(mesh, bvh, ray, r % 4 == 0 ? 5.0f : 1e30f, r);
+        rays.push_back(ray), tmax.push_back(r % 4 == 0 ? 5.0f : 1e30f);
+    }
+    EXPECT_GT(expect_wide_matches_binary(mesh, bvh, rays, tmax), 800);
+}
+
+TEST(SpatialSplits, WatertightAcrossCutReferences) {
+    // A closed sphere of long thin quads (few segments around, many along) and a triangle
+    // spanning the whole scene behind it: rays from inside must never escape, and rays aimed
+    // at points of the big triangle (cut many times) must hit it or something in front
+    Mesh mesh = uv_sphere(200, 6);
+    const uint32_t base = uint32_t(mesh.positions.size());
+    mesh.positions.insert(mesh.positions.end(), {{-50.0f, -50.0f, -3.0f}, {50.0f, -50.0f, -3.0f},
+                                                 {0.0f, 60.0f, -3.0f}});
+    mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
+    const Bvh bvh = build(mesh, 1.0f);
+    ASSERT_GT(bvh.stats().references, bvh.stats().primitives);
+    expect_valid_wide_layout(mesh, bvh, mesh.size());
+    std::mt19937 rng(33);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int r = 0; r < 3000; ++r) {
+        const Ray<float> ray{Vec3f(unit(rng), unit(rng), unit(rng)) * 0.5f, random_direction(rng)};
+        TriangleHit hit;
+        ASSERT_TRUE(bvh.intersect(ray, 1e30f, hit)) << "ray " << r << " escapes the sphere";
+        ASSERT_TRUE(bvh.occluded(ray, 1e30f)) << "ray " << r;
+    }
+    for (int r = 0; r < 4000; ++r) {
+        // (points inside the big triangle, from in front of it)
+        const float u = std::fabs(unit(rng)), v = std::fabs(unit(rng)) * (1.0f - u);
+        const Vec3f target = mesh.vertex(mesh.size() - 1, 0) * (1.0f - u - v) +
+                             mesh.vertex(mesh.size() - 1, 1) * u + mesh.vertex(mesh.size() - 1, 2) * v;
+        const Vec3f o(unit(rng) * 40.0f, unit(rng) * 40.0f, 20.0f);
+        const Ray<float> ray{o, normalize(target - o)};
+        TriangleHit hit;
+        ASSERT_TRUE(bvh.intersect(ray, 1e30f, hit)) << "ray " << r << " passes the big triangle";
+        expect_same_closest_hit(mesh, bvh, ray, 1e30f, r);
+    }
+}
+
+TEST(SpatialSplits, SurviveDegenerateInput) {
+    // Every triangle in the plane z = 1 (boxes flat along z), many overlapping; slivers of
+    // width 1e-6; and one triangle spanning everything
+    Mesh mesh;
+    std::mt19937 rng(34);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int i = 0; i < 2000; ++i) {
+        const uint32_t base = uint32_t(mesh.positions.size());
+        const Vec3f a(unit(rng) * 10.0f, unit(rng) * 10.0f, 1.0f);
+        const Vec3f b = i % 2 ? Vec3f(unit(rng) * 10.0f, unit(rng) * 10.0f, 1.0f)
+                              : a + Vec3f(unit(rng), unit(rng), 0.0f);
+        const Vec3f c = i % 3 == 0 ? a + Vec3f(1e-6f, 0.0f, 0.0f)
+                                   : Vec3f(unit(rng) * 10.0f, unit(rng) * 10.0f, 1.0f);
+        mesh.positions.insert(mesh.positions.end(), {a, b, c});
+        mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
+    }
+    const uint32_t base = uint32_t(mesh.positions.size());
+    mesh.positions.insert(mesh.positions.end(), {{-30.0f, -30.0f, -5.0f}, {30.0f, -30.0f, 5.0f},
+                                                 {0.0f, 40.0f, 0.0f}});
+    mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
+    for (const float budget : {0.25f, 4.0f}) {
+        const Bvh bvh = build(mesh, budget);
+        EXPECT_LE(bvh.stats().depth, kBvhMaxDepth);
+        expect_valid_wide_layout(mesh, bvh, mesh.size());
+        for (int r = 0; r < 3000; ++r) {
+            const Ray<float> ray{Vec3f(unit(rng) * 12.0f, unit(rng) * 12.0f, r % 2 ? 6.0f : -6.0f),
+                                 normalize(Vec3f(unit(rng) * 0.3f, unit(rng) * 0.3f, r % 2 ? -1.0f : 1.0f))};
+            // (coplanar triangles overlap: on a tie the tree may name another one at the same
+            // distance, to rounding)
+            TriangleHit want{}, got{};
+            const bool hit = brute_force(mesh, ray, 1e30f, want);
+            ASSERT_EQ(bvh.intersect(ray, 1e30f, got), hit) << "ray " << r;
+            if (!hit) continue;
+            ASSERT_NEAR(got.t, want.t, 1e-6f * want.t) << "ray " << r;
+            float t, b1, b2;
+            const size_t i = got.triangle;
+            ASSERT_TRUE(intersect_triangle(ray, make_ray_shear(ray.d), mesh.vertex(i, 0),
+                                           mesh.vertex(i, 1), mesh.vertex(i, 2), 1e30f, t, b1, b2));
+            ASSERT_EQ(t, got.t) << "ray " << r;
+        }
+    }
+}
+
+TEST(SpatialSplits, ParallelBuildsGiveTheSameTreeByteForByte) {
+    // Cut references get their numbers from an atomic counter in parallel tasks; the tree
+    // must not depend on which task came first
+    Mesh mesh = slivers_in_a_soup(35);
+    const Mesh more = random_soup(20000, 36);
+    for (const uint32_t i : more.indices) mesh.indices.push_back(i + uint32_t(mesh.positions.size()));
+    mesh.positions.insert(mesh.positions.end(), more.positions.begin(), more.positions.end());
+    const Bvh a = build(mesh, 1.0f), b = build(mesh, 1.0f);
+    ASSERT_GT(a.stats().references, a.stats().primitives);
+    ASSERT_EQ(a.view().node_count, b.view().node_count);
+    EXPECT_EQ(a.stats().references, b.stats().references);
+    EXPECT_EQ(a.stats().triangle_blocks, b.stats().triangle_blocks);
+    EXPECT_EQ(std::memcmp(a.view().nodes, b.view().nodes,
+                          size_t(a.view().node_count) * sizeof(WideBvhNode)), 0);
+    EXPECT_EQ(std::memcmp(a.view().triangles, b.view().triangles,
+                          a.stats().triangle_blocks * sizeof(TriangleBlock)), 0);
+    EXPECT_EQ(std::memcmp(a.view().triangle_index, b.view().triangle_index,
+                          a.stats().triangle_blocks * kWideBvhWidth * sizeof(uint32_t)), 0);
 }
 
 }  // namespace

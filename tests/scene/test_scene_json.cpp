@@ -1181,6 +1181,40 @@ TEST(scene_json_errors, SurvivalCapMustBeInsideZeroOne) {
     EXPECT_NO_THROW(parse(j));
 }
 
+TEST(scene_json_errors, SpatialSplitsMustBeABudgetFromZeroToFour) {
+    json j = base_scene();
+    for (double budget : {-0.1, 4.5, 100.0}) {
+        j["render"] = {{"spatial_splits", budget}};
+        EXPECT_TRUE(fails_with(j, "'spatial_splits' must be in [0, 4]")) << budget;
+    }
+    j["render"] = {{"spatial_splits", 1e39}};
+    EXPECT_TRUE(fails_with(j, "'spatial_splits' must be finite"));
+    j["render"] = {{"spatial_splits", 4}};
+    EXPECT_NO_THROW(parse(j));
+}
+
+TEST(scene_json, SpatialSplitsReachTheSceneTree) {
+    // Long thin triangles at random angles: with a budget the tree cuts some of them (more
+    // references than triangles, at most the budget more); without, none
+    json j = base_scene();
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    for (int i = 0; i < 400; ++i) {
+        const float a[3] = {unit(rng), unit(rng), unit(rng)}, b[3] = {unit(rng), unit(rng), unit(rng)};
+        j["objects"].push_back({{"type", "triangle"}, {"material", {{"kd", 0.5}}},
+                                {"vertices", {{a[0], a[1], a[2]}, {b[0], b[1], b[2]},
+                                              {a[0] + 0.01f, a[1], a[2]}}}});
+    }
+    const Scene none = parse(j);
+    EXPECT_EQ(none.settings.spatial_splits, 0.0f);
+    EXPECT_EQ(none.bvh.stats().references, none.bvh.stats().primitives);
+    j["render"] = {{"spatial_splits", 0.5}};
+    const Scene cut = parse(j);
+    EXPECT_EQ(cut.settings.spatial_splits, 0.5f);
+    EXPECT_GT(cut.bvh.stats().references, cut.bvh.stats().primitives);
+    EXPECT_LE(cut.bvh.stats().references, cut.bvh.stats().primitives * 3 / 2);
+}
+
 TEST(scene_json_errors, ImageSizeLimits) {
     json j = base_scene();
     j["render"] = {{"width", 0}};
