@@ -481,8 +481,12 @@ struct Bvh::Builder {
                 uint32_t left_count = 0, right_count = 0;
                 const uint32_t second = spatial_partition(begin, end, ext_end, sp, left_extent,
                                                           right_extent, left_count, right_count);
-                return split(out, level, {begin, begin + left_count, second},
-                             {second, second + right_count, ext_end}, left_extent, right_extent);
+                if (left_count > 0 && right_count > 0)
+                    return split(out, level, {begin, begin + left_count, second},
+                                 {second, second + right_count, ext_end}, left_extent, right_extent);
+                // (every part on one side, by rounding: nothing was cut, the refs are in
+                // order[begin, end) again, and the splits below take them)
+                left_extent = right_extent = Extent{};
             } else if (bin >= 0) {
                 const float lo = component(centroid_bounds.lo, axis);
                 const float scale = kBins / component(extent, axis);
