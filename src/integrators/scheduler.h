@@ -77,9 +77,12 @@ private:
     static constexpr size_t kChunk = size_t(kTileSize) * size_t(kTileSize);  // pixels
     static constexpr size_t kSlabBytes = size_t(2) << 20;
     static constexpr size_t kChunksPerSlab = kSlabBytes / (kChunk * sizeof(PixelSums));
+    // (a finished render's slabs go to a cache the next render of the process takes
+    // them from: scheduler.cpp)
     struct SlabFree {
-        void operator()(PixelSums* p) const { free_large(p, kSlabBytes); }
+        void operator()(PixelSums* p) const;
     };
+    static PixelSums* take_slab();
     std::mutex mutex_;
     std::vector<std::unique_ptr<PixelSums, SlabFree>> slabs_;
     size_t carved_ = kChunksPerSlab;  // chunks taken from the last slab
