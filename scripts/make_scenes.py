@@ -370,20 +370,26 @@ def make_mesh(name, out, triangles):
     scale, rotate = 0.72, [0, 25, 0]
     lo, _ = bounds(pos, [scale] * 3, rotate)
     translate = [0, -1 - lo[1] + 1e-5, 0.1]  # on the floor, whatever the rounding
-    objects = box_objects()
-    objects.append({"type": "mesh", "file": f"{name}.ply", "scale": scale, "rotate": rotate,
-                    "translate": translate, "material": "knot"})
-    materials = dict(BOX_MATERIALS, knot={"kd": [0.75, 0.7, 0.6]})
-    header = [f"{name}.json: one mesh of {nf:,} triangles ({name}.ply, a ({BIG_KNOT.p}, "
-              f"{BIG_KNOT.q}) torus knot tube with", "twisted ridges) standing in the open box."]
-    header += BOX_HEADER + [
-        f"{len(objects) - 1} triangle objects + 1 mesh = {nf + len(objects) - 1:,} triangles; "
-        "diffuse and emission only.",
-        f"Made by: {cmd}"]
+    mesh = {"type": "mesh", "file": f"{name}.ply", "scale": scale, "rotate": rotate,
+            "translate": translate, "material": "knot"}
+    return write_box_with_mesh(
+        name, out, mesh, ("knot", [0.75, 0.7, 0.6]), nf,
+        [f"{name}.json: one mesh of {nf:,} triangles ({name}.ply, a ({BIG_KNOT.p}, "
+         f"{BIG_KNOT.q}) torus knot tube with", "twisted ridges) standing in the open box."])
+
+
+def write_box_with_mesh(name, out, mesh, material, triangles, header):
+    """NAME.json: the open box and one mesh object (its PLY already written), 500x500x16."""
+    objects = box_objects() + [mesh]
+    materials = dict(BOX_MATERIALS, **{material[0]: {"kd": material[1]}})
+    header = header + BOX_HEADER + [
+        f"{len(objects) - 1} triangle objects + 1 mesh = {triangles + len(objects) - 1:,} "
+        "triangles; diffuse and emission only.",
+        f"Made by: {command(name, out)}"]
     text = scene_text(header, {"width": 500, "height": 500, "spp": 16, "seed": 1},
                       BOX_CAMERA, materials, objects)
     write_atomic(Path(out) / f"{name}.json", text.encode())
-    return {"objects": len(objects), "triangles": nf + len(objects) - 1,
+    return {"objects": len(objects), "triangles": triangles + len(objects) - 1,
             "files": [f"{name}.json", f"{name}.ply"]}
 
 
@@ -417,20 +423,11 @@ def make_sticks(name, out):
     write_atomic(Path(out) / f"{name}.ply",
                  ply_bytes([f"{name}.ply: {STICKS:,} straws, long thin quads of random "
                             f"direction, {nf} triangles", f"made by: {cmd}"], pos, idx))
-    objects = box_objects()
-    objects.append({"type": "mesh", "file": f"{name}.ply", "material": "straw"})
-    materials = dict(BOX_MATERIALS, straw={"kd": [0.8, 0.7, 0.35]})
-    header = [f"{name}.json: {STICKS:,} straws ({name}.ply: long thin quads of random direction, "
-              f"{nf:,} triangles)", "thrown into the lower part of the open box."]
-    header += BOX_HEADER + [
-        f"{len(objects) - 1} triangle objects + 1 mesh = {nf + len(objects) - 1:,} triangles; "
-        "diffuse and emission only.",
-        f"Made by: {cmd}"]
-    text = scene_text(header, {"width": 500, "height": 500, "spp": 16, "seed": 1},
-                      BOX_CAMERA, materials, objects)
-    write_atomic(Path(out) / f"{name}.json", text.encode())
-    return {"objects": len(objects), "triangles": nf + len(objects) - 1,
-            "files": [f"{name}.json", f"{name}.ply"]}
+    return write_box_with_mesh(
+        name, out, {"type": "mesh", "file": f"{name}.ply", "material": "straw"},
+        ("straw", [0.8, 0.7, 0.35]), nf,
+        [f"{name}.json: {STICKS:,} straws ({name}.ply: long thin quads of random direction, "
+         f"{nf:,} triangles)", "thrown into the lower part of the open box."])
 
 
 # Per-instance scales before normalising: uniform, non-uniform and mirrored
