@@ -52,11 +52,13 @@ def main():
     budgets = [b for b in a.budgets.split(",") if b]
     missing = [n for n in names if not (GENERATED / f"{n}.json").exists()]
     if missing:
-        accel.run([sys.executable, accel.ROOT / "scripts" / "make_scenes.py", "--only", ",".join(missing)])
+        accel.run([sys.executable, accel.ROOT / "scripts" / "make_scenes.py",
+                   "--only", ",".join(missing)])
     if not accel.EMBREE.exists():
         raise SystemExit(f"{accel.EMBREE} is not built: apt-get install libembree-dev, then "
                          "ninja -C build embree_pt")
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
+    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
+                if l.startswith("model name")), "?")
     print(f"CPU: {cpu}; {a.rounds} interleaved rounds, one thread\n")
     samples = {}
 
@@ -74,7 +76,8 @@ def main():
         for (n, b), s in variants.items():
             stats = pathlib.Path(tmp) / "build.json"
             accel.run([accel.CIERZO, "render", s, "--width", 1, "--height", 1, "--spp", 1,
-                       "--threads", 2, "--quiet", "--out", pathlib.Path(tmp) / "b.pfm", "--stats", stats])
+                       "--threads", 2, "--quiet", "--out", pathlib.Path(tmp) / "b.pfm",
+                       "--stats", stats])
             builds[(n, b)] = json.loads(stats.read_text())["bvh"]
         for n, s in scenes.items():
             for q in ("medium", "high"):
@@ -85,18 +88,20 @@ def main():
             print(f"round {r + 1}/{a.rounds}", file=sys.stderr)
             for n, s in scenes.items():
                 for b in budgets:
-                    k = accel.keys(accel.run([accel.CIERZO, "trace", variants[(n, b)], "--rays", rays[n]]))
+                    v = variants[(n, b)]
+                    k = accel.keys(accel.run([accel.CIERZO, "trace", v, "--rays", rays[n]]))
                     add(("trace", n, b), float(k["rays_per_second"]))
-                    add(("render", n, b), accel.cierzo_render(tmp, variants[(n, b)], "wavefront", 200, 4))
+                    add(("render", n, b), accel.cierzo_render(tmp, v, "wavefront", 200, 4))
                 for q in ("medium", "high"):
-                    k = accel.keys(accel.run([accel.EMBREE, s, "--trace-rays", rays[n], "--api", "1",
-                                              "--quality", q]))
+                    k = accel.keys(accel.run([accel.EMBREE, s, "--trace-rays", rays[n],
+                                              "--api", "1", "--quality", q]))
                     add(("trace", n, "embree-" + q), float(k["rays_per_second"]))
                 add(("render", n, "embree"), accel.embree_render(tmp, s, 200, 4))
 
     med = lambda xs: statistics.median(xs) / 1e6
-    print("| scene | spatial_splits | references | bytes/triangle | build, 2 threads (s) | trace, M rays/s | "
-          "/ no splits | / Embree high | / Embree medium | render, M rays/s | / Embree | R mean (Embree) |")
+    print("| scene | spatial_splits | references | bytes/triangle | build, 2 threads (s) | "
+          "trace, M rays/s | / no splits | / Embree high | / Embree medium | "
+          "render, M rays/s | / Embree | R mean (Embree) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in names:
         eh, em = samples[("trace", n, "embree-high")], samples[("trace", n, "embree-medium")]
@@ -113,7 +118,8 @@ def main():
                   f"{samples[('render', n, b)][-1]['mean'][0]:.4f} "
                   f"({samples[('render', n, 'embree')][-1]['mean'][0]:.4f}) |")
         print(f"| {n} | Embree | | | high {builds[(n, 'embree-high')]:.3f}, medium "
-              f"{builds[(n, 'embree-medium')]:.3f} | high {med(eh):.2f}, medium {med(em):.2f} | | | | "
+              f"{builds[(n, 'embree-medium')]:.3f} | "
+              f"high {med(eh):.2f}, medium {med(em):.2f} | | | | "
               f"{med(er):.2f} | | |")
 
 

@@ -3,9 +3,9 @@
 // whose leaves hold SoA blocks of one primitive kind, tested together. An instance is a
 // mesh's own BVH (built once, however many objects use the mesh) reached through the
 // object's transform. Built here (bvh_build.cpp: binned SAH, spatial splits on request,
-// TBB-parallel for big inputs, collapsed to 8-wide nodes); traversed by kernels/traverse.h, the one traversal both
-// integrators call, over the plain layout of kernels/bvh_layout.h. Design and measurements:
-// docs/acceleration.md.
+// TBB-parallel for big inputs, collapsed to 8-wide nodes); traversed by kernels/traverse.h,
+// the one traversal both integrators call, over the plain layout of kernels/bvh_layout.h.
+// Design and measurements: docs/acceleration.md.
 #pragma once
 
 #include <cstddef>

@@ -319,7 +319,9 @@ struct Bvh::Builder {
 
     SpatialSplit find_spatial_split(uint32_t begin, uint32_t end, const Box& bounds) const {
         SpatialSplit best[3];
-        auto axis_split = [&](int axis) { best[axis] = find_spatial_split(begin, end, bounds, axis); };
+        auto axis_split = [&](int axis) {
+            best[axis] = find_spatial_split(begin, end, bounds, axis);
+        };
         if (end - begin > kParallelBelow)  // (the axes in parallel where the tree is not yet)
             oneapi::tbb::parallel_invoke([&] { axis_split(0); }, [&] { axis_split(1); },
                                          [&] { axis_split(2); });
@@ -330,7 +332,8 @@ struct Bvh::Builder {
     }
 
     // The cheapest spatial split along one axis (cost infinite when there is none).
-    SpatialSplit find_spatial_split(uint32_t begin, uint32_t end, const Box& bounds, int axis) const {
+    SpatialSplit find_spatial_split(uint32_t begin, uint32_t end, const Box& bounds,
+                                    int axis) const {
         SpatialSplit best, s;
         s.axis = axis, s.lo = component(bounds.lo, axis);
         const float extent = component(bounds.hi, axis) - s.lo;
@@ -458,7 +461,8 @@ struct Bvh::Builder {
         Box object_left, object_right;
         bool evaluated = false;
         if (level < kMaxSahDepth && max_component(extent) > 0.0f) {
-            best = find_sah_split(begin, end, centroid_bounds, axis, bin, object_left, object_right);
+            best = find_sah_split(begin, end, centroid_bounds, axis, bin, object_left,
+                                  object_right);
             evaluated = true;
         }
         SpatialSplit sp;
@@ -483,7 +487,8 @@ struct Bvh::Builder {
                                                           right_extent, left_count, right_count);
                 if (left_count > 0 && right_count > 0)
                     return split(out, level, {begin, begin + left_count, second},
-                                 {second, second + right_count, ext_end}, left_extent, right_extent);
+                                 {second, second + right_count, ext_end}, left_extent,
+                                 right_extent);
                 // (every part on one side, by rounding: nothing was cut, the refs are in
                 // order[begin, end) again, and the splits below take them)
                 left_extent = right_extent = Extent{};
