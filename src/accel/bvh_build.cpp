@@ -350,12 +350,27 @@ struct Bvh::Builder {
                 slabs[b0].grow(r.box);
                 continue;
             }
-            // (the SAH's estimate: each part's box unpadded, within the ref's)
+            // (the SAH's estimate, each part's box unpadded, within the ref's: a slab's part
+            // is its vertices and the crossings of its two planes, each plane's crossings
+            // found once for the slabs on both sides)
             Vec3f v[3];
             vertices(r, v);
+            Box parts[kSpatialBins];
+            for (const Vec3f& p : v) parts[std::clamp(s.slab(component(p, axis)), b0, b1)].grow(p);
+            for (int k = b0 + 1; k <= b1; ++k) {
+                const float plane = s.lo + float(k) * s.width;
+                for (int i = 0; i < 3; ++i) {
+                    const Vec3f& p = v[i];
+                    const Vec3f& q = v[i == 2 ? 0 : i + 1];
+                    const float pa = component(p, axis), qa = component(q, axis);
+                    if ((pa < plane && qa > plane) || (pa > plane && qa < plane)) {
+                        const Vec3f x = p + (q - p) * ((plane - pa) / (qa - pa));
+                        parts[k - 1].grow(x), parts[k].grow(x);
+                    }
+                }
+            }
             for (int b = b0; b <= b1; ++b) {
-                Box part = slab_box(v, axis, b == b0 ? -kInf : s.lo + float(b) * s.width,
-                                    b == b1 ? kInf : s.lo + float(b + 1) * s.width);
+                Box& part = parts[b];
                 part.lo = vmax(part.lo, r.box.lo), part.hi = vmin(part.hi, r.box.hi);
                 if (part.lo.x <= part.hi.x && part.lo.y <= part.hi.y && part.lo.z <= part.hi.z)
                     slabs[b].grow(part);
