@@ -134,6 +134,11 @@ int run_main(int argc, char** argv) {
                   "of the throughput roulette), in (0, 1) "
                   "(overrides render.survival_cap; default 0.9)")
         ->check(CLI::Range(1e-6f, 0.999999f));
+    r->add_option("--spatial-splits", a.job.spatial_splits,
+                  "The BVH's spatial splits: triangles may be cut into up to this fraction of "
+                  "extra references, 0 to 4 (overrides render.spatial_splits; default 0: none; "
+                  "1 pays on long thin triangles such as grass, hair or wire; the BVH is built "
+                  "again)");
     r->add_option("--diffuse-sampling", a.job.diffuse_sampling,
                   "Diffuse directions: uniform (the report's) or cosine (overrides "
                   "render.diffuse_sampling; default cosine for nee and mis, uniform for report "

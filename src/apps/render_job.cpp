@@ -142,7 +142,18 @@ void check_render_isa(const RenderJob& job) {
         require_isa(parse_isa(job.isa), "--isa");
 }
 
+void apply_spatial_splits(Scene& scene, std::optional<float> budget) {
+    if (!budget) return;
+    if (!(*budget >= 0.0f && *budget <= kBvhMaxSplitBudget))
+        throw InputError("--spatial-splits: must be in [0, 4], the fraction of extra triangle "
+                         "references the BVH may cut (got " + fmt::format("{}", *budget) + ")");
+    if (*budget == scene.settings.spatial_splits) return;
+    scene.settings.spatial_splits = *budget;
+    scene.finalize();  // (the BVH again, with the scene's other tables)
+}
+
 void apply_render_overrides(Scene& scene, const RenderJob& a) {
+    apply_spatial_splits(scene, a.spatial_splits);
     RenderSettings& s = scene.settings;
     if (a.spp) s.spp = *a.spp;
     if (a.seed) s.seed = *a.seed;

@@ -26,6 +26,7 @@ struct RenderJob {
     std::optional<uint32_t> seed;
     std::optional<int> width, height;
     std::optional<float> survival_cap;
+    std::optional<float> spatial_splits;          // the BVH's split budget (rebuilds it)
     std::optional<std::string> diffuse_sampling;  // uniform or cosine
     std::optional<std::string> triangle_sampling;  // area or solid-angle
     std::optional<std::string> roulette;          // lobe or throughput
@@ -89,6 +90,9 @@ void check_render_isa(const RenderJob& job);
 // Applies the job's overrides to the scene and checks the render size; throws InputError
 // naming the scene file or option.
 void apply_render_overrides(Scene& scene, const RenderJob& job);
+// --spatial-splits: the scene's BVH built again with this split budget (InputError outside
+// [0, 4]; nothing when unset or the scene's own).
+void apply_spatial_splits(Scene& scene, std::optional<float> budget);
 
 // Applies the overrides, checks everything that could fail late (outputs, checkpoints),
 // resumes if asked, and renders. Throws InputError with the messages of `cierzo render`.

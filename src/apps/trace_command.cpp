@@ -8,9 +8,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "apps/render_job.h"
 #include "core/error.h"
 #include "integrators/registry.h"
 #include "integrators/wavefront/wavefront.h"
@@ -29,6 +31,7 @@ struct TraceArgs {
     int repeat = 1;
     int stream_rays = 0;
     int single_below = TraceOptions{}.single_below;
+    std::optional<float> spatial_splits;
 };
 TraceArgs g_args;
 
@@ -92,6 +95,9 @@ CLI::App* add_trace_command(CLI::App& app) {
                   "at a time")
         ->check(CLI::Range(1, 65536))
         ->capture_default_str();
+    t->add_option("--spatial-splits", g_args.spatial_splits,
+                  "The BVH's spatial splits, 0 to 4 (overrides render.spatial_splits; the BVH is "
+                  "built again)");
     t->add_option("--repeat", g_args.repeat, "Timed passes over the rays (after one warm-up pass)")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
@@ -106,7 +112,11 @@ int run_trace_command() {
     if (!simd && a.stream_rays > 0)
         throw InputError("--stream: the scalar integrator traces one ray at a time; streams are "
                          "the wavefront's (--integrator wavefront)");
-    const Scene scene = load_scene(a.scene);
+    const Scene scene = [&] {
+        Scene s = load_scene(a.scene);
+        apply_spatial_splits(s, a.spatial_splits);
+        return s;
+    }();
     const std::vector<float> rays = read_rays(a.rays);
     const size_t count = rays.size() / 7;
     std::unique_ptr<WavefrontRenderer> wavefront;

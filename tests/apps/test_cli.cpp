@@ -744,6 +744,67 @@ TEST_F(cli, TraceFindsTheSameHitsWithEveryIntegratorAndIsa) {
     }
 }
 
+// --spatial-splits builds the BVH again with cut references: the same hits at the same
+// distances as the tree without, in every ISA and the scalar traversal; --stats counts the
+// references; a budget out of range is refused before any work.
+TEST_F(cli, SpatialSplitsFindWhatTheTreeWithoutFinds) {
+    // 1,000 straws (long thin triangles of every direction) in a box of 4
+    std::string objects;
+    uint32_t h = 777;
+    const auto unit = [&] { h = h * 1664525u + 1013904223u; return float(h >> 8) * 0x1p-24f * 2 - 1; };
+    for (int i = 0; i < 1000; ++i) {
+        const float a[3] = {2 * unit(), 2 * unit(), 2 * unit()};
+        const float b[3] = {a[0] + unit(), a[1] + unit(), a[2] + unit()};
+        const auto point = [](float x, float y, float z) {
+            return "[" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) + "]";
+        };
+        objects += std::string(i ? ",\n" : "") + "{\"type\": \"triangle\", \"vertices\": [" +
+                   point(a[0], a[1], a[2]) + ", " + point(b[0], b[1], b[2]) + ", " +
+                   point(a[0] + 0.04f, a[1], a[2] + 0.04f) + "], \"material\": {\"kd\": 0.5}}";
+    }
+    const fs::path scene = write("straws.json", R"({"render": {"width": 8, "height": 8},
+        "camera": {"position": [0, 0, -8], "look_at": [0, 0, 0]},
+        "objects": [)" + objects + "]}");
+    std::vector<std::array<float, 7>> rays;
+    for (int i = 0; i < 4000; ++i) {
+        const float o[3] = {3 * unit(), 3 * unit(), 3 * unit()};
+        float d[3] = {unit(), unit(), unit()};
+        const float n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) + 1e-3f;
+        rays.push_back({o[0], o[1], o[2], d[0] / n, d[1] / n, d[2] / n, 3.4028235e38f});
+    }
+    const fs::path file = write("straws.rays", ray_file(rays, rays.size()));
+    const std::string args = quote(scene) + " --rays " + quote(file);
+    const Outcome plain = run(args + " --integrator scalar", "trace");
+    ASSERT_EQ(plain.exit_code, 0) << plain.err;
+    const auto want = key_values(plain.out);
+    EXPECT_GT(std::stoi(want.at("hits")), 300);
+    std::vector<std::string> variants = {" --integrator scalar"};
+    for (const cierzo::Isa isa : cierzo::compiled_isas())
+        if (cierzo::isa_supported(isa)) variants.push_back(std::string(" --isa ") + cierzo::isa_name(isa));
+    for (const std::string& v : variants) {
+        const Outcome cut = run(args + v + " --spatial-splits 1", "trace");
+        ASSERT_EQ(cut.exit_code, 0) << cut.err;
+        const auto got = key_values(cut.out);
+        EXPECT_EQ(got.at("hits"), want.at("hits")) << v;
+        EXPECT_NEAR(std::stod(got.at("sum_t")), std::stod(want.at("sum_t")),
+                    1e-6 * std::stod(want.at("sum_t"))) << v;
+    }
+    const fs::path out = dir_ / "straws.pfm", stats = dir_ / "straws.stats.json";
+    ASSERT_EQ(run(quote(scene) + kQuiet + " --spatial-splits 1 --out " + quote(out) +
+                  " --stats " + quote(stats)).exit_code, 0);
+    const json bvh = json::parse(read_file(stats))["bvh"];
+    EXPECT_EQ(bvh["primitives"], 1000);
+    EXPECT_GT(bvh["references"].get<int>(), 1000);
+    EXPECT_LE(bvh["references"].get<int>(), 2000);
+    EXPECT_EQ(bvh["spatial_splits"], 1.0);
+    fs::remove(out);
+    const Outcome refused = run(quote(scene) + kQuiet + " --spatial-splits 4.5 --out " + quote(out));
+    EXPECT_EQ(refused.exit_code, 1);
+    EXPECT_NE(refused.err.find("--spatial-splits: must be in [0, 4]"), std::string::npos)
+        << refused.err;
+    EXPECT_FALSE(fs::exists(out));
+}
+
 // Ray streams (`--stream`) find the same hits at the same distances as single rays, on a
 // tree of many nodes, with every ISA; where they cannot be used (a one-node tree, the
 // scalar integrator) they are not, or refused.
