@@ -285,21 +285,28 @@ struct Bvh::Builder {
         v[0] = set.positions[tri[0]], v[1] = set.positions[tri[1]], v[2] = set.positions[tri[2]];
     }
 
+    // Where edge i of triangle v (from vertex i to the next) crosses the plane at `plane`
+    // along `axis`, if its ends are strictly on either side (the point's axis coordinate
+    // set to the plane exactly).
+    static bool edge_crossing(const Vec3f v[3], int i, int axis, float plane, Vec3f& x) {
+        const Vec3f& p = v[i];
+        const Vec3f& q = v[i == 2 ? 0 : i + 1];
+        const float pa = component(p, axis), qa = component(q, axis);
+        if (!((pa < plane && qa > plane) || (pa > plane && qa < plane))) return false;
+        x = p + (q - p) * ((plane - pa) / (qa - pa));
+        (axis == 0 ? x.x : (axis == 1 ? x.y : x.z)) = plane;
+        return true;
+    }
+
     // The box of triangle v's part in the slab [a, b] along `axis` (unpadded).
     static Box slab_box(const Vec3f v[3], int axis, float a, float b) {
         Box out;
         for (int i = 0; i < 3; ++i) {
-            const Vec3f& p = v[i];
-            const Vec3f& q = v[i == 2 ? 0 : i + 1];
-            const float pa = component(p, axis), qa = component(q, axis);
-            if (pa >= a && pa <= b) out.grow(p);
-            for (const float plane : {a, b}) {
-                if ((pa < plane && qa > plane) || (pa > plane && qa < plane)) {
-                    Vec3f x = p + (q - p) * ((plane - pa) / (qa - pa));
-                    (axis == 0 ? x.x : (axis == 1 ? x.y : x.z)) = plane;
-                    out.grow(x);
-                }
-            }
+            const float pa = component(v[i], axis);
+            if (pa >= a && pa <= b) out.grow(v[i]);
+            Vec3f x;
+            for (const float plane : {a, b})
+                if (edge_crossing(v, i, axis, plane, x)) out.grow(x);
         }
         return out;
     }
@@ -359,15 +366,9 @@ struct Bvh::Builder {
             for (const Vec3f& p : v) parts[std::clamp(s.slab(component(p, axis)), b0, b1)].grow(p);
             for (int k = b0 + 1; k <= b1; ++k) {
                 const float plane = s.lo + float(k) * s.width;
-                for (int i = 0; i < 3; ++i) {
-                    const Vec3f& p = v[i];
-                    const Vec3f& q = v[i == 2 ? 0 : i + 1];
-                    const float pa = component(p, axis), qa = component(q, axis);
-                    if ((pa < plane && qa > plane) || (pa > plane && qa < plane)) {
-                        const Vec3f x = p + (q - p) * ((plane - pa) / (qa - pa));
-                        parts[k - 1].grow(x), parts[k].grow(x);
-                    }
-                }
+                Vec3f x;
+                for (int i = 0; i < 3; ++i)
+                    if (edge_crossing(v, i, axis, plane, x)) parts[k - 1].grow(x), parts[k].grow(x);
             }
             for (int b = b0; b <= b1; ++b) {
                 Box& part = parts[b];
