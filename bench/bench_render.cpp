@@ -58,14 +58,7 @@ void register_scenes() {
         if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
     std::sort(names.begin(), names.end());
     for (const std::string& name : names) {
-        // Loaded once, here; scenes whose mesh is fetched (the bunny: scripts/fetch_bunny.sh)
-        // may lack it
-        try {
-            scene_cache().emplace(name, bench_scene(name));
-        } catch (const std::exception& e) {
-            if (std::string(e.what()).find(".ply") != std::string::npos) continue;
-            throw;
-        }
+        scene_cache().emplace(name, bench_scene(name));  // loaded once, here
         std::vector<std::pair<std::string, std::string>> variants = {{"scalar", "scalar"}};
         for (Isa isa : compiled_isas())
             if (isa_supported(isa)) variants.push_back({"wavefront", isa_name(isa)});

@@ -1,7 +1,6 @@
 #!/usr/bin/env bash
 # Installs what cierzo needs on Debian 12 (root, or sudo): compiler, CMake, Ninja and the
-# libraries (tinyobjloader for OBJ meshes); Open MPI (distributed renders); npm for the test
-# meshes; assimp-testmodels (real OBJ, MTL and JPEG files the tests read); matplotlib for the
+# libraries (tinyobjloader for OBJ meshes); Open MPI (distributed renders); assimp-testmodels (real OBJ, MTL and JPEG files the tests read); matplotlib for the
 # plots; Python's headers, pybind11, NumPy and pytest for the Python module and its tests,
 # and venv, pip, setuptools and wheel for `pip install .`.
 # With --render, only what the two programs need (scripts/render_default.sh): the compiler,
@@ -21,9 +20,6 @@ missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-# npm (only to fetch the test meshes): Debian's package only where no npm is on the PATH,
-# since it conflicts with a Node.js installed another way
-[ "${1:-}" = --render ] || command -v npm >/dev/null 2>&1 || missing+=(npm)
 [ ${#missing[@]} -eq 0 ] && exit 0
 sudo=""
 [ "$(id -u)" -ne 0 ] && sudo="sudo"

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The second README command: installs what is missing, builds, fetches the test meshes and
+# The second README command: installs what is missing, builds and
 # runs every test with ctest; then the sanitizer job runs them all again under
 # AddressSanitizer and UndefinedBehaviorSanitizer (scripts/test_sanitized.sh). Says which
 # instruction sets the run exercised and which it skipped, and why. On x86-64 it ends with
@@ -15,8 +15,6 @@ scripts/install_deps.sh
 phase "install"
 scripts/build.sh build
 phase "native build"
-scripts/fetch_bunny.sh scenes/data || echo "warning: could not fetch the bunny; its tests skip" >&2
-export CIERZO_BUNNY_PLY="$PWD/scenes/data/bunny.ply"
 (cd build && ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
 phase "native tests"
 scripts/test_sanitized.sh

@@ -80,8 +80,6 @@ cmake --build "$build" --parallel "$(nproc)"
 built=$(date +%s)
 
 # ---- The whole suite under qemu-user -----------------------------------------------------
-scripts/fetch_bunny.sh scenes/data || echo "warning: could not fetch the bunny; its tests skip" >&2
-export CIERZO_BUNNY_PLY="$PWD/scenes/data/bunny.ply"
 # qemu runs these renders about 100 times slower: the convergence tests render their
 # reference with 4096 paths per pixel instead of 16384 (tests/integrators/test_convergence.cpp)
 export CIERZO_TEST_EMULATED=1

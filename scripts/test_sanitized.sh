@@ -12,7 +12,6 @@ scripts/build.sh build-sanitize -DCIERZO_SANITIZE=ON -DCIERZO_BUILD_BENCH=OFF -D
     -DCIERZO_ISAS=widest
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-export CIERZO_BUNNY_PLY="$PWD/scenes/data/bunny.ply"
 # The lighter settings of the statistical and whole-render tests that the qemu suite uses
 # (fewer paths, smaller images): here the sanitizers look for memory errors and undefined
 # behaviour, the native run has already checked the statistics at full strength

@@ -94,8 +94,6 @@ def figures(args):
     rows = []
     spp = max(4, FIGURE_SPP // args.divisor)
     for scene, caption, op in FIGURES:
-        if scene == "bunny" and not os.path.exists(os.path.join(ROOT, "scenes/data/bunny.ply")):
-            run([os.path.join(ROOT, "scripts/fetch_bunny.sh"), os.path.join(ROOT, "scenes/data")])
         exr = os.path.join(OUT, scene + ".exr")
         w = render(scene, "wavefront", exr, os.path.join(OUT, scene + ".wavefront.json"),
                    spp=spp, variance=True)

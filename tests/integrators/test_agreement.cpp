@@ -56,8 +56,7 @@ TEST(Agreement, WavefrontMatchesScalarOnEverySceneAndIsa) {
     const std::vector<fs::path> scenes = all_scenes();
     ASSERT_GE(scenes.size(), 6u);
     for (const fs::path& path : scenes) {
-        Scene scene;
-        if (!test::load_present_scene(path, scene)) continue;
+        Scene scene = load_scene(path);
         scene.set_resolution(40, 40);
         scene.settings.spp = 16;
         // Every estimator that differs from the report's here (nee and mis, where the scene

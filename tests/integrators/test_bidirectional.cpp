@@ -442,11 +442,7 @@ TEST(Bidirectional, BpmWeightsOfEveryMergeOfAPathSumToOne) {
 // mean (within 4σ, plus `bias` of the mean: vcm's blur).
 void expect_agreement_with_mis_on_every_scene(Estimator e, int n, uint32_t seed, double bias) {
     for (const auto& path : test::all_scenes()) {
-        Scene scene;
-        if (!test::load_present_scene(path, scene)) {
-            std::printf("%s: its mesh file is not here, skipped\n", path.filename().c_str());
-            continue;
-        }
+        Scene scene = load_scene(path);
         SCOPED_TRACE(path.filename().string());
         scene.settings.width = 24, scene.settings.height = 20;
         Scene mis = scene, other = scene;
@@ -490,8 +486,7 @@ TEST(Bidirectional, VcmAgreesWithMisOnEveryScene) {
 TEST(Bidirectional, BpmAndPpmAgreeWithMisInMeanOnEveryScene) {
     const int n = spp(256, 64);
     for (const auto& path : test::all_scenes()) {
-        Scene scene;
-        if (!test::load_present_scene(path, scene)) continue;
+        Scene scene = load_scene(path);
         SCOPED_TRACE(path.filename().string());
         scene.settings.width = 24, scene.settings.height = 20;
         Scene mis = scene;

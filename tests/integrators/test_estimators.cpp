@@ -182,8 +182,7 @@ TEST(Estimators, AgreeWithinThreeSigmaOnEveryScene) {
     ASSERT_GE(scenes.size(), 10u);
     constexpr int kBatches = 8;
     for (const fs::path& path : scenes) {
-        Scene scene;
-        if (!test::load_present_scene(path, scene)) continue;
+        Scene scene = load_scene(path);
         SCOPED_TRACE(path.filename().string());
         if (emulated() && scene.emitters.count() == 0) continue;
         scene.set_resolution(32, 32);

@@ -823,12 +823,9 @@ TEST_F(PlyTest, AbsurdSizesFailFastWithoutAllocating) {
                        "header claims 900000000000000 'blob' elements");
 }
 
-// The real Stanford bunny, when scripts/fetch_bunny.sh has fetched it and CIERZO_BUNNY_PLY
-// points at it.
+// The real Stanford bunny, kept in scenes/meshes/.
 TEST_F(PlyTest, StanfordBunny) {
-    const char* env = std::getenv("CIERZO_BUNNY_PLY");
-    if (!env || !fs::exists(env)) GTEST_SKIP() << "set CIERZO_BUNNY_PLY to a fetched bunny.ply";
-    MeshData mesh = read_ply(env);
+    MeshData mesh = read_ply(fs::path(CIERZO_SOURCE_DIR) / "scenes/meshes/bunny.ply");
     EXPECT_EQ(mesh.positions.size(), 1839u * 3);
     EXPECT_EQ(mesh.indices.size(), 3674u * 3);
     EXPECT_TRUE(mesh.colors.empty());

@@ -87,18 +87,6 @@ inline std::vector<std::filesystem::path> all_scenes() {
     return out;
 }
 
-// The scene at `path`, or false when it reads a mesh file that is fetched at build time and
-// absent here (the bunny); any other error is thrown.
-inline bool load_present_scene(const std::filesystem::path& path, Scene& scene) {
-    try {
-        scene = load_scene(path);
-    } catch (const std::exception& e) {
-        if (std::string(e.what()).find(".ply") != std::string::npos) return false;
-        throw;
-    }
-    return true;
-}
-
 // Every variant renders `scene` to the same bits with 1, 2 and 3 threads.
 inline void expect_same_bits_for_any_threads(const Scene& scene) {
     for (const Variant& v : variants()) {
