@@ -1,11 +1,12 @@
 // Wavefront OBJ reader (see obj.h). tinyobjloader parses the file; before it, one pass over
 // the lines checks what tinyobjloader would accept silently (a number that does not parse
-// reads as 0 there, an out-of-range index is only a warning, and a face of 256 corners or
-// more has its size cut to a byte), so that every refusal names the line, and hands it only
-// the lines it has checked (v, vn, vt, f; the others become empty lines: tinyobjloader's
-// readers of lines cierzo does not use are not exposed to the file, e.g. its 'vw' reader
-// converts a huge joint id to int, undefined behaviour found by fuzzing). After it, the
-// counts of both passes must agree and every index is checked again before it is used.
+// reads as 0 there, an out-of-range index is only a warning), so that every refusal names
+// the line, and hands it only the lines it has checked (v, vn, vt, f; the others become
+// empty lines: tinyobjloader's readers of lines cierzo does not use are not exposed to the
+// file, e.g. its 'vw' reader converts a huge joint id to int, undefined behaviour found by
+// fuzzing). A face of more corners than tinyobjloader holds (it stores a face's size in a
+// byte) reaches it in pieces whose fans make the face's fan. After it, the counts of both
+// passes must agree and every index is checked again before it is used.
 #include "io/obj.h"
 
 #include <algorithm>
@@ -30,8 +31,9 @@ namespace cierzo {
 
 namespace {
 
-// A face may have at most this many corners (tinyobjloader stores a face's size in a byte).
-constexpr size_t kMaxCorners = 255;
+// tinyobjloader stores a face's size in a byte: a longer face is handed to it in pieces of
+// at most this many corners.
+constexpr size_t kMaxPieceCorners = 255;
 
 using Source = MeshSource;
 
@@ -55,6 +57,9 @@ bool parse_index(std::string_view token, int64_t& out) {
 // What the line pass counted: the elements tinyobjloader must then report.
 struct Counts {
     uint64_t vertices = 0, normals = 0, texcoords = 0, faces = 0, corners = 0;
+    // The faces and corners handed to tinyobjloader: a face of more than kMaxPieceCorners
+    // is several pieces, each after the first repeating two corners
+    uint64_t pieces = 0, piece_corners = 0;
     bool colors = true;          // every vertex has a colour
     bool corner_normals = true;  // every corner names a normal
     bool corner_texcoords = true;  // every corner names a texture coordinate
@@ -62,9 +67,9 @@ struct Counts {
     int64_t max_vertex = 0, max_normal = 0, max_texcoord = 0;
     size_t max_normal_line = 0, max_texcoord_line = 0;
     std::string checked;  // the file's checked lines, every other line emptied
-    // 'usemtl' names in order of first use, each face's, and the 'mtllib' files
+    // 'usemtl' names in order of first use, each piece's, and the 'mtllib' files
     std::vector<std::string> material_names;
-    std::vector<uint32_t> face_material;
+    std::vector<uint32_t> piece_material;
     std::vector<std::string> libraries;
     bool materials = false;  // some 'usemtl'
 };
@@ -78,9 +83,9 @@ Counts check_lines(std::string_view bytes, const Source& src) {
         const size_t line_no = lines.number;
         std::string_view rest = line;
         const std::string_view key = next_token(rest);
-        const bool used = key == "v" || key == "vn" || key == "vt" || key == "f";
-        if (used) c.checked.append(line);
-        c.checked.push_back('\n');
+        // (a face is written below, corner by corner)
+        if (key == "v" || key == "vn" || key == "vt") c.checked.append(line);
+        if (key != "f") c.checked.push_back('\n');
         if (key == "usemtl") {
             std::string_view name = rest;
             while (!name.empty() && (name.front() == ' ' || name.front() == '\t')) name.remove_prefix(1);
@@ -139,7 +144,12 @@ Counts check_lines(std::string_view bytes, const Source& src) {
             if (n == 0) src.fail_at(line_no, "a texture coordinate 'vt' needs 1 to 3 numbers");
             ++c.texcoords;
         } else if (key == "f") {
-            size_t corners = 0;
+            // Corners 1..n go to tinyobjloader as "f 1 2 .. 255", then "f 1 255 256 .. 508"
+            // and so on: each piece's fan from corner 1 goes on where the last one stopped,
+            // so the triangles are those of the face's fan
+            c.checked.append("f");
+            std::string_view first, previous;
+            size_t corners = 0, in_piece = 0;
             for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest)) {
                 // v, v/vt, v//vn or v/vt/vn
                 std::string_view part[3];
@@ -185,16 +195,27 @@ Counts check_lines(std::string_view bytes, const Source& src) {
                 } else {
                     c.corner_texcoords = false;
                 }
+                if (in_piece == kMaxPieceCorners) {
+                    c.checked.append("\nf ").append(first).append(" ").append(previous);
+                    c.piece_corners += in_piece;
+                    ++c.pieces;
+                    c.piece_material.push_back(current_material);
+                    in_piece = 2;
+                }
+                c.checked.append(" ").append(t);
+                if (corners == 0) first = t;
+                previous = t;
+                ++in_piece;
                 ++corners;
             }
+            c.checked.push_back('\n');
             if (corners < 3)
                 src.fail_at(line_no, fmt::format("a face needs at least 3 corners, not {}", corners));
-            if (corners > kMaxCorners)
-                src.fail_at(line_no, fmt::format("a face of {} corners (at most {} are "
-                                                 "supported)", corners, kMaxCorners));
             ++c.faces;
             c.corners += corners;
-            c.face_material.push_back(current_material);
+            c.piece_corners += in_piece;
+            ++c.pieces;
+            c.piece_material.push_back(current_material);
         }
     }
     if (uint64_t(c.max_vertex) > c.vertices)
@@ -242,12 +263,12 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
     }
     if (attrib.vertices.size() != counts.vertices * 3 ||
         attrib.normals.size() != counts.normals * 3 ||
-        attrib.texcoords.size() != counts.texcoords * 2 || faces != counts.faces ||
-        corners != counts.corners)
+        attrib.texcoords.size() != counts.texcoords * 2 || faces != counts.pieces ||
+        corners != counts.piece_corners)
         src.fail(fmt::format("the OBJ parser read {} vertices, {} normals and {} faces where "
                              "the file has {}, {} and {}: a line it reads otherwise",
                              attrib.vertices.size() / 3, attrib.normals.size() / 3, faces,
-                             counts.vertices, counts.normals, counts.faces));
+                             counts.vertices, counts.normals, counts.pieces));
 
     MeshData mesh;
     const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3;
@@ -307,8 +328,8 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
         if (colors) mesh.colors = attrib.colors;
     }
     mesh.indices.reserve(size_t(counts.corners - 2 * counts.faces) * 3);
-    size_t face = 0;  // (the shapes hold the faces in file order: every 'o' and 'g' line was
-                      // emptied, so there is one)
+    size_t piece = 0;  // (the shapes hold the pieces in file order: every 'o' and 'g' line
+                       // was emptied, so there is one)
     for (const tinyobj::shape_t& shape : shapes) {
         size_t at = 0;
         for (const unsigned char n : shape.mesh.num_face_vertices) {
@@ -317,11 +338,11 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
             for (size_t k = 2; k < n; ++k) {
                 const uint32_t next = vertex_of(shape.mesh.indices[at + k]);
                 mesh.indices.insert(mesh.indices.end(), {first, previous, next});
-                if (counts.materials) mesh.triangle_material.push_back(counts.face_material[face]);
+                if (counts.materials) mesh.triangle_material.push_back(counts.piece_material[piece]);
                 previous = next;
             }
             at += n;
-            ++face;
+            ++piece;
         }
     }
     if (counts.materials) mesh.material_names = counts.material_names;

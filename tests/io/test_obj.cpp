@@ -5,9 +5,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -15,6 +19,7 @@
 #include "io/mesh.h"
 #include "io/obj.h"
 #include "io/ply.h"
+#include "support/assimp_models.h"
 
 namespace {
 
@@ -142,24 +147,94 @@ TEST(Obj, NumberFormsReadAsTheirValues) {
     EXPECT_EQ(parse("v 0 0 0 1\nv 1 0 0 1.0\nv 0 1 0 1\nf 1 2 3\n").positions.size(), 9u);
 }
 
-TEST(Obj, LargestFaceIsFanTriangulated) {
+// n vertices (vertex i at (i, i² mod 7, 0), i from 1) and one face of all of them in order,
+// corner i written as `corner(i)`.
+std::string polygon(size_t n, const std::function<std::string(size_t)>& corner) {
     std::string text;
-    for (int i = 0; i < 255; ++i) {
-        text += "v ";
-        text += std::to_string(i);
-        text += ' ';
-        text += std::to_string(i * i % 7);
-        text += " 0\n";
-    }
+    for (size_t i = 1; i <= n; ++i)
+        text += "v " + std::to_string(i) + ' ' + std::to_string(i * i % 7) + " 0\n";
     text += "f";
-    for (int i = 1; i <= 255; ++i) {
-        text += ' ';
-        text += std::to_string(i);
+    for (size_t i = 1; i <= n; ++i) text += ' ' + corner(i);
+    return text + "\n";
+}
+
+std::string absolute(size_t i) { return std::to_string(i); }
+
+// The triangles of the fan over vertices 0..n-1 from vertex 0: (0, k, k + 1)
+std::vector<uint32_t> fan(size_t n) {
+    std::vector<uint32_t> t;
+    for (uint32_t k = 1; k + 1 < n; ++k) t.insert(t.end(), {0, k, k + 1});
+    return t;
+}
+
+// tinyobjloader holds faces of at most 255 corners: longer ones reach it in pieces, and
+// their triangles must still be the fan over the whole face
+TEST(Obj, FacesOfAnyNumberOfCornersAreFanTriangulated) {
+    for (const size_t n : {3, 4, 254, 255, 256, 257, 300, 508, 509, 510, 1000, 4321}) {
+        const MeshData m = parse(polygon(n, absolute));
+        EXPECT_EQ(m.positions.size(), 3 * n) << n << " corners";
+        EXPECT_EQ(m.indices, fan(n)) << n << " corners";
     }
-    text += "\n";
-    const MeshData m = parse(text);
-    ASSERT_EQ(m.indices.size(), 253u * 3);
-    EXPECT_EQ(m.indices[3 * 252 + 2], 254u);
+    // Relative indices (the first corner repeated in every piece stays the same vertex)
+    const size_t n = 1000;
+    EXPECT_EQ(parse(polygon(n, [&](size_t i) { return std::to_string(int64_t(i) - int64_t(n) - 1); }))
+                  .indices,
+              fan(n));
+    // Corner normals and texture coordinates (vertices split by the corners' combinations)
+    const MeshData split = parse("vn 0 0 1\nvt 0.5 0.5\n" +
+                                 polygon(300, [](size_t i) { return std::to_string(i) + "/1/1"; }));
+    EXPECT_EQ(split.indices, fan(300));
+    EXPECT_EQ(split.normals.size(), 3u * 300);
+    EXPECT_EQ(split.uvs.size(), 2u * 300);
+    // Each triangle keeps its face's material, the pieces' and the faces' after them
+    const MeshData two = parse("usemtl a\n" + polygon(n, absolute) + "usemtl b\nf 1 2 3\n");
+    std::vector<uint32_t> materials(n - 2, 0);
+    materials.push_back(1);
+    EXPECT_EQ(two.triangle_material, materials);
+    ASSERT_EQ(two.material_names.size(), 2u);
+    EXPECT_EQ(two.material_names[1], "b");
+}
+
+// A face of a million corners on one line (2 MB): read in time and memory in proportion to
+// the line (each corner costs what a triangle's does), as every other face
+TEST(Obj, AFaceOfAMillionCornersIsReadLikeAnyOther) {
+    const size_t n = 1000000;
+    std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf";
+    text.reserve(text.size() + 2 * n + 1);
+    for (size_t i = 0; i < n; ++i) text += i % 3 == 0 ? " 1" : i % 3 == 1 ? " 2" : " 3";
+    const MeshData m = parse(text + "\n");
+    ASSERT_EQ(m.indices.size(), 3 * (n - 2));
+    // Triangle k is (corner 1, corner k + 2, corner k + 3): vertices 0, (k+1) mod 3, (k+2) mod 3
+    for (const size_t k : {size_t(0), size_t(252), size_t(253), size_t(254), n / 2, n - 3}) {
+        EXPECT_EQ(m.indices[3 * k], 0u) << k;
+        EXPECT_EQ(m.indices[3 * k + 1], (k + 1) % 3) << k;
+        EXPECT_EQ(m.indices[3 * k + 2], (k + 2) % 3) << k;
+    }
+}
+
+// assimp's test model box_longline.obj: a cube whose first face has 936 corners (its 4
+// corners over and over); every face is read as the fan over its corners, as given
+TEST(Obj, AssimpsBoxLonglineIsReadWithItsFaceOf936Corners) {
+    const fs::path path = cierzo::test::kAssimpModels / "OBJ" / "box_longline.obj";
+    if (!fs::exists(path)) GTEST_SKIP() << cierzo::test::assimp_models_missing();
+    std::vector<uint32_t> expected;
+    size_t longest = 0;
+    std::ifstream in(path);
+    for (std::string line; std::getline(in, line);) {
+        std::istringstream words(line);
+        std::string key;
+        words >> key;
+        if (key != "f") continue;
+        std::vector<uint32_t> face;
+        for (uint32_t v; words >> v;) face.push_back(v - 1);
+        longest = std::max(longest, face.size());
+        for (size_t k = 1; k + 1 < face.size(); ++k)
+            expected.insert(expected.end(), {face[0], face[k], face[k + 1]});
+    }
+    ASSERT_EQ(longest, 936u);
+    const MeshData m = cierzo::read_obj(path);
+    EXPECT_EQ(m.positions.size(), 8u * 3);
+    EXPECT_EQ(m.indices, expected);
 }
 
 TEST(Obj, RefusalsNameTheFileTheLineAndTheProblem) {
@@ -194,13 +269,13 @@ TEST(Obj, RefusalsNameTheFileTheLineAndTheProblem) {
     using namespace std::string_literals;
     EXPECT_NE(refusal("v 0 0 0\nv 1 0\0 0\n"s).find("test.obj: line 2: has a NUL byte"),
               std::string::npos);
-    // A face of 256 corners (more than the parser can hold)
-    std::string big = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf";
-    for (int i = 0; i < 256; ++i) {
-        big += ' ';
-        big += std::to_string(i % 3 + 1);
-    }
-    EXPECT_NE(refusal(big + "\n").find("line 4: a face of 256 corners"), std::string::npos);
+    // A long face is checked corner by corner as a short one (the corner in its third piece)
+    EXPECT_NE(refusal(polygon(600, [](size_t i) { return i == 550 ? "0" : absolute(i); }))
+                  .find("test.obj: line 601: bad face corner '0'"),
+              std::string::npos);
+    EXPECT_NE(refusal(polygon(600, [](size_t i) { return absolute(i == 550 ? 601 : i); }))
+                  .find("line 601: face refers to vertex 601, but the file has 600"),
+              std::string::npos);
 }
 
 TEST(Obj, TruncatedFilesAreRefusedOrReadAsWhatTheyHold) {

@@ -20,6 +20,7 @@
 #include "io/mtl.h"
 #include "io/texture_image.h"
 #include "scene/scene_json.h"
+#include "support/assimp_models.h"
 #include "support/scratch.h"
 #include "support/render_variants.h"
 
@@ -559,10 +560,8 @@ std::optional<Scene> rendered_or_refused(const fs::path& path) {
 }
 
 TEST(RealFiles, EveryAssimpTestModelObjRendersOrIsRefusedCleanly) {
-    const fs::path root = "/usr/share/assimp/models";
-    if (!fs::exists(root / "OBJ"))
-        GTEST_SKIP() << root << " is missing (Debian package assimp-testmodels, which "
-                                "scripts/install_deps.sh installs for the tests)";
+    const fs::path root = test::kAssimpModels;
+    if (!fs::exists(root / "OBJ")) GTEST_SKIP() << test::assimp_models_missing();
     size_t rendered = 0, refused = 0;
     for (const char* folder : {"OBJ", "invalid"})
         for (const auto& entry : fs::directory_iterator(root / folder)) {
@@ -587,10 +586,8 @@ TEST(RealFiles, EveryAssimpTestModelObjRendersOrIsRefusedCleanly) {
 }
 
 TEST(RealFiles, EveryAssimpTestModelPlyRendersOrIsRefusedCleanly) {
-    const fs::path root = "/usr/share/assimp/models/PLY";
-    if (!fs::exists(root))
-        GTEST_SKIP() << root << " is missing (Debian package assimp-testmodels, which "
-                                "scripts/install_deps.sh installs for the tests)";
+    const fs::path root = test::kAssimpModels / "PLY";
+    if (!fs::exists(root)) GTEST_SKIP() << test::assimp_models_missing();
     size_t rendered = 0;
     bool wuson = false;
     for (const auto& entry : fs::directory_iterator(root)) {
