@@ -193,12 +193,19 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
         const LineReader r{src, line_no, key};
         if (key == "newmtl") {
             const std::string_view n = trim(rest);
-            if (n.empty()) r.fail("'newmtl' needs a name");
             if (lib.find(n)) r.fail(fmt::format("material '{}' is defined twice", n));
             lib.materials.emplace_back();
             m = &lib.materials.back();
-            m->name = std::string(n);
             m->line = line_no;
+            if (n.empty()) {
+                // A name with '#' in it: no 'newmtl' can give it (the line ends at '#')
+                m->name = fmt::format("#unnamed-line-{}", line_no);
+                lib.warnings.push_back(fmt::format("{}: line {}: 'newmtl' without a name: the "
+                                                   "material is called '{}'",
+                                                   src.path, line_no, m->name));
+            } else {
+                m->name = std::string(n);
+            }
             continue;
         }
         if (kIgnored.count(key)) continue;

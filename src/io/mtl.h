@@ -46,8 +46,9 @@ struct MtlMaterial {
 struct MtlLibrary {
     std::filesystem::path path;
     std::vector<MtlMaterial> materials;
-    // Keys cierzo cannot model (bump and normal maps, PBR extensions, reflection maps...):
-    // one message per key and file, "FILE: line N: ...", in file order
+    // Keys cierzo cannot model (bump and normal maps, PBR extensions, reflection maps...),
+    // one message per key and file, and each 'newmtl' without a name: "FILE: line N: ...",
+    // in file order
     std::vector<std::string> warnings;
     const MtlMaterial* find(std::string_view name) const {
         for (const MtlMaterial& m : materials)
@@ -59,7 +60,9 @@ struct MtlLibrary {
 // Throws InputError naming the file and line: a number that does not parse or is out of
 // range (colours finite and >= 0, Ns in [0, 1e6], Ni in [0, 1000], d and Tr in [0, 1], illum 0..10),
 // a colour given as a spectral curve or in CIE XYZ, a value before the first 'newmtl', a map
-// without a file name, a name defined twice.
+// without a file name, a name defined twice. A 'newmtl' without a name is a warning; its
+// material is called "#unnamed-line-N" (N its line), which no 'newmtl' can name, as '#'
+// starts a comment.
 MtlLibrary read_mtl(const std::filesystem::path& path);
 MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name);
 

@@ -267,6 +267,38 @@ TEST(Mtl, EveryKeyIsReadAndBadValuesNameTheLine) {
               std::string::npos);
 }
 
+// A 'newmtl' without a name (Blender 2.61 wrote one: assimp's empty_mat.mtl) is a warning;
+// the material keeps its values under a made-up name no 'newmtl' can give
+TEST(Mtl, NewmtlWithoutANameIsAWarningAndAMadeUpName) {
+    const MtlLibrary lib = parse_mtl(
+        "newmtl \t\n"
+        "Kd 0.25 0.5 0.75\n"
+        "Ns 10\n"
+        "newmtl unnamed-line-1\n"
+        "Kd 0.125\n"
+        "newmtl # only a comment\n"
+        "Ks 0.5\n",
+        "lib.mtl");
+    ASSERT_EQ(lib.materials.size(), 3u);
+    const MtlMaterial& first = lib.materials[0];
+    EXPECT_EQ(first.name, "#unnamed-line-1");
+    EXPECT_EQ(first.line, 1u);
+    EXPECT_FLOAT_EQ(first.kd_rgb[2], 0.75f);
+    EXPECT_FLOAT_EQ(first.ns, 10.0f);
+    EXPECT_EQ(lib.materials[2].name, "#unnamed-line-6");
+    EXPECT_FLOAT_EQ(lib.materials[2].ks_rgb[0], 0.5f);
+    // The real material of the name closest to it is still itself
+    ASSERT_NE(lib.find("unnamed-line-1"), nullptr);
+    EXPECT_FLOAT_EQ(lib.find("unnamed-line-1")->kd_rgb[0], 0.125f);
+    EXPECT_EQ(lib.find(""), nullptr);
+    ASSERT_EQ(lib.warnings.size(), 2u);
+    EXPECT_NE(lib.warnings[0].find("lib.mtl: line 1: 'newmtl' without a name: the material is "
+                                   "called '#unnamed-line-1'"),
+              std::string::npos)
+        << lib.warnings[0];
+    EXPECT_NE(lib.warnings[1].find("lib.mtl: line 6:"), std::string::npos) << lib.warnings[1];
+}
+
 // A folder with an OBJ of two quads (materials a and b, and a triangle before any usemtl),
 // its MTL, and a 2 × 2 PNG.
 struct ObjFolder {
@@ -608,6 +640,24 @@ TEST(RealFiles, EveryAssimpTestModelPlyRendersOrIsRefusedCleanly) {
     if (fs::exists(root / "Wuson.ply")) {
         EXPECT_TRUE(wuson);
     }
+}
+
+// assimp's empty_mat.obj: its library's one material has no name ('newmtl ' alone), and its
+// faces 'usemtl ' none either (the default material)
+TEST(RealFiles, AssimpsEmptyMatLoadsWithAWarningForItsUnnamedMaterial) {
+    const fs::path obj = test::kAssimpModels / "OBJ" / "empty_mat.obj";
+    if (!fs::exists(obj)) GTEST_SKIP() << test::assimp_models_missing();
+    const MtlLibrary lib = read_mtl(obj.parent_path() / "empty_mat.mtl");
+    ASSERT_EQ(lib.materials.size(), 1u);
+    EXPECT_EQ(lib.materials[0].name, "#unnamed-line-3");
+    EXPECT_FLOAT_EQ(lib.materials[0].kd_rgb[1], 0.8f);
+    EXPECT_EQ(lib.materials[0].illum, 2);
+    const Scene scene = load_scene(obj);
+    EXPECT_FALSE(scene.meshes.empty());
+    bool warned = false;
+    for (const std::string& w : scene.warnings)
+        warned |= w.find("empty_mat.mtl: line 3: 'newmtl' without a name") != std::string::npos;
+    EXPECT_TRUE(warned);
 }
 
 TEST(Mtl, GlassWithoutAnIndexIsRefusedWithItsLine) {
