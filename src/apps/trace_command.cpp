@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "integrators/registry.h"
 #include "integrators/wavefront/wavefront.h"
+#include "io/input_file.h"
 #include "scene/scene_json.h"
 
 namespace cierzo {
@@ -38,8 +39,9 @@ TraceArgs g_args;
 // The ray file: magic "CZRAYS1\0", uint64 count, then count records of 7 float32 (origin,
 // direction, tmax), little-endian.
 std::vector<float> read_rays(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(path.string() + ": cannot open the ray file");
+    std::ifstream in;
+    if (input_file_exists(path)) in.open(path, std::ios::binary);
+    if (!in.is_open()) throw InputError(path.string() + ": cannot open the ray file");
     char magic[8];
     uint64_t count = 0;
     if (!in.read(magic, 8) || std::memcmp(magic, "CZRAYS1\0", 8) != 0)

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "io/input_file.h"
 #include "io/output_file.h"
 #include "integrators/registry.h"
 
@@ -284,9 +285,7 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
 }
 
 Checkpoint read_checkpoint(const fs::path& path) {
-    std::error_code ec;
-    if (!fs::is_regular_file(path, ec))
-        throw InputError(path.string() + ": no such checkpoint file");
+    if (!input_file_exists(path)) throw InputError(path.string() + ": no such checkpoint file");
     try {
         Imf::InputFile file(path.c_str());
         const Imf::Header& header = file.header();

@@ -1,6 +1,7 @@
 // Image files: float32 OpenEXR (ZIP, string metadata, extra layers) and PFM for HDR data;
 // 8-bit PNG and BMP (through stb_image_write) and binary PPM for tone-mapped output.
 #include "core/error.h"
+#include "io/input_file.h"
 #include "io/output_file.h"
 #include "io/image.h"
 
@@ -66,15 +67,11 @@ void check_writable_image(const fs::path& path, const Image& image) {
     }
 }
 
-// Fails with a clear message for a missing path or a directory before a format reader sees it.
+// Fails with a clear message for a missing path, or one that is not a regular file
+// (input_file_exists), before a format reader opens it.
 void check_readable_file(const fs::path& path) {
-    std::error_code ec;
-    const fs::file_status status = fs::status(path, ec);
-    if (!fs::exists(status)) {
+    if (!input_file_exists(path)) {
         read_error(path, "cannot read: " + std::generic_category().message(ENOENT));
-    }
-    if (fs::is_directory(status)) {
-        read_error(path, "cannot read: " + std::generic_category().message(EISDIR));
     }
 }
 

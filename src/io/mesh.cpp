@@ -7,20 +7,17 @@
 #include <string>
 
 #include "core/error.h"
+#include "io/input_file.h"
 #include "io/mesh_file.h"
 #include "io/obj.h"
 #include "io/ply.h"
 
 namespace cierzo {
 
-std::string read_mesh_bytes(const std::filesystem::path& path, const char* format) {
+std::string read_mesh_bytes(const std::filesystem::path& path) {
     const std::string name = path.string();
     const auto fail = [&](const std::string& what) { throw InputError(name + ": " + what); };
-    std::error_code ec;
-    const auto status = std::filesystem::status(path, ec);
-    if (!std::filesystem::exists(status)) fail("file does not exist");
-    if (std::filesystem::is_directory(status))
-        fail(std::string("is a directory, not a ") + format + " file");
+    if (!input_file_exists(path)) fail("file does not exist");
     std::ifstream in(path, std::ios::binary);
     if (!in) fail("cannot open file for reading");
     in.seekg(0, std::ios::end);

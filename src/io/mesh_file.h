@@ -56,8 +56,8 @@ struct TextLines {
     }
 };
 
-// The whole file; throws InputError naming it when it is missing, a directory (`format` says
-// what it should have been, e.g. "PLY") or unreadable.
-std::string read_mesh_bytes(const std::filesystem::path& path, const char* format);
+// The whole file (a mesh, an MTL library, an image texture); throws InputError naming it when
+// it is missing, not a regular file (input_file_exists) or unreadable.
+std::string read_mesh_bytes(const std::filesystem::path& path);
 
 }  // namespace cierzo

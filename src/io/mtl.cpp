@@ -264,7 +264,7 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
 }
 
 MtlLibrary read_mtl(const std::filesystem::path& path) {
-    return parse_mtl(read_mesh_bytes(path, "MTL"), path);
+    return parse_mtl(read_mesh_bytes(path), path);
 }
 
 }  // namespace cierzo

@@ -351,7 +351,7 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
 }
 
 MeshData read_obj(const std::filesystem::path& path) {
-    return parse_obj(read_mesh_bytes(path, "OBJ"), path);
+    return parse_obj(read_mesh_bytes(path), path);
 }
 
 }  // namespace cierzo

@@ -753,7 +753,7 @@ void read_body(Reader& reader, const Header& header, const MeshLayout& layout, M
 }  // namespace
 
 MeshData read_ply(const std::filesystem::path& path) {
-    const std::string file = read_mesh_bytes(path, "PLY");
+    const std::string file = read_mesh_bytes(path);
     return parse_ply(file, path);
 }
 

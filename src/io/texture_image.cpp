@@ -268,7 +268,7 @@ TextureImage decode_texture_image(const std::string& bytes, const fs::path& name
 
 TextureImage read_texture_image(const fs::path& path, bool srgb) {
     if (lower_extension(path) == ".exr") return read_exr_texture(path);
-    return decode_texture_image(read_mesh_bytes(path, "texture image"), path, srgb);
+    return decode_texture_image(read_mesh_bytes(path), path, srgb);
 }
 
 }  // namespace cierzo

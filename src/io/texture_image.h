@@ -33,8 +33,9 @@ struct TextureImage {
 
 // Reads an image texture; `srgb` says whether an 8-bit file's colours are sRGB-encoded
 // (colour maps) or linear (data maps; HDR and EXR files are always linear). Throws InputError
-// naming the file: missing, a directory, not an image of a known format, truncated or
-// undecodable, of absurd dimensions, or holding a value that is negative, NaN or infinite.
+// naming the file: missing, not a regular file (a directory, a FIFO, a device: refused before
+// it is opened), not an image of a known format, truncated or undecodable, of absurd
+// dimensions, or holding a value that is negative, NaN or infinite.
 TextureImage read_texture_image(const std::filesystem::path& path, bool srgb);
 
 // The same from bytes in memory, for every format but EXR (which read_texture_image reads

@@ -19,6 +19,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
+#include "io/input_file.h"
 #include "io/mesh.h"
 #include "io/mtl.h"
 #include "integrators/registry.h"
@@ -1339,8 +1340,9 @@ Scene load_scene_untimed(const fs::path& path) {
         for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
         if (ext == ".obj" || ext == ".ply") return load_mesh_as_scene(path);
     }
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(path.string() + ": cannot open scene file");
+    std::ifstream in;
+    if (input_file_exists(path)) in.open(path, std::ios::binary);
+    if (!in.is_open()) throw InputError(path.string() + ": cannot open scene file");
     Loader l(path);
     json root;
     {

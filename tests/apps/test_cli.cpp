@@ -27,6 +27,7 @@
 #include "integrators/wavefront/isa.h"
 #include "support/emulator.h"
 #include "support/program_test.h"
+#include "support/scratch.h"
 
 namespace {
 
@@ -886,4 +887,12 @@ TEST_F(cli, TraceRefusesABadRayFileNamingIt) {
         EXPECT_NE(r.err.find(file.string()), std::string::npos) << r.err;
         EXPECT_NE(r.err.find(c.phrase), std::string::npos) << r.err;
     }
+    // A FIFO, refused before it is opened (its open would wait for a writer; a missing file
+    // and a folder are the command line's to refuse)
+    const fs::path fifo = cierzo::test::make_fifo(dir_ / "fifo.rays");
+    const Outcome r = run(quote(scene) + " --rays " + quote(fifo), "trace");
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_NE(r.err.find(fifo.string() + ": is a FIFO (named pipe), not a regular file"),
+              std::string::npos)
+        << r.err;
 }

@@ -469,6 +469,51 @@ TEST(Mtl, BadMaterialsAndTexturesAreRefusedNamingTheFile) {
     EXPECT_NE(m.find("'wrap'"), std::string::npos) << m;
 }
 
+// A map, a library, a mesh or an environment map that is a FIFO (whose open waits for a
+// writer: `cierzo render` waited for ever on such a map_Kd) or a directory is refused at once,
+// naming it and where the scene names it
+TEST(Mtl, TexturesLibrariesMeshesAndEnvironmentsThatAreNotFilesAreRefusedAtOnce) {
+    const char* fifo_is = ": is a FIFO (named pipe), not a regular file";
+    const ObjFolder f("not-files", "newmtl a\nKd 0.5\nmap_Kd tex.fifo\nnewmtl b\nKd 0.5\n");
+    const fs::path texture = test::make_fifo(f.dir / "tex.fifo");
+    std::string m = test::refusal_without_opening(texture, [&] { f.load(); });
+    EXPECT_NE(m.find("model.mtl: line 3"), std::string::npos) << m;
+    EXPECT_NE(m.find(texture.string() + fifo_is), std::string::npos) << m;
+
+    const ObjFolder d("directory-texture", "newmtl a\nmap_Kd maps\nnewmtl b\n");
+    fs::create_directories(d.dir / "maps");
+    m = refusal_of([&] { d.load(); });
+    EXPECT_NE(m.find((d.dir / "maps").string() + ": is a directory, not a regular file"),
+              std::string::npos)
+        << m;
+
+    const ObjFolder l("fifo-library", "");
+    const fs::path library = test::make_fifo(l.dir / "model.mtl");
+    m = test::refusal_without_opening(library, [&] { l.load(); });
+    EXPECT_NE(m.find("material library (mtllib): " + library.string() + fifo_is),
+              std::string::npos)
+        << m;
+
+    const fs::path mesh = test::make_fifo(f.dir / "pipe.ply");
+    write_text(f.dir / "mesh.json",
+               R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0]},
+                   "materials": {"grey": {"kd": 0.5}},
+                   "objects": [{"type": "mesh", "file": "pipe.ply", "material": "grey"}]})");
+    m = test::refusal_without_opening(mesh, [&] { load_scene(f.dir / "mesh.json"); });
+    EXPECT_NE(m.find("mesh file: " + mesh.string() + fifo_is), std::string::npos) << m;
+
+    const fs::path sky = test::make_fifo(f.dir / "sky.exr");
+    write_text(f.dir / "sky.json",
+               R"({"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0]},
+                   "environment": {"emission": {"texture": "image", "file": "sky.exr"}},
+                   "materials": {"grey": {"kd": 0.5}},
+                   "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1,
+                                "material": "grey"}]})");
+    m = test::refusal_without_opening(sky, [&] { load_scene(f.dir / "sky.json"); });
+    EXPECT_NE(m.find("sky.json: environment"), std::string::npos) << m;
+    EXPECT_NE(m.find(sky.string() + fifo_is), std::string::npos) << m;
+}
+
 // ---- Renders ---------------------------------------------------------------------------
 
 // A plane textured with a fine checkerboard (many tiles per pixel) under a point light, and
