@@ -18,6 +18,14 @@ inline constexpr int kWideBvhStackSize = (kWideBvhWidth - 1) * kBvhMaxDepth + 1;
 // Never a leaf above this many primitives (at most two blocks of 8).
 inline constexpr uint32_t kBvhMaxLeafSize = 2 * kWideBvhWidth;
 
+// The most rays a thread keeps in flight through the tree at once (kernels/traverse_group.h;
+// FlatScene::ray_group).
+inline constexpr int kMaxTraversalGroup = 64;
+// Trees of at most this many wide nodes (a triangle tree takes about 2 kB a node with its
+// leaf blocks, some 1 MB in all) stay in a core's L2 cache during a traversal: what a ray
+// goes on to read is not prefetched there (kernels/traverse.h).
+inline constexpr uint32_t kPrefetchAbove = 512;
+
 // Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches
 // (Ize, "Robust BVH Ray Traversal", JCGT 2013).
 inline constexpr float kBvhFarScale = 1.0f + 2.0f * (3.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f));

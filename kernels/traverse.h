@@ -205,7 +205,8 @@ inline LeafRay<N> make_leaf_ray(const TraversalRay& r) {
 // Lanes `hits` of a block tested at distances th: the nearest below t (t and lane updated;
 // the first on a tie).
 template <class N>
-inline void nearest_lane(uint32_t hits, const N& th, uint32_t lane0, float& t, uint32_t& lane) {
+inline void nearest_lane(uint32_t hits, const N& th, uint32_t lane0,
+                                                float& t, uint32_t& lane) {
     alignas(32) float ts[kNodeLanes<N>];
     store_lanes(th, ts);
     for (; hits; hits &= hits - 1) {
@@ -218,10 +219,12 @@ inline void nearest_lane(uint32_t hits, const N& th, uint32_t lane0, float& t, u
 // lane): whether one is hit below t; closest hit: t and lane (block lane) updated to the
 // nearest. alpha: the masks (alpha_filter; object and world as there), or null.
 template <bool kAnyHit, class N>
-inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r, const LeafRay<N>& lr,
-                              uint32_t start, uint32_t count, float& t, uint32_t& lane,
-                              const AlphaTable* alpha = nullptr, int32_t object = -1,
-                              const TraversalRay* world = nullptr) {
+inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r,
+                                                     const LeafRay<N>& lr, uint32_t start,
+                                                     uint32_t count, float& t, uint32_t& lane,
+                                                     const AlphaTable* alpha = nullptr,
+                                                     int32_t object = -1,
+                                                     const TraversalRay* world = nullptr) {
     constexpr int kLanes = kNodeLanes<N>;
     const int32_t* axis = r.axis;
     // The vertices are handed to the kernel with their axes permuted as the origin is, so
@@ -258,8 +261,9 @@ inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r, const L
 
 // A leaf of sphere blocks, likewise.
 template <bool kAnyHit, class N>
-inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t start,
-                            uint32_t count, float& t, uint32_t& lane) {
+inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr,
+                                                   uint32_t start, uint32_t count, float& t,
+                                                   uint32_t& lane) {
     constexpr int kLanes = kNodeLanes<N>;
     bool any = false;
     const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
@@ -279,226 +283,235 @@ inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t s
     return any;
 }
 
-// ---- Traversal -----------------------------------------------------------------------------
-// Trees of at most this many wide nodes (a triangle tree takes about 2 kB a node with its
-// leaf blocks: some 1 MB in all) stay in a core's L2 cache during a traversal, and are not
-// prefetched: on a Xeon (AVX-512) skipping it made renders of a 36-node tree up to 7% faster
-// (a 22-node one unchanged) and of a 401-node mesh tree (820 kB, instanced 100 times) 3%; on
-// the 6,609-node tree of a 200k-triangle mesh (13.6 MB) the prefetch made traversal 14%
-// faster on a Zen 3 (AVX2) and is neutral on that Xeon.
-inline constexpr uint32_t kPrefetchAbove = 512;
+template <bool kAnyHit, class N, bool kTop = true>
+[[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax, BvhHit& hit,
+              const AlphaTable* alpha = nullptr, int32_t object = -1,
+              const TraversalRay* world = nullptr, uint32_t root = 0);
 
-// A ray through the tree. A node's children are tested at once with the robust slab test
-// over [0, t] (a NaN distance leaves the interval as it was; far distances scaled by
-// kBvhFarScale). The leaves entered are tested there and then, in slot order, each unless a
-// hit so far is nearer than its box: that spares them the stack, and their hits shorten the
-// interval before any inner child is visited. The inner children entered go on the stack
-// with their entry distance, the nearest on top for closest hit, and one popped beyond the
-// closest hit so far is dropped. Triangle blocks are tested with the watertight kernel, the
-// ray broadcast and one triangle per lane; sphere blocks likewise; quadrics one at a time;
-// an instance by mapping the ray into its space (t is unchanged) and traversing its mesh's
-// tree (kTop = false: a mesh's tree holds triangles only).
+// One leaf of any kind (kind, start, count: a node's slot) for ray r (lr: in every lane):
+// whether it is hit below t; closest hit: t and `best` updated to the nearest, the first on a
+// tie. The one leaf test of every traverser: triangle and sphere blocks as above, quadrics
+// one at a time, an instance by mapping the ray into its space (t is unchanged there) and
+// traversing its mesh's tree (kTop = false: a mesh's tree holds triangles only).
+template <bool kAnyHit, class N, bool kTop>
+inline bool hit_leaf(const BvhView& bvh, const TraversalRay& r,
+                                            const LeafRay<N>& lr, uint32_t kind, uint32_t start,
+                                            uint32_t count, float& t, BvhHit& best,
+                                            const AlphaTable* alpha, int32_t object,
+                                            const TraversalRay* world) {
+    uint32_t lane = best.lane;
+    if (kind == kLeafTriangles) {
+        if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object, world))
+            return false;
+        if constexpr (!kAnyHit) best = {kLeafTriangles, lane, -1};
+        return true;
+    }
+    if constexpr (kTop) {
+        if (kind == kLeafSpheres) {
+            if (!hit_sphere_leaf<kAnyHit>(bvh, lr, start, count, t, lane)) return false;
+            if constexpr (!kAnyHit) best = {kLeafSpheres, lane, -1};
+            return true;
+        }
+        bool any = false;
+        const Ray<float> ray1{{r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}};
+        for (uint32_t j = start; j < start + count; ++j) {
+            const uint32_t item = bvh.items[j];
+            if (kind == kLeafQuadrics) {
+                const float* q = bvh.quadrics + 16 * size_t(item);
+                const QuadricCoefficients<float> c{q[0], q[1], q[2], q[3], q[4],
+                                                   q[5], q[6], q[7], q[8], q[9]};
+                float th;
+                if (!intersect_quadric(ray1, c, Vec3f(q[10], q[11], q[12]),
+                                       Vec3f(q[13], q[14], q[15]), t, th))
+                    continue;
+                if constexpr (kAnyHit) return true;
+                any = true;
+                t = th, best = {kLeafQuadrics, item, -1};
+            } else {
+                const BvhInstance& inst = bvh.instances[item];
+                const Vec3f o = affine_point(inst.to_object, r.o);
+                const Vec3f d = linear_map(inst.to_object, 4, r.d);
+                const TraversalRay local = make_traversal_ray(o, d);
+                BvhHit h;
+                if (!traverse<kAnyHit, N, false>(*inst.geometry, local, t, h, alpha,
+                                                 int32_t(inst.mesh), &r))
+                    continue;
+                if constexpr (kAnyHit) return true;
+                any = true;
+                best = {kLeafTriangles, h.lane, int32_t(item)};
+            }
+        }
+        return any;
+    }
+    return false;
+}
+
+// ---- Nodes ---------------------------------------------------------------------------------
+// A ray in every lane, as the node test reads it: origin, reciprocal direction, the far
+// planes' reciprocal scaled by kBvhFarScale once (Ize's robust far distances), and the
+// bounds row of each axis' near and far plane.
+template <class N>
+struct NodeRay {
+    N org[3], inv[3], inv_far[3];
+    int near_row[3], far_row[3];
+};
+
+template <class N>
+inline NodeRay<N> make_node_ray(const TraversalRay& r) {
+    NodeRay<N> n;
+    for (int k = 0; k < 3; ++k) {
+        n.org[k] = N(r.o[k]), n.inv[k] = N(r.inv[k]), n.inv_far[k] = N(r.inv[k] * kBvhFarScale);
+        n.near_row[k] = std::signbit(r.inv[k]) ? k + 3 : k;
+        n.far_row[k] = std::signbit(r.inv[k]) ? k : k + 3;
+    }
+    return n;
+}
+
+// The node test, the one of every single-ray traverser: the robust slab test of a node's
+// children over [0, t] (a NaN distance leaves the interval as it was; far distances scaled
+// by kBvhFarScale). Returns the slots entered (bit i: child i) and writes each child's entry
+// distance. Unused slots have empty boxes (min +inf, max -inf), which no ray enters, but a
+// NaN direction leaves every interval as it was: they are masked off too.
+template <class N>
+inline uint32_t enter_children(const NodeRay<N>& n, const WideBvhNode& node,
+                                                      float t, float entry[kWideBvhWidth]) {
+    constexpr int kLanes = kNodeLanes<N>;
+    uint32_t enter = 0;
+    for (int at = 0; at < kWideBvhWidth; at += kLanes) {
+        N t0(0.0f), t1(t);
+        for (int k = 0; k < 3; ++k) {
+            const N near = load_lanes<N>(node.bounds[n.near_row[k]] + at);
+            const N far = load_lanes<N>(node.bounds[n.far_row[k]] + at);
+            t0 = slab_max((near - n.org[k]) * n.inv[k], t0);
+            t1 = slab_min((far - n.org[k]) * n.inv_far[k], t1);
+        }
+        enter |= mask_bits(t0 <= t1) << at;
+        store_lanes(t0, entry + at);
+    }
+    return enter & ((1u << node.slots) - 1u);
+}
+
+// Every cache line of `bytes` from p, into the caches.
+inline void prefetch_lines(const void* p, size_t bytes) {
+    const char* c = static_cast<const char*>(p);
+    const char* end = c + bytes;
+    for (c = reinterpret_cast<const char*>(reinterpret_cast<uintptr_t>(c) & ~uintptr_t(63));
+         c < end; c += 64)
+        __builtin_prefetch(c);
+}
+
+// What a ray goes on to read after entering the slots `enter` of `node`: the blocks of the
+// leaves entered (triangles and spheres; `whole`: all their lines, else the first four) and
+// the inner children's nodes.
+inline void prefetch_children(const BvhView& bvh, const WideBvhNode& node,
+                                                     uint32_t enter, bool whole) {
+    for (uint32_t bits = enter; bits; bits &= bits - 1) {
+        const int i = std::countr_zero(bits);
+        if (!((node.leaves >> i) & 1u)) {
+            prefetch_lines(bvh.nodes + node.child[i], sizeof(WideBvhNode));
+            continue;
+        }
+        const uint32_t blocks = (node.count[i] + kWideBvhWidth - 1) / kWideBvhWidth;
+        const void* p;
+        size_t bytes;
+        if (node.kind[i] == kLeafTriangles) {
+            p = bvh.triangles + node.child[i], bytes = blocks * sizeof(TriangleBlock);
+        } else if (node.kind[i] == kLeafSpheres) {
+            p = bvh.spheres + node.child[i], bytes = blocks * sizeof(SphereBlock);
+        } else {
+            continue;
+        }
+        prefetch_lines(p, whole ? bytes : std::min<size_t>(bytes, 256));
+    }
+}
+
+// The inner children of `enter` after a node test: the nearest into `next` (the first in
+// slot order, for any hit), the others pushed onto `stack` (size updated), for closest hit
+// sorted by entry distance with the nearest on top. Whether there was one.
+template <bool kAnyHit, class Entry>
+inline bool push_children(const WideBvhNode& node, uint32_t enter,
+                                                 const float entry[kWideBvhWidth], Entry& next,
+                                                 Entry* stack, int& size) {
+    if (enter == 0) return false;
+    int i = std::countr_zero(enter);
+    next = {node.child[i], entry[i]};
+    const int base = size;
+    for (enter &= enter - 1; enter; enter &= enter - 1) {
+        i = std::countr_zero(enter);
+        Entry other{node.child[i], entry[i]};
+        if constexpr (!kAnyHit)
+            if (other.t < next.t) std::swap(other, next);
+        int j = size++;
+        if constexpr (!kAnyHit)
+            for (; j > base && stack[j - 1].t < other.t; --j) stack[j] = stack[j - 1];
+        stack[j] = other;
+    }
+    return true;
+}
+
+// An entry of a traversal stack: an inner node and where the ray enters its box.
+struct TraversalEntry {
+    uint32_t node;
+    float t;
+};
+
+// ---- Traversal -----------------------------------------------------------------------------
+// (kPrefetchAbove, kernels/bvh_layout.h: skipping the prefetch in small trees made renders of
+// a 36-node tree up to 7% faster on a Xeon, AVX-512, a 22-node one unchanged, and of a
+// 401-node mesh tree, 820 kB, instanced 100 times, 3%; on the 6,609-node tree of a
+// 200k-triangle mesh, 13.6 MB, the prefetch made traversal 14% faster on a Zen 3, AVX2, and
+// was neutral on that Xeon.)
+
+// A ray through the tree. A node's children are tested at once (enter_children). The leaves
+// entered are tested there and then, in slot order, each unless a hit so far is nearer than
+// its box: that spares them the stack, and their hits shorten the interval before any inner
+// child is visited. The inner children entered go on the stack with their entry distance,
+// the nearest on top for closest hit (push_children), and one popped beyond the closest hit
+// so far is dropped. Leaves are tested by hit_leaf.
 // Closest hit: whether anything is hit in (0, tmax), then tmax and `hit`: the nearest, and
 // on a tie the first found. Any hit (kAnyHit): whether anything is, stopping at the first.
 // `root`: the node to start from (a ray stream's subtree, kernels/traverse_stream.h).
+// The interleaved traversal of many rays (kernels/traverse_group.h) takes each ray through
+// exactly these steps, and so finds the same hits.
 // (flatten: the kernels are inlined, so the identity picks below fold away.)
-template <bool kAnyHit, class N, bool kTop = true>
+template <bool kAnyHit, class N, bool kTop>
 [[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax,
-                               BvhHit& hit, const AlphaTable* alpha = nullptr,
-                               int32_t object = -1, const TraversalRay* world = nullptr,
-                               uint32_t root = 0) {
-    using B = Mask<N>;
-    constexpr int kLanes = kNodeLanes<N>;
+                               BvhHit& hit, const AlphaTable* alpha, int32_t object,
+                               const TraversalRay* world, uint32_t root) {
     if (bvh.node_count == 0) return false;
-    // The ray in every lane, and the bounds row of each axis' near and far plane
-    // (Ize's robust far distances: the far planes' reciprocal scaled by 1 + 2γ(3) once)
-    N org[3], inv[3], inv_far[3];
-    int near_row[3], far_row[3];
-    for (int k = 0; k < 3; ++k) {
-        org[k] = N(r.o[k]), inv[k] = N(r.inv[k]), inv_far[k] = N(r.inv[k] * kBvhFarScale);
-        near_row[k] = std::signbit(r.inv[k]) ? k + 3 : k;
-        far_row[k] = std::signbit(r.inv[k]) ? k : k + 3;
-    }
-    // The triangle kernel's shear is the same in every lane, so the origin and the vertices
-    // are handed to it with their axes already permuted (kx, ky, kz): its per-lane picks are
-    // then the identity, and it computes exactly what it would unpermuted (it reads no
-    // direction)
-    const int32_t* axis = r.axis;
-    const Ray<N> tri_ray{{N(r.o[axis[0]]), N(r.o[axis[1]]), N(r.o[axis[2]])}, Vec3<N>(N(0.0f))};
-    const B yes(true), no(false);
-    const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes}, {no, no},
-                            N(r.shear[0]), N(r.shear[1]), N(r.shear[2])};
-    const Ray<N> ray{{N(r.o[0]), N(r.o[1]), N(r.o[2])}, {N(r.d[0]), N(r.d[1]), N(r.d[2])}};
+    const NodeRay<N> nr = make_node_ray<N>(r);
+    const LeafRay<N> lr = make_leaf_ray<N>(r);
     float t = tmax;  // the closest hit so far (a local: the stack cannot alias it)
     BvhHit best{0, 0, -1};
     bool found = false;
 
-    // One leaf (kind, start, count); whether it hit (closest hit: t and best updated). (The
-    // triangle and sphere blocks' loops are those of hit_triangle_leaf and hit_sphere_leaf,
-    // which ray streams call, written out here: called here, they cost 2.9% more
-    // instructions in the wavefront's render loop, callgrind, AVX2.)
-    const auto test_leaf = [&](uint32_t kind, uint32_t start, uint32_t count) {
-        bool any = false;
-        // Lanes `hits` of a block test at distances th: the nearest below t, first on a tie
-        const auto record = [&](uint32_t hits, const N& th, uint32_t lane0) {
-            alignas(32) float ts[kLanes];
-            store_lanes(th, ts);
-            for (; hits; hits &= hits - 1) {
-                const uint32_t h = uint32_t(std::countr_zero(hits));
-                if (ts[h] < t) t = ts[h], best = {kind, lane0 + h, -1};
-            }
-        };
-        if (kind == kLeafTriangles) {
-            const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
-            for (uint32_t j = start; j < start + blocks; ++j) {
-                const float(*v)[kWideBvhWidth] = bvh.triangles[j].v;
-                for (int at = 0; at < kWideBvhWidth; at += kLanes) {
-                    const auto vertex = [&](int k) {
-                        return Vec3<N>(row<N>(v, 3 * k + axis[0], at), row<N>(v, 3 * k + axis[1], at),
-                                       row<N>(v, 3 * k + axis[2], at));
-                    };
-                    N th(0.0f), b1(0.0f), b2(0.0f);
-                    uint32_t hits = mask_bits(intersect_triangle(
-                        tri_ray, shear, vertex(0), vertex(1), vertex(2), N(t), th, b1, b2));
-                    if (hits == 0) continue;
-                    if (alpha) {
-                        hits = alpha_filter(bvh, *alpha, object, world ? *world : r, hits,
-                                            j * kWideBvhWidth + uint32_t(at), b1, b2);
-                        if (hits == 0) continue;
-                    }
-                    if constexpr (kAnyHit) return true;
-                    any = true;
-                    record(hits, th, j * kWideBvhWidth + uint32_t(at));
-                }
-            }
-            return any;
-        }
-        if constexpr (kTop) {
-            if (kind == kLeafSpheres) {
-                const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
-                for (uint32_t j = start; j < start + blocks; ++j) {
-                    const float(*c)[kWideBvhWidth] = bvh.spheres[j].c;
-                    for (int at = 0; at < kWideBvhWidth; at += kLanes) {
-                        const Vec3<N> centre(row<N>(c, 0, at), row<N>(c, 1, at), row<N>(c, 2, at));
-                        N th(0.0f);
-                        const uint32_t hits =
-                            mask_bits(intersect_sphere(ray, centre, row<N>(c, 3, at), N(t), th));
-                        if (hits == 0) continue;
-                        if constexpr (kAnyHit) return true;
-                        any = true;
-                        record(hits, th, j * kWideBvhWidth + uint32_t(at));
-                    }
-                }
-                return any;
-            }
-            const Ray<float> ray1{{r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}};
-            for (uint32_t j = start; j < start + count; ++j) {
-                const uint32_t item = bvh.items[j];
-                if (kind == kLeafQuadrics) {
-                    const float* q = bvh.quadrics + 16 * size_t(item);
-                    const QuadricCoefficients<float> c{q[0], q[1], q[2], q[3], q[4],
-                                                       q[5], q[6], q[7], q[8], q[9]};
-                    float th;
-                    if (!intersect_quadric(ray1, c, Vec3f(q[10], q[11], q[12]),
-                                           Vec3f(q[13], q[14], q[15]), t, th))
-                        continue;
-                    if constexpr (kAnyHit) return true;
-                    any = true;
-                    t = th, best = {kLeafQuadrics, item, -1};
-                } else {
-                    const BvhInstance& inst = bvh.instances[item];
-                    const Vec3f o = affine_point(inst.to_object, r.o);
-                    const Vec3f d = linear_map(inst.to_object, 4, r.d);
-                    const TraversalRay local = make_traversal_ray(o, d);
-                    BvhHit h;
-                    if (!traverse<kAnyHit, N, false>(*inst.geometry, local, t, h, alpha,
-                                                     int32_t(inst.mesh), &r))
-                        continue;
-                    if constexpr (kAnyHit) return true;
-                    any = true;
-                    best = {kLeafTriangles, h.lane, int32_t(item)};
-                }
-            }
-        }
-        return any;
-    };
-
-    struct Entry {
-        uint32_t node;  // an inner node
-        float t;        // where the ray enters its box
-    };
-    Entry stack[kWideBvhStackSize];
+    TraversalEntry stack[kWideBvhStackSize];
     int size = 0;
-    Entry e{root, 0.0f};
+    TraversalEntry e{root, 0.0f};
     const bool prefetch = uint32_t(bvh.node_count) > kPrefetchAbove;
     for (;;) {
-        // The slab test of every child over [0, t]
         const WideBvhNode& node = bvh.nodes[e.node];
         alignas(32) float entry[kWideBvhWidth];
-        uint32_t enter = 0;
-        for (int at = 0; at < kWideBvhWidth; at += kLanes) {
-            N t0(0.0f), t1(t);
-            for (int k = 0; k < 3; ++k) {
-                const N near = load_lanes<N>(node.bounds[near_row[k]] + at);
-                const N far = load_lanes<N>(node.bounds[far_row[k]] + at);
-                t0 = slab_max((near - org[k]) * inv[k], t0);
-                t1 = slab_min((far - org[k]) * inv_far[k], t1);
-            }
-            enter |= mask_bits(t0 <= t1) << at;
-            store_lanes(t0, entry + at);
-        }
-        // Unused slots have empty boxes (min +inf, max -inf), which no ray enters, but a NaN
-        // direction leaves every interval as it was: they are masked off too
-        enter &= (1u << node.slots) - 1u;
-        // What the ray goes on to read is fetched now: the blocks of the leaves entered and
-        // the boxes of the inner children (a traversal of a big tree waits mostly on memory;
-        // a small one stays in the caches, where the prefetches only cost)
-        for (uint32_t bits = prefetch ? enter : 0u; bits; bits &= bits - 1) {
-            const int i = std::countr_zero(bits);
-            const char* p = (node.leaves >> i) & 1u
-                                ? (node.kind[i] == kLeafTriangles
-                                       ? reinterpret_cast<const char*>(bvh.triangles + node.child[i])
-                                       : reinterpret_cast<const char*>(bvh.spheres + node.child[i]))
-                                : reinterpret_cast<const char*>(bvh.nodes + node.child[i]);
-            __builtin_prefetch(p);
-            __builtin_prefetch(p + 64);
-            __builtin_prefetch(p + 128);
-            __builtin_prefetch(p + 192);
-        }
+        uint32_t enter = enter_children(nr, node, t, entry);
+        // What the ray goes on to read is fetched now (a traversal of a big tree waits
+        // mostly on memory; a small one stays in the caches, where the prefetches only cost)
+        if (prefetch) prefetch_children(bvh, node, enter, false);
         // The leaves entered, in slot order
-        if (uint32_t leaves = enter & node.leaves) {
-            for (; leaves; leaves &= leaves - 1) {
-                const int i = std::countr_zero(leaves);
-                if constexpr (!kAnyHit)
-                    if (entry[i] > t) continue;
-                if (test_leaf(node.kind[i], node.child[i], node.count[i])) {
-                    if constexpr (kAnyHit) return true;
-                    found = true;
-                }
+        for (uint32_t leaves = enter & node.leaves; leaves; leaves &= leaves - 1) {
+            const int i = std::countr_zero(leaves);
+            if constexpr (!kAnyHit)
+                if (entry[i] > t) continue;
+            if (hit_leaf<kAnyHit, N, kTop>(bvh, r, lr, node.kind[i], node.child[i],
+                                           node.count[i], t, best, alpha, object, world)) {
+                if constexpr (kAnyHit) return true;
+                found = true;
             }
-            enter &= ~node.leaves;
         }
-        if (enter != 0) {
-            // Into the nearest inner child entered (the first, for any hit); the others onto
-            // the stack, for closest hit sorted by entry distance with the nearest on top
-            int i = std::countr_zero(enter);
-            e = {node.child[i], entry[i]};
-            const int base = size;
-            for (enter &= enter - 1; enter; enter &= enter - 1) {
-                i = std::countr_zero(enter);
-                Entry other{node.child[i], entry[i]};
-                if constexpr (!kAnyHit)
-                    if (other.t < e.t) std::swap(other, e);
-                int j = size++;
-                if constexpr (!kAnyHit)
-                    for (; j > base && stack[j - 1].t < other.t; --j) stack[j] = stack[j - 1];
-                stack[j] = other;
-            }
-            // (the leaves may have hit nearer than every child entered: then the pops below
-            // drop them all)
-            if (e.t <= t) continue;
-        }
-        // Next: the top of the stack, dropping boxes entered beyond the closest hit
+        // Into the nearest inner child entered, unless the leaves hit nearer than its box;
+        // else the top of the stack, dropping boxes entered beyond the closest hit
+        if (push_children<kAnyHit>(node, enter & ~node.leaves, entry, e, stack, size) &&
+            e.t <= t)
+            continue;
         do {
             if (size == 0) {
                 if (found) tmax = t, hit = best;
