@@ -222,6 +222,13 @@ int run_main(int argc, char** argv) {
                   "Wavefront paths in flight per thread, a multiple of 16; 0 = default (512)")
         ->check(CLI::Range(0, 1 << 22))
         ->capture_default_str();
+    r->add_option("--ray-group", a.job.ray_group,
+                  "Wavefront rays in flight per thread through the BVH, 1-64: above 1, each ray "
+                  "takes a step in turn while the next node or leaf it reads is prefetched "
+                  "(docs/acceleration.md; the same image whatever it is; 1, one ray at a time, "
+                  "measured fastest)")
+        ->check(CLI::Range(1, 64))
+        ->capture_default_str();
     r->add_option("--out", a.job.out, "Output image, .exr (float32) or .pfm (overrides render.output)");
     r->add_option("--stats", a.job.stats,
                   "Write run statistics as JSON: time, paths, rays by kind, rays/s, error "

@@ -237,6 +237,7 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
     if (a.strategies) options.integrator = Integrator::kScalar;  // (it records them)
     options.isa = a.isa;
     options.pool_size = a.pool;
+    options.ray_group = a.ray_group;
     options.time_budget = a.time_budget;
     options.target_error = a.target_error;
     options.cancel = a.cancel;
@@ -353,6 +354,7 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
                               {"shadow", st.shadow_lane_utilisation}}},
         {"pool", {{"paths", st.pool_size}, {"bytes", st.pool_bytes},
                   {"light_store_bytes", st.light_store_bytes}}},
+        {"ray_group", st.ray_group},
         {"scheduler", {{"units", st.units},
                        {"seconds", st.scheduler_seconds},
                        {"microseconds_per_unit",

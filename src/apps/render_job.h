@@ -48,6 +48,7 @@ struct RenderJob {
     bool integrator_given = false;  // (the strategy images refuse another than scalar)
     std::string isa = "auto";
     int pool = 0;
+    int ray_group = 1;
     double time_budget = 0.0;
     double target_error = 0.0;
     bool progress = true;

@@ -32,6 +32,7 @@ struct TraceArgs {
     int repeat = 1;
     int stream_rays = 0;
     int single_below = TraceOptions{}.single_below;
+    int ray_group = 1;
     std::optional<float> spatial_splits;
 };
 TraceArgs g_args;
@@ -97,6 +98,10 @@ CLI::App* add_trace_command(CLI::App& app) {
                   "at a time")
         ->check(CLI::Range(1, 65536))
         ->capture_default_str();
+    t->add_option("--ray-group", g_args.ray_group,
+                  "Wavefront: rays in flight through the BVH, 1-64 (as render's --ray-group)")
+        ->check(CLI::Range(1, 64))
+        ->capture_default_str();
     t->add_option("--spatial-splits", g_args.spatial_splits,
                   "The BVH's spatial splits, 0 to 4 (overrides render.spatial_splits; the BVH is "
                   "built again)");
@@ -122,7 +127,9 @@ int run_trace_command() {
     const std::vector<float> rays = read_rays(a.rays);
     const size_t count = rays.size() / 7;
     std::unique_ptr<WavefrontRenderer> wavefront;
-    if (simd) wavefront = std::make_unique<WavefrontRenderer>(scene, isa);
+    if (simd)
+        wavefront = std::make_unique<WavefrontRenderer>(scene, isa, 0, true, kLightStoreLimit,
+                                                        a.ray_group);
     const auto pass = [&](TraceTotals& totals) {
         if (wavefront)
             return wavefront->trace(rays.data(), count, {a.stream_rays, a.single_below}, totals);
@@ -143,10 +150,10 @@ int run_trace_command() {
         timed.rays += t.rays;
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::printf("integrator: %s\nisa: %s\nstream: %d\nstreamed_rays: %llu\nrays: %zu\nrepeat: %d\ntrace_seconds: %.6f\n"
+    std::printf("integrator: %s\nisa: %s\nray_group: %d\nstream: %d\nstreamed_rays: %llu\nrays: %zu\nrepeat: %d\ntrace_seconds: %.6f\n"
                 "rays_per_second: %.0f\nhits: %llu\nsum_t: %.9g\n",
                 a.integrator.c_str(), wavefront ? isa_name(wavefront->isa()).c_str() : "none",
-                a.stream_rays, static_cast<unsigned long long>(warm.streamed), count, a.repeat, seconds, double(timed.rays) / seconds,
+                wavefront ? wavefront->ray_group() : 1, a.stream_rays, static_cast<unsigned long long>(warm.streamed), count, a.repeat, seconds, double(timed.rays) / seconds,
                 static_cast<unsigned long long>(warm.hits), warm.sum_t);
     return 0;
 }

@@ -223,7 +223,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     if (options.integrator == Integrator::kWavefront)
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
                                                         options.pool_size, options.specialise,
-                                                        options.light_store_limit);
+                                                        options.light_store_limit,
+                                                        options.ray_group);
     const int threads =
         options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
@@ -238,7 +239,10 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     st.threads = threads;
     st.integrator = integrator_name(options.integrator);
     st.isa = wavefront ? isa_name(wavefront->isa()) : "scalar";
-    if (wavefront) st.pool_size = wavefront->pool_size(), st.pool_bytes = wavefront->pool_bytes();
+    if (wavefront) {
+        st.pool_size = wavefront->pool_size(), st.pool_bytes = wavefront->pool_bytes();
+        st.ray_group = wavefront->ray_group();
+    }
     RankStats mine{world.rank, mpi::host_name(), threads};
     const auto start = Clock::now();
 

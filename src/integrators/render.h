@@ -66,6 +66,7 @@ struct RenderOptions {
     Integrator integrator = Integrator::kWavefront;
     std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2, neon
     int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
+    int ray_group = 1;  // wavefront: rays in flight per thread through the tree (1-64)
     bool specialise = true;                // wavefront: skip what the scene does not use
     bool progress = true;                  // progress line on stderr
     // Stopping early (the image then holds fewer paths per pixel, the same in every pixel):
@@ -131,6 +132,7 @@ struct RenderStats {
     double shade_lane_utilisation = 0.0, isect_lane_utilisation = 0.0;
     double shadow_lane_utilisation = 0.0;  // of the batches of shadow rays traced
     int pool_size = 0;
+    int ray_group = 0;  // rays in flight per thread through the tree (1: one at a time)
     size_t pool_bytes = 0;
     size_t light_store_bytes = 0;  // bdpt: the largest thread's light-vertex store
     double rays_per_second() const { return seconds > 0 ? double(rays.total()) / seconds : 0.0; }

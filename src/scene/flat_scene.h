@@ -125,6 +125,9 @@ struct FlatScene {
     PinholeFrame pinhole;
     bool camera_paths;  // Scene::traces_camera_paths
     FlatFeatures features;
+    // How many rays a thread keeps in flight through the tree (kernels/traverse_group.h;
+    // 1, the default: one at a time), the renderer's choice
+    int32_t ray_group;
 };
 
 }  // namespace cierzo

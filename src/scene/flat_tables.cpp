@@ -204,6 +204,7 @@ FlatView flat_view(const Scene& scene) {
     const SceneFeatures sf = scene.features();
     const bool tree = !scene.bvh.empty();
     const bool packet = tree && packet_tree(scene.bvh.view());
+    f.ray_group = 1;
     f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, tree, packet,
                   sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
                   sf.procedural_textures || sf.vertex_colors || sf.image_textures,

@@ -4,18 +4,25 @@
 // scalar one; watertightness through instances; degenerate and extreme inputs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
 #include <unistd.h>
 
+#include "integrators/registry.h"
+#include "integrators/render.h"
+#include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/intersect_stage.h"
 #include "kernels/traverse.h"
+#include "kernels/traverse_group.h"
 #include "kernels/traverse_stream.h"
 #include "scene/scene_json.h"
 #include "support/emulator.h"
@@ -520,6 +527,198 @@ TEST(Accel, RayStreamsFindWhatSingleRaysFind) {
             EXPECT_EQ(th, t[r]) << "ray " << r;
         }
         EXPECT_LE(ties, 3) << "streams below " << single_below;
+    }
+}
+
+// ---- Many rays in flight (kernels/traverse_group.h) ---------------------------------------
+// What one ray at a time finds through `bvh`: closest hit and any hit.
+struct SingleRayHits {
+    std::vector<float> t;
+    std::vector<BvhHit> hit;
+    std::vector<uint8_t> found, blocked;
+};
+template <class N>
+SingleRayHits single_ray_hits(const BvhView& bvh, const std::vector<TraversalRay>& rays,
+                              const std::vector<float>& tmax, const AlphaTable* alpha) {
+    SingleRayHits s{tmax, std::vector<BvhHit>(rays.size()), std::vector<uint8_t>(rays.size()),
+                    std::vector<uint8_t>(rays.size())};
+    for (size_t r = 0; r < rays.size(); ++r) {
+        s.found[r] = traverse<false, N>(bvh, rays[r], s.t[r], s.hit[r], alpha);
+        float t = tmax[r];
+        BvhHit unused;
+        s.blocked[r] = traverse<true, N>(bvh, rays[r], t, unused, alpha);
+    }
+    return s;
+}
+
+// Groups of every size find exactly what single rays find, for closest and any hit: the
+// same rays hit, at the same t bit for bit, the same primitive of the same kind through the
+// same instance. `hits`: how many rays hit.
+template <class N>
+void expect_groups_match_single_rays(const BvhView& bvh, const std::vector<Ray<float>>& rays,
+                                     uint32_t seed, int& hits, const AlphaTable* alpha = nullptr) {
+    std::mt19937 rng(seed);
+    std::vector<TraversalRay> setup;
+    std::vector<float> tmax;
+    for (size_t r = 0; r < rays.size(); ++r) {
+        setup.push_back(make_traversal_ray(rays[r].o, rays[r].d));
+        // (a quarter of the rays end early: shadow rays' segments)
+        tmax.push_back(r % 4 == 3 ? 0.5f + 10.0f * frac_of(rng) : kRayFar);
+    }
+    const SingleRayHits want = single_ray_hits<N>(bvh, setup, tmax, alpha);
+    hits = int(std::count(want.found.begin(), want.found.end(), 1));
+    auto scratch = std::make_unique<TraversalGroupScratch>();
+    const int n = int(rays.size());
+    for (const int group : {1, 2, 3, 7, 16, kMaxTraversalGroup}) {
+        SCOPED_TRACE("group of " + std::to_string(group));
+        std::vector<float> t = tmax, any_t = tmax;
+        std::vector<BvhHit> hit(rays.size(), BvhHit{7, 7, 7}), any_hit(rays.size(), BvhHit{7, 7, 7});
+        std::vector<uint8_t> found(rays.size(), 9), blocked(rays.size(), 9);
+        traverse_group<false, N>(bvh, setup.data(), n, t.data(), hit.data(), found.data(), group,
+                                 *scratch, alpha);
+        traverse_group<true, N>(bvh, setup.data(), n, any_t.data(), any_hit.data(),
+                                blocked.data(), group, *scratch, alpha);
+        for (size_t r = 0; r < rays.size(); ++r) {
+            ASSERT_EQ(found[r], want.found[r]) << "ray " << r;
+            ASSERT_EQ(std::bit_cast<uint32_t>(t[r]), std::bit_cast<uint32_t>(want.t[r])) << "ray " << r;
+            ASSERT_EQ(blocked[r], want.blocked[r]) << "ray " << r;
+            // (any hit leaves t and the hit as they were)
+            ASSERT_EQ(any_t[r], tmax[r]) << "ray " << r;
+            ASSERT_EQ(any_hit[r].kind, 7u) << "ray " << r;
+            if (!found[r]) {
+                ASSERT_EQ(hit[r].kind, 7u) << "ray " << r << ": a miss writes no hit";
+                continue;
+            }
+            ASSERT_EQ(hit[r].kind, want.hit[r].kind) << "ray " << r;
+            ASSERT_EQ(hit[r].lane, want.hit[r].lane) << "ray " << r;
+            ASSERT_EQ(hit[r].instance, want.hit[r].instance) << "ray " << r;
+        }
+    }
+}
+
+// Every primitive kind the tree holds (spheres, loose triangles, bounded quadrics, a mesh),
+// instances that rotate, scale and mirror, and a masked mesh with a constant alpha of 0.5
+// (half of its hits pass, by the ray's hash): deep enough that many rays are in flight at
+// once, with the scalar and the SIMD node lanes.
+TEST(Accel, GroupsOfRaysInFlightFindWhatSingleRaysFind) {
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(30, 40));
+    std::string objects = mixture_objects(31, 600, 1500, 8) + R"(,
+        {"type": "mesh", "file": "ball.ply", "scale": 2.5, "translate": [-3, 2, 1], "material": {"kd": 0.5}},
+        {"type": "mesh", "file": "ball.ply", "scale": [1, 3, 0.5], "translate": [4, -2, 3],
+         "material": {"kd": 0.4, "alpha": 0.5}})";
+    std::mt19937 rng(32);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    const char* scales[] = {"0.7", "[1, 0.4, 2]", "[-1, 1, 1]", "[-0.5, -1.5, 0.8]"};
+    for (int i = 0; i < 12; ++i) {
+        const Vec3f t = Vec3f(unit(rng), unit(rng), unit(rng)) * 8.0f;
+        objects += ",\n{\"type\": \"mesh\", \"file\": \"ball.ply\", \"instance\": true, \"scale\": " +
+                   std::string(scales[i % 4]) + ", \"rotate\": [" + std::to_string(30 * i) +
+                   ", 20, 10], \"translate\": [" + std::to_string(t.x) + ", " +
+                   std::to_string(t.y) + ", " + std::to_string(t.z) +
+                   "], \"material\": {\"kd\": 0.3}}";
+    }
+    const Scene s = scene_of(objects, dir.path / "group.json");
+    const BvhView bvh = s.bvh.view();
+    ASSERT_TRUE(s.alpha());
+    ASSERT_GT(bvh.node_count, 200);
+    ASSERT_EQ(bvh.instance_count, 12);
+    const int n = test::lighter_settings() ? 1500 : 5000;
+    const std::vector<Ray<float>> rays = random_rays(size_t(n), 12.0f, 33);
+    int hits = 0;
+    expect_groups_match_single_rays<NodeLanes<TestArch>>(bvh, rays, 34, hits, s.alpha());
+    EXPECT_GT(hits, n / 2);
+    expect_groups_match_single_rays<float>(bvh, rays, 35, hits, s.alpha());
+    EXPECT_GT(hits, n / 2);
+}
+
+// Degenerate trees: one primitive (a single leaf under the root), slivers of 1e-6 among
+// ordinary triangles, a triangle spanning the whole scene, and an empty tree.
+TEST(Accel, GroupsOfRaysInFlightOnDegenerateTrees) {
+    const TempDir dir;
+    using N = NodeLanes<TestArch>;
+    const std::vector<Ray<float>> rays = random_rays(800, 6.0f, 41);
+    const Scene one = scene_of(R"({"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": {"kd": 0.5}})",
+                               dir.path / "one.json");
+    ASSERT_EQ(one.bvh.view().node_count, 1);
+    int hits = 0;
+    expect_groups_match_single_rays<N>(one.bvh.view(), rays, 42, hits);
+    EXPECT_GT(hits, 30);
+    std::string slivers = mixture_objects(43, 0, 400, 0);
+    std::mt19937 rng(44);
+    std::uniform_real_distribution<float> unit(-5.0f, 5.0f);
+    for (int i = 0; i < 300; ++i) {
+        const float x = unit(rng), y = unit(rng), z = unit(rng);
+        slivers += ",\n{\"type\": \"triangle\", \"vertices\": [[" + std::to_string(x) + ", " +
+                   std::to_string(y) + ", " + std::to_string(z) + "], [" + std::to_string(x + 3) +
+                   ", " + std::to_string(y) + ", " + std::to_string(z) + "], [" +
+                   std::to_string(x + 3) + ", " + std::to_string(y + 1e-6f) + ", " +
+                   std::to_string(z) + "]], \"material\": {\"kd\": 0.2}}";
+    }
+    slivers += R"(,
+        {"type": "triangle", "vertices": [[-50, -40, 0.3], [50, -40, 0.2], [0, 60, -0.1]], "material": {"kd": 0.9}})";
+    const Scene thin = scene_of(slivers, dir.path / "slivers.json");
+    ASSERT_GT(thin.bvh.view().node_count, 8);
+    expect_groups_match_single_rays<N>(thin.bvh.view(), rays, 45, hits);
+    EXPECT_GT(hits, 300);
+    // Nothing in the tree: every ray misses
+    const BvhView empty;
+    std::vector<TraversalRay> setup(10, make_traversal_ray(Vec3f(0.0f), Vec3f(0, 0, 1)));
+    std::vector<float> t(10, kRayFar);
+    std::vector<BvhHit> hit(10);
+    std::vector<uint8_t> found(10, 1);
+    auto scratch = std::make_unique<TraversalGroupScratch>();
+    traverse_group<false, N>(empty, setup.data(), 10, t.data(), hit.data(), found.data(), 4, *scratch);
+    EXPECT_EQ(std::count(found.begin(), found.end(), 0), 10);
+}
+
+// The wavefront with many rays in flight (a tree over kPrefetchAbove nodes) renders the same
+// image, bit for bit, as with one ray at a time, with groups of 16 and 5, on every ISA: closest hits of every path (report), queued shadow rays (point
+// lights and emitter samples, with a second lobe kind; and a scene of one lobe kind, whose
+// emitter samples one ray at a time trace during shading), light paths and bdpt.
+TEST(Accel, GroupedWavefrontStagesRenderTheSameImage) {
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(80, 120));
+    const auto scene_with = [&](bool lights) {
+        return parse_scene(R"({
+            "camera": {"position": [0, 1, -6], "look_at": [0, 0, 0], "vfov": 60},
+            "render": {"width": 20, "height": 16, "spp": 4, "seed": 3},
+            "materials": {"floor": {"kd": 0.6}, "lamp": {"emission": 4},
+                          "shiny": )" + std::string(lights ? R"({"kd": 0.3, "ks": 0.4, "shininess": 30})"
+                                                           : R"({"kd": 0.3})") + R"(},
+            "objects": [)" + mixture_objects(51, 300, 600, 4) + R"(,
+                {"type": "mesh", "file": "ball.ply", "scale": 1.5, "material": "shiny"},
+                {"type": "mesh", "file": "ball.ply", "instance": true, "scale": 0.8,
+                 "translate": [2.5, 0, 1], "material": "floor"},
+                {"type": "sphere", "center": [0, 6, 0], "radius": 1, "material": "lamp"}],
+            "lights": )" + std::string(lights ? R"([{"position": [-2, 5, -3], "intensity": 30}])" : "[]") + R"(
+        })", dir.path / "grouped.json");
+    };
+    const Scene with_lights = scene_with(true), plain = scene_with(false);
+    ASSERT_GT(plain.bvh.view().node_count, int32_t(kPrefetchAbove)) << "a tree that is prefetched";
+    const std::pair<const Scene*, const char*> cases[] = {
+        {&with_lights, "report"}, {&with_lights, "nee"}, {&with_lights, "mis"},
+        {&with_lights, "lt"},     {&with_lights, "bdpt"}, {&plain, "mis"}};
+    for (const auto& [s, estimator] : cases) {
+        Scene scene = *s;
+        use_estimator(scene.settings.estimator, *parse_estimator(estimator));
+        for (Isa isa : compiled_isas()) {
+            if (!isa_supported(isa)) continue;
+            SCOPED_TRACE(std::string(estimator) + (s == &plain ? " (one lobe kind) " : " ") + isa_name(isa));
+            std::vector<std::vector<float>> images;
+            for (const int group : {1, 16, 5}) {
+                RenderOptions o;
+                o.isa = isa_name(isa);
+                o.threads = 1;
+                o.progress = false;
+                o.ray_group = group;
+                const RenderResult r = render(scene, o);
+                EXPECT_EQ(r.stats.ray_group, group);
+                images.push_back(r.film.mean().rgb);
+            }
+            EXPECT_EQ(images[0], images[1]);
+            EXPECT_EQ(images[0], images[2]);
+        }
     }
 }
 

@@ -636,12 +636,14 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
     st.paths_per_sample = (job.x1 - job.x0) * (job.y1 - job.y0);
     st.samples = int32_t(job.sample_end - job.sample_begin);
     if (merging) merging_table(*st.merging, s.path, job, has_lights);
-    // Batch i's rays, their closest hits and surfaces
+    // Batch i's rays, their closest hits (a big tree: every live path's first, with many rays
+    // in flight) and surfaces
+    const bool group = grouped(s);
     const auto trace = [&](int32_t i, Ray<F>& ray) {
         ray = {load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
         F t;
         I prim;
-        closest_hit(w, i, ray, t, prim);
+        batch_closest_hit(w, i, ray, t, prim, group);
         if (textures) prim.store_aligned(p.prim + i);  // (for the vertex colours)
         return resolve_surfaces(w, i, ray, t, prim);
     };
@@ -653,6 +655,7 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
     // in textured scenes
     const auto each_vertex = [&](const auto& vertex) {
         const int32_t end = w.rounded_up(w.live);
+        if (group) closest_hits_grouped(w);
         if (!textures) {
             for (int32_t i = 0; i < end; i += K) {
                 Ray<F> ray;

@@ -10,6 +10,7 @@
 
 #include "integrators/wavefront/wave.h"
 #include "kernels/traverse.h"
+#include "kernels/traverse_group.h"
 #include "kernels/traverse_stream.h"
 
 namespace cierzo {
@@ -157,6 +158,89 @@ void closest_in_tree(const BvhView& bvh, const AlphaTable* alpha, bool packet,
     }
 }
 
+// ---- Many rays in flight -----------------------------------------------------------------
+// A stage whose rays go through a big tree gathers them all first, then traverses them
+// `FlatScene::ray_group` at a time (kernels/traverse_group.h), so that their cache misses
+// overlap; the same hits as one ray at a time.
+
+// Whether the scene's tree is traversed with many rays in flight (a one-node tree is tested
+// K rays at a time instead: packet_traverse).
+inline bool grouped(const FlatScene& s) {
+    return s.features.bvh && !s.features.packet && s.ray_group > 1;
+}
+
+// The pool's arrays for it (PathPool::group_rays...).
+struct GroupArrays {
+    TraversalRay* rays;
+    int32_t* ids;
+    float* t;
+    BvhHit* hits;
+    uint8_t* found;
+    TraversalGroupScratch* scratch;
+};
+inline GroupArrays group_arrays(const PathPool& p) {
+    static_assert(sizeof(TraversalRay) <= 16 * sizeof(float) && sizeof(BvhHit) == 12 &&
+                  sizeof(TraversalGroupScratch) <= kTraversalGroupBytes);
+    return {reinterpret_cast<TraversalRay*>(p.group_rays), p.group_ids, p.group_t,
+            reinterpret_cast<BvhHit*>(p.group_hits), p.group_found,
+            static_cast<TraversalGroupScratch*>(p.group_scratch)};
+}
+
+// Appends the rays of lanes `bits` (their ids: base + lane, their intervals' ends: t) to the
+// gathered rays, of which there are `n`.
+template <class A>
+void gather_group_rays(const GroupArrays& g, int32_t& n, const WideRays<A>& rays, uint32_t bits,
+                       int32_t base, const float* t) {
+    for (; bits; bits &= bits - 1) {
+        const int l = std::countr_zero(bits);
+        g.rays[n] = rays.lane(l), g.ids[n] = base + l, g.t[n] = t[l];
+        ++n;
+    }
+}
+
+// The closest hits of every live path's ray, as closest_hit gives them batch by batch, left
+// in p.t and p.prim (and a triangle's mesh, index and normal): the unbounded primitives and
+// packets K rays at a time, then the rays that enter the tree, all of them, in groups.
+template <class A>
+void closest_hits_grouped(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const BvhView& bvh = *s.bvh;
+    const GroupArrays g = group_arrays(p);
+    int32_t n = 0;
+    const int32_t end = w.rounded_up(w.live);
+    for (int32_t i = 0; i < end; i += Wave<A>::K) {
+        const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
+        F t(kRayFar);
+        I prim(-1);
+        closest_unbounded(ray, t, prim, s.plane_count, PlaneTable<F>{s.plane_lanes},
+                          kPrimPlane << kPrimShift, s.unbounded_quadric_count,
+                          QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics},
+                          kPrimQuadric << kPrimShift);
+        t.store_aligned(p.t + i);
+        prim.store_aligned(p.prim + i);
+        w.counters.isect_active += uint64_t(std::min(Wave<A>::K, w.live - i));
+        w.counters.isect_total += uint64_t(Wave<A>::K);
+        if (coherent(ray)) {
+            intersect_tree(w, i, ray);
+            continue;
+        }
+        const WideRays<A> rays(ray);
+        gather_group_rays<A>(g, n, rays, mask_bits(w.live_mask(i) & slab_hits<A>(bvh.bounds, rays, t)),
+                             i, p.t + i);
+    }
+    traverse_group<false, NodeLanes<A>>(bvh, g.rays, n, g.t, g.hits, g.found, s.ray_group,
+                                        *g.scratch, s.alpha);
+    for (int32_t j = 0; j < n; ++j) {
+        if (!g.found[j]) continue;
+        const int32_t q = g.ids[j];
+        p.t[q] = g.t[j];
+        record_tree_hit(p, bvh, q, g.hits[j]);
+    }
+}
+
 // The closest hits of batch `i` in the scene BVH, after its unbounded ones (in p.t and
 // p.prim): a hit writes t and the primitive to the path.
 template <class A>
@@ -254,6 +338,57 @@ void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
     }
 }
 
+// trace_rays_isa with many rays in flight: the unbounded primitives K rays at a time, then
+// the tree in chunks of rays, FlatScene::ray_group of them at a time.
+template <class A>
+void trace_rays_grouped(const FlatScene& s, const float* rays, size_t count, TraceTotals& out) {
+    using F = typename Wave<A>::F;
+    using I = typename Wave<A>::I;
+    constexpr int K = Wave<A>::K;
+    constexpr size_t kChunk = 4096;
+    IsaVector<TraversalRay> setup(kChunk);
+    IsaVector<float> t(kChunk), tg(kChunk);
+    IsaVector<int32_t> ids(kChunk);
+    IsaVector<BvhHit> hit(kChunk);
+    IsaVector<uint8_t> found(kChunk), hits(kChunk);
+    IsaVector<TraversalGroupScratch> scratch(1);
+    const GroupArrays g{setup.data(), ids.data(), tg.data(), hit.data(), found.data(),
+                        scratch.data()};
+    for (size_t c0 = 0; c0 < count; c0 += kChunk) {
+        const int m = int(std::min(kChunk, count - c0));
+        int32_t n = 0;
+        for (int i = 0; i < m; i += K) {
+            const int lanes = std::min(K, m - i);
+            F tt;
+            I prim;
+            const Ray<F> ray = record_batch<A>(s, rays + 7 * (c0 + size_t(i)), lanes, tt, prim);
+            tt.store_aligned(t.data() + i);
+            alignas(64) int32_t pr[K];
+            prim.store_aligned(pr);
+            for (int l = 0; l < lanes; ++l) hits[size_t(i + l)] = pr[l] >= 0;
+            const auto live = Wave<A>::lane_index() < F(float(lanes));
+            if (s.features.packet || coherent(ray)) {
+                closest_in_tree<A>(*s.bvh, s.alpha, s.features.packet, ray, live, t.data() + i,
+                                   [&](int l, const BvhHit&) { hits[size_t(i + l)] = 1; });
+                continue;
+            }
+            const WideRays<A> wide(ray);
+            gather_group_rays<A>(g, n, wide, mask_bits(live & slab_hits<A>(s.bvh->bounds, wide, tt)),
+                                 i, t.data() + i);
+        }
+        traverse_group<false, NodeLanes<A>>(*s.bvh, g.rays, n, g.t, g.hits, g.found, s.ray_group,
+                                            *g.scratch, s.alpha);
+        for (int32_t j = 0; j < n; ++j)
+            if (g.found[j]) t[size_t(ids[size_t(j)])] = g.t[j], hits[size_t(ids[size_t(j)])] = 1;
+        for (int r = 0; r < m; ++r) {
+            if (!hits[size_t(r)]) continue;
+            ++out.hits;
+            out.sum_t += double(t[size_t(r)]);
+        }
+        out.rays += uint64_t(m);
+    }
+}
+
 // Closest hits of `count` rays (7 floats each: origin, direction, tmax) through the whole
 // scene: the traversal alone, for measuring it (`cierzo trace`). K at a time as the
 // extension stage traces them, or in ordered streams (options). Adds the rays, hits and
@@ -266,6 +401,10 @@ void trace_rays_isa(const FlatScene& s, const float* rays, size_t count,
     constexpr int K = Wave<A>::K;
     if (options.stream_rays > 0 && s.features.bvh && stream_tree(*s.bvh, s.alpha != nullptr)) {
         trace_ray_streams<A>(s, rays, count, options, out);
+        return;
+    }
+    if (grouped(s)) {
+        trace_rays_grouped<A>(s, rays, count, out);
         return;
     }
     for (size_t i = 0; i < count; i += K) {
@@ -312,6 +451,19 @@ void closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     }
     w.counters.isect_active += uint64_t(std::min(Wave<A>::K, w.live - i));
     w.counters.isect_total += uint64_t(Wave<A>::K);
+}
+
+// The closest hit of batch `i` in registers, as closest_hit gives it: traced now, or, where a
+// stage traced every live path's first (`group`: closest_hits_grouped), from the pool.
+template <class A>
+void batch_closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
+                       typename Wave<A>::F& t, typename Wave<A>::I& prim, bool group) {
+    if (group) {
+        t = Wave<A>::F::load_aligned(w.pool.t + i);
+        prim = Wave<A>::I::load_aligned(w.pool.prim + i);
+        return;
+    }
+    closest_hit(w, i, ray, t, prim);
 }
 
 // Whether anything blocks K shadow rays within tmax (for the `live` lanes); lanes already

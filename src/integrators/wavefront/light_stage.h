@@ -240,12 +240,14 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
     const bool textures = w.scene.features.textures;
     TileCursor cursor = tile_cursor(job);
     w.live = 0;
-    // Batch i's rays, their closest hits and surfaces
+    // Batch i's rays, their closest hits (a big tree: every live path's first, with many rays
+    // in flight) and surfaces
+    const bool group = grouped(w.scene);
     const auto trace = [&](int32_t i, Ray<F>& ray) {
         ray = {load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
         F t;
         I prim;
-        closest_hit(w, i, ray, t, prim);
+        batch_closest_hit(w, i, ray, t, prim, group);
         if (textures) prim.store_aligned(p.prim + i);  // (for the vertex colours)
         return resolve_surfaces(w, i, ray, t, prim);
     };
@@ -256,6 +258,7 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
         if (w.live == 0) break;
         int32_t kept = 0;
         const int32_t end = w.rounded_up(w.live);
+        if (group) closest_hits_grouped(w);
         if (!textures) {
             for (int32_t i = 0; i < end; i += K) {
                 Ray<F> ray;

@@ -51,6 +51,14 @@ PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, 
                       &p.sc_b})
         *a = c.take<float>(s);
     p.sowner = c.take<int32_t>(s);
+    const size_t g = std::max(n, s);
+    p.group_rays = c.take<float>(16 * g);
+    p.group_ids = c.take<int32_t>(g);
+    p.group_t = c.take<float>(g);
+    p.group_hits = c.take<uint32_t>(3 * g);
+    p.group_found = c.take<uint8_t>(g);
+    p.group_blocked = c.take<uint8_t>(g);
+    p.group_scratch = c.take<char>(kTraversalGroupBytes);
     if (bytes) *bytes = c.used();
     return p;
 }

@@ -111,7 +111,23 @@ struct PathPool {
     // Finished paths, flushed to the film after every bounce
     uint32_t* done_pixel;
     float *done_r, *done_g, *done_b;
+
+    // The tree's rays of a stage traced with many in flight (FlatScene::ray_group): for each,
+    // its set-up (16 floats: kernels/traverse.h, TraversalRay), its path or queue entry, its
+    // interval's end, hit (3 words: BvhHit) and whether it hit; for as many rays as the
+    // larger of the pool and the shadow queue; per shadow queue entry, whether its ray is
+    // blocked. And the group's states and stacks.
+    float* group_rays;
+    int32_t* group_ids;
+    float* group_t;
+    uint32_t* group_hits;
+    uint8_t *group_found, *group_blocked;
+    void* group_scratch;  // kTraversalGroupBytes
 };
+
+// Bytes of a group of rays in flight through the tree (kernels/traverse_group.h,
+// TraversalGroupScratch: each ray's state and stack), which the per-ISA code checks.
+inline constexpr size_t kTraversalGroupBytes = 360 * 1024;
 
 // Bytes of memory a pool of `capacity` paths uses with `lights` shadow rays per path and
 // bounce (point lights, plus one for an emitter sample).

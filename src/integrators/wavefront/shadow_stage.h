@@ -9,12 +9,58 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
+// The queued rays with many in flight (intersect_stage.h, grouped): which are blocked, all
+// first (the unbounded primitives K rays at a time, then the tree), then the radiance
+// updates in the order of the queue, as trace_shadow_rays makes them.
+template <class A>
+void trace_shadow_rays_grouped(Wave<A>& w) {
+    using F = typename Wave<A>::F;
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    const FlatScene& s = w.scene;
+    const int32_t count = p.shadow_count;
+    const GroupArrays g = group_arrays(p);
+    int32_t n = 0;
+    for (int32_t i = 0; i < count; i += K) {
+        const Ray<F> ray{load3<F>(p.sox, p.soy, p.soz, i), load3<F>(p.sdx, p.sdy, p.sdz, i)};
+        const F tmax = F::load_aligned(p.stmax + i);
+        const int32_t lanes = std::min(K, count - i);
+        w.counters.shadow_active += uint64_t(lanes);
+        w.counters.shadow_total += uint64_t(K);
+        const auto queued = Wave<A>::lane_index() < F(float(lanes));
+        const auto blocked = occluded_unbounded(
+            ray, tmax, typename Wave<A>::M(false), s.plane_count, PlaneTable<F>{s.plane_lanes},
+            s.unbounded_quadric_count, QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics});
+        const uint32_t b = mask_bits(blocked);
+        for (int32_t l = 0; l < lanes; ++l) p.group_blocked[i + l] = uint8_t((b >> l) & 1u);
+        if (all(blocked)) continue;
+        const WideRays<A> rays(ray);
+        gather_group_rays<A>(g, n, rays, mask_bits(queued & !blocked & slab_hits<A>(s.bvh->bounds, rays, tmax)),
+                             i, p.stmax + i);
+    }
+    traverse_group<true, NodeLanes<A>>(*s.bvh, g.rays, n, g.t, g.hits, g.found, s.ray_group,
+                                       *g.scratch, s.alpha);
+    for (int32_t j = 0; j < n; ++j)
+        if (g.found[j]) p.group_blocked[g.ids[j]] = 1;
+    for (int32_t q = 0; q < count; ++q) {
+        if (p.group_blocked[q]) continue;
+        const int32_t owner = p.sowner[q];
+        p.rad_r[owner] += p.sc_r[q];
+        p.rad_g[owner] += p.sc_g[q];
+        p.rad_b[owner] += p.sc_b[q];
+    }
+}
+
 template <class A>
 CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
     using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
+    if (grouped(s)) {
+        trace_shadow_rays_grouped(w);
+        return;
+    }
     const int32_t count = p.shadow_count;
     for (int32_t i = 0; i < count; i += K) {
         const Ray<F> ray{load3<F>(p.sox, p.soy, p.soz, i), load3<F>(p.sdx, p.sdy, p.sdz, i)};

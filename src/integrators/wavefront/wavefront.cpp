@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include <fmt/format.h>
 #include <oneapi/tbb/enumerable_thread_specific.h>
 
 #include "core/error.h"
@@ -185,13 +186,18 @@ static int32_t shadow_rays_per_vertex(const Scene& scene) {
 }
 
 WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size,
-                                     bool specialise, size_t light_store_limit)
+                                     bool specialise, size_t light_store_limit,
+                                     int32_t ray_group)
     : isa_(isa == Isa::kAuto ? best_isa() : isa),
       pool_size_(pool_size > 0 ? pool_size : kDefaultPoolSize) {
     require_isa(isa_, "--isa");
     if (pool_size_ % 16 != 0 || pool_size_ < 16 || pool_size_ > (1 << 22))
         throw InputError("--pool: the path pool size must be a multiple of 16 in [16, 4194304]");
+    if (ray_group < 1 || ray_group > kMaxTraversalGroup)
+        throw InputError(fmt::format("--ray-group: rays in flight must be 1 to {}, not {}",
+                                     kMaxTraversalGroup, ray_group));
     data_ = std::make_unique<Data>(scene, pool_size_, light_store_limit);
+    data_->view.scene.ray_group = ray_group;
     data_->entry = entry_of(isa_);
     FlatFeatures& f = data_->view.scene.features;
     if (!specialise) {
@@ -204,6 +210,8 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
 }
 
 WavefrontRenderer::~WavefrontRenderer() = default;
+
+int32_t WavefrontRenderer::ray_group() const { return data_->view.scene.ray_group; }
 
 size_t WavefrontRenderer::light_store_bytes() const {
     size_t most = 0;

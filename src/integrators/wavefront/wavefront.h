@@ -23,14 +23,17 @@ public:
     // specialise = false runs every stage and lobe kernel whatever the scene uses (for
     // measuring what specialisation to the scene's features saves; same image).
     // light_store_limit: bdpt and vcm, the bytes a thread's light-vertex store may take
-    // (RenderOptions::light_store_limit).
+    // (RenderOptions::light_store_limit). ray_group: rays a thread keeps in flight through
+    // the tree, 1 (one at a time) to kMaxTraversalGroup (kernels/traverse_group.h; the same
+    // hits whatever it is).
     WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size = 0, bool specialise = true,
-                      size_t light_store_limit = kLightStoreLimit);
+                      size_t light_store_limit = kLightStoreLimit, int32_t ray_group = 1);
     ~WavefrontRenderer();
     static constexpr int32_t kDefaultPoolSize = 512;
 
     Isa isa() const { return isa_; }
     int32_t pool_size() const { return pool_size_; }
+    int32_t ray_group() const;
     size_t pool_bytes() const;
     // bdpt: the largest of the threads' light-vertex stores (bytes; 0 for other estimators)
     size_t light_store_bytes() const;

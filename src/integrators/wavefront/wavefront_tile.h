@@ -35,12 +35,15 @@ CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w, const TileJob& job) {
     const bool textures = w.scene.features.textures;
     int32_t queued = 0;
     Compaction compaction;
+    // (a big tree: every path's closest hit first, with many rays in flight)
+    const bool group = grouped(w.scene);
+    if (group) closest_hits_grouped(w);
     const int32_t end = w.rounded_up(w.live);
     for (int32_t i = 0; i < end; i += Wave<A>::K) {
         const Ray<F> ray{load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};
         F t;
         I prim;
-        closest_hit(w, i, ray, t, prim);
+        batch_closest_hit(w, i, ray, t, prim, group);
         const Surfaces<A> sf = resolve_surfaces(w, i, ray, t, prim);
         // The surfaces are stored for the stages that read them back: the material sort,
         // and the lobe buckets (which gather hit points, normals and materials)
@@ -80,7 +83,9 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
                 trace_paths<kFused, true>(w, job);
             }
         }
-        if (!f.lights && !f.textures && scene.path.nee && !escapes) {
+        // (a big tree traces the emitter samples' shadow rays in the shadow stage, with many
+        // in flight: the loop below)
+        if (!f.lights && !f.textures && scene.path.nee && !escapes && !grouped(scene)) {
             for (;;) {
                 generate_camera_paths<true>(w, cursor);
                 if (w.live == 0) return;
