@@ -68,7 +68,7 @@ void lanes(benchmark::State& state, Fn f) {
 template <class T>
 void BM_Plane(benchmark::State& state) {
     lanes<T>(state, [](size_t i) {
-        T t;
+        T t(0.0f);  // (a miss leaves it unwritten)
         benchmark::DoNotOptimize(
             intersect_plane(ray_at<T>(i), Vec3<T>(T(0.0f), T(0.0f), T(-1.0f)), T(1.0f), T(kRayFar), t));
         benchmark::DoNotOptimize(t);
@@ -77,7 +77,7 @@ void BM_Plane(benchmark::State& state) {
 template <class T>
 void BM_Sphere(benchmark::State& state) {
     lanes<T>(state, [](size_t i) {
-        T t;
+        T t(0.0f);  // (a miss leaves it unwritten)
         benchmark::DoNotOptimize(
             intersect_sphere(ray_at<T>(i), Vec3<T>(T(0.0f)), T(0.7f), T(kRayFar), t));
         benchmark::DoNotOptimize(t);
@@ -88,7 +88,7 @@ void BM_Quadric(benchmark::State& state) {
     const QuadricCoefficients<T> q{T(1.0f), T(0.0f), T(1.0f), T(0.0f), T(0.0f),
                                    T(0.0f), T(0.0f), T(0.0f), T(0.0f), T(-0.25f)};
     lanes<T>(state, [&](size_t i) {
-        T t;
+        T t(0.0f);  // (a miss leaves it unwritten)
         benchmark::DoNotOptimize(intersect_quadric(ray_at<T>(i), q, Vec3<T>(T(-1.0f)),
                                                    Vec3<T>(T(1.0f)), T(kRayFar), t));
         benchmark::DoNotOptimize(t);

@@ -2,7 +2,8 @@
 # The second README command: installs what is missing, builds and
 # runs every test with ctest; then the sanitizer job runs them all again under
 # AddressSanitizer and UndefinedBehaviorSanitizer (scripts/test_sanitized.sh). Says which
-# instruction sets the run exercised and which it skipped, and why. On x86-64 it ends with
+# instruction sets the run exercised and which it skipped, and why, and after each job every
+# test it skipped with the reason (scripts/skipped_tests.sh). On x86-64 it ends with
 # the aarch64 job (scripts/test_aarch64.sh): NEON, cross-built and tested under qemu-user;
 # an aarch64 host has tested NEON natively by then.
 set -euo pipefail
@@ -16,6 +17,7 @@ phase "install"
 scripts/build.sh build
 phase "native build"
 (cd build && ctest --output-on-failure --parallel "$(nproc)" --timeout 900)
+scripts/skipped_tests.sh build "native tests"
 phase "native tests"
 scripts/test_sanitized.sh
 phase "sanitizer build and tests"

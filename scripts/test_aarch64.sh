@@ -89,6 +89,7 @@ status=0
 (cd "$build" && ctest --output-on-failure --parallel "$(nproc)" --timeout 3600) | tee "$log" ||
     status=$?
 tested=$(date +%s)
+scripts/skipped_tests.sh "$build" "aarch64 tests"
 
 # ---- Summary ------------------------------------------------------------------------------
 total=$(sed -n 's/.*tests failed out of \([0-9]*\).*/\1/p' "$log" | tail -1)

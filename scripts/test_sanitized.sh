@@ -18,3 +18,5 @@ export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export CIERZO_TEST_EMULATED=1
 cd build-sanitize
 ctest --output-on-failure --parallel "$(nproc)" --timeout 1800
+cd ..
+scripts/skipped_tests.sh build-sanitize "sanitizer tests"
