@@ -1,4 +1,4 @@
-"""Builds the Python module `cierzo` with the project's CMake (see README, "Python").
+"""Builds the Python module `cierzo` with the project's CMake (see docs/python.md).
 
 The C++ libraries and python/cierzo_module.cpp are configured and built in a folder of
 setuptools' build tree, without the tests, benchmarks or MPI, and the module is copied to
