@@ -3,8 +3,8 @@
 // whose leaves hold SoA blocks of one primitive kind, tested together. An instance is a
 // mesh's own BVH (built once, however many objects use the mesh) reached through the
 // object's transform. Built here (bvh_build.cpp: binned SAH, spatial splits on request,
-// TBB-parallel for big inputs, collapsed to 8-wide nodes); traversed by kernels/traverse.h,
-// the one traversal both integrators call, over the plain layout of kernels/bvh_layout.h.
+// TBB-parallel for big inputs, collapsed to 8-wide nodes); traversed by kernels/bvh/traverse.h,
+// the one traversal both integrators call, over the plain layout of kernels/bvh/bvh_layout.h.
 // Design and measurements: docs/acceleration.md.
 #pragma once
 
@@ -14,7 +14,7 @@
 #include <span>
 #include <vector>
 
-#include "kernels/bvh_layout.h"
+#include "kernels/bvh/bvh_layout.h"
 #include "kernels/vec3.h"
 
 namespace cierzo {
@@ -99,7 +99,7 @@ public:
     Vec3f bounds_min() const { return {view_.bounds[0], view_.bounds[1], view_.bounds[2]}; }
     Vec3f bounds_max() const { return {view_.bounds[3], view_.bounds[4], view_.bounds[5]}; }
 
-    // One ray through the tree with the scalar traversal (kernels/traverse.h): the closest
+    // One ray through the tree with the scalar traversal (kernels/bvh/traverse.h): the closest
     // triangle hit with t in (0, tmax), and any hit. For single-mesh BVHs (tests, benchmarks).
     bool intersect(const Ray<float>& ray, float tmax, TriangleHit& hit) const;
     bool occluded(const Ray<float>& ray, float tmax) const;

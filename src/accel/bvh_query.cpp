@@ -1,7 +1,7 @@
 // A single mesh's BVH queried one ray at a time with the scalar traversal (T = float).
 #include "accel/bvh.h"
 
-#include "kernels/traverse.h"
+#include "kernels/bvh/traverse.h"
 
 namespace cierzo {
 

@@ -88,7 +88,7 @@ CLI::App* add_trace_command(CLI::App& app) {
         ->capture_default_str();
     t->add_option("--stream", g_args.stream_rays,
                   "Wavefront: trace the rays as ordered streams of this many rays (node by node; "
-                  "kernels/traverse_stream.h) where the tree allows it (triangles and spheres, "
+                  "kernels/bvh/traverse_stream.h) where the tree allows it (triangles and spheres, "
                   "no instances, no alpha masks), instead of K rays at a time each on its own; "
                   "0: no streams")
         ->check(CLI::Range(0, 65536))

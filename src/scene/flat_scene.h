@@ -8,7 +8,7 @@
 
 #include <cstdint>
 
-#include "kernels/bvh_layout.h"
+#include "kernels/bvh/bvh_layout.h"
 #include "kernels/emitter_table.h"
 #include "kernels/prim_id.h"
 
@@ -56,7 +56,7 @@ struct FlatMesh {
 struct FlatFeatures {
     bool spheres, planes, quadrics, meshes;
     bool bvh;  // anything bounded: the scene BVH is traversed
-    bool packet;  // the BVH is one node, tested K rays at a time (kernels/traverse.h)
+    bool packet;  // the BVH is one node, tested K rays at a time (kernels/bvh/traverse.h)
     bool lights, emitters;
     bool diffuse, specular, mirror, refraction;
     bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated
@@ -125,7 +125,7 @@ struct FlatScene {
     PinholeFrame pinhole;
     bool camera_paths;  // Scene::traces_camera_paths
     FlatFeatures features;
-    // How many rays a thread keeps in flight through the tree (kernels/traverse_group.h;
+    // How many rays a thread keeps in flight through the tree (kernels/bvh/traverse_group.h;
     // 1, the default: one at a time), the renderer's choice
     int32_t ray_group;
 };

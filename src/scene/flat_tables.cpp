@@ -7,7 +7,7 @@
 #include <new>
 
 #include "core/error.h"
-#include "kernels/traverse.h"
+#include "kernels/bvh/traverse.h"
 #include "scene/scene.h"
 
 namespace cierzo {

@@ -1,5 +1,5 @@
 // Scene set-up (BVHs, feature set) and the scalar closest-hit and shadow queries: the
-// unbounded primitives and the scene BVH through the shared traversal (kernels/traverse.h)
+// unbounded primitives and the scene BVH through the shared traversal (kernels/bvh/traverse.h)
 // with T = float.
 #include "scene/scene.h"
 
@@ -13,7 +13,7 @@
 #include "integrators/scalar.h"
 #include "kernels/prim_id.h"
 #include "kernels/shading.h"
-#include "kernels/traverse.h"
+#include "kernels/bvh/traverse.h"
 #include "scene/flat_tables.h"
 #include "scene/pmj02.h"
 
@@ -600,7 +600,7 @@ SceneFeatures Scene::features() const {
 
 namespace {
 
-// The scene's planes and unbounded quadrics for the shared loops of kernels/traverse.h.
+// The scene's planes and unbounded quadrics for the shared loops of kernels/bvh/traverse.h.
 struct ScalarPlanes {
     const Planes& p;
     PlaneLanes<float> operator()(int32_t j) const {

@@ -25,7 +25,7 @@ struct FlatTables;  // scene/flat_tables.h
 
 // A material's alpha cut-out ("alpha"; MTL d, Tr and map_d): the opacity of its triangles,
 // `constant` times a channel of an image at the hit's texture coordinates. Where it is below
-// 1, a ray passes through the surface with probability 1 - alpha (kernels/traverse.h,
+// 1, a ray passes through the surface with probability 1 - alpha (kernels/bvh/traverse.h,
 // alpha_passes), in closest-hit and shadow rays alike.
 struct AlphaSource {
     float constant = 1.0f;

@@ -1,4 +1,4 @@
-// Alpha cut-outs (a material's "alpha"; MTL d, Tr and map_d; kernels/traverse.h): a fully
+// Alpha cut-outs (a material's "alpha"; MTL d, Tr and map_d; kernels/bvh/traverse.h): a fully
 // transparent quad is invisible and casts no shadow; a checkerboard mask lets through half
 // the light and a constant alpha a the share 1 - a (analytic), in every estimator and
 // integrator; the stochastic test passes a hit with probability alpha; the wavefront agrees
@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "kernels/traverse.h"
+#include "kernels/bvh/traverse.h"
 #include "scene/scene_json.h"
 #include "support/scratch.h"
 #include "support/render_variants.h"

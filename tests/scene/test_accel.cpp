@@ -1,4 +1,4 @@
-// The scene BVH (src/accel/, kernels/traverse.h) against brute force: closest and any hit on
+// The scene BVH (src/accel/, kernels/bvh/traverse.h) against brute force: closest and any hit on
 // random rays through mixtures of every primitive kind, with instances that rotate, scale
 // non-uniformly and mirror; the wavefront's SIMD traversal and its K-ray packets against the
 // scalar one; watertightness through instances; degenerate and extreme inputs.
@@ -21,9 +21,9 @@
 #include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/intersect_stage.h"
-#include "kernels/traverse.h"
-#include "kernels/traverse_group.h"
-#include "kernels/traverse_stream.h"
+#include "kernels/bvh/traverse.h"
+#include "kernels/bvh/traverse_group.h"
+#include "kernels/bvh/traverse_stream.h"
 #include "scene/scene_json.h"
 #include "support/emulator.h"
 #include "support/uv_sphere.h"
@@ -468,7 +468,7 @@ TEST(Accel, PacketsOfCameraRaysMatchSingleRaysThroughInstances) {
     EXPECT_LE(disagreements, 3);
 }
 
-// Ray streams (kernels/traverse_stream.h) find what single rays find: whether a ray hits,
+// Ray streams (kernels/bvh/traverse_stream.h) find what single rays find: whether a ray hits,
 // the same t bit for bit (the same kernels), and the same primitive but on an exact tie of
 // two primitives' distances, where either may be named; with every stream cut-off, from
 // streams traced node by node to the leaves (1) to streams that go one ray at a time from
@@ -530,7 +530,7 @@ TEST(Accel, RayStreamsFindWhatSingleRaysFind) {
     }
 }
 
-// ---- Many rays in flight (kernels/traverse_group.h) ---------------------------------------
+// ---- Many rays in flight (kernels/bvh/traverse_group.h) ---------------------------------------
 // What one ray at a time finds through `bvh`: closest hit and any hit.
 struct SingleRayHits {
     std::vector<float> t;

@@ -1,6 +1,6 @@
 // Wavefront stage 2, closest hit: K rays at a time against the unbounded primitives (planes,
 // unbounded quadrics: one broadcast to all lanes), then each ray whose interval meets the
-// scene BVH's box through the tree on its own (kernels/traverse.h: all children of a node
+// scene BVH's box through the tree on its own (kernels/bvh/traverse.h: all children of a node
 // and all primitives of a leaf block tested at once). Records t and the primitive id; the
 // shadow stage's any-hit test is here too.
 #pragma once
@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "integrators/wavefront/wave.h"
-#include "kernels/traverse.h"
-#include "kernels/traverse_group.h"
-#include "kernels/traverse_stream.h"
+#include "kernels/bvh/traverse.h"
+#include "kernels/bvh/traverse_group.h"
+#include "kernels/bvh/traverse_stream.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -160,7 +160,7 @@ void closest_in_tree(const BvhView& bvh, const AlphaTable* alpha, bool packet,
 
 // ---- Many rays in flight -----------------------------------------------------------------
 // A stage whose rays go through a big tree gathers them all first, then traverses them
-// `FlatScene::ray_group` at a time (kernels/traverse_group.h), so that their cache misses
+// `FlatScene::ray_group` at a time (kernels/bvh/traverse_group.h), so that their cache misses
 // overlap; the same hits as one ray at a time.
 
 // Whether the scene's tree is traversed with many rays in flight (a one-node tree is tested

@@ -113,7 +113,7 @@ struct PathPool {
     float *done_r, *done_g, *done_b;
 
     // The tree's rays of a stage traced with many in flight (FlatScene::ray_group): for each,
-    // its set-up (16 floats: kernels/traverse.h, TraversalRay), its path or queue entry, its
+    // its set-up (16 floats: kernels/bvh/traverse.h, TraversalRay), its path or queue entry, its
     // interval's end, hit (3 words: BvhHit) and whether it hit; for as many rays as the
     // larger of the pool and the shadow queue; per shadow queue entry, whether its ray is
     // blocked. And the group's states and stacks.
@@ -125,7 +125,7 @@ struct PathPool {
     void* group_scratch;  // kTraversalGroupBytes
 };
 
-// Bytes of a group of rays in flight through the tree (kernels/traverse_group.h,
+// Bytes of a group of rays in flight through the tree (kernels/bvh/traverse_group.h,
 // TraversalGroupScratch: each ray's state and stack), which the per-ISA code checks.
 inline constexpr size_t kTraversalGroupBytes = 360 * 1024;
 

@@ -24,7 +24,7 @@ public:
     // measuring what specialisation to the scene's features saves; same image).
     // light_store_limit: bdpt and vcm, the bytes a thread's light-vertex store may take
     // (RenderOptions::light_store_limit). ray_group: rays a thread keeps in flight through
-    // the tree, 1 (one at a time) to kMaxTraversalGroup (kernels/traverse_group.h; the same
+    // the tree, 1 (one at a time) to kMaxTraversalGroup (kernels/bvh/traverse_group.h; the same
     // hits whatever it is).
     WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size = 0, bool specialise = true,
                       size_t light_store_limit = kLightStoreLimit, int32_t ray_group = 1);

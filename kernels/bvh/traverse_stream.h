@@ -5,7 +5,7 @@
 // first-level cache, tests the leaves it enters there and then, and joins the stream of
 // each inner child it enters; the children's streams go on one stack, the nearest (by the
 // mean entry distance of its rays) on top. A stream of fewer than `single_below` rays
-// finishes its subtree one ray at a time (kernels/traverse.h, from that node): streams thin
+// finishes its subtree one ray at a time (kernels/bvh/traverse.h, from that node): streams thin
 // out with depth, and there one ray's traversal costs less per node.
 //
 // The same node test and leaf kernels as the single-ray traversal, so a ray finds the same

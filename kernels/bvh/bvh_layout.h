@@ -1,5 +1,5 @@
 // The layout of the scene's acceleration structure as the traversal reads it
-// (kernels/traverse.h): plain data, no standard containers and no functions, so that every
+// (kernels/bvh/traverse.h): plain data, no standard containers and no functions, so that every
 // per-ISA object includes it and shares nothing else. Built by src/accel (bvh.h), which
 // says what the structure holds; design and measurements: docs/acceleration.md.
 #pragma once
@@ -18,12 +18,12 @@ inline constexpr int kWideBvhStackSize = (kWideBvhWidth - 1) * kBvhMaxDepth + 1;
 // Never a leaf above this many primitives (at most two blocks of 8).
 inline constexpr uint32_t kBvhMaxLeafSize = 2 * kWideBvhWidth;
 
-// The most rays a thread keeps in flight through the tree at once (kernels/traverse_group.h;
+// The most rays a thread keeps in flight through the tree at once (kernels/bvh/traverse_group.h;
 // FlatScene::ray_group).
 inline constexpr int kMaxTraversalGroup = 64;
 // Trees of at most this many wide nodes (a triangle tree takes about 2 kB a node with its
 // leaf blocks, some 1 MB in all) stay in a core's L2 cache during a traversal: what a ray
-// goes on to read is not prefetched there (kernels/traverse.h).
+// goes on to read is not prefetched there (kernels/bvh/traverse.h).
 inline constexpr uint32_t kPrefetchAbove = 512;
 
 // Far slab distances are scaled by 1 + 2γ(3) so rounding never culls a box a ray touches
@@ -103,7 +103,7 @@ struct BvhView {
 
 // Alpha cut-outs (materials' "alpha", MTL d and map_d): a triangle of a masked mesh is hit
 // only where its alpha is at least kAlphaCutoff, in closest-hit and any-hit traversal alike
-// (kernels/traverse.h). The alpha is `constant`, times the mask image's `channel` looked up
+// (kernels/bvh/traverse.h). The alpha is `constant`, times the mask image's `channel` looked up
 // bilinearly at the hit's texture coordinates where there is an image (width > 0). A
 // threshold, not a stochastic test: masks are cut-outs (leaves, fences), and every ray,
 // integrator and ISA makes the same decision from the same barycentrics.

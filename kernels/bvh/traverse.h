@@ -1,4 +1,4 @@
-// The one traversal of the scene BVH (layout in kernels/bvh_layout.h), for both integrators:
+// The one traversal of the scene BVH (layout in kernels/bvh/bvh_layout.h), for both integrators:
 // one ray at a time through 8-wide nodes, templated on the lane type N that tests a node's
 // children and a leaf block's primitives — `float` (one child at a time: the scalar
 // reference) or an xsimd batch of 8 floats (or 4, twice: the wavefront). Every primitive
@@ -15,9 +15,9 @@
 #include <utility>
 
 #include "bvh_layout.h"
-#include "intersect.h"
-#include "texture.h"
-#include "triangle.h"
+#include "../intersect.h"
+#include "../texture.h"
+#include "../triangle.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -107,7 +107,7 @@ inline Vec3f linear_map(const float m[], int stride, const float v[3]) {
 
 // ---- Alpha cut-outs ------------------------------------------------------------------------
 // The alpha of a hit on triangle `triangle` of scene mesh `mesh` at barycentrics (b1, b2)
-// (kernels/bvh_layout.h, AlphaMask): 1 where the mesh is not masked. One hit at a time, out
+// (kernels/bvh/bvh_layout.h, AlphaMask): 1 where the mesh is not masked. One hit at a time, out
 // of line: only masked scenes come here.
 [[gnu::noinline]] inline float alpha_at(const AlphaTable& table, uint32_t mesh,
                                         uint32_t triangle, float b1, float b2) {
@@ -456,7 +456,7 @@ struct TraversalEntry {
 };
 
 // ---- Traversal -----------------------------------------------------------------------------
-// (kPrefetchAbove, kernels/bvh_layout.h: skipping the prefetch in small trees made renders of
+// (kPrefetchAbove, kernels/bvh/bvh_layout.h: skipping the prefetch in small trees made renders of
 // a 36-node tree up to 7% faster on a Xeon, AVX-512, a 22-node one unchanged, and of a
 // 401-node mesh tree, 820 kB, instanced 100 times, 3%; on the 6,609-node tree of a
 // 200k-triangle mesh, 13.6 MB, the prefetch made traversal 14% faster on a Zen 3, AVX2, and
@@ -470,8 +470,8 @@ struct TraversalEntry {
 // so far is dropped. Leaves are tested by hit_leaf.
 // Closest hit: whether anything is hit in (0, tmax), then tmax and `hit`: the nearest, and
 // on a tie the first found. Any hit (kAnyHit): whether anything is, stopping at the first.
-// `root`: the node to start from (a ray stream's subtree, kernels/traverse_stream.h).
-// The interleaved traversal of many rays (kernels/traverse_group.h) takes each ray through
+// `root`: the node to start from (a ray stream's subtree, kernels/bvh/traverse_stream.h).
+// The interleaved traversal of many rays (kernels/bvh/traverse_group.h) takes each ray through
 // exactly these steps, and so finds the same hits.
 // (flatten: the kernels are inlined, so the identity picks below fold away.)
 template <bool kAnyHit, class N, bool kTop>

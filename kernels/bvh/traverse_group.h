@@ -10,7 +10,7 @@
 // Prefetching", ICDE 2004, and Kocberber, Falsafi and Grot, "Asynchronous Memory Access
 // Chaining", VLDB 2016.)
 //
-// Each ray goes through exactly the steps of the single-ray traversal (kernels/traverse.h:
+// Each ray goes through exactly the steps of the single-ray traversal (kernels/bvh/traverse.h:
 // the same node test, leaf test and stack order; only the order in which different rays'
 // steps interleave differs), so it finds the same hit, bit for bit: the same t, the same
 // primitive, the same instance. Instances are traversed one ray at a time inside the step
