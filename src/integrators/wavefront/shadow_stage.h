@@ -9,6 +9,29 @@
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
 
+// Chunk `i` of the shadow queue (K rays from entry i): the rays, where they end, the lanes
+// that hold a queued ray and how many; counted in the shadow lanes' use.
+template <class A>
+struct ShadowChunk {
+    Ray<typename Wave<A>::F> ray;
+    typename Wave<A>::F tmax;
+    typename Wave<A>::M queued;
+    int32_t lanes;
+};
+template <class A>
+ShadowChunk<A> shadow_chunk(Wave<A>& w, int32_t i) {
+    using F = typename Wave<A>::F;
+    constexpr int32_t K = Wave<A>::K;
+    const PathPool& p = w.pool;
+    const int32_t lanes = std::min(K, p.shadow_count - i);
+    w.counters.shadow_active += uint64_t(lanes);
+    w.counters.shadow_total += uint64_t(K);
+    return {{load3<F>(p.sox, p.soy, p.soz, i), load3<F>(p.sdx, p.sdy, p.sdz, i)},
+            F::load_aligned(p.stmax + i),
+            Wave<A>::lane_index() < F(float(lanes)),
+            lanes};
+}
+
 // The queued rays with many in flight (intersect_stage.h, grouped): which are blocked, all
 // first (the unbounded primitives K rays at a time, then the tree), then the radiance
 // updates in the order of the queue, as trace_shadow_rays makes them.
@@ -22,20 +45,16 @@ void trace_shadow_rays_grouped(Wave<A>& w) {
     const GroupArrays g = group_arrays(p);
     int32_t n = 0;
     for (int32_t i = 0; i < count; i += K) {
-        const Ray<F> ray{load3<F>(p.sox, p.soy, p.soz, i), load3<F>(p.sdx, p.sdy, p.sdz, i)};
-        const F tmax = F::load_aligned(p.stmax + i);
-        const int32_t lanes = std::min(K, count - i);
-        w.counters.shadow_active += uint64_t(lanes);
-        w.counters.shadow_total += uint64_t(K);
-        const auto queued = Wave<A>::lane_index() < F(float(lanes));
+        const ShadowChunk<A> c = shadow_chunk(w, i);
         const auto blocked = occluded_unbounded(
-            ray, tmax, typename Wave<A>::M(false), s.plane_count, PlaneTable<F>{s.plane_lanes},
+            c.ray, c.tmax, typename Wave<A>::M(false), s.plane_count, PlaneTable<F>{s.plane_lanes},
             s.unbounded_quadric_count, QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics});
         const uint32_t b = mask_bits(blocked);
-        for (int32_t l = 0; l < lanes; ++l) p.group_blocked[i + l] = uint8_t((b >> l) & 1u);
+        for (int32_t l = 0; l < c.lanes; ++l) p.group_blocked[i + l] = uint8_t((b >> l) & 1u);
         if (all(blocked)) continue;
-        const WideRays<A> rays(ray);
-        gather_group_rays<A>(g, n, rays, mask_bits(queued & !blocked & slab_hits<A>(s.bvh->bounds, rays, tmax)),
+        const WideRays<A> rays(c.ray);
+        gather_group_rays<A>(g, n, rays,
+                             mask_bits(c.queued & !blocked & slab_hits<A>(s.bvh->bounds, rays, c.tmax)),
                              i, p.stmax + i);
     }
     traverse_group<true, NodeLanes<A>>(*s.bvh, g.rays, n, g.t, g.hits, g.found, s.ray_group,
@@ -53,7 +72,6 @@ void trace_shadow_rays_grouped(Wave<A>& w) {
 
 template <class A>
 CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
-    using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
@@ -63,14 +81,9 @@ CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
     }
     const int32_t count = p.shadow_count;
     for (int32_t i = 0; i < count; i += K) {
-        const Ray<F> ray{load3<F>(p.sox, p.soy, p.soz, i), load3<F>(p.sdx, p.sdy, p.sdz, i)};
-        const F tmax = F::load_aligned(p.stmax + i);
         // Lanes of this chunk that hold a queued ray and are not blocked
-        const int32_t lanes = std::min(K, count - i);
-        w.counters.shadow_active += uint64_t(lanes);
-        w.counters.shadow_total += uint64_t(K);
-        const auto queued = Wave<A>::lane_index() < F(float(lanes));
-        uint32_t open = ~mask_bits(occluded<A>(s, ray, tmax, queued)) & ((1u << lanes) - 1u);
+        const ShadowChunk<A> c = shadow_chunk(w, i);
+        uint32_t open = ~mask_bits(occluded<A>(s, c.ray, c.tmax, c.queued)) & ((1u << c.lanes) - 1u);
         // The radiance update, per unblocked ray (one path may own several rays)
         while (open) {
             const int32_t q = i + std::countr_zero(open);
