@@ -35,7 +35,8 @@ import sys
 import tempfile
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from accel import EMBREE, EMBREE_TRACES, GENERATED, ROOT, keys, pfm_mean, run  # noqa: E402
+from accel import (EMBREE, EMBREE_TRACES, GENERATED, ROOT, embree_render, keys,  # noqa: E402
+                   pfm_mean, run)
 
 CIERZO = ROOT / "build" / "cierzo"
 BIG = ["mesh_200k", "sticks_100k", "mesh_1m", "mesh_10m"]
@@ -74,12 +75,6 @@ def render(tmp, scene, size, spp, integrator="wavefront", isa="auto", extra=(), 
     s = json.loads(stats.read_text())
     return {"rays_per_s": s["rays_per_second_per_thread"], "mean": pfm_mean(out),
             "ray_group": s.get("ray_group")}
-
-
-def embree_render(tmp, scene, size, spp):
-    out = pathlib.Path(tmp) / "embree.pfm"
-    k = keys(run([EMBREE, scene, "--width", size, "--height", size, "--spp", spp, "--out", out]))
-    return {"rays_per_s": float(k["rays_per_second"]), "mean": [float(x) for x in k["mean_rgb"].split()]}
 
 
 def trace(scene, rays, extra=()):
