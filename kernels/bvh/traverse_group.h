@@ -124,7 +124,7 @@ template <bool kAnyHit, class N>
         std::fill(found, found + count, uint8_t(0));
         return;
     }
-    group = std::clamp(group, 1, kMaxTraversalGroup);
+    group = std::clamp(group, 1, int(kMaxTraversalGroup));  // (a copy: no symbol of the constant)
     GroupRay* slots = scratch.rays;
     int next = 0;
     // Ray `next` of the input into slot g, its stack `stack`

@@ -195,7 +195,7 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
         throw InputError("--pool: the path pool size must be a multiple of 16 in [16, 4194304]");
     if (ray_group < 1 || ray_group > kMaxTraversalGroup)
         throw InputError(fmt::format("--ray-group: rays in flight must be 1 to {}, not {}",
-                                     kMaxTraversalGroup, ray_group));
+                                     int(kMaxTraversalGroup), ray_group));
     data_ = std::make_unique<Data>(scene, pool_size_, light_store_limit);
     data_->view.scene.ray_group = ray_group;
     data_->entry = entry_of(isa_);
