@@ -205,8 +205,7 @@ inline LeafRay<N> make_leaf_ray(const TraversalRay& r) {
 // Lanes `hits` of a block tested at distances th: the nearest below t (t and lane updated;
 // the first on a tie).
 template <class N>
-inline void nearest_lane(uint32_t hits, const N& th, uint32_t lane0,
-                                                float& t, uint32_t& lane) {
+inline void nearest_lane(uint32_t hits, const N& th, uint32_t lane0, float& t, uint32_t& lane) {
     alignas(32) float ts[kNodeLanes<N>];
     store_lanes(th, ts);
     for (; hits; hits &= hits - 1) {
@@ -219,12 +218,10 @@ inline void nearest_lane(uint32_t hits, const N& th, uint32_t lane0,
 // lane): whether one is hit below t; closest hit: t and lane (block lane) updated to the
 // nearest. alpha: the masks (alpha_filter; object and world as there), or null.
 template <bool kAnyHit, class N>
-inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r,
-                                                     const LeafRay<N>& lr, uint32_t start,
-                                                     uint32_t count, float& t, uint32_t& lane,
-                                                     const AlphaTable* alpha = nullptr,
-                                                     int32_t object = -1,
-                                                     const TraversalRay* world = nullptr) {
+inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r, const LeafRay<N>& lr,
+                              uint32_t start, uint32_t count, float& t, uint32_t& lane,
+                              const AlphaTable* alpha = nullptr, int32_t object = -1,
+                              const TraversalRay* world = nullptr) {
     constexpr int kLanes = kNodeLanes<N>;
     const int32_t* axis = r.axis;
     // The vertices are handed to the kernel with their axes permuted as the origin is, so
@@ -261,9 +258,8 @@ inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r,
 
 // A leaf of sphere blocks, likewise.
 template <bool kAnyHit, class N>
-inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr,
-                                                   uint32_t start, uint32_t count, float& t,
-                                                   uint32_t& lane) {
+inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t start,
+                            uint32_t count, float& t, uint32_t& lane) {
     constexpr int kLanes = kNodeLanes<N>;
     bool any = false;
     const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
@@ -285,8 +281,8 @@ inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr,
 
 template <bool kAnyHit, class N, bool kTop = true>
 [[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax, BvhHit& hit,
-              const AlphaTable* alpha = nullptr, int32_t object = -1,
-              const TraversalRay* world = nullptr, uint32_t root = 0);
+                               const AlphaTable* alpha = nullptr, int32_t object = -1,
+                               const TraversalRay* world = nullptr, uint32_t root = 0);
 
 // One leaf of any kind (kind, start, count: a node's slot) for ray r (lr: in every lane):
 // whether it is hit below t; closest hit: t and `best` updated to the nearest, the first on a
@@ -294,11 +290,9 @@ template <bool kAnyHit, class N, bool kTop = true>
 // one at a time, an instance by mapping the ray into its space (t is unchanged there) and
 // traversing its mesh's tree (kTop = false: a mesh's tree holds triangles only).
 template <bool kAnyHit, class N, bool kTop>
-inline bool hit_leaf(const BvhView& bvh, const TraversalRay& r,
-                                            const LeafRay<N>& lr, uint32_t kind, uint32_t start,
-                                            uint32_t count, float& t, BvhHit& best,
-                                            const AlphaTable* alpha, int32_t object,
-                                            const TraversalRay* world) {
+inline bool hit_leaf(const BvhView& bvh, const TraversalRay& r, const LeafRay<N>& lr, uint32_t kind,
+                     uint32_t start, uint32_t count, float& t, BvhHit& best,
+                     const AlphaTable* alpha, int32_t object, const TraversalRay* world) {
     uint32_t lane = best.lane;
     if (kind == kLeafTriangles) {
         if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object, world))
@@ -348,12 +342,14 @@ inline bool hit_leaf(const BvhView& bvh, const TraversalRay& r,
 
 // ---- Nodes ---------------------------------------------------------------------------------
 // A ray in every lane, as the node test reads it: origin, reciprocal direction, the far
-// planes' reciprocal scaled by kBvhFarScale once (Ize's robust far distances), and the
-// bounds row of each axis' near and far plane.
+// planes' reciprocal scaled by kBvhFarScale once (Ize's robust far distances), and where
+// each axis' near and far plane's row starts in a node's bounds (as float offsets, which the
+// loads take as they are: row numbers cost a scaling per row and node, 3% of the traversal's
+// instructions).
 template <class N>
 struct NodeRay {
     N org[3], inv[3], inv_far[3];
-    int near_row[3], far_row[3];
+    size_t near_at[3], far_at[3];
 };
 
 template <class N>
@@ -361,8 +357,8 @@ inline NodeRay<N> make_node_ray(const TraversalRay& r) {
     NodeRay<N> n;
     for (int k = 0; k < 3; ++k) {
         n.org[k] = N(r.o[k]), n.inv[k] = N(r.inv[k]), n.inv_far[k] = N(r.inv[k] * kBvhFarScale);
-        n.near_row[k] = std::signbit(r.inv[k]) ? k + 3 : k;
-        n.far_row[k] = std::signbit(r.inv[k]) ? k : k + 3;
+        n.near_at[k] = size_t(std::signbit(r.inv[k]) ? k + 3 : k) * kWideBvhWidth;
+        n.far_at[k] = size_t(std::signbit(r.inv[k]) ? k : k + 3) * kWideBvhWidth;
     }
     return n;
 }
@@ -373,15 +369,15 @@ inline NodeRay<N> make_node_ray(const TraversalRay& r) {
 // distance. Unused slots have empty boxes (min +inf, max -inf), which no ray enters, but a
 // NaN direction leaves every interval as it was: they are masked off too.
 template <class N>
-inline uint32_t enter_children(const NodeRay<N>& n, const WideBvhNode& node,
-                                                      float t, float entry[kWideBvhWidth]) {
+inline uint32_t enter_children(const NodeRay<N>& n, const WideBvhNode& node, float t,
+                               float entry[kWideBvhWidth]) {
     constexpr int kLanes = kNodeLanes<N>;
     uint32_t enter = 0;
     for (int at = 0; at < kWideBvhWidth; at += kLanes) {
         N t0(0.0f), t1(t);
         for (int k = 0; k < 3; ++k) {
-            const N near = load_lanes<N>(node.bounds[n.near_row[k]] + at);
-            const N far = load_lanes<N>(node.bounds[n.far_row[k]] + at);
+            const N near = load_lanes<N>(node.bounds[0] + n.near_at[k] + at);
+            const N far = load_lanes<N>(node.bounds[0] + n.far_at[k] + at);
             t0 = slab_max((near - n.org[k]) * n.inv[k], t0);
             t1 = slab_min((far - n.org[k]) * n.inv_far[k], t1);
         }
@@ -400,28 +396,30 @@ inline void prefetch_lines(const void* p, size_t bytes) {
         __builtin_prefetch(c);
 }
 
-// What a ray goes on to read after entering the slots `enter` of `node`: the blocks of the
-// leaves entered (triangles and spheres; `whole`: all their lines, else the first four) and
-// the inner children's nodes.
-inline void prefetch_children(const BvhView& bvh, const WideBvhNode& node,
-                                                     uint32_t enter, bool whole) {
+// What a ray goes on to read after entering the slots `enter` of `node`: the inner
+// children's nodes (4 lines each) and the blocks of the leaves entered, their first 4 lines,
+// or with `whole` every line of them. (Four fixed prefetches, not a loop over the lines, for
+// the single-ray traversal: a loop cost it a tenth more instructions. A quadric or instance
+// leaf's address is no block's, and prefetching it is harmless.)
+inline void prefetch_children(const BvhView& bvh, const WideBvhNode& node, uint32_t enter,
+                              bool whole) {
     for (uint32_t bits = enter; bits; bits &= bits - 1) {
         const int i = std::countr_zero(bits);
-        if (!((node.leaves >> i) & 1u)) {
-            prefetch_lines(bvh.nodes + node.child[i], sizeof(WideBvhNode));
+        const bool leaf = (node.leaves >> i) & 1u;
+        const bool triangles = node.kind[i] == kLeafTriangles;
+        const char* p =
+            !leaf ? reinterpret_cast<const char*>(bvh.nodes + node.child[i])
+            : triangles ? reinterpret_cast<const char*>(bvh.triangles + node.child[i])
+                        : reinterpret_cast<const char*>(bvh.spheres + node.child[i]);
+        if (whole && leaf) {
+            const uint32_t blocks = (node.count[i] + kWideBvhWidth - 1) / kWideBvhWidth;
+            prefetch_lines(p, blocks * (triangles ? sizeof(TriangleBlock) : sizeof(SphereBlock)));
             continue;
         }
-        const uint32_t blocks = (node.count[i] + kWideBvhWidth - 1) / kWideBvhWidth;
-        const void* p;
-        size_t bytes;
-        if (node.kind[i] == kLeafTriangles) {
-            p = bvh.triangles + node.child[i], bytes = blocks * sizeof(TriangleBlock);
-        } else if (node.kind[i] == kLeafSpheres) {
-            p = bvh.spheres + node.child[i], bytes = blocks * sizeof(SphereBlock);
-        } else {
-            continue;
-        }
-        prefetch_lines(p, whole ? bytes : std::min<size_t>(bytes, 256));
+        __builtin_prefetch(p);
+        __builtin_prefetch(p + 64);
+        __builtin_prefetch(p + 128);
+        __builtin_prefetch(p + 192);
     }
 }
 
@@ -429,9 +427,8 @@ inline void prefetch_children(const BvhView& bvh, const WideBvhNode& node,
 // slot order, for any hit), the others pushed onto `stack` (size updated), for closest hit
 // sorted by entry distance with the nearest on top. Whether there was one.
 template <bool kAnyHit, class Entry>
-inline bool push_children(const WideBvhNode& node, uint32_t enter,
-                                                 const float entry[kWideBvhWidth], Entry& next,
-                                                 Entry* stack, int& size) {
+inline bool push_children(const WideBvhNode& node, uint32_t enter, const float entry[kWideBvhWidth],
+                          Entry& next, Entry* stack, int& size) {
     if (enter == 0) return false;
     int i = std::countr_zero(enter);
     next = {node.child[i], entry[i]};

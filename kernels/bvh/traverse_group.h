@@ -1,14 +1,15 @@
 // Many independent rays in flight per thread: the interleaved traversal of a group of rays
-// through the scene BVH. A ray's traversal of a big tree waits mostly on memory, one miss
-// after another (the node it enters next, the leaf blocks it tests), and one ray at a time
-// overlaps few of them. Here each of up to `group` rays keeps its own state and stack, and
-// the rays take turns: a ray does one step (the leaves it entered at its last node, then the
-// next node's test), issues prefetches for every line that its next step reads, and yields
-// to the next ray; by the time its turn comes again, those lines have arrived. A ray that
-// finishes hands its slot to the next ray of the input. (Group prefetching with refill, as
-// in Chen, Ailamaki, Gibbons and Mowry, "Improving Hash Join Performance through
-// Prefetching", ICDE 2004, and Kocberber, Falsafi and Grot, "Asynchronous Memory Access
-// Chaining", VLDB 2016.)
+// through the scene BVH (group prefetching with refill, as in Chen, Ailamaki, Gibbons and
+// Mowry, "Improving Hash Join Performance through Prefetching", ICDE 2004, and Kocberber,
+// Falsafi and Grot, "Asynchronous Memory Access Chaining", VLDB 2016). A ray's traversal of
+// a big tree waits on memory, one miss after another (the node it enters next, the leaf
+// blocks it tests), and one ray at a time overlaps few of them. Here each of up to `group`
+// rays keeps its own state and stack, and the rays take turns: a ray does one step (the
+// leaves it entered at its last node, then the next node's test), issues prefetches for
+// every line that its next step reads, and yields to the next ray, so that those lines can
+// arrive before its turn comes again. A ray that finishes hands its slot to the next ray of
+// the input. (Measured slower than one ray at a time on an AMD Zen 4 at every group size:
+// docs/acceleration.md says why.)
 //
 // Each ray goes through exactly the steps of the single-ray traversal (kernels/bvh/traverse.h:
 // the same node test, leaf test and stack order; only the order in which different rays'

@@ -132,7 +132,7 @@ struct RenderStats {
     double shade_lane_utilisation = 0.0, isect_lane_utilisation = 0.0;
     double shadow_lane_utilisation = 0.0;  // of the batches of shadow rays traced
     int pool_size = 0;
-    int ray_group = 0;  // rays in flight per thread through the tree (1: one at a time)
+    int ray_group = 0;  // wavefront: rays in flight per thread through the tree (scalar: 0)
     size_t pool_bytes = 0;
     size_t light_store_bytes = 0;  // bdpt: the largest thread's light-vertex store
     double rays_per_second() const { return seconds > 0 ? double(rays.total()) / seconds : 0.0; }

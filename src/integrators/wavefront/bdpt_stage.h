@@ -636,8 +636,8 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
     st.paths_per_sample = (job.x1 - job.x0) * (job.y1 - job.y0);
     st.samples = int32_t(job.sample_end - job.sample_begin);
     if (merging) merging_table(*st.merging, s.path, job, has_lights);
-    // Batch i's rays, their closest hits (a big tree: every live path's first, with many rays
-    // in flight) and surfaces
+    // Batch i's rays, their closest hits (with many rays in flight, grouped(): every live
+    // path's first) and surfaces
     const bool group = grouped(s);
     const auto trace = [&](int32_t i, Ray<F>& ray) {
         ray = {load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};

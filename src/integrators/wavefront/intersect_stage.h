@@ -159,9 +159,9 @@ void closest_in_tree(const BvhView& bvh, const AlphaTable* alpha, bool packet,
 }
 
 // ---- Many rays in flight -----------------------------------------------------------------
-// A stage whose rays go through a big tree gathers them all first, then traverses them
-// `FlatScene::ray_group` at a time (kernels/bvh/traverse_group.h), so that their cache misses
-// overlap; the same hits as one ray at a time.
+// With --ray-group above 1, a stage whose rays go through the tree gathers them all first,
+// then traverses them `FlatScene::ray_group` at a time (kernels/bvh/traverse_group.h), so
+// that their cache misses may overlap; the same hits as one ray at a time.
 
 // Whether the scene's tree is traversed with many rays in flight (a one-node tree is tested
 // K rays at a time instead: packet_traverse).
@@ -228,8 +228,8 @@ void closest_hits_grouped(Wave<A>& w) {
             continue;
         }
         const WideRays<A> rays(ray);
-        gather_group_rays<A>(g, n, rays, mask_bits(w.live_mask(i) & slab_hits<A>(bvh.bounds, rays, t)),
-                             i, p.t + i);
+        const uint32_t enter = mask_bits(w.live_mask(i) & slab_hits<A>(bvh.bounds, rays, t));
+        gather_group_rays<A>(g, n, rays, enter, i, p.t + i);
     }
     traverse_group<false, NodeLanes<A>>(bvh, g.rays, n, g.t, g.hits, g.found, s.ray_group,
                                         *g.scratch, s.alpha);
@@ -373,8 +373,8 @@ void trace_rays_grouped(const FlatScene& s, const float* rays, size_t count, Tra
                 continue;
             }
             const WideRays<A> wide(ray);
-            gather_group_rays<A>(g, n, wide, mask_bits(live & slab_hits<A>(s.bvh->bounds, wide, tt)),
-                                 i, t.data() + i);
+            const uint32_t enter = mask_bits(live & slab_hits<A>(s.bvh->bounds, wide, tt));
+            gather_group_rays<A>(g, n, wide, enter, i, t.data() + i);
         }
         traverse_group<false, NodeLanes<A>>(*s.bvh, g.rays, n, g.t, g.hits, g.found, s.ray_group,
                                             *g.scratch, s.alpha);

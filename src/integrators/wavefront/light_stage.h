@@ -240,8 +240,8 @@ CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
     const bool textures = w.scene.features.textures;
     TileCursor cursor = tile_cursor(job);
     w.live = 0;
-    // Batch i's rays, their closest hits (a big tree: every live path's first, with many rays
-    // in flight) and surfaces
+    // Batch i's rays, their closest hits (with many rays in flight, grouped(): every live
+    // path's first) and surfaces
     const bool group = grouped(w.scene);
     const auto trace = [&](int32_t i, Ray<F>& ray) {
         ray = {load3<F>(p.ox, p.oy, p.oz, i), load3<F>(p.dx, p.dy, p.dz, i)};

@@ -25,7 +25,8 @@ private:
     size_t used_ = 0;
 };
 
-PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, size_t* bytes) {
+PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, bool group,
+              size_t* bytes) {
     Carver c(base);
     PathPool p;
     p.capacity = capacity;
@@ -51,28 +52,31 @@ PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, 
                       &p.sc_b})
         *a = c.take<float>(s);
     p.sowner = c.take<int32_t>(s);
-    const size_t g = std::max(n, s);
-    p.group_rays = c.take<float>(16 * g);
-    p.group_ids = c.take<int32_t>(g);
-    p.group_t = c.take<float>(g);
-    p.group_hits = c.take<uint32_t>(3 * g);
-    p.group_found = c.take<uint8_t>(g);
-    p.group_blocked = c.take<uint8_t>(g);
-    p.group_scratch = c.take<char>(kTraversalGroupBytes);
+    if (group) {
+        const size_t g = std::max(n, s);
+        p.group_rays = c.take<float>(16 * g);
+        p.group_ids = c.take<int32_t>(g);
+        p.group_t = c.take<float>(g);
+        p.group_hits = c.take<uint32_t>(3 * g);
+        p.group_found = c.take<uint8_t>(g);
+        p.group_blocked = c.take<uint8_t>(g);
+        p.group_scratch = c.take<char>(kTraversalGroupBytes);
+    }
     if (bytes) *bytes = c.used();
     return p;
 }
 
 }  // namespace
 
-size_t path_pool_bytes(int32_t capacity, int32_t lights, int32_t materials) {
+size_t path_pool_bytes(int32_t capacity, int32_t lights, int32_t materials, bool group) {
     size_t bytes = 0;
-    carve(nullptr, capacity, lights, materials, &bytes);
+    carve(nullptr, capacity, lights, materials, group, &bytes);
     return bytes;
 }
 
-PathPool carve_path_pool(void* memory, int32_t capacity, int32_t lights, int32_t materials) {
-    return carve(static_cast<char*>(memory), capacity, lights, materials, nullptr);
+PathPool carve_path_pool(void* memory, int32_t capacity, int32_t lights, int32_t materials,
+                         bool group) {
+    return carve(static_cast<char*>(memory), capacity, lights, materials, group, nullptr);
 }
 
 }  // namespace cierzo

@@ -112,17 +112,18 @@ struct PathPool {
     uint32_t* done_pixel;
     float *done_r, *done_g, *done_b;
 
-    // The tree's rays of a stage traced with many in flight (FlatScene::ray_group): for each,
+    // The tree's rays of a stage traced with many in flight (FlatScene::ray_group > 1; null
+    // in a pool carved without them): for each,
     // its set-up (16 floats: kernels/bvh/traverse.h, TraversalRay), its path or queue entry, its
     // interval's end, hit (3 words: BvhHit) and whether it hit; for as many rays as the
     // larger of the pool and the shadow queue; per shadow queue entry, whether its ray is
     // blocked. And the group's states and stacks.
-    float* group_rays;
-    int32_t* group_ids;
-    float* group_t;
-    uint32_t* group_hits;
-    uint8_t *group_found, *group_blocked;
-    void* group_scratch;  // kTraversalGroupBytes
+    float* group_rays = nullptr;
+    int32_t* group_ids = nullptr;
+    float* group_t = nullptr;
+    uint32_t* group_hits = nullptr;
+    uint8_t *group_found = nullptr, *group_blocked = nullptr;
+    void* group_scratch = nullptr;  // kTraversalGroupBytes
 };
 
 // Bytes of a group of rays in flight through the tree (kernels/bvh/traverse_group.h,
@@ -131,8 +132,10 @@ inline constexpr size_t kTraversalGroupBytes = 360 * 1024;
 
 // Bytes of memory a pool of `capacity` paths uses with `lights` shadow rays per path and
 // bounce (point lights, plus one for an emitter sample).
-size_t path_pool_bytes(int32_t capacity, int32_t lights, int32_t materials);
+// `group`: with the arrays of many rays in flight (about 360 kB more).
+size_t path_pool_bytes(int32_t capacity, int32_t lights, int32_t materials, bool group = false);
 // Carves a pool out of `memory` (64-byte aligned, path_pool_bytes long).
-PathPool carve_path_pool(void* memory, int32_t capacity, int32_t lights, int32_t materials);
+PathPool carve_path_pool(void* memory, int32_t capacity, int32_t lights, int32_t materials,
+                         bool group = false);
 
 }  // namespace cierzo

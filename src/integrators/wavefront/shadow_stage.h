@@ -53,9 +53,9 @@ void trace_shadow_rays_grouped(Wave<A>& w) {
         for (int32_t l = 0; l < c.lanes; ++l) p.group_blocked[i + l] = uint8_t((b >> l) & 1u);
         if (all(blocked)) continue;
         const WideRays<A> rays(c.ray);
-        gather_group_rays<A>(g, n, rays,
-                             mask_bits(c.queued & !blocked & slab_hits<A>(s.bvh->bounds, rays, c.tmax)),
-                             i, p.stmax + i);
+        const auto enter = slab_hits<A>(s.bvh->bounds, rays, c.tmax);
+        const uint32_t open = mask_bits(c.queued & !blocked & enter);
+        gather_group_rays<A>(g, n, rays, open, i, p.stmax + i);
     }
     traverse_group<true, NodeLanes<A>>(*s.bvh, g.rays, n, g.t, g.hits, g.found, s.ray_group,
                                        *g.scratch, s.alpha);
@@ -83,7 +83,8 @@ CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
     for (int32_t i = 0; i < count; i += K) {
         // Lanes of this chunk that hold a queued ray and are not blocked
         const ShadowChunk<A> c = shadow_chunk(w, i);
-        uint32_t open = ~mask_bits(occluded<A>(s, c.ray, c.tmax, c.queued)) & ((1u << c.lanes) - 1u);
+        uint32_t open = ~mask_bits(occluded<A>(s, c.ray, c.tmax, c.queued));
+        open &= (1u << c.lanes) - 1u;
         // The radiance update, per unblocked ray (one path may own several rays)
         while (open) {
             const int32_t q = i + std::countr_zero(open);

@@ -93,11 +93,11 @@ struct LightStoreMemory {
 struct PoolMemory {
     void* memory = nullptr;
     PathPool pool;
-    PoolMemory(int32_t capacity, int32_t lights, int32_t materials) {
-        const size_t bytes = path_pool_bytes(capacity, lights, materials);
+    PoolMemory(int32_t capacity, int32_t lights, int32_t materials, bool group) {
+        const size_t bytes = path_pool_bytes(capacity, lights, materials, group);
         memory = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
         if (!memory) throw std::bad_alloc();
-        pool = carve_path_pool(memory, capacity, lights, materials);
+        pool = carve_path_pool(memory, capacity, lights, materials, group);
     }
     PoolMemory(const PoolMemory&) = delete;
     PoolMemory& operator=(const PoolMemory&) = delete;
@@ -164,12 +164,14 @@ struct WavefrontRenderer::Data {
     size_t light_store_limit;  // bytes per thread (RenderOptions::light_store_limit)
     mutable oneapi::tbb::enumerable_thread_specific<PoolMemory> pools;
 
-    Data(const Scene& s, int32_t size, size_t limit)
+    Data(const Scene& s, int32_t size, size_t limit, int32_t ray_group)
         : scene(s),
           view(flat_view(s)),
           pool_size(size),
           light_store_limit(limit),
-          pools(size, shadow_rays_per_vertex(s), int32_t(s.materials.size())) {}
+          pools(size, shadow_rays_per_vertex(s), int32_t(s.materials.size()), ray_group > 1) {
+        view.scene.ray_group = ray_group;
+    }
 };
 
 // Whether the estimator samples emitters: nee or mis, and emitters it can sample.
@@ -196,8 +198,7 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     if (ray_group < 1 || ray_group > kMaxTraversalGroup)
         throw InputError(fmt::format("--ray-group: rays in flight must be 1 to {}, not {}",
                                      int(kMaxTraversalGroup), ray_group));
-    data_ = std::make_unique<Data>(scene, pool_size_, light_store_limit);
-    data_->view.scene.ray_group = ray_group;
+    data_ = std::make_unique<Data>(scene, pool_size_, light_store_limit, ray_group);
     data_->entry = entry_of(isa_);
     FlatFeatures& f = data_->view.scene.features;
     if (!specialise) {
@@ -222,7 +223,7 @@ size_t WavefrontRenderer::light_store_bytes() const {
 
 size_t WavefrontRenderer::pool_bytes() const {
     return path_pool_bytes(pool_size_, shadow_rays_per_vertex(data_->scene),
-                           int32_t(data_->scene.materials.size()));
+                           int32_t(data_->scene.materials.size()), ray_group() > 1);
 }
 
 void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts& rays,

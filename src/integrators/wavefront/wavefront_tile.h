@@ -35,7 +35,7 @@ CIERZO_STAGE_LOOP void trace_paths(Wave<A>& w, const TileJob& job) {
     const bool textures = w.scene.features.textures;
     int32_t queued = 0;
     Compaction compaction;
-    // (a big tree: every path's closest hit first, with many rays in flight)
+    // (with many rays in flight, grouped(): every path's closest hit first)
     const bool group = grouped(w.scene);
     if (group) closest_hits_grouped(w);
     const int32_t end = w.rounded_up(w.live);
@@ -83,8 +83,8 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
                 trace_paths<kFused, true>(w, job);
             }
         }
-        // (a big tree traces the emitter samples' shadow rays in the shadow stage, with many
-        // in flight: the loop below)
+        // (with many rays in flight, the emitter samples' shadow rays go to the shadow stage,
+        // which groups them: the loop below)
         if (!f.lights && !f.textures && scene.path.nee && !escapes && !grouped(scene)) {
             for (;;) {
                 generate_camera_paths<true>(w, cursor);
