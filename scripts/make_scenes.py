@@ -137,7 +137,9 @@ def scene_text(header, render, camera, materials, objects):
     """The scene as JSON with one material and one object per line, under // comments."""
     lines = [f"// {h}" if h else "//" for h in header]
     lines.append("{")
-    lines.append(f'  "render": {jvalue(render)},')
+    # Every generated scene names the report's estimator, which its measurements use (a scene
+    # that names none renders with mis)
+    lines.append(f'  "render": {jvalue({"estimator": "report", **render})},')
     lines.append(f'  "camera": {jvalue(camera)},')
     lines.append('  "materials": {')
     items = list(materials.items())

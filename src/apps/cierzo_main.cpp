@@ -54,6 +54,17 @@ int run_render(RenderArgs& args) {
     if (root)
         for (const std::string& w : loaded.warnings)
             std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
+    // A model names no estimator and no paths: say what it gets and how to ask for more
+    if (root && is_model_file(args.scene) && (!a.estimator || !a.spp))
+        std::fprintf(stderr, "%s\n",
+                     fmt::format("cierzo: {}: a model: {} at {} paths per pixel; --spp N for more "
+                                 "paths (the error falls as 1/sqrt(N)), --estimator NAME for "
+                                 "another",
+                                 args.scene.string(),
+                                 a.estimator ? *a.estimator
+                                             : std::string(estimator_name(loaded.settings.estimator.kind)),
+                                 a.spp ? *a.spp : loaded.settings.spp)
+                         .c_str());
     const RenderJobResult done = run_render_job(std::move(loaded), a);
     if (!root) return 0;
     const Scene& scene = done.scene;
@@ -70,9 +81,10 @@ int run_render(RenderArgs& args) {
 
     // The summary line; an early stop says why and how far it got
     std::string summary = fmt::format(
-        "{}: {}x{}, {} spp, {} ({}), {} threads: {:.3f} s, {:.2f} Mrays/s ({:.2f} per thread), "
-        "{}",
-        s.output.string(), s.width, s.height, s.spp, st.integrator, st.isa,
+        "{}: {}x{}, {} spp, {}, {} ({}), {} threads: {:.3f} s, {:.2f} Mrays/s ({:.2f} per "
+        "thread), {}",
+        s.output.string(), s.width, s.height, s.spp, estimator_name(s.estimator.kind),
+        st.integrator, st.isa,
         st.ranks.empty() ? std::to_string(st.threads)
                          : fmt::format("{} ranks, {}", st.ranks.size(), total_threads(st)),
         st.seconds, st.rays_per_second() * 1e-6, st.rays_per_second() * 1e-6 / total_threads(st),
@@ -115,8 +127,10 @@ int run_main(int argc, char** argv) {
     CLI::App* r = app.add_subcommand("render", "Render a scene file to an HDR image");
     r->add_option("scene", a.scene,
                   "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model to render "
-                  "with its own materials under a white sky, framed by a default camera, to "
-                  "STEM.exr in the current folder")
+                  "with its own materials under a white sky, framed by a default camera, at 512x512 "
+                  "and 16 paths per pixel of mis, to STEM.exr in the current folder. A scene "
+                  "or model that names no estimator renders with mis; the scenes of scenes/ "
+                  "name theirs")
         ->required()
         ->check(CLI::ExistingFile);
     r->add_option("--spp", a.job.spp, "Paths per pixel (overrides render.spp)")

@@ -36,11 +36,18 @@ inline constexpr IntegratorEntry kIntegrators[] = {
     {Integrator::kScalar, "scalar", "the reference: one path at a time"},
 };
 
+// The estimator of a scene or model that names none: the most efficient on most scenes
+// (docs/estimators.md). The report's scenes name "report" themselves.
+inline constexpr Estimator kDefaultEstimator = Estimator::kMis;
+
 inline constexpr EstimatorEntry kEstimators[] = {
     {Estimator::kReport, "report",
-     "the report's: emitters found by the paths that hit them; the default"},
+     "the report's: emitters found by the paths that hit them (the scenes of scenes/ name "
+     "it)"},
     {Estimator::kNee, "nee", "next-event estimation: plus one emitter sample per Phong vertex"},
-    {Estimator::kMis, "mis", "both strategies, weighted by the power heuristic"},
+    {Estimator::kMis, "mis",
+     "both strategies, weighted by the power heuristic; the default of a scene or model that "
+     "names none"},
     {Estimator::kLt, "lt",
      "light tracing: paths from the lights, each vertex connected to the pinhole (a mirror or "
      "glass seen directly shows only what camera paths find)"},

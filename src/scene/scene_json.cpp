@@ -1089,6 +1089,7 @@ struct Loader {
         RenderSettings& s = scene.settings;
         if (!root.has("render")) {
             root.allow({"render"});
+            use_estimator(s.estimator, kDefaultEstimator);
             return;
         }
         Reader r(root.get("render"), "render", file);
@@ -1142,7 +1143,7 @@ struct Loader {
         if (e.max_length < e.min_length)
             r.fail("'max_length' (" + std::to_string(e.max_length) + ") is below 'min_length' (" +
                    std::to_string(e.min_length) + "): no path would count");
-        const std::optional<Estimator> kind = parse_estimator(r.string("estimator", "report"));
+        const std::optional<Estimator> kind = parse_estimator(r.string("estimator", estimator_name(kDefaultEstimator)));
         if (!kind) {
             std::string names;
             for (const std::string& n : estimator_names())
@@ -1281,8 +1282,8 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
 // A mesh file rendered directly (`cierzo render model.obj`): the file with its own materials
 // (an OBJ's MTL; a PLY or an OBJ without materials in diffuse grey 0.8), under a white sky of
 // radiance 1, seen by a right-handed camera of 40 degrees that frames its bounding sphere
-// from the front, above and to the right; 512 × 512 pixels, 16 paths, written to
-// STEM.exr in the current folder.
+// from the front, above and to the right; 512 × 512 pixels, 16 paths of the default
+// estimator (mis, with its defaults), written to STEM.exr in the current folder.
 Scene load_mesh_as_scene(const fs::path& path) {
     std::string ext = path.extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
@@ -1321,6 +1322,12 @@ Scene load_mesh_as_scene(const fs::path& path) {
     return scene;
 }
 
+bool is_model_file(const fs::path& path) {
+    std::string ext = path.extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return ext == ".obj" || ext == ".ply";
+}
+
 namespace {
 Scene load_scene_untimed(const fs::path& path);
 }  // namespace
@@ -1335,11 +1342,7 @@ Scene load_scene(const fs::path& path) {
 
 namespace {
 Scene load_scene_untimed(const fs::path& path) {
-    {
-        std::string ext = path.extension().string();
-        for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-        if (ext == ".obj" || ext == ".ply") return load_mesh_as_scene(path);
-    }
+    if (is_model_file(path)) return load_mesh_as_scene(path);
     std::ifstream in;
     if (input_file_exists(path)) in.open(path, std::ios::binary);
     if (!in.is_open()) throw InputError(path.string() + ": cannot open scene file");

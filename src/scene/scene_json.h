@@ -13,6 +13,10 @@ namespace cierzo {
 // problem (malformed JSON, unknown or missing keys, values out of range).
 Scene load_scene(const std::filesystem::path& path);
 
+// Whether load_scene reads `path` as a model (an OBJ or PLY file, by its extension, in any
+// case) that it frames itself, rather than as a scene file.
+bool is_model_file(const std::filesystem::path& path);
+
 // The same from JSON text; `path` is used for messages and to resolve relative paths.
 Scene parse_scene(const std::string& text, const std::filesystem::path& path);
 

@@ -301,14 +301,15 @@ TEST_F(cli, OptionsOverrideTheFile) {
 }
 
 TEST_F(cli, TheEstimatorIsChosenRecordedAndChecked) {
-    // The scene's lamp is a sphere: sampled by nee and mis. The default is the report's.
+    // The scene's lamp is a sphere: sampled by nee and mis. A scene that names no estimator
+    // renders with mis.
     const fs::path scene = write("tiny.json", kTinyScene);
     const fs::path out = dir_ / "o.exr", stats = dir_ / "s.json";
     uint64_t shadow[3] = {};
     const char* names[3] = {"report", "nee", "mis"};
     for (int k = 0; k < 3; ++k) {
         SCOPED_TRACE(names[k]);
-        const std::string option = k == 0 ? "" : std::string(" --estimator ") + names[k];
+        const std::string option = std::string(" --estimator ") + names[k];
         const Outcome r = run(quote(scene) + kQuiet + option + " --out " + quote(out) +
                               " --stats " + quote(stats));
         ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -324,16 +325,20 @@ TEST_F(cli, TheEstimatorIsChosenRecordedAndChecked) {
     // One emitter sample per Phong vertex on top of the point light's shadow rays
     EXPECT_GT(shadow[1], shadow[0]);
     EXPECT_EQ(shadow[1], shadow[2]);
+    ASSERT_EQ(run(quote(scene) + kQuiet + " --out " + quote(out) + " --stats " + quote(stats))
+                  .exit_code,
+              0);
+    EXPECT_EQ(json::parse(read_file(stats))["estimator"], "mis") << "the default";
 
     // From the scene file, and refused when unknown (file and option)
     std::string text = kTinyScene;
-    text.replace(text.find("\"seed\": 3"), 9, "\"seed\": 3, \"estimator\": \"mis\"");
+    text.replace(text.find("\"seed\": 3"), 9, "\"seed\": 3, \"estimator\": \"nee\"");
     const fs::path with = write("with.json", text);
     ASSERT_EQ(run(quote(with) + kQuiet + " --out " + quote(out) + " --stats " + quote(stats))
                   .exit_code,
               0);
-    EXPECT_EQ(json::parse(read_file(stats))["estimator"], "mis");
-    text.replace(text.find("\"mis\""), 5, "\"path\"");
+    EXPECT_EQ(json::parse(read_file(stats))["estimator"], "nee");
+    text.replace(text.find("\"nee\""), 5, "\"path\"");
     const fs::path bad = write("bad.json", text);
     const Outcome b = run(quote(bad) + kQuiet);
     EXPECT_EQ(b.exit_code, 1);
@@ -533,6 +538,35 @@ TEST_F(cli, TooManyPathsAreRefusedQuickly) {
     EXPECT_NE(r.err.find("paths"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find(scene.string()), std::string::npos) << r.err;
     EXPECT_EQ(other_files({"tiny.json"}), std::vector<std::string>{});
+}
+
+TEST_F(cli, AModelRendersWithMisAndSaysHowToAskForMorePaths) {
+    // A tetrahedron with no materials: grey under the white sky
+    const fs::path model = write("tet.obj",
+                                 "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+                                 "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+    const fs::path out = dir_ / "tet.exr", stats = dir_ / "s.json";
+    const std::string common = quote(model) + kQuiet + " --width 8 --height 8 --out " +
+                               quote(out) + " --stats " + quote(stats);
+    Outcome r = run(common);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(json::parse(read_file(stats))["estimator"], "mis");
+    EXPECT_EQ(json::parse(read_file(stats))["spp"], 16);
+    EXPECT_NE(r.err.find("tet.obj: a model: mis at 16 paths per pixel; --spp N for more paths"),
+              std::string::npos)
+        << r.err;
+    // The line names what the options chose, and goes once both are given
+    r = run(common + " --spp 2");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("a model: mis at 2 paths per pixel"), std::string::npos) << r.err;
+    r = run(common + " --spp 2 --estimator nee");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err.find("a model:"), std::string::npos) << r.err;
+    EXPECT_EQ(json::parse(read_file(stats))["estimator"], "nee");
+    // A scene file says nothing of the kind
+    r = run(quote(write("tiny.json", kTinyScene)) + kQuiet + " --out " + quote(out));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err.find("a model:"), std::string::npos) << r.err;
 }
 
 TEST_F(cli, FailedRenderLeavesAnExistingOutputAlone) {

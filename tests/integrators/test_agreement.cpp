@@ -14,6 +14,7 @@
 #include "integrators/wavefront/isa.h"
 #include "scene/scene_json.h"
 #include "support/render_variants.h"
+#include "support/report_scene.h"
 
 namespace cierzo {
 namespace {
@@ -63,7 +64,7 @@ TEST(Agreement, WavefrontMatchesScalarOnEverySceneAndIsa) {
         // has emitters they sample)
         for (Estimator e : {Estimator::kReport, Estimator::kNee, Estimator::kMis}) {
             if (e != Estimator::kReport && scene.emitters.count() == 0) continue;
-            scene.settings.estimator.kind = e;
+            test::set_estimator(scene, e);
             const RenderResult reference = render_with(scene, "scalar", "auto");
             for (Isa isa : compiled_isas()) {
                 if (!isa_supported(isa)) continue;
@@ -121,7 +122,7 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
     // as emission too; a procedural ks beside textured kd, so four lobes mix textured and
     // solid channels through the lobe buckets.
     const std::string ico = CIERZO_SOURCE_DIR "/scenes/meshes/icosphere.ply";
-    Scene scene = parse_scene(R"({
+    Scene scene = test::parse_report_scene(R"({
         "render": {"width": 40, "height": 40, "spp": 16},
         "camera": {"position": [0, 0, -3.5], "forward": [0, 0, 3], "left": [-1, 0, 0],
                    "up": [0, 1, 0]},
@@ -188,7 +189,7 @@ Scene mixed_scene(int lobe, float error) {
     const std::string mat = R"({"kd": )" + rgb(c[0]) + R"(, "ks": )" + rgb(c[1]) +
                             R"(, "shininess": 20, "kr": )" + rgb(c[2]) + R"(, "kt": )" +
                             rgb(c[3]) + R"(, "ior": 1.5})";
-    return parse_scene(R"({
+    return test::parse_report_scene(R"({
         "render": {"width": 40, "height": 40, "spp": 16},
         "camera": {"position": [0, 0, -3.5], "forward": [0, 0, 3], "left": [-1, 0, 0],
                    "up": [0, 1, 0]},

@@ -25,6 +25,7 @@
 #include "scene/scene_json.h"
 #include "support/emulator.h"
 #include "support/render_variants.h"
+#include "support/report_scene.h"
 
 namespace cierzo {
 namespace {
@@ -39,7 +40,7 @@ using test::Variant;
 using test::variants;
 
 Scene with_estimator(Scene scene, Estimator e) {
-    scene.settings.estimator.kind = e;
+    test::set_estimator(scene, e);
     return scene;
 }
 
@@ -130,11 +131,11 @@ void expect_answer_everywhere(const Scene& scene, double (*radiance)(double, dou
 
 TEST(Estimators, IrradianceUnderAnEmittingSphere) {
     expect_answer_everywhere(
-        parse_scene(plane_scene(kSphereEmitter, 1024, 1.6f), "/tmp/under.json"), sphere_answer);
+        test::parse_report_scene(plane_scene(kSphereEmitter, 1024, 1.6f), "/tmp/under.json"), sphere_answer);
 }
 
 TEST(Estimators, IrradianceUnderASquareOfTwoTriangles) {
-    Scene scene = parse_scene(plane_scene(kSquareEmitter, 1024, 1.6f), "/tmp/under.json");
+    Scene scene = test::parse_report_scene(plane_scene(kSquareEmitter, 1024, 1.6f), "/tmp/under.json");
     EXPECT_EQ(scene.emitters.count(), 2u);
     expect_answer_everywhere(scene, square_answer);
     // The triangles sampled by solid angle
@@ -146,7 +147,7 @@ TEST(Estimators, AFivePercentErrorInTheEmitterPdfIsCaught) {
     // The test above, with the pdf that next-event estimation divides by 5% too large: the
     // image falls outside 3σ of the answer in every channel
     for (const char* emitter : {kSphereEmitter, kSquareEmitter, kSquareEmitter}) {
-        Scene scene = parse_scene(plane_scene(emitter, 512, 1.6f), "/tmp/under.json");
+        Scene scene = test::parse_report_scene(plane_scene(emitter, 512, 1.6f), "/tmp/under.json");
         scene.settings.estimator.light_pdf_scale = 1.05f;
         // (the square twice: by area, then by solid angle)
         static int square = 0;
@@ -258,7 +259,7 @@ TEST(Estimators, InsideAnEmittingSphereAtEveryScale) {
                 SCOPED_TRACE(v.integrator + " " + v.isa + " " + estimator_name(e) + " offset " +
                              std::to_string(offset) + " r " + std::to_string(r));
                 const Scene s = with_estimator(
-                    parse_scene(sphere_in_sphere(offset, r), "/tmp/inside.json"), e);
+                    test::parse_report_scene(sphere_in_sphere(offset, r), "/tmp/inside.json"), e);
                 const RenderResult res = run(s, v);
                 EXPECT_EQ(res.stats.nonfinite_samples, 0u);
                 // The camera sees the diffuse sphere in every pixel (30° field at 3r)
@@ -285,7 +286,7 @@ TEST(Estimators, ExtremeEmittersAndLobesStayFinite) {
                      "material": "panel"},
                     {"type": "triangle", "vertices": [[-1, 0, -1], [1, 0, -1], [0, 1, -1]],
                      "material": "panel"}]})";
-    const Scene base = parse_scene(scene, "/tmp/extreme.json");
+    const Scene base = test::parse_report_scene(scene, "/tmp/extreme.json");
     EXPECT_EQ(base.emitters.count(), 3u);
     for (const Variant& v : variants()) {
         ImageMean report{};

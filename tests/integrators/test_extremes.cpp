@@ -30,6 +30,7 @@
 #include "scene/camera.h"
 #include "scene/scene_json.h"
 #include "support/render_variants.h"
+#include "support/report_scene.h"
 #include "support/uv_sphere.h"
 
 namespace cierzo {
@@ -74,11 +75,11 @@ TEST(Extremes, NoAcneAndTheSameImageAtEveryScale) {
     // meets the emitter, so a sphere pixel is 0.8 in expectation and nothing is darker
     for (const Variant& v : variants()) {
         SCOPED_TRACE(std::string(v.integrator) + " " + v.isa);
-        const RenderResult unit = run(parse_scene(sphere_in_emitter(0, 0, 0, 1), "/tmp/e.json"), v);
+        const RenderResult unit = run(test::parse_report_scene(sphere_in_emitter(0, 0, 0, 1), "/tmp/e.json"), v);
         const double reference = image_mean(unit.film, 0);
         for (auto [x, r] : {std::pair{0.0, 1e-4}, {0.0, 1e6}, {1e4, 1.0}, {-3e3, 1e-1}}) {
             SCOPED_TRACE(testing::Message() << "offset " << x << " radius " << r);
-            const Scene scene = parse_scene(sphere_in_emitter(x, x, x, r), "/tmp/e.json");
+            const Scene scene = test::parse_report_scene(sphere_in_emitter(x, x, x, r), "/tmp/e.json");
             const RenderResult res = run(scene, v);
             bool finite = true;
             EXPECT_NEAR(image_mean(res.film, 0, &finite), reference, 1e-3 * reference);
@@ -112,9 +113,9 @@ std::string box_scene(const std::string& extra_materials, const std::string& ext
 TEST(Extremes, AnIorOneSphereVanishes) {
     for (const Variant& v : variants()) {
         SCOPED_TRACE(std::string(v.integrator) + " " + v.isa);
-        const RenderResult empty = run(parse_scene(box_scene("", "", 512), "/tmp/e.json"), v);
+        const RenderResult empty = run(test::parse_report_scene(box_scene("", "", 512), "/tmp/e.json"), v);
         const RenderResult glass = run(
-            parse_scene(box_scene(R"(, "g": {"kt": 1, "ior": 1})",
+            test::parse_report_scene(box_scene(R"(, "g": {"kt": 1, "ior": 1})",
                                   R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.5,
                                         "material": "g"})",
                                   512),
@@ -152,7 +153,7 @@ TEST(Extremes, HardMaterialsAndLightsStayFinite) {
                      {"type": "quadric", "coefficients": [0, 0, 0, 0, 0, 0, 0, 0, 1e-30, 0], "material": "w"},
                      {"type": "sphere", "center": [0, 0, 0.5], "radius": 0.3, "material": "black"})")};
     for (const std::string& text : cases) {
-        const Scene scene = parse_scene(text, "/tmp/e.json");
+        const Scene scene = test::parse_report_scene(text, "/tmp/e.json");
         for (const Variant& v : variants()) {
             SCOPED_TRACE(std::string(v.integrator) + " " + v.isa);
             const RenderResult r = run(scene, v);
@@ -167,7 +168,7 @@ TEST(Extremes, HardMaterialsAndLightsStayFinite) {
 TEST(Extremes, ANonFiniteSampleIsCountedAndKeptOutOfTheImage) {
     // A NaN emission (not expressible in a scene file) on the ceiling: every path that
     // reaches it yields a NaN sample, which the film must count and exclude
-    Scene scene = parse_scene(box_scene("", "", 8), "/tmp/e.json");
+    Scene scene = test::parse_report_scene(box_scene("", "", 8), "/tmp/e.json");
     for (Material& m : scene.materials)
         if (m.is_emitter()) m.emission.a.y = std::nanf("");
     scene.finalize();  // (the tables built from the materials)
@@ -253,7 +254,7 @@ TEST(Extremes, ACameraInThePlaneOfAFloorSeesOnlyTheEmitters) {
     // Exactly in the plane y = 0, looking along it: rays going down start on the floor
     // (t = 0, not a hit) and rays along it are parallel (t = NaN, not a hit), so every
     // ray meets an emitting wall and every sample is exactly 1
-    const Scene scene = parse_scene(
+    const Scene scene = test::parse_report_scene(
         floor_box(R"({"position": [0, 0, -3], "look_at": [0, 0, 0], "vfov": 60})", 24, 8, 2, 4),
         "/tmp/e.json");
     for (const Variant& v : variants()) {
@@ -275,7 +276,7 @@ TEST(Extremes, ACameraJustAboveAFloorSeesItAtGrazingAngles) {
     // 1), the bottom half the floor down to incidence angles of 90° - 1e-6° (0.8, each
     // sample 0 or 1); the row next to the horizon is the most grazing
     const int size = 24, spp = 64;
-    const Scene scene = parse_scene(
+    const Scene scene = test::parse_report_scene(
         floor_box(R"({"position": [0, 1e-7, -3], "look_at": [0, 1e-7, 0], "vfov": 60})", size,
                   spp, 2, 4),
         "/tmp/e.json");
@@ -312,7 +313,7 @@ TEST(Extremes, AFloorSeenAt89Point99DegreesHasItsAnalyticValue) {
         std::snprintf(vfov, sizeof vfov, "%.9g", elevation / 2);
         const std::string camera = R"({"position": )" + vec(0, h, 0) + R"(, "look_at": )" +
                                    vec(0, 0, d) + R"(, "vfov": )" + vfov + "}";
-        const Scene scene = parse_scene(floor_box(camera, 16, 64, 4 * d, 4 * d), "/tmp/e.json");
+        const Scene scene = test::parse_report_scene(floor_box(camera, 16, 64, 4 * d, 4 * d), "/tmp/e.json");
         for (const Variant& v : variants()) {
             SCOPED_TRACE(testing::Message() << v.integrator << " " << v.isa << ", elevation "
                                             << elevation << "°");
@@ -396,7 +397,7 @@ TEST(Extremes, InsideARefractingSphereTheImageIsKtWithoutTotalInternalReflection
     const std::string camera =
         R"({"position": [0.3, 0.2, 0.1], "look_at": [1, 1, 1], "vfov": 90})";
     for (double kt : {1.0, 0.6}) {
-        const Scene scene = parse_scene(glass_in_emitter(kt, 1.5, camera, 24, 32), "/tmp/e.json");
+        const Scene scene = test::parse_report_scene(glass_in_emitter(kt, 1.5, camera, 24, 32), "/tmp/e.json");
         for (const Variant& v : variants()) {
             SCOPED_TRACE(testing::Message() << v.integrator << " " << v.isa << ", kt " << kt);
             const RenderResult r = run(scene, v);
@@ -415,7 +416,7 @@ TEST(Extremes, TotalInternalReflectionInsideASphereNeitherLeaksNorGains) {
     // reflections short (HundredsOfReflectionsStayInsideAClosedSphere tests long ones).
     const int size = 24, spp = 32;
     for (double kt : {1.0, 0.6}) {
-        const Scene scene = parse_scene(
+        const Scene scene = test::parse_report_scene(
             glass_in_emitter(kt, 1.5, kOffCentreCamera, size, spp, 0.5), "/tmp/e.json");
         const Escaping escaping = escaping_rays(scene, size, 1.5f);
         size_t trapped_pixels = 0;
@@ -449,10 +450,10 @@ TEST(Extremes, TotalInternalReflectionInsideASphereNeitherLeaksNorGains) {
 TEST(Extremes, HundredsOfReflectionsStayInsideAClosedSphere) {
     const int size = 16, spp = 32;
     // A closed mirror sphere around the camera: no light can reach it
-    const Scene mirror = parse_scene(
+    const Scene mirror = test::parse_report_scene(
         sphere_in_emitter(R"({"kr": 1})", kOffCentreCamera, size, spp, 0.99), "/tmp/e.json");
     // Trapped rays in a sphere of ior 1.5
-    const Scene glass = parse_scene(
+    const Scene glass = test::parse_report_scene(
         glass_in_emitter(1.0, 1.5, kOffCentreCamera, size, spp, 0.99), "/tmp/e.json");
     const Escaping escaping = escaping_rays(glass, size, 1.5f);
     for (const Variant& v : variants()) {
@@ -480,7 +481,7 @@ TEST(Extremes, HighIorSpheresInAUniformEmitterNeitherGainNorLoseEnergy) {
     const std::string outside = R"({"position": [0, 0, -3], "look_at": [0, 0, 0], "vfov": 50})";
     const std::string inside = R"({"position": [0.2, 0, 0], "look_at": [1, 0.5, 2], "vfov": 90})";
     for (auto [ior, camera] : {std::pair{3.5, outside}, {3.5, inside}, {0.3, outside}}) {
-        const Scene scene = parse_scene(glass_in_emitter(1.0, ior, camera, 24, 32), "/tmp/e.json");
+        const Scene scene = test::parse_report_scene(glass_in_emitter(1.0, ior, camera, 24, 32), "/tmp/e.json");
         for (const Variant& v : variants()) {
             SCOPED_TRACE(testing::Message() << v.integrator << " " << v.isa << ", ior " << ior
                                             << (camera == inside ? " inside" : " outside"));
@@ -517,7 +518,7 @@ TEST(Extremes, TheImageScalesLinearlyWithTheLightsFrom1eMinus6To1e6) {
         char to[60];
         std::snprintf(to, sizeof to, R"("L": {"emission": %.9g})", e);
         json.replace(json.find(from), from.size(), to);
-        return parse_scene(json, "/tmp/e.json");
+        return test::parse_report_scene(json, "/tmp/e.json");
     };
     const Scene unit = scene_at(1.0);
     for (const Variant& v : variants()) {
@@ -553,7 +554,7 @@ TEST(Extremes, ABlackBoxShowsExactlyTheDirectViewOfItsEmitter) {
     for (auto [from, to] : {Edit{R"("w": {"kd": 0.8})", R"("w": {"kd": 0})"},
                             Edit{R"("L": {"emission": 1})", R"("L": {"emission": 1.5})"}})
         json.replace(json.find(from), from.size(), to);
-    const Scene scene = parse_scene(json, "/tmp/e.json");
+    const Scene scene = test::parse_report_scene(json, "/tmp/e.json");
     // Which plane a ray meets first: the box is -1 < x, y < 1, -4 < z < 1, the ceiling y = 1
     const auto sees_ceiling = [&](const Ray<float>& ray) {
         double best = 1e30;
@@ -613,7 +614,7 @@ struct MeshInEmitter {
     test::TriangleMesh mesh;
 };
 MeshInEmitter mesh_in_emitter(int size, int spp) {
-    MeshInEmitter m{parse_scene(R"({"render": {"width": )" + std::to_string(size) +
+    MeshInEmitter m{test::parse_report_scene(R"({"render": {"width": )" + std::to_string(size) +
                                     R"(, "height": )" + std::to_string(size) + R"(, "spp": )" +
                                     std::to_string(spp) + R"(},
         "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1]},

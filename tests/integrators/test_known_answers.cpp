@@ -14,12 +14,13 @@
 #include "kernels/rng.h"
 #include "scene/scene_json.h"
 #include "support/isa.h"
+#include "support/report_scene.h"
 #include "support/statistics.h"
 
 namespace cierzo {
 namespace {
 
-Scene scene_from(const std::string& json) { return parse_scene(json, "/tmp/known.json"); }
+Scene scene_from(const std::string& json) { return test::parse_report_scene(json, "/tmp/known.json"); }
 
 // The integrator under test: this file is built once per integrator (and ISA).
 #ifndef CIERZO_TEST_INTEGRATOR

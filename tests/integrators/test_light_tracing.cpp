@@ -30,6 +30,7 @@
 #include "scene/scene_json.h"
 #include "support/emulator.h"
 #include "support/render_variants.h"
+#include "support/report_scene.h"
 
 namespace cierzo {
 namespace {
@@ -43,7 +44,7 @@ using test::variants;
 
 Scene scene_of(const std::string& json, Estimator e, int spp) {
     Scene s = parse_scene(json, "lt_test.json");
-    s.settings.estimator.kind = e;
+    test::set_estimator(s, e);
     s.settings.spp = spp;
     return s;
 }

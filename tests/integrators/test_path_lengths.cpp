@@ -18,6 +18,7 @@
 #include "support/analytic_scenes.h"
 #include "support/emulator.h"
 #include "support/render_variants.h"
+#include "support/report_scene.h"
 
 namespace cierzo {
 namespace {
@@ -30,7 +31,7 @@ using test::variants;
 
 Scene limited(const std::string& json, Estimator e, int min_length, int max_length, int spp) {
     Scene s = parse_scene(json, "lengths_test.json");
-    s.settings.estimator.kind = e;
+    test::set_estimator(s, e);
     s.settings.estimator.min_length = min_length;
     s.settings.estimator.max_length = max_length;
     s.settings.spp = spp;

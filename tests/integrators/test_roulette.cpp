@@ -22,6 +22,7 @@
 #include "support/emulator.h"
 #include "support/analytic_scenes.h"
 #include "support/render_variants.h"
+#include "support/report_scene.h"
 
 namespace cierzo {
 namespace {
@@ -44,7 +45,7 @@ double sigma_bound() { return test::lighter_settings() ? 0.045 : 0.015; }
 
 Scene with_roulette(const std::string& json, Estimator e, Roulette r, int depth, int spp) {
     Scene s = parse_scene(json, "roulette_test.json");
-    s.settings.estimator.kind = e;
+    test::set_estimator(s, e);
     s.settings.estimator.roulette = r;
     s.settings.estimator.roulette_depth = depth;
     s.settings.spp = spp;
@@ -155,7 +156,11 @@ TEST(ThroughputRoulette, RefusedWhereTheEstimatorKeepsTheLobeRoulette) {
         head + R"("estimator": "mis", "roulette": "throughput", "roulette_depth": 5}})", "r.json");
     EXPECT_EQ(ok.settings.estimator.roulette, Roulette::kThroughput);
     EXPECT_EQ(ok.settings.estimator.roulette_depth, 5);
-    EXPECT_EQ(parse_scene(head + "}}", "r.json").settings.estimator.roulette, Roulette::kLobe);
+    EXPECT_EQ(parse_scene(head + "}}", "r.json").settings.estimator.roulette,
+              Roulette::kThroughput)
+        << "a scene that names no estimator takes mis's roulette";
+    EXPECT_EQ(parse_scene(head + R"("estimator": "report"}})", "r.json").settings.estimator.roulette,
+              Roulette::kLobe);
 }
 
 }  // namespace

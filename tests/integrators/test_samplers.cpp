@@ -23,6 +23,7 @@
 #include "support/analytic_scenes.h"
 #include "support/emulator.h"
 #include "support/render_variants.h"
+#include "support/report_scene.h"
 
 namespace cierzo {
 namespace {
@@ -41,7 +42,7 @@ double sigma_bound() { return test::lighter_settings() ? 0.045 : 0.015; }
 
 Scene with_sampler(const std::string& json, Estimator e, Sampler s, int spp) {
     Scene scene = parse_scene(json, "sampler_test.json");
-    scene.settings.estimator.kind = e;
+    test::set_estimator(scene, e);
     scene.settings.estimator.sampler = s;
     scene.settings.spp = spp;
     return scene;
@@ -147,7 +148,11 @@ TEST(Samplers, TheSceneKeyAndItsErrors) {
     EXPECT_EQ(parse_scene(base + R"("pmj02"}})", "s.json").settings.estimator.sampler,
               Sampler::kPmj02);
     EXPECT_EQ(parse_scene(R"({"camera": {"position": [0, 0, -2], "look_at": [0, 0, 0]},
-        "objects": []})", "s.json").settings.estimator.sampler, Sampler::kIndependent);
+        "objects": []})", "s.json").settings.estimator.sampler, Sampler::kSobol)
+        << "a scene that names no estimator takes mis's sampler";
+    EXPECT_EQ(parse_scene(R"({"camera": {"position": [0, 0, -2], "look_at": [0, 0, 0]},
+        "objects": [], "render": {"estimator": "report"}})", "s.json").settings.estimator.sampler,
+              Sampler::kIndependent);
     try {
         parse_scene(base + R"("halton"}})", "s.json");
         FAIL() << "an unknown sampler was accepted";

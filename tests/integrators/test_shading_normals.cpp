@@ -20,6 +20,7 @@
 #include "scene/scene_json.h"
 #include "support/render_variants.h"
 #include "support/uv_sphere.h"
+#include "support/report_scene.h"
 #include "integrators/registry.h"
 
 namespace cierzo {
@@ -157,7 +158,7 @@ TEST_F(ShadingNormals, WavefrontAgreesWithScalarOnEveryLobeAndEstimator) {
            "translate": [0, -0.6, -1.2], "material": "mixed"}],
         "lights": [{"position": [2, 3, -3], "intensity": 8}]})");
     for (Estimator e : {Estimator::kReport, Estimator::kNee, Estimator::kMis}) {
-        s.settings.estimator.kind = e;
+        test::set_estimator(s, e);
         const RenderResult reference = test::run(s, {"scalar", "auto"});
         const Image ref = reference.film.mean();
         ASSERT_TRUE(all_finite(ref));
@@ -226,7 +227,7 @@ TEST_F(ShadingNormals, NoLightComesThroughTheGeometricSurface) {
               {"type": "sphere", "center": [0, -30, 0], "radius": 25, "material": {"emission": 5}}],
             "lights": [{"position": [0, -2, 3], "intensity": 50}]})");
         for (Estimator e : {Estimator::kReport, Estimator::kMis}) {
-            s.settings.estimator.kind = e;
+            test::set_estimator(s, e);
             for (const test::Variant& v : test::variants()) {
                 SCOPED_TRACE(std::string(material) + " " + v.integrator + " " + v.isa + " " +
                              estimator_name(e));
@@ -268,7 +269,7 @@ TEST_F(ShadingNormals, ExtremesStayFiniteAndGainNoEnergy) {
           {"type": "sphere", "center": [0, 4, 0], "radius": 1, "material": {"emission": 1e6}}],
         "lights": [{"position": [0, 0, -2], "intensity": 1e6}]})");
     for (Estimator e : {Estimator::kReport, Estimator::kMis}) {
-        wild.settings.estimator.kind = e;
+        test::set_estimator(wild, e);
         for (const test::Variant& v : test::variants()) {
             SCOPED_TRACE(v.integrator + " " + v.isa);
             const RenderResult r = test::run(wild, v);

@@ -549,7 +549,27 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
     EXPECT_EQ(d.settings.spp, 16);
     EXPECT_EQ(d.settings.seed, 1u);
     EXPECT_EQ(d.settings.estimator.survival_cap, 0.9f);
-    EXPECT_FALSE(d.settings.estimator.cosine_diffuse);
+    // A scene that names no estimator (with a "render" object or without) renders with mis
+    // and mis's defaults; one that names the report's keeps the report's
+    const auto expect_mis = [](const EstimatorSettings& e) {
+        EXPECT_EQ(e.kind, Estimator::kMis);
+        EXPECT_TRUE(e.cosine_diffuse);
+        EXPECT_EQ(e.roulette, Roulette::kThroughput);
+        EXPECT_TRUE(e.triangle_solid_angle);
+        EXPECT_EQ(e.sampler, Sampler::kSobol);
+    };
+    expect_mis(d.settings.estimator);  // (no "render" object)
+    json unnamed = base_scene();
+    unnamed["render"] = {{"width", 8}};
+    expect_mis(parse(unnamed).settings.estimator);
+    json named = base_scene();
+    named["render"]["estimator"] = "report";
+    const EstimatorSettings r = parse(named).settings.estimator;
+    EXPECT_EQ(r.kind, Estimator::kReport);
+    EXPECT_FALSE(r.cosine_diffuse);
+    EXPECT_EQ(r.roulette, Roulette::kLobe);
+    EXPECT_FALSE(r.triangle_solid_angle);
+    EXPECT_EQ(r.sampler, Sampler::kIndependent);
     EXPECT_EQ(d.scene_ior, 1.0f);
     EXPECT_EQ(d.settings.output, fs::path("/nonexistent-cierzo-folder/x/test.exr"));
 
@@ -573,8 +593,8 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
                    {"width", 1.0e1}};  // an integral float counts as an integer
     const Scene a = parse(j);
     EXPECT_EQ(a.settings.output, fs::path("/abs/elsewhere.exr"));
-    EXPECT_FALSE(a.settings.estimator.cosine_diffuse);
-    EXPECT_FALSE(a.settings.estimator.triangle_solid_angle);
+    EXPECT_FALSE(a.settings.estimator.cosine_diffuse);  // chosen, over mis's default
+    EXPECT_TRUE(a.settings.estimator.triangle_solid_angle);  // mis's default
     EXPECT_EQ(a.settings.width, 10);
 }
 
