@@ -22,7 +22,7 @@
 #include "io/input_file.h"
 #include "io/mesh.h"
 #include "io/mtl.h"
-#include "integrators/registry.h"
+#include "scene/estimator_options.h"
 #include "scene/strict_json.h"
 
 namespace cierzo {
