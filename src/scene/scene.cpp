@@ -8,9 +8,9 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <stdexcept>
 
 #include "core/error.h"
-#include "integrators/scalar.h"
 #include "kernels/prim_id.h"
 #include "kernels/shading.h"
 #include "kernels/bvh/traverse.h"
@@ -190,7 +190,7 @@ void Scene::build_alpha() {
     alpha_tables = std::move(t);
 }
 
-PathContext Scene::path_context() const {
+PathContext Scene::pilot_context() const {
     PathContext c;
     const Estimator e = settings.estimator.kind;
     c.emitters = emitters.table();
@@ -207,23 +207,50 @@ PathContext Scene::path_context() const {
     c.scene_ior = scene_ior;
     c.smooth = smooth_shading;
     if (merges(e)) c.estimator.merge_radius = merge_radius();
+    return c;
+}
+
+bool Scene::needs_light_pilot() const {
+    const EstimatorSettings& e = settings.estimator;
+    return connects(e.kind) && !(e.connection_count > 0.0f) && e.light_connections > 0;
+}
+
+PathContext Scene::path_context() const {
+    PathContext c = pilot_context();
+    const Estimator e = settings.estimator.kind;
     if (connects(e) && settings.estimator.connection_count > 0.0f) {
         c.connection_count = settings.estimator.connection_count;
     } else if (connects(e) && settings.estimator.light_connections > 0) {
-        const double vertices = std::max(light_subpath_vertices(c), kMinLightPilotVertices);
+        double kept = 0.0;
+        {
+            std::lock_guard lock(light_pilot_->mutex);
+            const LightPilot::Entry* k = kept_light_pilot(c.estimator);
+            if (!k)
+                throw std::logic_error("Scene::path_context: no light pilot for these settings "
+                                       "(integrators/light_pilot.h, prepare_path_context)");
+            kept = k->vertices;
+        }
+        const double vertices = std::max(kept, kMinLightPilotVertices);
         c.connection_count = float(double(settings.estimator.light_connections) / vertices);
     }
     return c;
 }
 
-double Scene::light_subpath_vertices(const PathContext& base) const {
-    const EstimatorSettings& e = base.estimator;
-    std::lock_guard lock(light_pilot_->mutex);
+const Scene::LightPilot::Entry* Scene::kept_light_pilot(const EstimatorSettings& e) const {
     for (const LightPilot::Entry& k : light_pilot_->entries)
         if (k.survival_cap == e.survival_cap && k.cosine_diffuse == e.cosine_diffuse &&
             k.min_length == e.min_length && k.max_length == e.max_length)
-            return k.vertices;
-    const double vertices = cierzo::light_subpath_vertices(*this, base, kLightPilotPaths);
+            return &k;
+    return nullptr;
+}
+
+double Scene::light_subpath_vertices(
+    const std::function<double(const PathContext&)>& estimate) const {
+    const PathContext base = pilot_context();
+    const EstimatorSettings& e = base.estimator;
+    std::lock_guard lock(light_pilot_->mutex);
+    if (const LightPilot::Entry* k = kept_light_pilot(e)) return k->vertices;
+    const double vertices = estimate(base);
     light_pilot_->entries.push_back(
         {e.survival_cap, e.cosine_diffuse, e.min_length, e.max_length, vertices});
     return vertices;
