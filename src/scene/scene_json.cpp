@@ -16,13 +16,14 @@
 #include <system_error>
 
 #include <nlohmann/json.hpp>
-#include <tbb/parallel_for.h>
 
 #include "core/error.h"
 #include "io/input_file.h"
 #include "io/mesh.h"
 #include "io/mtl.h"
 #include "scene/estimator_options.h"
+#include "scene/mtl_materials.h"
+#include "scene/scene_images.h"
 #include "scene/strict_json.h"
 
 namespace cierzo {
@@ -182,25 +183,6 @@ Vec3f colour_value(Reader& r, const json& v, const std::string& key) {
     return c;
 }
 
-// The image textures a scene names, each file decoded once (per colour encoding) after the
-// whole scene is read, all of them in parallel.
-struct ImageRequests {
-    struct Request {
-        fs::path path;
-        bool srgb;
-        std::string where;  // the first place that names it, for messages
-    };
-    std::map<std::pair<fs::path, bool>, int32_t> ids;
-    std::vector<Request> requests;
-
-    int32_t request(const fs::path& path, bool srgb, const std::string& where) {
-        const auto [it, added] =
-            ids.try_emplace({path.lexically_normal(), srgb}, int32_t(requests.size()));
-        if (added) requests.push_back({path, srgb, where});
-        return it->second;
-    }
-};
-
 void read_uv_map(Reader& r, float scale[2], float offset[2], bool& clamp);
 
 // Reads {"texture": "image", ...} (kind already read).
@@ -355,6 +337,7 @@ struct Loader {
     std::map<std::string, int32_t> material_ids;
     std::map<int32_t, Mesh> loose_triangles;  // by material
     ImageRequests images;
+    MtlMaterials mtl{scene, images};  // the OBJ files' materials
     // Named materials and objects read while the text was parsed (parse_document), and the
     // first error met there, to be thrown where reading the whole document would meet it
     bool materials_read = false;
@@ -386,128 +369,6 @@ struct Loader {
         }
         scene.materials.push_back(read_material(v, where, "", file, images));
         return int32_t(scene.materials.size() - 1);
-    }
-
-    // ---- OBJ materials (MTL) -----------------------------------------------------------
-
-    std::map<fs::path, MtlLibrary> libraries;  // read so far, by path
-    std::map<std::pair<fs::path, std::string>, int32_t> mtl_ids;  // (library, name) → material
-    int32_t default_material = -1;  // faces without a material, or with an unknown one
-
-    // The library at `path`, which the OBJ file `obj` names
-    const MtlLibrary& library(const fs::path& path, Reader& t, const fs::path& obj) {
-        const fs::path key = path.lexically_normal();
-        auto it = libraries.find(key);
-        if (it != libraries.end()) return it->second;
-        MtlLibrary lib;
-        lib.path = path;
-        std::error_code ec;
-        if (!fs::exists(path, ec) && !ec) {
-            // (OBJ files are often passed around without their MTL: tinyobjloader, Blender and
-            // assimp read them all the same; so does cierzo, with the default material)
-            scene.warnings.push_back(
-                obj.string() + ": material library (mtllib) " + path.string() +
-                ": file does not exist; the materials it would define take the default "
-                "(diffuse grey 0.8)");
-            return libraries.emplace(key, std::move(lib)).first->second;
-        }
-        try {
-            lib = read_mtl(path);
-        } catch (const InputError& e) {
-            t.fail(std::string("material library (mtllib): ") + e.what());
-        }
-        scene.files.push_back(path);
-        for (const std::string& w : lib.warnings) scene.warnings.push_back(w);
-        return libraries.emplace(key, std::move(lib)).first->second;
-    }
-
-    // A cierzo material from an MTL one (the mapping of docs/scene-format.md, "OBJ materials").
-    Material from_mtl(const MtlMaterial& mtl, const MtlLibrary& lib) {
-        const fs::path folder = lib.path.parent_path();
-        const auto solid = [](const float c[3]) {
-            ColorSource s;
-            s.a = {c[0], c[1], c[2]};
-            return s;
-        };
-        const auto image = [&](const MtlMap& map, bool srgb) {
-            ColorSource s;
-            s.kind = TextureKind::kImage;
-            s.a = Vec3f(1.0f);
-            // (-colorspace, where the file gives it, over the map's default)
-            s.image = images.request(folder / map.file, map.srgb >= 0 ? map.srgb == 1 : srgb,
-                                     lib.path.string() + ": line " + std::to_string(map.line));
-            s.uv_scale[0] = map.scale[0], s.uv_scale[1] = map.scale[1];
-            s.uv_offset[0] = map.offset[0], s.uv_offset[1] = map.offset[1];
-            s.clamp = map.clamp;
-            return s;
-        };
-        Material m;
-        m.name = lib.path.filename().string() + ":" + mtl.name;
-        const float grey[3] = {0.8f, 0.8f, 0.8f};
-        m.kd = mtl.map_kd ? image(*mtl.map_kd, true) : solid(mtl.has_kd ? mtl.kd_rgb : grey);
-        const ColorSource ks = mtl.map_ks ? image(*mtl.map_ks, true) : solid(mtl.ks_rgb);
-        const int illum = mtl.illum < 0 ? 2 : mtl.illum;
-        if (illum == 3 || illum == 5 || illum == 8) {
-            m.kr = ks;  // a mirror: Ks is its reflectance
-        } else if (illum == 4 || illum == 6 || illum == 7 || illum == 9) {
-            m.kr = ks;  // glass: Ks reflects, Tf transmits through the index Ni
-            m.kt = solid(mtl.tf_rgb);
-            if (!(mtl.ni > 0.0f))
-                throw InputError(lib.path.string() + ": line " +
-                                 std::to_string(mtl.ni_line ? mtl.ni_line : mtl.line) +
-                                 ": material '" + mtl.name + "' is glass (illum " +
-                                 std::to_string(illum) + ") and needs an index Ni > 0");
-            m.ior = mtl.ni;
-        } else if (illum >= 2) {
-            m.ks = ks;
-            m.shininess = mtl.ns;
-        }
-        if (mtl.map_ke) m.emission = image(*mtl.map_ke, true);
-        else if (mtl.has_ke) m.emission = solid(mtl.ke_rgb);
-        // Dissolve: d (or 1 - Tr) is the opacity, map_d a mask; glass is transparent by
-        // refraction, and its d is not applied (exporters write d < 1 for glass)
-        const bool glass = !m.kt.is_zero();
-        if (!glass) m.alpha.constant = mtl.d;
-        if (!glass && mtl.d == 0.0f && mtl.d_from_tr && !mtl.map_d)
-            scene.warnings.push_back(
-                lib.path.string() + ": line " + std::to_string(mtl.d_line) + ": material '" +
-                mtl.name + "' has 'Tr 1', fully transparent: it is invisible (some exporters "
-                "write Tr as the opacity; 'd 1' would make it opaque)");
-        if (mtl.map_d) {
-            const ColorSource s = image(*mtl.map_d, true);  // (the bytes as they are: a mask)
-            m.alpha.image = s.image;
-            std::copy(s.uv_scale, s.uv_scale + 2, m.alpha.uv_scale);
-            std::copy(s.uv_offset, s.uv_offset + 2, m.alpha.uv_offset);
-            m.alpha.clamp = s.clamp;
-            static const std::string channels = "rgbm";  // -imfchan: m, the matte, is alpha
-            const size_t c = channels.find(mtl.map_d->channel);
-            m.alpha.channel = mtl.map_d->channel != 0 && c != std::string::npos ? int32_t(c) : -1;
-        }
-        return m;
-    }
-
-    int32_t mtl_material(const std::string& name, const std::vector<const MtlLibrary*>& libs,
-                         const std::string& obj) {
-        for (const MtlLibrary* lib : libs) {
-            const MtlMaterial* mtl = lib->find(name);
-            if (!mtl) continue;
-            const auto [it, added] =
-                mtl_ids.try_emplace({lib->path.lexically_normal(), name}, int32_t(scene.materials.size()));
-            if (added) scene.materials.push_back(from_mtl(*mtl, *lib));
-            return it->second;
-        }
-        if (!name.empty())
-            scene.warnings.push_back(obj + ": 'usemtl " + name + "' names a material no "
-                                     "material library of the file defines: its faces take "
-                                     "the default material (diffuse grey 0.8)");
-        if (default_material < 0) {
-            Material m;
-            m.name = "(OBJ default)";
-            m.kd.a = Vec3f(0.8f);
-            default_material = int32_t(scene.materials.size());
-            scene.materials.push_back(m);
-        }
-        return default_material;
     }
 
     // The triangles of material group g of `data`, with only the vertices they use.
@@ -710,8 +571,13 @@ struct Loader {
         } else {
             t.allow({"material"});
             std::vector<const MtlLibrary*> libs;
-            for (const std::string& name : data.libraries)
-                libs.push_back(&library(ply.parent_path() / name, t, ply));
+            for (const std::string& name : data.libraries) {
+                try {
+                    libs.push_back(&mtl.library(ply.parent_path() / name, ply));
+                } catch (const InputError& e) {
+                    t.fail(std::string("material library (mtllib): ") + e.what());
+                }
+            }
             std::map<std::string, int32_t> overrides;
             if (t.has("materials")) {
                 const json& o = t.get("materials");
@@ -738,7 +604,7 @@ struct Loader {
                 const std::string& name = data.material_names[g];
                 const auto o = overrides.find(name);
                 const int32_t mat = o != overrides.end() ? o->second
-                                                         : mtl_material(name, libs, ply.string());
+                                                         : mtl.material(name, libs, ply.string());
                 parts.push_back({fs::path(key.string() + "#" + std::to_string(g)), mat});
             }
         }
@@ -908,76 +774,6 @@ struct Loader {
         }
         mesh_files.clear();
         raw_meshes.clear();
-    }
-
-    // Decodes every image texture named (in parallel; the first failing one in the order the
-    // scene names them is reported), gives the materials' sources their largest values, and
-    // refuses an image texture where there are no texture coordinates.
-    void load_images() {
-        const auto& requests = images.requests;
-        if (requests.empty()) return;
-        const auto start = std::chrono::steady_clock::now();
-        std::vector<std::shared_ptr<const TextureImage>> decoded(requests.size());
-        std::vector<std::exception_ptr> errors(requests.size());
-        tbb::parallel_for(size_t(0), requests.size(), [&](size_t i) {
-            try {
-                decoded[i] = std::make_shared<const TextureImage>(
-                    read_texture_image(requests[i].path, requests[i].srgb));
-            } catch (...) {
-                errors[i] = std::current_exception();
-            }
-        });
-        for (size_t i = 0; i < requests.size(); ++i) {
-            if (!errors[i]) continue;
-            try {
-                std::rethrow_exception(errors[i]);
-            } catch (const InputError& e) {
-                throw InputError(file.string() + ": " + requests[i].where + ": " + e.what());
-            } catch (const std::bad_alloc&) {
-                throw InputError(file.string() + ": " + requests[i].where + ": " +
-                                 requests[i].path.string() + ": out of memory decoding it");
-            }
-        }
-        for (size_t i = 0; i < requests.size(); ++i) {
-            scene.add_image(decoded[i]);
-            scene.files.push_back(requests[i].path);
-        }
-        scene.image_seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        std::vector<ColorSource*> sources = {&scene.environment.emission};
-        for (Material& m : scene.materials)
-            for (ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt}) sources.push_back(c);
-        for (ColorSource* c : sources)
-                if (c->kind == TextureKind::kImage) {
-                    const TextureImage& im = *scene.images[size_t(c->image)];
-                    c->b = {c->a.x * im.max_rgb[0], c->a.y * im.max_rgb[1], c->a.z * im.max_rgb[2]};
-                }
-        const auto imaged = [&](int32_t material) {
-            const Material& m = scene.materials[size_t(material)];
-            for (const ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt})
-                if (c->kind == TextureKind::kImage) return true;
-            return false;
-        };
-        const auto name = [&](int32_t material) {
-            const std::string& n = scene.materials[size_t(material)].name;
-            return n.empty() ? std::string("an inline material") : "material '" + n + "'";
-        };
-        for (const Mesh& m : scene.meshes)
-            if (imaged(m.material) && scene.geometry_of(m).uvs.empty())
-                throw InputError(file.string() + ": " + name(m.material) +
-                                 " has an image texture, but the mesh '" + m.source +
-                                 "' has no texture coordinates (OBJ 'vt')");
-        for (const Mesh& m : scene.meshes)
-            if (scene.materials[size_t(m.material)].alpha.image >= 0 &&
-                scene.geometry_of(m).uvs.empty())
-                throw InputError(file.string() + ": " + name(m.material) +
-                                 " has an alpha mask image, but the mesh '" + m.source +
-                                 "' has no texture coordinates (OBJ 'vt')");
-        for (size_t i = 0; i < scene.quadrics.size(); ++i)
-            if (imaged(scene.quadrics[i].material))
-                throw InputError(file.string() + ": " + name(scene.quadrics[i].material) +
-                                 " has an image texture, but a quadric has no texture "
-                                 "coordinates (use a sin, sin2 or sincos pattern there)");
     }
 
     // Alpha cut-outs mask triangles only: a sphere, plane or quadric with one is refused.
@@ -1244,7 +1040,7 @@ Scene build_scene(Loader& l, const json& root) {
     for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
     if (r.has("environment")) l.environment(r.get("environment"));
     else r.allow({"environment"});
-    l.load_images();
+    load_images(l.scene, l.images, l.file);
     l.check_alpha();
 
     // Point lights
