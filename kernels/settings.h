@@ -8,7 +8,7 @@
 namespace cierzo {
 
 // Which estimator renders the image (render.estimator, --estimator; names and descriptions
-// in src/integrators/registry.h).
+// in src/scene/estimator_options.h).
 enum class Estimator : int32_t {
     kReport = 0,  // the report's: emitters are found only by the paths that hit them
     kNee = 1,     // next-event estimation: one emitter sample per Phong vertex
@@ -159,7 +159,7 @@ struct EstimatorSettings {
     float connection_count = 0.0f;
     // Which of the four knobs whose default depends on the estimator (diffuse sampling,
     // roulette, triangle sampling, sampler) a scene, the command line or a sweep chose;
-    // use_estimator (src/integrators/registry.h) gives the others the estimator's defaults
+    // use_estimator (src/scene/estimator_options.h) gives the others the estimator's defaults
     uint32_t chosen = 0;
 };
 inline constexpr uint32_t kChoseDiffuse = 1, kChoseRoulette = 2, kChoseTriangles = 4,

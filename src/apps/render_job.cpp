@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "integrators/checkpoint.h"
 #include "integrators/distributed.h"
+#include "integrators/light_pilot.h"
 #include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/wavefront.h"
 #include "io/output_file.h"
@@ -372,7 +373,7 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         // made once before the render and kept by the scene)
         const PathContext pc = scene.path_context();
         j["light_vertex_cache"] = {{"draws", est.light_connections},
-                                   {"mean_light_vertices", scene.light_subpath_vertices(pc)},
+                                   {"mean_light_vertices", light_pilot(scene)},
                                    {"connection_count", pc.connection_count}};
     }
     if (!checkpoint.empty()) {

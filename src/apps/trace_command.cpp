@@ -14,6 +14,7 @@
 
 #include "apps/render_job.h"
 #include "core/error.h"
+#include "integrators/light_pilot.h"
 #include "integrators/registry.h"
 #include "integrators/wavefront/wavefront.h"
 #include "io/input_file.h"
@@ -127,9 +128,11 @@ int run_trace_command() {
     const std::vector<float> rays = read_rays(a.rays);
     const size_t count = rays.size() / 7;
     std::unique_ptr<WavefrontRenderer> wavefront;
-    if (simd)
+    if (simd) {
+        prepare_path_context(scene);  // (the wavefront's flat scene holds the path context)
         wavefront = std::make_unique<WavefrontRenderer>(scene, isa, 0, true, kLightStoreLimit,
                                                         a.ray_group);
+    }
     const auto pass = [&](TraceTotals& totals) {
         if (wavefront)
             return wavefront->trace(rays.data(), count, {a.stream_rays, a.single_below}, totals);

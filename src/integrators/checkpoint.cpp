@@ -21,6 +21,7 @@
 #include "core/error.h"
 #include "io/input_file.h"
 #include "io/output_file.h"
+#include "integrators/light_pilot.h"
 #include "integrators/registry.h"
 
 namespace cierzo {
@@ -191,9 +192,11 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
                                     s.estimator.merge_alpha);
     // (and the connections: a cache's draws, 0 for the pairing, and how many times its MIS
     // weights count each, which a build whose weights differ would not match)
-    if (connects(s.estimator.kind) && s.estimator.light_connections > 0)
+    if (connects(s.estimator.kind) && s.estimator.light_connections > 0) {
+        prepare_path_context(scene);
         id.estimator += fmt::format(" draws {} counted {:a}", s.estimator.light_connections,
                                     scene.path_context().connection_count);
+    }
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);

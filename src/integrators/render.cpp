@@ -19,6 +19,7 @@
 
 #include "core/error.h"
 #include "integrators/distributed.h"
+#include "integrators/light_pilot.h"
 #include "integrators/progress.h"
 #include "integrators/rank_protocol.h"
 #include "integrators/scheduler.h"
@@ -218,7 +219,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         throw std::logic_error("strategy images are scalar bdpt's, in one process, from zero");
     // (the light vertex cache's estimate of the light subpaths' vertices, once per scene and
     // settings, here before the clock for both integrators, as the trees' build is)
-    scene.path_context();
+    prepare_path_context(scene);
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == Integrator::kWavefront)
         wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),

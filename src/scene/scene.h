@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -305,15 +306,26 @@ public:
     }
 
     // What a path vertex needs of the scene (kernels/path_vertex.h), for both integrators
-    // (vcm's merge_radius resolved: merge_radius()).
+    // (vcm's merge_radius resolved: merge_radius()). Where the estimator connects through
+    // the light vertex cache (needs_light_pilot()), its connection_count comes from the
+    // estimate light_subpath_vertices keeps, which must have been made for these settings
+    // (integrators/light_pilot.h, prepare_path_context): else std::logic_error.
     PathContext path_context() const;
+    // path_context() without PathContext::connection_count (left 1): what the light pilot
+    // traces its subpaths with.
+    PathContext pilot_context() const;
+    // Whether path_context() needs the light pilot's estimate: a connecting estimator with
+    // the light vertex cache's draws (light_connections) and no connection_count set.
+    bool needs_light_pilot() const;
 
-    // The mean number of vertices a light subpath stores under the estimator settings of
-    // `base` (a path_context() without it): the light vertex cache's MIS
-    // (PathContext::connection_count). Estimated once for the scene and the settings that
-    // shape light subpaths (survival cap, diffuse sampling, length limits) by
-    // light_subpath_vertices (src/integrators/scalar.h), kept for the scene and its copies.
-    double light_subpath_vertices(const PathContext& base) const;
+    // The mean number of vertices a light subpath stores under the scene's estimator
+    // settings: the light vertex cache's MIS (PathContext::connection_count). Estimated once
+    // for the scene and the settings that shape light subpaths (survival cap, diffuse
+    // sampling, length limits) by the integrators' pilot, `estimate(pilot_context())`, which
+    // is called only where no estimate is kept for them (integrators/light_pilot.h); kept
+    // for the scene and its copies.
+    double light_subpath_vertices(
+        const std::function<double(const PathContext&)>& estimate) const;
 
     // vcm's r0: render.merge_radius / --merge-radius if set, else kMergeRadiusFraction of
     // half the diagonal of the box around the bounded primitives and the camera (1 if that
@@ -346,6 +358,8 @@ private:
         std::vector<Entry> entries;
     };
     std::shared_ptr<LightPilot> light_pilot_ = std::make_shared<LightPilot>();
+    // The estimate kept for `e`'s settings, or nothing (the caller holds the lock).
+    const LightPilot::Entry* kept_light_pilot(const EstimatorSettings& e) const;
 
     void build_alpha();
     void build_emitters();
