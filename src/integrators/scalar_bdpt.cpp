@@ -74,8 +74,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
     const LightStart<float> start = sample_light_start<float>(c.emitters, lights, rng);
     if (!start.ok) return;
     ++rays.light;
-    const bool limited = limits_length(c.estimator);
-    if (limited && !may_extend<float>(c.estimator, 0u)) return;
+    if (!may_extend<float>(c.estimator, 0u)) return;
     SubpathMis<float> mis = light_start_mis(c, start, mw);
     Ray<float> ray{start.on_surface
                        ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
@@ -103,7 +102,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
             store.push_back(lv);
             // t = 1: the vertex seen from the pinhole
             if (film && connects(c.estimator.kind) &&
-                (!limited || length_counts<float>(c.estimator, bounce + 1))) {
+                length_counts<float>(c.estimator, bounce + 1)) {
                 const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
                 if (cc.ok && on_arriving_side(cc.wc, v.nf)) {
                     const Vec3f unweighted =
@@ -127,7 +126,7 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
         // The roulette and the chosen lobe, in importance mode
         float p = 0.0f;
         const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe), cap, p);
-        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
+        if (lobe == kLobeAbsorbed || !may_extend<float>(c.estimator, bounce)) break;
         const ScalarContinuation next = continue_path<Transport::kImportance>(
             lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
         beta *= next.weight;
@@ -163,15 +162,11 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
     SubpathMis<float> mis = camera_start_mis(c, pinhole, ray.d);
-    const bool limited = limits_length(c.estimator);
     const float cap = c.estimator.survival_cap;
-    const auto counts = [&](uint32_t length) {
-        return !limited || length_counts<float>(c.estimator, length);
-    };
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) {
-            if (has_environment(c) && counts(bounce + 1)) {
+            if (has_environment(c) && length_counts<float>(c.estimator, bounce + 1)) {
                 const Vec3f unweighted =
                     throughput * environment_radiance(c.emitters.environment, ray.d);
                 const Vec3f value = unweighted * environment_mis<float>(c, mis, ray.d, bounce + 2);
@@ -187,7 +182,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
 
         // s = 0: an emitter ends the path
         if (material.is_emitter()) {
-            if (counts(bounce + 1)) {
+            if (length_counts<float>(c.estimator, bounce + 1)) {
                 const Vec3f unweighted = throughput * scene.emission_at(hit);
                 const Vec3f value =
                     unweighted * emitter_hit_mis<float>(c, lights, mis, scene.emitter_id(hit),
@@ -208,7 +203,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                                          pv,     mis,  bounce + 2};
             // s = 1: the lights sampled from here
             const bool connecting = connects(c.estimator.kind);
-            if (connecting && counts(bounce + 2)) {
+            if (connecting && length_counts<float>(c.estimator, bounce + 2)) {
                 Vec3f direct(0.0f);
                 const int i = rec.strategy(1, bounce + 2);
                 if (c.emitters.count > 0)
@@ -231,7 +226,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                 for (int32_t j = 0; j < draws; ++j) {
                     const LightVertex<float>& l = merging.cache[cache_vertex<float>(
                         connection_uniform<float>(rng, bounce, uint32_t(j)), merging.cache_vertices)];
-                    if (!counts(l.length + bounce + 2)) continue;
+                    if (!length_counts<float>(c.estimator, l.length + bounce + 2)) continue;
                     connected += trace_strategy(
                         scene, c, rec.strategy(l.length + 1, bounce + 2),
                         [&](const PathContext& x) {
@@ -241,7 +236,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                 }
             }
             for (size_t k = 0; connecting && draws == 0 && k < light_count; ++k) {
-                if (!counts(light[k].length + bounce + 2)) continue;
+                if (!length_counts<float>(c.estimator, light[k].length + bounce + 2)) continue;
                 connected += trace_strategy(
                     scene, c, rec.strategy(light[k].length + 1, bounce + 2),
                     [&](const PathContext& x) { return connect_vertices(x, cv, light[k], mw, true); },
@@ -257,7 +252,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
         float p = 0.0f;
         const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe), cap, p);
         if (lobe == kLobeAbsorbed || camera_lobe_ends_path<float>(c, lobe) ||
-            (limited && !may_extend<float>(c.estimator, bounce)))
+            !may_extend<float>(c.estimator, bounce))
             break;
         const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);

@@ -223,7 +223,7 @@ CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor) {
     number_paths(w, first, seq0);
     const int32_t end = w.live;
     const EstimatorSettings& est = s.path.estimator;
-    const bool extends = !limits_length(est) || may_extend<float>(est, 0u);
+    const bool extends = may_extend<float>(est, 0u);
     for (int32_t i = first / K * K; i < end; i += K) {
         const F lane = Wave<A>::lane_index();
         const auto fresh = (lane >= F(float(first - i))) & (lane < F(float(end - i)));
@@ -299,7 +299,7 @@ void bdpt_scatter(const FlatScene& s, const Bsdf<typename Wave<A>::F>& m,
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kMode == Transport::kRadiance)
         alive = alive & !camera_lobe_ends_path<F>(s.path, lobe);
-    if (limits_length(est)) alive = alive & may_extend<F>(est, bounce);
+    alive = may_extend<F>(est, bounce, alive);
     dir = weight = Vec3<F>(F(0.0f));
     const auto run = [&](auto kind) {
         constexpr int kLobe = decltype(kind)::value;
@@ -366,7 +366,7 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
         append_light_vertices<A>(*p.light_store, mask_bits(phong), lv,
                                  U::load_aligned(p.path_id + i));
         auto seen = connects(est.kind) ? phong : decltype(phong)(false);
-        if (limits_length(est)) seen = seen & length_counts<F>(est, bounce + U(1u));
+        seen = length_counts<F>(est, bounce + U(1u), seen);
         const CameraConnection<F> cc = connect_camera(s.pinhole, sf.pos);
         seen = seen & on_arriving_side(cc.wc, v.nf);
         if (any(seen)) {
@@ -454,7 +454,7 @@ void draw_connections(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>
         const I idx = gather_lanes<A>(st.order, select(mask_i32(some), lo + k, I(0)));
         const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
         auto has = some;
-        if (limits_length(est)) has = has & length_counts<F>(est, lv.length + bounce + U(2u));
+        has = length_counts<F>(est, lv.length + bounce + U(2u), has);
         const ShadowRequest<F> r = connect_drawn_vertex(s.path, cv, lv, mw, weight, has);
         queue_owned(w, i, r, beta * r.value, queued);
     }
@@ -474,7 +474,6 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     const PathContext& c = s.path;
     const EstimatorSettings& est = c.estimator;
     const LightStartTable& lights = s.light_starts;
-    const bool limited = limits_length(est);
     const I mat = sf.material;
     const MergeWeights<F> mw = lane_merge_weights(w, i);
     auto alive = sf.hit;
@@ -487,9 +486,6 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     const F t = length(sf.pos - ray.o);
     const F cos_in = abs(dot(d, sf.n));
     mis_at_hit(mis, t, cos_in);
-    const auto counts = [&](const typename Wave<A>::M& m, const U& length) {
-        return limited ? m & length_counts<F>(est, length) : m;
-    };
 
     // s = 0: an emitter ends the path; a path that escapes gathers the environment
     if (s.features.emitters) {
@@ -498,7 +494,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
             const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated) *
                                emitter_hit_mis<F>(c, lights, mis, select(mask_i32(em), sf.emitter, I(-1)),
                                                   ray.o, d, t, cos_in, bounce + U(2u));
-            rad = select(counts(em, bounce + U(1u)), rad + beta * le, rad);
+            rad = select(length_counts<F>(est, bounce + U(1u), em), rad + beta * le, rad);
             alive = alive & !em;
         }
     }
@@ -507,7 +503,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
         if (any(missed)) {
             const Vec3<F> le = environment_radiance(c.emitters.environment, d) *
                                environment_mis<F>(c, mis, d, bounce + U(2u));
-            rad = select(counts(missed, bounce + U(1u)), rad + beta * le, rad);
+            rad = select(length_counts<F>(est, bounce + U(1u), missed), rad + beta * le, rad);
         }
     }
     store3(rad, p.rad_r, p.rad_g, p.rad_b, i);  // (before any shadow ray adds to it)
@@ -521,7 +517,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
                                  pv,     mis,  bounce + U(2u)};
         // s = 1: the lights sampled from here
         const bool connecting = connects(est.kind);
-        const auto direct = counts(phong, bounce + U(2u));
+        const auto direct = length_counts<F>(est, bounce + U(2u), phong);
         if (connecting && any(direct)) {
             if (c.emitters.count > 0) {
                 const ShadowRequest<F> r = nee_emitter(c, lights, cv, mw, rng, bounce, direct);
@@ -550,7 +546,7 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
                 auto has = mask_f32(I(k) < n);
                 const I idx = gather_lanes<A>(st.order, select(mask_i32(has), lo + I(k), I(0)));
                 const LightVertex<F> lv = gather_light_vertex<A>(s, st, idx);
-                if (limited) has = has & length_counts<F>(est, lv.length + bounce + U(2u));
+                has = length_counts<F>(est, lv.length + bounce + U(2u), has);
                 const ShadowRequest<F> r = connect_vertices(c, cv, lv, mw, has);
                 queue_owned(w, i, r, beta * r.value, queued);
             }

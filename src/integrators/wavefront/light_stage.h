@@ -121,8 +121,7 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor,
         const LightStart<F> ls = sample_light_start<F>(s.path.emitters, s.light_starts, rng);
         // The emitter's point itself, seen by the pinhole
         const EstimatorSettings& est = s.path.estimator;
-        const bool limited = limits_length(est);
-        const auto surface = limited && !length_counts<float>(est, 1u)
+        const auto surface = !length_counts<float>(est, 1u)
                                  ? fresh & !fresh
                                  : fresh & ls.ok & ls.on_surface;
         if (any(surface)) {
@@ -141,7 +140,7 @@ CIERZO_STAGE_LOOP void generate_light_paths(Wave<A>& w, TileCursor& cursor,
             select(fresh, v, F::load_aligned(a + i)).store_aligned(a + i);
         };
         // (a path that may not go on past its start: throughput 0, so its first hit ends it)
-        const bool extends = !limited || may_extend<float>(est, 0u);
+        const bool extends = may_extend<float>(est, 0u);
         const auto starts = extends ? ls.ok : (ls.ok & !ls.ok);
         const Vec3<F> beta = select(starts, ls.beta, Vec3<F>(F(0.0f)));
         keep(o.x, p.ox), keep(o.y, p.oy), keep(o.z, p.oz);
@@ -179,7 +178,7 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     // Every Phong vertex is seen from the pinhole
     const EstimatorSettings& est = s.path.estimator;
     auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
-    if (limits_length(est)) phong = phong & length_counts<F>(est, bounce + U(1u));
+    phong = length_counts<F>(est, bounce + U(1u), phong);
     if (any(phong)) {
         const CameraConnection<F> c = connect_camera(s.pinhole, sf.pos);
         queue_connections(w, phong & on_arriving_side(c.wc, v.nf),
@@ -193,7 +192,7 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     const I lobe = choose_lobe(m, uniform<F>(rng, bounce, Purpose::kLobe),
                                s.path.estimator.survival_cap, probability);
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
-    if (limits_length(est)) alive = alive & may_extend<F>(est, bounce);
+    alive = may_extend<F>(est, bounce, alive);
     Vec3<F> dir(F(0.0f)), weight(F(0.0f));
     const auto run = [&](auto kind) {
         constexpr int kLobe = decltype(kind)::value;

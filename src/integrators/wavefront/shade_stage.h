@@ -111,9 +111,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                                             select(mask_i32(em), sf.emitter, I(-1)), F(0.0f),
                                             ray.o, d, length(pos - ray.o));
         }
-        const auto counted =
-            limits_length(c.estimator) ? em & length_counts<F>(c.estimator, bounce + U(1u)) : em;
-        rad = select(counted, rad + beta * le, rad);
+        rad = select(length_counts<F>(c.estimator, bounce + U(1u), em), rad + beta * le, rad);
         alive = alive & !em;
         if constexpr (kCompact && !kInlineNee)
             compaction->done = queue_radiant<A>(p, i, mask_bits(em), rad, compaction->done);
@@ -125,10 +123,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         if (any(missed)) {
             const F lobe_pdf = c.nee ? F::load_aligned(p.lobe_pdf + i) : F(0.0f);
             const Vec3<F> le = escaped_radiance<F>(c, d, lobe_pdf);
-            const auto counted = limits_length(c.estimator)
-                                     ? missed & length_counts<F>(c.estimator, bounce + U(1u))
-                                     : missed;
-            rad = select(counted, rad + beta * le, rad);
+            rad = select(length_counts<F>(c.estimator, bounce + U(1u), missed), rad + beta * le,
+                         rad);
         }
     }
     // (a scene with one lobe kind has that lobe's parameters only: kFused)
@@ -154,7 +150,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const bool nee = c.nee;
     if (f.lights || nee) {
         auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
-        if (limits_length(c.estimator)) phong = phong & length_counts<F>(c.estimator, bounce + U(2u));
+        phong = length_counts<F>(c.estimator, bounce + U(2u), phong);
         if (any(phong)) {
             const VertexFrame<F> v = vertex_frame(c.smooth, d, n, sf.ns);
             const Vec3<F> origin = shadow_origin(v, pos, sf.magnitude);
@@ -191,7 +187,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     I lobe = choose_lobe<kFused>(m, u_lobe,
                                  c.estimator.survival_cap, probability,
                                  normalised_lobes(c.estimator));
-    if (limits_length(c.estimator)) alive = alive & may_extend<F>(c.estimator, bounce);
+    alive = may_extend<F>(c.estimator, bounce, alive);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kFused == kLobeCount) {
