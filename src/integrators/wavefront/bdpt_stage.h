@@ -251,32 +251,6 @@ CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor) {
     }
 }
 
-// Moves the lanes in `bits` of batch i's new state to the front of the pool at `kept`.
-template <class A>
-void keep_bdpt_paths(PathPool& p, const FlatScene& s, uint32_t bits, int32_t i, int32_t kept,
-                     const Vec3<typename Wave<A>::F>& o, const Vec3<typename Wave<A>::F>& dir,
-                     const Vec3<typename Wave<A>::F>& beta,
-                     const SubpathMis<typename Wave<A>::F>& mis,
-                     const typename Wave<A>::U& bounce) {
-    using F = typename Wave<A>::F;
-    using U = typename Wave<A>::U;
-    const Vec3<F>* out[3] = {&o, &dir, &beta};
-    float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz}, {p.beta_r, p.beta_g, p.beta_b}};
-    for (int k = 0; k < 3; ++k) {
-        compress<A>(out[k]->x, bits).store_unaligned(dst[k][0] + kept);
-        compress<A>(out[k]->y, bits).store_unaligned(dst[k][1] + kept);
-        compress<A>(out[k]->z, bits).store_unaligned(dst[k][2] + kept);
-    }
-    compress<A>(mis.vcm, bits).store_unaligned(p.mis_vcm + kept);
-    compress<A>(mis.vc, bits).store_unaligned(p.mis_vc + kept);
-    compress<A>(mis.vm, bits).store_unaligned(p.mis_vm + kept);
-    compress<A>(U::load_aligned(p.key + i), bits).store_unaligned(p.key + kept);
-    if (s.path.sampler.kind != Sampler::kIndependent)
-        compress<A>(U::load_aligned(p.index + i), bits).store_unaligned(p.index + kept);
-    compress<A>(U::load_aligned(p.path_id + i), bits).store_unaligned(p.path_id + kept);
-    compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + kept);
-}
-
 // The roulette and the chosen lobe of each lane (kMode: radiance for camera subpaths,
 // importance for light subpaths), and the subpath quantities after it: the new direction
 // and throughput factor; `alive` loses the lanes whose path ends.
@@ -383,8 +357,9 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
     const Vec3<F> beta1 = beta * weight;
     alive = alive & (max_component(beta1) > F(0.0f));
     const uint32_t bits = mask_bits(alive);
-    keep_bdpt_paths<A>(p, s, bits, i, kept, leaving_origin(sf.pos, sf.n, dir, sf.magnitude), dir,
-                       beta1, mis, bounce);
+    const Vec3<F> o = leaving_origin(sf.pos, sf.n, dir, sf.magnitude);
+    move_paths<A>(p, path_fields(s) | kMisFields | field_bit(kFieldPathId), i, bits, kept,
+                  {&o, &dir, &beta1, nullptr, nullptr, {&mis.vcm, &mis.vc, &mis.vm}});
     kept += std::popcount(bits);
     w.counters.extension += uint64_t(std::popcount(bits));
     w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
@@ -461,7 +436,7 @@ void draw_connections(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>
 }
 
 // One batch of camera-subpath vertices: s = 0 at once; s = 1 and s, t ≥ 2 queued as shadow
-// rays; the roulette and the lobe, the new state stored in place (compact_bdpt follows).
+// rays; the roulette and the lobe, the new state stored in place (compact_paths follows).
 template <class A, class Read>
 void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                           const Surfaces<A>& sf, const Read& evaluated, int32_t& queued) {
@@ -570,36 +545,6 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
     w.counters.lanes_active += uint64_t(std::min(K, w.live - i));
     w.counters.lanes_total += uint64_t(K);
-}
-
-// Camera subpaths that ended hand their radiance to the film; survivors move to the front.
-template <class A>
-void compact_bdpt(Wave<A>& w, const TileJob& job) {
-    using F = typename Wave<A>::F;
-    using U = typename Wave<A>::U;
-    using I = typename Wave<A>::I;
-    constexpr int32_t K = Wave<A>::K;
-    PathPool& p = w.pool;
-    float* const fa[15] = {p.ox,     p.oy,     p.oz,     p.dx,      p.dy,     p.dz,    p.beta_r, p.beta_g,
-                           p.beta_b, p.rad_r,  p.rad_g,  p.rad_b,   p.mis_vcm, p.mis_vc, p.mis_vm};
-    int32_t kept = 0, done = 0;
-    for (int32_t i = 0; i < w.live; i += K) {
-        const int32_t lanes = std::min(K, w.live - i);
-        const uint32_t valid = (1u << lanes) - 1u;
-        const uint32_t m = mask_bits(mask_f32(I::load_aligned(p.alive + i) != I(0))) & valid;
-        const uint32_t ended = ~m & valid;
-        if (ended)
-            done = queue_radiant<A>(p, i, ended, load3<F>(p.rad_r, p.rad_g, p.rad_b, i), done);
-        for (float* a : fa) compress<A>(F::load_aligned(a + i), m).store_unaligned(a + kept);
-        for (uint32_t* a : {p.key, p.pixel, p.path_id})
-            compress<A>(U::load_aligned(a + i), m).store_unaligned(a + kept);
-        if (w.scene.path.sampler.kind != Sampler::kIndependent)
-            compress<A>(U::load_aligned(p.index + i), m).store_unaligned(p.index + kept);
-        compress<A>(U::load_aligned(p.bounce + i) + U(1u), m).store_unaligned(p.bounce + kept);
-        kept += std::popcount(m);
-    }
-    if (done) job.finish(job.film, done, p.done_pixel, p.done_r, p.done_g, p.done_b);
-    w.live = kept;
 }
 
 // The light-store's vertices grouped by path: begin[k]..begin[k + 1] of `order` are path
@@ -715,7 +660,9 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
         p.shadow_count = queued;
         trace_shadow_rays(w);
         w.counters.shadow += uint64_t(queued);
-        compact_bdpt(w, job);
+        compact_paths(w, job,
+                      path_fields(s) | kRadianceFields | kMisFields | field_bit(kFieldPixel) |
+                          field_bit(kFieldPathId));
     }
 }
 

@@ -13,6 +13,7 @@
 #pragma once
 
 #include "integrators/wavefront/camera_stage.h"
+#include "integrators/wavefront/compact_stage.h"
 #include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/surface_stage.h"
@@ -212,17 +213,7 @@ void light_vertex_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& r
     const Vec3<F> o = leaving_origin(sf.pos, sf.n, dir, sf.magnitude);
     // Survivors to the front of the pool, in order (kept <= i: nothing unread is overwritten)
     const uint32_t bits = mask_bits(alive);
-    const Vec3<F>* out[3] = {&o, &dir, &beta1};
-    float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz}, {p.beta_r, p.beta_g, p.beta_b}};
-    for (int k = 0; k < 3; ++k) {
-        compress<A>(out[k]->x, bits).store_unaligned(dst[k][0] + kept);
-        compress<A>(out[k]->y, bits).store_unaligned(dst[k][1] + kept);
-        compress<A>(out[k]->z, bits).store_unaligned(dst[k][2] + kept);
-    }
-    compress<A>(rng.key, bits).store_unaligned(p.key + kept);
-    if (s.path.sampler.kind != Sampler::kIndependent)
-        compress<A>(rng.index, bits).store_unaligned(p.index + kept);
-    compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + kept);
+    move_paths<A>(p, path_fields(s), i, bits, kept, {&o, &dir, &beta1});
     kept += std::popcount(bits);
     w.counters.extension += uint64_t(std::popcount(bits));
     w.counters.lanes_active += uint64_t(std::min(K, w.live - i));

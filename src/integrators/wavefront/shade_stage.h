@@ -5,6 +5,7 @@
 // (gathered by index).
 #pragma once
 
+#include "integrators/wavefront/compact_stage.h"
 #include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/surface_stage.h"
@@ -212,26 +213,11 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                 const uint32_t ended = mask_bits(w.live_mask(i)) & ~bits;
                 compaction->done = queue_radiant<A>(p, i, ended, rad, compaction->done);
             }
-            const Vec3<F>* v[3] = {&step.o, &step.d, &step.beta};
-            float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz},
-                                      {p.beta_r, p.beta_g, p.beta_b}};
-            for (int k = 0; k < 3; ++k) {
-                compress<A>(v[k]->x, bits).store_unaligned(dst[k][0] + at);
-                compress<A>(v[k]->y, bits).store_unaligned(dst[k][1] + at);
-                compress<A>(v[k]->z, bits).store_unaligned(dst[k][2] + at);
-            }
-            compress<A>(rng.key, bits).store_unaligned(p.key + at);
-            if (s.path.sampler.kind != Sampler::kIndependent)
-                compress<A>(rng.index, bits).store_unaligned(p.index + at);
-            compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.pixel + at);
-            compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + at);
-            if constexpr (kInlineNee) {
-                // Survivors keep their radiance and their lobe's density
-                compress<A>(rad.x, bits).store_unaligned(p.rad_r + at);
-                compress<A>(rad.y, bits).store_unaligned(p.rad_g + at);
-                compress<A>(rad.z, bits).store_unaligned(p.rad_b + at);
-                compress<A>(step.pdf, bits).store_unaligned(p.lobe_pdf + at);
-            }
+            // (with kInlineNee, survivors keep their radiance and their lobe's density)
+            constexpr uint32_t kCarriedFields =
+                kInlineNee ? kRadianceFields | field_bit(kFieldLobePdf) : 0u;
+            move_paths<A>(p, path_fields(s) | field_bit(kFieldPixel) | kCarriedFields, i, bits,
+                          at, {&step.o, &step.d, &step.beta, &rad, &step.pdf});
             compaction->kept = at + std::popcount(bits);
         } else {
             store3(step.o, p.ox, p.oy, p.oz, i);
