@@ -16,8 +16,8 @@ inline uint32_t path_fields(const FlatScene& s) {
            (s.path.sampler.kind != Sampler::kIndependent ? field_bit(kFieldIndex) : 0u);
 }
 
-// The part of a batch's new path state that a stage holds in registers (move_paths); what
-// is null moves from the pool.
+// The part of a batch's new path state that a stage holds in registers (move_paths: the
+// fields of its kHeld).
 template <class A>
 struct HeldState {
     using F = xsimd::batch<float, A>;
@@ -29,28 +29,29 @@ struct HeldState {
     const F* mis[3] = {};  // vcm, vc, vm
 };
 
-// The register `held` holds for field kField, or null.
+// The register `held` holds for field kField.
 template <int32_t kField, class A>
-const xsimd::batch<float, A>* held_field(const HeldState<A>& held) {
+const xsimd::batch<float, A>& held_field(const HeldState<A>& held) {
     using F = xsimd::batch<float, A>;
-    const auto of = [](const Vec3<F>* v, int32_t c) -> const F* {
-        return !v ? nullptr : c == 0 ? &v->x : c == 1 ? &v->y : &v->z;
+    const auto of = [](const Vec3<F>* v, int32_t c) -> const F& {
+        return c == 0 ? v->x : c == 1 ? v->y : v->z;
     };
     if constexpr (kField <= kFieldOz) return of(held.o, kField - kFieldOx);
     else if constexpr (kField <= kFieldDz) return of(held.d, kField - kFieldDx);
     else if constexpr (kField <= kFieldBetaB) return of(held.beta, kField - kFieldBetaR);
     else if constexpr (kField <= kFieldRadB) return of(held.rad, kField - kFieldRadR);
-    else if constexpr (kField == kFieldLobePdf) return held.lobe_pdf;
-    else return held.mis[kField - kFieldMisVcm];
+    else if constexpr (kField == kFieldLobePdf) return *held.lobe_pdf;
+    else return *held.mis[kField - kFieldMisVcm];
 }
 
 // Moves the lanes in `bits` of batch i to [kept, kept + popcount(bits)) of the pool, in
-// order: each field of `fields` (a set of PathField bits), from `held` where a stage holds
-// it, else from the pool; the bounce becomes bounce + 1. A batch is compressed in registers
-// and stored whole at the write position: writing at kept <= i never overtakes the batch
-// being read, and the lanes stored past the last kept one are overwritten by the next batch
-// or lie beyond the live paths.
-template <class A>
+// order: each field of `fields` (a set of PathField bits), from `held` for the fields of
+// kHeld (known when compiling, so that no lane work asks where a field is), else from the
+// pool; the bounce becomes bounce + 1. A batch is compressed in registers and stored whole
+// at the write position: writing at kept <= i never overtakes the batch being read, and the
+// lanes stored past the last kept one are overwritten by the next batch or lie beyond the
+// live paths.
+template <class A, uint32_t kHeld = 0u>
 void move_paths(const PathPool& p, uint32_t fields, int32_t i, uint32_t bits, int32_t kept,
                 const HeldState<A>& held = {}) {
     using F = xsimd::batch<float, A>;
@@ -62,9 +63,10 @@ void move_paths(const PathPool& p, uint32_t fields, int32_t i, uint32_t bits, in
             compress<A>(U::load_aligned(a + i) + U(1u), bits).store_unaligned(a + kept);
         } else if constexpr (k >= kFieldKey) {
             compress<A>(U::load_aligned(a + i), bits).store_unaligned(a + kept);
+        } else if constexpr ((kHeld >> k) & 1u) {
+            compress<A>(held_field<k, A>(held), bits).store_unaligned(a + kept);
         } else {
-            const F* r = held_field<k, A>(held);
-            compress<A>(r ? *r : F::load_aligned(a + i), bits).store_unaligned(a + kept);
+            compress<A>(F::load_aligned(a + i), bits).store_unaligned(a + kept);
         }
     });
 }

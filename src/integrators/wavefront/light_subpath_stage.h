@@ -352,10 +352,12 @@ void light_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& 
     const uint32_t bits = mask_bits(alive);
     const Vec3<F> o = leaving_origin(sf.pos, sf.n, dir, sf.magnitude);
     if constexpr (kBidirectional)
-        move_paths<A>(p, path_fields(s) | kMisFields | field_bit(kFieldPathId), i, bits, kept,
-                      {&o, &dir, &beta1, nullptr, nullptr, {&mis.vcm, &mis.vc, &mis.vm}});
+        move_paths<A, kRayFields | kBetaFields | kMisFields>(
+            p, path_fields(s) | kMisFields | field_bit(kFieldPathId), i, bits, kept,
+            {&o, &dir, &beta1, nullptr, nullptr, {&mis.vcm, &mis.vc, &mis.vm}});
     else
-        move_paths<A>(p, path_fields(s), i, bits, kept, {&o, &dir, &beta1});
+        move_paths<A, kRayFields | kBetaFields>(p, path_fields(s), i, bits, kept,
+                                                {&o, &dir, &beta1});
     kept += std::popcount(bits);
     w.counters.extension += uint64_t(std::popcount(bits));
     w.counters.lanes_active += uint64_t(std::min(K, w.live - i));

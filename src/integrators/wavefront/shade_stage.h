@@ -216,8 +216,9 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
             // (with kInlineNee, survivors keep their radiance and their lobe's density)
             constexpr uint32_t kCarriedFields =
                 kInlineNee ? kRadianceFields | field_bit(kFieldLobePdf) : 0u;
-            move_paths<A>(p, path_fields(s) | field_bit(kFieldPixel) | kCarriedFields, i, bits,
-                          at, {&step.o, &step.d, &step.beta, &rad, &step.pdf});
+            move_paths<A, kRayFields | kBetaFields | kCarriedFields>(
+                p, path_fields(s) | field_bit(kFieldPixel) | kCarriedFields, i, bits, at,
+                {&step.o, &step.d, &step.beta, &rad, &step.pdf});
             compaction->kept = at + std::popcount(bits);
         } else {
             store3(step.o, p.ox, p.oy, p.oz, i);
