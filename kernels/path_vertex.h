@@ -172,18 +172,23 @@ Vec3<T> throughput_roulette(const EstimatorSettings& est, const Vec3<T>& beta,
     return select(due, kept, beta);
 }
 
-// Whether light that reaches the camera along `length` segments counts (render.min_length,
-// render.max_length), and whether a path whose last vertex is `bounce` (the camera's first hit
-// is 0) may go on: its next vertex's light would be at least bounce + 2 segments long. The
-// callers ask only where limits_length(est).
+// The path-length rule (render.min_length, render.max_length), stated once for every
+// estimator and both integrators: whether light that reaches the camera along `length`
+// segments counts, and whether a path whose last vertex is `bounce` (the camera's first hit
+// is 0) may go on (its next vertex's light would be at least bounce + 2 segments long), on
+// the lanes of `lanes`. Without limits (limits_length) both are `lanes`.
 template <class T>
-Mask<T> length_counts(const EstimatorSettings& est, const U32<T>& length) {
+Mask<T> length_counts(const EstimatorSettings& est, const U32<T>& length,
+                      const Mask<T>& lanes = Mask<T>(true)) {
+    if (!limits_length(est)) return lanes;
     const T l = to_float(length);
-    return (l >= T(float(est.min_length))) & (l <= T(float(est.max_length)));
+    return lanes & (l >= T(float(est.min_length))) & (l <= T(float(est.max_length)));
 }
 template <class T>
-Mask<T> may_extend(const EstimatorSettings& est, const U32<T>& bounce) {
-    return to_float(bounce) + T(2.0f) <= T(float(est.max_length));
+Mask<T> may_extend(const EstimatorSettings& est, const U32<T>& bounce,
+                   const Mask<T>& lanes = Mask<T>(true)) {
+    if (!limits_length(est)) return lanes;
+    return lanes & (to_float(bounce) + T(2.0f) <= T(float(est.max_length)));
 }
 
 template <class T>

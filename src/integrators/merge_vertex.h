@@ -26,7 +26,6 @@ inline Vec3f merge_at(const PathContext& c, const MergeGrid& grid, const CameraV
                       uint32_t set, const MergeWeights<float>& mw) {
     MergeGrid::Range cells[8];
     const int n = grid.cells(v.p.x, v.p.y, v.p.z, int32_t(set), cells);
-    const bool limited = limits_length(c.estimator);
     Vec3f sum(0.0f);
     for (int r = 0; r < n; ++r)
         for (int32_t e = cells[r].begin; e < cells[r].end; ++e) {
@@ -35,7 +34,7 @@ inline Vec3f merge_at(const PathContext& c, const MergeGrid& grid, const CameraV
             const Vec3f to = p - v.p;
             // (a bucket also holds other cells' photons)
             if (ph.set != set || !(dot(to, to) <= mw.radius2)) continue;
-            if (limited && !length_counts<float>(c.estimator, ph.length + v.vertices - 1u))
+            if (!length_counts<float>(c.estimator, ph.length + v.vertices - 1u))
                 continue;
             LightVertex<float> l{};
             l.p = p;

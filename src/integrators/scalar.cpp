@@ -21,12 +21,11 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
     Ray<float> ray = camera_ray;
     float lobe_pdf = 0.0f;  // the density of the last Phong lobe's direction; 0 after the
                             // camera, a mirror or a refraction
-    const bool limited = limits_length(c.estimator);
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) {
             // An escaping path gathers the environment
-            if (has_environment(c) && (!limited || length_counts<float>(c.estimator, bounce + 1)))
+            if (has_environment(c) && length_counts<float>(c.estimator, bounce + 1))
                 radiance += throughput * escaped_radiance<float>(c, ray.d, lobe_pdf);
             break;
         }
@@ -39,7 +38,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                 le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind,
                                                 scene.emitter_id(hit), lobe_pdf, ray.o, ray.d,
                                                 hit.t, c.estimator.triangle_solid_angle);
-            if (!limited || length_counts<float>(c.estimator, bounce + 1)) radiance += throughput * le;
+            if (length_counts<float>(c.estimator, bounce + 1)) radiance += throughput * le;
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
@@ -48,7 +47,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
         if (material.has_phong() && (c.light_count > 0 || c.nee) &&
-            (!limited || length_counts<float>(c.estimator, bounce + 2))) {
+            length_counts<float>(c.estimator, bounce + 2)) {
             const Vec3f origin = shadow_origin(v, hit.p, magnitude);
             Vec3f lights(0.0f);
             for (int32_t j = 0; j < c.light_count; ++j)
@@ -68,7 +67,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         lobe_uniforms<float>(rng, bounce, normalised_lobes(c.estimator), u_lobe, u_roulette);
         const int32_t lobe = choose_lobe(m, u_lobe, c.estimator.survival_cap, p,
                                          normalised_lobes(c.estimator));
-        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
+        if (lobe == kLobeAbsorbed || !may_extend<float>(c.estimator, bounce)) break;
         const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
         lobe_pdf = next.pdf;
@@ -80,68 +79,53 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
     return radiance;
 }
 
-CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
-                                       const PinholeFrame& pinhole,
-                                       const SampleStream<float>& camera_rng, FilmTile& film,
-                                       RayCounts& rays) {
-    const SampleStream<float> rng = light_stream(camera_rng);
-    const LightStart<float> start =
-        sample_light_start<float>(scene.emitters.table(), scene.light_starts.table(), rng);
-    if (!start.ok) return;
+namespace {
+
+// Light tracing's use of the light-subpath walk (walk_light_subpath): the emitter's point and
+// every Phong vertex, seen from the pinhole, land unweighted in the pixel they are seen in
+// if nothing is in the way.
+struct LightTracing {
+    static constexpr bool kMis = false;
+    const Scene& scene;
+    const PathContext& c;
+    const PinholeFrame& pinhole;
+    FilmTile& film;
+    RayCounts& rays;
+
     // A connection to the pinhole from `origin`: `value` lands in its pixel if nothing is in
     // the way
-    const auto connect = [&](const CameraConnection<float>& cc, const Vec3f& origin,
-                             const Vec3f& value) {
+    void connect(const CameraConnection<float>& cc, const Vec3f& origin, const Vec3f& value) {
         if (!cc.ok || !(max_component(value) > 0.0f)) return;
         ++rays.shadow;
         if (!scene.occluded({origin, cc.wc}, cc.dist * (1.0f - 1e-5f)))
             film.splat(uint32_t(cc.pixel), value);
-    };
+    }
     // The emitter's point itself, as the pinhole sees it (a point light is never seen)
-    const bool limited = limits_length(c.estimator);
-    if (start.on_surface && (!limited || length_counts<float>(c.estimator, 1u))) {
-        const CameraConnection<float> cc = connect_camera(pinhole, start.p);
-        const float cos_l = dot(cc.wc, start.n);
-        connect(cc, offset_ray_origin(start.p, cos_l > 0.0f ? start.n : -start.n, max_abs(start.p)),
-                start.le * (std::abs(cos_l) * cc.factor));
+    void start(const LightStart<float>& s) {
+        if (!s.on_surface || !length_counts<float>(c.estimator, 1u)) return;
+        const CameraConnection<float> cc = connect_camera(pinhole, s.p);
+        const float cos_l = dot(cc.wc, s.n);
+        connect(cc, offset_ray_origin(s.p, cos_l > 0.0f ? s.n : -s.n, max_abs(s.p)),
+                s.le * (std::abs(cos_l) * cc.factor));
     }
-    ++rays.light;
-    if (limited && !may_extend<float>(c.estimator, 0u)) return;
-    Ray<float> ray{start.on_surface
-                       ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
-                                           max_abs(start.p))
-                       : start.p,
-                   start.dir};
-    Vec3f beta = start.beta;
-    for (uint32_t bounce = 1;; ++bounce) {
-        Hit hit;
-        if (!scene.intersect(ray, kRayFar, hit)) break;
-        const Material& material = scene.materials[size_t(hit.material)];
-        if (material.is_emitter()) break;  // emitters absorb what reaches them
-        const Bsdf<float> m = scene.bsdf_at(hit);
-        const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
-        const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
-
-        // Every Phong vertex is seen from the pinhole
-        if (material.has_phong() && (!limited || length_counts<float>(c.estimator, bounce + 1))) {
-            const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
-            if (on_arriving_side(cc.wc, v.nf))
-                connect(cc, offset_ray_origin(hit.p, v.nf, magnitude),
-                        camera_contribution(m, beta, ray.d, v.nf, v.nsf, cc, c.smooth));
-        }
-
-        // The roulette and the chosen lobe, in importance mode
-        float p = 0.0f;
-        const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe),
-                                         c.estimator.survival_cap, p);
-        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
-        const ScalarContinuation next = continue_path<Transport::kImportance>(
-            lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
-        beta *= next.weight;
-        if (!(max_component(beta) > 0.0f)) break;
-        ray = {next.o, next.d};
-        ++rays.extension;
+    void vertex(const LightVertex<float>& lv, const Bsdf<float>& m) {
+        if (!length_counts<float>(c.estimator, lv.length + 1)) return;
+        const CameraConnection<float> cc = connect_camera(pinhole, lv.p);
+        if (on_arriving_side(cc.wc, lv.nf))
+            connect(cc, offset_ray_origin(lv.p, lv.nf, lv.magnitude),
+                    camera_contribution(m, lv.beta, -lv.wl, lv.nf, lv.nsf, cc, c.smooth));
     }
+};
+
+}  // namespace
+
+CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
+                                       const PinholeFrame& pinhole,
+                                       const SampleStream<float>& camera_rng, FilmTile& film,
+                                       RayCounts& rays) {
+    LightTracing at{scene, c, pinhole, film, rays};
+    walk_light_subpath(scene, c, scene.light_starts.table(), camera_rng, MergeWeights<float>{},
+                       at, rays);
 }
 
 void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays) {

@@ -59,6 +59,44 @@ Vec3f trace_strategy(const Scene& scene, const PathContext& c, int strategy, con
     return value;
 }
 
+// The bidirectional estimators' use of the light-subpath walk (walk_light_subpath): every
+// Phong vertex appended to `store`, and its connection to the pinhole weighed and splatted
+// (t = 1) on `film` (none without one).
+struct LightSubpath {
+    static constexpr bool kMis = true;
+    const Scene& scene;
+    const PathContext& c;
+    const PinholeFrame& pinhole;
+    const MergeWeights<float>& mw;
+    std::vector<LightVertex<float>>& store;
+    const StoreLimit& limit;
+    FilmTile* film;
+    const Recorder& rec;
+    RayCounts& rays;
+
+    void start(const LightStart<float>&) {}
+    void vertex(const LightVertex<float>& lv, const Bsdf<float>& m) {
+        if (store.size() >= limit.vertices) refuse_light_store(scene, limit.bytes, store.size());
+        store.push_back(lv);
+        // t = 1: the vertex seen from the pinhole
+        if (!film || !connects(c.estimator.kind) || !length_counts<float>(c.estimator, lv.length + 1))
+            return;
+        const CameraConnection<float> cc = connect_camera(pinhole, lv.p);
+        if (!cc.ok || !on_arriving_side(cc.wc, lv.nf)) return;
+        const Vec3f unweighted = camera_contribution(m, lv.beta, -lv.wl, lv.nf, lv.nsf, cc, c.smooth);
+        const Vec3f value = unweighted * camera_connection_mis(c, lv, cc, mw);
+        const int strategy = rec.strategy(lv.length + 1, 1);
+        if (!(max_component(value) > 0.0f) && !(strategy >= 0 && max_component(unweighted) > 0.0f))
+            return;
+        ++rays.shadow;
+        if (scene.occluded({offset_ray_origin(lv.p, lv.nf, lv.magnitude), cc.wc},
+                           cc.dist * (1.0f - 1e-5f)))
+            return;
+        if (max_component(value) > 0.0f) film->splat(uint32_t(cc.pixel), value);
+        if (strategy >= 0) rec.tile->splat(uint32_t(cc.pixel), strategy, value, unweighted);
+    }
+};
+
 // One light subpath, with the numbers of the camera sample whose stream it takes: its Phong
 // vertices appended to `store`, each one's connection to the pinhole splatted (t = 1) on
 // `film` (none without one).
@@ -70,72 +108,8 @@ CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext&
                                           std::vector<LightVertex<float>>& store,
                                           const StoreLimit& limit, FilmTile* film,
                                           const Recorder& rec, RayCounts& rays) {
-    const SampleStream<float> rng = light_stream(camera_rng);
-    const LightStart<float> start = sample_light_start<float>(c.emitters, lights, rng);
-    if (!start.ok) return;
-    ++rays.light;
-    const bool limited = limits_length(c.estimator);
-    if (limited && !may_extend<float>(c.estimator, 0u)) return;
-    SubpathMis<float> mis = light_start_mis(c, start, mw);
-    Ray<float> ray{start.on_surface
-                       ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
-                                           max_abs(start.p))
-                       : start.p,
-                   start.dir};
-    Vec3f beta = start.beta;
-    const float cap = c.estimator.survival_cap;
-    for (uint32_t bounce = 1;; ++bounce) {
-        Hit hit;
-        if (!scene.intersect(ray, kRayFar, hit)) break;
-        const Material& material = scene.materials[size_t(hit.material)];
-        if (material.is_emitter()) break;  // emitters absorb what reaches them
-        const Bsdf<float> m = scene.bsdf_at(hit);
-        const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
-        const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
-        const float direct =
-            bounce == 1 ? start_direct_pdf_area<float>(c, start, hit.p, ray.d, hit.t) : 1.0f;
-        mis_at_hit(mis, hit.t, std::abs(dot(ray.d, v.nf)), direct);
-        const PhongVertex<float> pv = phong_vertex(m, cap);
-
-        if (material.has_phong()) {
-            const LightVertex<float> lv{hit.p, v.nf, v.nsf, -ray.d, beta, pv, mis, magnitude, bounce};
-            if (store.size() >= limit.vertices) refuse_light_store(scene, limit.bytes, store.size());
-            store.push_back(lv);
-            // t = 1: the vertex seen from the pinhole
-            if (film && connects(c.estimator.kind) &&
-                (!limited || length_counts<float>(c.estimator, bounce + 1))) {
-                const CameraConnection<float> cc = connect_camera(pinhole, hit.p);
-                if (cc.ok && on_arriving_side(cc.wc, v.nf)) {
-                    const Vec3f unweighted =
-                        camera_contribution(m, beta, ray.d, v.nf, v.nsf, cc, c.smooth);
-                    const Vec3f value = unweighted * camera_connection_mis(c, lv, cc, mw);
-                    const int strategy = rec.strategy(bounce + 1, 1);
-                    if (max_component(value) > 0.0f ||
-                        (strategy >= 0 && max_component(unweighted) > 0.0f)) {
-                        ++rays.shadow;
-                        if (!scene.occluded({offset_ray_origin(hit.p, v.nf, magnitude), cc.wc},
-                                            cc.dist * (1.0f - 1e-5f))) {
-                            if (max_component(value) > 0.0f) film->splat(uint32_t(cc.pixel), value);
-                            if (strategy >= 0)
-                                rec.tile->splat(uint32_t(cc.pixel), strategy, value, unweighted);
-                        }
-                    }
-                }
-            }
-        }
-
-        // The roulette and the chosen lobe, in importance mode
-        float p = 0.0f;
-        const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe), cap, p);
-        if (lobe == kLobeAbsorbed || (limited && !may_extend<float>(c.estimator, bounce))) break;
-        const ScalarContinuation next = continue_path<Transport::kImportance>(
-            lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
-        beta *= next.weight;
-        if (!(max_component(beta) > 0.0f)) break;
-        mis_after_lobe<float>(c, mis, lobe, pv, v, ray.d, next.d, mw);
-        ray = {next.o, next.d};
-        ++rays.extension;
-    }
+    LightSubpath at{scene, c, pinhole, mw, store, limit, film, rec, rays};
+    walk_light_subpath(scene, c, lights, camera_rng, mw, at, rays);
 }
 
 // The light vertices of a camera sample's sample index in the tile: vcm's grid of them (a
@@ -163,15 +137,11 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
     SubpathMis<float> mis = camera_start_mis(c, pinhole, ray.d);
-    const bool limited = limits_length(c.estimator);
     const float cap = c.estimator.survival_cap;
-    const auto counts = [&](uint32_t length) {
-        return !limited || length_counts<float>(c.estimator, length);
-    };
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) {
-            if (has_environment(c) && counts(bounce + 1)) {
+            if (has_environment(c) && length_counts<float>(c.estimator, bounce + 1)) {
                 const Vec3f unweighted =
                     throughput * environment_radiance(c.emitters.environment, ray.d);
                 const Vec3f value = unweighted * environment_mis<float>(c, mis, ray.d, bounce + 2);
@@ -187,7 +157,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
 
         // s = 0: an emitter ends the path
         if (material.is_emitter()) {
-            if (counts(bounce + 1)) {
+            if (length_counts<float>(c.estimator, bounce + 1)) {
                 const Vec3f unweighted = throughput * scene.emission_at(hit);
                 const Vec3f value =
                     unweighted * emitter_hit_mis<float>(c, lights, mis, scene.emitter_id(hit),
@@ -208,7 +178,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                                          pv,     mis,  bounce + 2};
             // s = 1: the lights sampled from here
             const bool connecting = connects(c.estimator.kind);
-            if (connecting && counts(bounce + 2)) {
+            if (connecting && length_counts<float>(c.estimator, bounce + 2)) {
                 Vec3f direct(0.0f);
                 const int i = rec.strategy(1, bounce + 2);
                 if (c.emitters.count > 0)
@@ -231,7 +201,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                 for (int32_t j = 0; j < draws; ++j) {
                     const LightVertex<float>& l = merging.cache[cache_vertex<float>(
                         connection_uniform<float>(rng, bounce, uint32_t(j)), merging.cache_vertices)];
-                    if (!counts(l.length + bounce + 2)) continue;
+                    if (!length_counts<float>(c.estimator, l.length + bounce + 2)) continue;
                     connected += trace_strategy(
                         scene, c, rec.strategy(l.length + 1, bounce + 2),
                         [&](const PathContext& x) {
@@ -241,7 +211,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                 }
             }
             for (size_t k = 0; connecting && draws == 0 && k < light_count; ++k) {
-                if (!counts(light[k].length + bounce + 2)) continue;
+                if (!length_counts<float>(c.estimator, light[k].length + bounce + 2)) continue;
                 connected += trace_strategy(
                     scene, c, rec.strategy(light[k].length + 1, bounce + 2),
                     [&](const PathContext& x) { return connect_vertices(x, cv, light[k], mw, true); },
@@ -257,7 +227,7 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
         float p = 0.0f;
         const int32_t lobe = choose_lobe(m, uniform<float>(rng, bounce, Purpose::kLobe), cap, p);
         if (lobe == kLobeAbsorbed || camera_lobe_ends_path<float>(c, lobe) ||
-            (limited && !may_extend<float>(c.estimator, bounce)))
+            !may_extend<float>(c.estimator, bounce))
             break;
         const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);

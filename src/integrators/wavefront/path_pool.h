@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 namespace cierzo {
 
@@ -62,6 +63,22 @@ struct LightVertexStore {
 // Bytes per stored vertex.
 inline constexpr size_t kLightVertexBytes = (kLightVertexStride + 3) * 4;
 
+// The fields of a path's state that survive from bounce to bounce (PathPool::for_each_state),
+// and sets of them: a bit per field.
+enum PathField : int32_t {
+    kFieldOx, kFieldOy, kFieldOz, kFieldDx, kFieldDy, kFieldDz,
+    kFieldBetaR, kFieldBetaG, kFieldBetaB, kFieldRadR, kFieldRadG, kFieldRadB,
+    kFieldLobePdf, kFieldMisVcm, kFieldMisVc, kFieldMisVm,
+    kFieldKey, kFieldPixel, kFieldIndex, kFieldPathId, kFieldBounce
+};
+template <int32_t kField>
+using Field = std::integral_constant<int32_t, kField>;
+inline constexpr uint32_t field_bit(PathField f) { return 1u << f; }
+inline constexpr uint32_t kRayFields = 0x3fu << kFieldOx;
+inline constexpr uint32_t kBetaFields = 7u << kFieldBetaR;
+inline constexpr uint32_t kRadianceFields = 7u << kFieldRadR;
+inline constexpr uint32_t kMisFields = 7u << kFieldMisVcm;
+
 struct PathPool {
     int32_t capacity = 0;
 
@@ -79,6 +96,22 @@ struct PathPool {
     uint32_t* path_id;
     int32_t* start_emitter;
     LightVertexStore* light_store = nullptr;
+
+    // The path state above, each array once: f(Field<k>{}, array) for every PathField k (what
+    // compaction moves: move_paths, compact_stage.h)
+    template <class Fn>
+    void for_each_state(Fn&& f) const {
+        f(Field<kFieldOx>{}, ox), f(Field<kFieldOy>{}, oy), f(Field<kFieldOz>{}, oz);
+        f(Field<kFieldDx>{}, dx), f(Field<kFieldDy>{}, dy), f(Field<kFieldDz>{}, dz);
+        f(Field<kFieldBetaR>{}, beta_r), f(Field<kFieldBetaG>{}, beta_g);
+        f(Field<kFieldBetaB>{}, beta_b);
+        f(Field<kFieldRadR>{}, rad_r), f(Field<kFieldRadG>{}, rad_g), f(Field<kFieldRadB>{}, rad_b);
+        f(Field<kFieldLobePdf>{}, lobe_pdf);
+        f(Field<kFieldMisVcm>{}, mis_vcm), f(Field<kFieldMisVc>{}, mis_vc);
+        f(Field<kFieldMisVm>{}, mis_vm);
+        f(Field<kFieldKey>{}, key), f(Field<kFieldPixel>{}, pixel), f(Field<kFieldIndex>{}, index);
+        f(Field<kFieldPathId>{}, path_id), f(Field<kFieldBounce>{}, bounce);
+    }
 
     // Per-bounce scratch: the hit, the surface and its material
     float* t;

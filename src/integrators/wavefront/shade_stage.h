@@ -5,6 +5,7 @@
 // (gathered by index).
 #pragma once
 
+#include "integrators/wavefront/compact_stage.h"
 #include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/surface_stage.h"
@@ -111,9 +112,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                                             select(mask_i32(em), sf.emitter, I(-1)), F(0.0f),
                                             ray.o, d, length(pos - ray.o));
         }
-        const auto counted =
-            limits_length(c.estimator) ? em & length_counts<F>(c.estimator, bounce + U(1u)) : em;
-        rad = select(counted, rad + beta * le, rad);
+        rad = select(length_counts<F>(c.estimator, bounce + U(1u), em), rad + beta * le, rad);
         alive = alive & !em;
         if constexpr (kCompact && !kInlineNee)
             compaction->done = queue_radiant<A>(p, i, mask_bits(em), rad, compaction->done);
@@ -125,10 +124,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         if (any(missed)) {
             const F lobe_pdf = c.nee ? F::load_aligned(p.lobe_pdf + i) : F(0.0f);
             const Vec3<F> le = escaped_radiance<F>(c, d, lobe_pdf);
-            const auto counted = limits_length(c.estimator)
-                                     ? missed & length_counts<F>(c.estimator, bounce + U(1u))
-                                     : missed;
-            rad = select(counted, rad + beta * le, rad);
+            rad = select(length_counts<F>(c.estimator, bounce + U(1u), missed), rad + beta * le,
+                         rad);
         }
     }
     // (a scene with one lobe kind has that lobe's parameters only: kFused)
@@ -154,7 +151,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     const bool nee = c.nee;
     if (f.lights || nee) {
         auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
-        if (limits_length(c.estimator)) phong = phong & length_counts<F>(c.estimator, bounce + U(2u));
+        phong = length_counts<F>(c.estimator, bounce + U(2u), phong);
         if (any(phong)) {
             const VertexFrame<F> v = vertex_frame(c.smooth, d, n, sf.ns);
             const Vec3<F> origin = shadow_origin(v, pos, sf.magnitude);
@@ -191,7 +188,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     I lobe = choose_lobe<kFused>(m, u_lobe,
                                  c.estimator.survival_cap, probability,
                                  normalised_lobes(c.estimator));
-    if (limits_length(c.estimator)) alive = alive & may_extend<F>(c.estimator, bounce);
+    alive = may_extend<F>(c.estimator, bounce, alive);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kFused == kLobeCount) {
@@ -216,26 +213,12 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                 const uint32_t ended = mask_bits(w.live_mask(i)) & ~bits;
                 compaction->done = queue_radiant<A>(p, i, ended, rad, compaction->done);
             }
-            const Vec3<F>* v[3] = {&step.o, &step.d, &step.beta};
-            float* const dst[3][3] = {{p.ox, p.oy, p.oz}, {p.dx, p.dy, p.dz},
-                                      {p.beta_r, p.beta_g, p.beta_b}};
-            for (int k = 0; k < 3; ++k) {
-                compress<A>(v[k]->x, bits).store_unaligned(dst[k][0] + at);
-                compress<A>(v[k]->y, bits).store_unaligned(dst[k][1] + at);
-                compress<A>(v[k]->z, bits).store_unaligned(dst[k][2] + at);
-            }
-            compress<A>(rng.key, bits).store_unaligned(p.key + at);
-            if (s.path.sampler.kind != Sampler::kIndependent)
-                compress<A>(rng.index, bits).store_unaligned(p.index + at);
-            compress<A>(U::load_aligned(p.pixel + i), bits).store_unaligned(p.pixel + at);
-            compress<A>(bounce + U(1u), bits).store_unaligned(p.bounce + at);
-            if constexpr (kInlineNee) {
-                // Survivors keep their radiance and their lobe's density
-                compress<A>(rad.x, bits).store_unaligned(p.rad_r + at);
-                compress<A>(rad.y, bits).store_unaligned(p.rad_g + at);
-                compress<A>(rad.z, bits).store_unaligned(p.rad_b + at);
-                compress<A>(step.pdf, bits).store_unaligned(p.lobe_pdf + at);
-            }
+            // (with kInlineNee, survivors keep their radiance and their lobe's density)
+            constexpr uint32_t kCarriedFields =
+                kInlineNee ? kRadianceFields | field_bit(kFieldLobePdf) : 0u;
+            move_paths<A, kRayFields | kBetaFields | kCarriedFields>(
+                p, path_fields(s) | field_bit(kFieldPixel) | kCarriedFields, i, bits, at,
+                {&step.o, &step.d, &step.beta, &rad, &step.pdf});
             compaction->kept = at + std::popcount(bits);
         } else {
             store3(step.o, p.ox, p.oy, p.oz, i);
