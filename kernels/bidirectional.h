@@ -1,7 +1,9 @@
 // Bidirectional path tracing (--estimator bdpt) and vertex connection and merging (vcm): the
 // vertex-level rules, written once for both integrators (T = float for the scalar
 // reference, T = xsimd::batch for the wavefront kernels). bdpt is vcm without merging: its
-// MergeWeights are 0, which leaves every rule below bdpt's.
+// MergeWeights are 0, which leaves every rule below bdpt's. (Over 600 lines as one file:
+// every strategy's weight below reads the same SubpathMis quantities, and they stay
+// consistent by standing side by side.)
 //
 // A sample pairs one camera subpath with one light subpath (the light path of camera sample
 // n takes the key of that sample, as lt's do). Every way of making a full path from them is a

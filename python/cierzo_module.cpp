@@ -1,6 +1,8 @@
 // The Python module `cierzo` (pybind11): scenes from files or dicts, renders and sweeps
 // through the same code as `cierzo render` and `cierzo converge` (apps/render_job.h,
 // apps/converge_command.h), images as float32 NumPy arrays, EXR files and tone mapping.
+// (Over 600 lines as one file: a third of it is the functions' docstrings, which pybind11
+// wants at the module's definition, beside the thin wrappers they document.)
 #include <algorithm>
 #include <atomic>
 #include <charconv>
