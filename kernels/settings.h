@@ -3,6 +3,7 @@
 // the per-ISA objects share no code through it).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 namespace cierzo {
@@ -21,30 +22,64 @@ enum class Estimator : int32_t {
                   // diffusely (it goes on only through mirrors and glass), unweighted
 };
 
-// Whether the estimator's paths start at the lights and land anywhere in the image (their
-// sums are splatted, and their error comes from batch statistics).
-inline constexpr bool splats(Estimator e) {
-    return e == Estimator::kLt || e == Estimator::kBdpt || e == Estimator::kVcm;
+// What each estimator is, as the drivers, the scheduler and the options ask it: one row per
+// estimator (in the order of Estimator), so that the code outside its kernel asks these
+// questions and never names the estimator. docs/architecture.md lists what a new estimator
+// touches.
+struct EstimatorTraits {
+    // An emitter sample at each Phong camera vertex, by next-event estimation (nee, mis); the
+    // throughput roulette and the camera-side defaults (cosine diffuse sampling, triangles
+    // by solid angle, the sobol sampler) are theirs
+    bool samples_emitters = false;
+    // Chooses emitters from the emitter table: to sample them or to start light paths (all
+    // but the report's, which only finds them); a table of at most 2^24 emitters
+    bool draws_emitters = false;
+    // Units of light paths beside the camera tiles, which trace camera paths only where
+    // some emitter cannot be sampled (lt)
+    bool light_batches = false;
+    // Paths start at the lights and land anywhere in the image: their sums are splatted, and
+    // their error comes from batch statistics
+    bool splats = false;
+    // Each camera path is paired with a light subpath (kernels/bidirectional.h)
+    bool bidirectional = false;
+    // Camera vertices merge with the light vertices near them
+    bool merges = false;
+    // Connects vertices: next-event estimation (s = 1), a light vertex to a camera vertex
+    // (s, t ≥ 2) and to the pinhole (t = 1). bpm and ppm only merge, and count an emitter
+    // hit (s = 0) only where merging cannot make the path (kernels/bidirectional.h,
+    // emitter_hit_mis)
+    bool connects = false;
+    // Each strategy (s, t) can be rendered as an image of its own (--strategies)
+    bool strategy_images = false;
+};
+
+inline constexpr EstimatorTraits kEstimatorTraits[] = {
+    /* report */ {},
+    /* nee */ {.samples_emitters = true, .draws_emitters = true},
+    /* mis */ {.samples_emitters = true, .draws_emitters = true},
+    /* lt */ {.draws_emitters = true, .light_batches = true, .splats = true},
+    /* bdpt */
+    {.draws_emitters = true, .splats = true, .bidirectional = true, .connects = true,
+     .strategy_images = true},
+    /* vcm */
+    {.draws_emitters = true, .splats = true, .bidirectional = true, .merges = true,
+     .connects = true},
+    /* bpm */ {.draws_emitters = true, .bidirectional = true, .merges = true},
+    /* ppm */ {.draws_emitters = true, .bidirectional = true, .merges = true},
+};
+static_assert(sizeof(kEstimatorTraits) / sizeof(kEstimatorTraits[0]) ==
+                  size_t(Estimator::kPpm) + 1,
+              "one row of kEstimatorTraits per estimator");
+
+inline constexpr const EstimatorTraits& traits(Estimator e) {
+    return kEstimatorTraits[size_t(e)];
 }
 
-// Whether the estimator pairs each camera path with a light subpath (kernels/bidirectional.h).
-inline constexpr bool bidirectional(Estimator e) {
-    return e == Estimator::kBdpt || e == Estimator::kVcm || e == Estimator::kBpm ||
-           e == Estimator::kPpm;
-}
-
-// Whether camera vertices merge with the light vertices near them (vcm, bpm, ppm).
-inline constexpr bool merges(Estimator e) {
-    return e == Estimator::kVcm || e == Estimator::kBpm || e == Estimator::kPpm;
-}
-
-// Whether the bidirectional estimator connects vertices (bdpt, vcm): next-event estimation
-// (s = 1), a light vertex to a camera vertex (s, t ≥ 2) and to the pinhole (t = 1). bpm and
-// ppm only merge, and count an emitter hit (s = 0) only where merging cannot make the path
-// (kernels/bidirectional.h, emitter_hit_mis).
-inline constexpr bool connects(Estimator e) {
-    return e == Estimator::kBdpt || e == Estimator::kVcm;
-}
+// The questions asked most, by name.
+inline constexpr bool splats(Estimator e) { return traits(e).splats; }
+inline constexpr bool bidirectional(Estimator e) { return traits(e).bidirectional; }
+inline constexpr bool merges(Estimator e) { return traits(e).merges; }
+inline constexpr bool connects(Estimator e) { return traits(e).connects; }
 
 // vcm's merging radius (render.merge_radius, --merge-radius; render.merge_alpha,
 // --merge-alpha): sample n (from 0) merges within r0 · (n + 1)^((α − 1) / 2). r0 = 0 takes

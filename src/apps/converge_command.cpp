@@ -371,7 +371,7 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         // (the scene's throughput roulette, where the reference's estimator cannot take it,
         // gives way to the lobe roulette: either is unbiased)
         EstimatorSettings& e = s.settings.estimator;
-        if (e.kind != Estimator::kNee && e.kind != Estimator::kMis) e.roulette = Roulette::kLobe;
+        if (!traits(e.kind).samples_emitters) e.roulette = Roulette::kLobe;
         check_render_size(s, scene.source);
         RenderOptions options;
         options.threads = a.threads;

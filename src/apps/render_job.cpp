@@ -42,7 +42,7 @@ StrategyLayout strategy_layout(const Scene& scene, const RenderJob& a, int ranks
     const auto refuse = [&](const std::string& why) {
         throw InputError(std::string(option) + ": " + why);
     };
-    if (e.kind != Estimator::kBdpt)
+    if (!traits(e.kind).strategy_images)
         refuse(std::string("strategy images are bdpt's (this render's estimator is ") +
                estimator_name(e.kind) + (merges(e.kind) ? "; merging is no strategy (s, t))" : ")"));
     if (!a.strategy.empty())
@@ -205,7 +205,7 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
                          ": merging is vcm's, bpm's and ppm's (this render's estimator is " +
                          estimator_name(e.kind) + ")");
     if (!a.strategy.empty()) {
-        if (e.kind != Estimator::kBdpt)
+        if (!traits(e.kind).strategy_images)
             throw InputError("--strategy: strategies are bdpt's (this render's estimator is " +
                              std::string(estimator_name(e.kind)) +
                              (merges(e.kind) ? "; merging is no strategy (s, t)" : "") + ")");

@@ -188,7 +188,7 @@ std::vector<Tile> work_units(int width, int height, bool light) {
 
 RenderResult render(const Scene& scene, const RenderOptions& options) {
     // (an emitter is chosen from 24 random bits)
-    if (scene.settings.estimator.kind != Estimator::kReport &&
+    if (traits(scene.settings.estimator.kind).draws_emitters &&
         scene.emitters.count() > (size_t(1) << 24))
         throw InputError(scene.source.string() + ": " + std::to_string(scene.emitters.count()) +
                          " emitting spheres and triangles; the nee and mis estimators sample "
@@ -197,7 +197,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     const mpi::World& world = mpi::world();
     const bool root = world.rank == 0;
     std::vector<std::string> warnings;
-    if (scene.settings.estimator.kind == Estimator::kLt) {
+    if (traits(scene.settings.estimator.kind).light_batches) {
         // Light tracing needs lights to start from; emitters it cannot sample (planes,
         // quadrics, textured emission) are left to the camera's paths
         if (scene.light_starts.total_power <= 0.0 && scene.emitters.unsampled_objects == 0)
@@ -213,7 +213,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     }
     if (options.strategies &&
         (options.integrator != Integrator::kScalar ||
-         scene.settings.estimator.kind != Estimator::kBdpt || world.size > 1 || options.resume ||
+         !traits(scene.settings.estimator.kind).strategy_images || world.size > 1 || options.resume ||
          options.checkpoint || options.strategies->width() != scene.settings.width ||
          options.strategies->height() != scene.settings.height))
         throw std::logic_error("strategy images are scalar bdpt's, in one process, from zero");
@@ -230,7 +230,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
     const std::vector<Tile> tiles =
-        work_units(rs.width, rs.height, scene.settings.estimator.kind == Estimator::kLt);
+        work_units(rs.width, rs.height, traits(scene.settings.estimator.kind).light_batches);
     TilePool pool;
     const UnitRenderer renderer(scene, wavefront.get(), tiles, pool, options.light_store_limit,
                                 options.strategies);

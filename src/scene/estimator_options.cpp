@@ -19,7 +19,7 @@ std::optional<Sampler> parse_sampler(std::string_view n) { return name_table::pa
 
 void use_estimator(EstimatorSettings& e, Estimator kind) {
     e.kind = kind;
-    const bool camera_sampling = kind == Estimator::kNee || kind == Estimator::kMis;
+    const bool camera_sampling = traits(kind).samples_emitters;
     const bool both_ends = bidirectional(kind);
     if (!(e.chosen & kChoseDiffuse)) e.cosine_diffuse = camera_sampling || both_ends;
     if (!(e.chosen & kChoseRoulette))
@@ -30,8 +30,7 @@ void use_estimator(EstimatorSettings& e, Estimator kind) {
 }
 
 void check_roulette(const EstimatorSettings& e, const std::string& source) {
-    if (e.roulette == Roulette::kThroughput && e.kind != Estimator::kNee &&
-        e.kind != Estimator::kMis)
+    if (e.roulette == Roulette::kThroughput && !traits(e.kind).samples_emitters)
         throw InputError(source + ": the throughput roulette is for the nee and mis estimators; " +
                          estimator_name(e.kind) +
                          (e.kind == Estimator::kReport

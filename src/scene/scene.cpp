@@ -199,8 +199,8 @@ PathContext Scene::pilot_context() const {
     c.sampler.kind = settings.estimator.sampler;
     c.sampler.log2_spp = uint32_t(std::bit_width(uint64_t(std::max<int64_t>(settings.spp, 1) - 1)));
     if (c.sampler.kind == Sampler::kPmj02) c.sampler.pmj02 = pmj02_tables();
-    c.lt = e == Estimator::kLt;
-    c.nee = (e == Estimator::kNee || e == Estimator::kMis) && emitters.count() > 0;
+    c.lt = traits(e).light_batches;
+    c.nee = traits(e).samples_emitters && emitters.count() > 0;
     c.lights = light_data.data();
     c.bdpt = bidirectional(e);
     c.unstarted_light = emitters.unsampled_objects > 0 || c.emitters.environment.width > 0;

@@ -301,7 +301,7 @@ public:
     // Whether the camera tiles trace camera paths: always, but with light tracing (lt) only where
     // some emitter cannot be sampled (the light paths bring every other light).
     bool traces_camera_paths() const {
-        return settings.estimator.kind != Estimator::kLt || emitters.unsampled_objects > 0 ||
+        return !traits(settings.estimator.kind).light_batches || emitters.unsampled_objects > 0 ||
                environment.present();
     }
 

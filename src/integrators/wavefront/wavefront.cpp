@@ -177,7 +177,7 @@ struct WavefrontRenderer::Data {
 // Whether the estimator samples emitters: nee or mis, and emitters it can sample.
 static bool samples_emitters(const Scene& scene) {
     const Estimator e = scene.settings.estimator.kind;
-    return (e == Estimator::kNee || e == Estimator::kMis) && scene.emitters.count() > 0;
+    return traits(e).samples_emitters && scene.emitters.count() > 0;
 }
 
 // Shadow rays a Phong vertex may queue: one per point light, one emitter sample (bdpt: and
