@@ -73,7 +73,8 @@ void BM_BvhBuild(benchmark::State& state) {
     state.counters["triangles"] = double(bvh.stats().primitives);
     state.counters["nodes"] = double(bvh.stats().nodes);
     state.counters["depth"] = double(bvh.stats().depth);
-    state.counters["bytes_per_triangle"] = double(bvh.stats().bytes) / double(bvh.stats().primitives);
+    state.counters["bytes_per_triangle"] =
+        double(bvh.stats().bytes) / double(bvh.stats().primitives);
 }
 BENCHMARK(BM_BvhBuild)->Unit(benchmark::kMillisecond);
 
@@ -131,7 +132,8 @@ void BM_WideBvh(benchmark::State& state) {
             for (int l = 0; l < int(K); ++l) {
                 float t = 1e30f;
                 cierzo::BvhHit hit;
-                hits += cierzo::traverse<kAnyHit, cierzo::NodeLanes<A>>(bvh.view(), wide.lane(l), t, hit);
+                hits += cierzo::traverse<kAnyHit, cierzo::NodeLanes<A>>(bvh.view(), wide.lane(l), t,
+                                                                        hit);
             }
         }
         traced += rays.size();

@@ -69,8 +69,8 @@ template <class T>
 void BM_Plane(benchmark::State& state) {
     lanes<T>(state, [](size_t i) {
         T t(0.0f);  // (a miss leaves it unwritten)
-        benchmark::DoNotOptimize(
-            intersect_plane(ray_at<T>(i), Vec3<T>(T(0.0f), T(0.0f), T(-1.0f)), T(1.0f), T(kRayFar), t));
+        benchmark::DoNotOptimize(intersect_plane(ray_at<T>(i), Vec3<T>(T(0.0f), T(0.0f), T(-1.0f)),
+                                                 T(1.0f), T(kRayFar), t));
         benchmark::DoNotOptimize(t);
     });
 }
@@ -89,16 +89,16 @@ void BM_Quadric(benchmark::State& state) {
                                    T(0.0f), T(0.0f), T(0.0f), T(0.0f), T(-0.25f)};
     lanes<T>(state, [&](size_t i) {
         T t(0.0f);  // (a miss leaves it unwritten)
-        benchmark::DoNotOptimize(intersect_quadric(ray_at<T>(i), q, Vec3<T>(T(-1.0f)),
-                                                   Vec3<T>(T(1.0f)), T(kRayFar), t));
+        benchmark::DoNotOptimize(
+            intersect_quadric(ray_at<T>(i), q, Vec3<T>(T(-1.0f)), Vec3<T>(T(1.0f)), T(kRayFar), t));
         benchmark::DoNotOptimize(t);
     });
 }
 
 template <class T>
 Bsdf<T> bsdf() {
-    return {Vec3<T>(T(0.3f)), Vec3<T>(T(0.2f)), Vec3<T>(T(0.2f)), Vec3<T>(T(0.2f)), T(20.0f),
-            T(1.5f)};
+    return {Vec3<T>(T(0.3f)), Vec3<T>(T(0.2f)), Vec3<T>(T(0.2f)),
+            Vec3<T>(T(0.2f)), T(20.0f),         T(1.5f)};
 }
 
 template <class T, int kLobe>
@@ -236,7 +236,14 @@ void BM_Compaction(benchmark::State& state) {
     std::bernoulli_distribution survives(0.8);
     for (int32_t i = 0; i < kPool; ++i) mem.pool.alive[i] = survives(rng) ? 1 : 0;
     int64_t finished = 0;
-    const TileJob job{0, 0, 16, 16, 0, 1, false, &finished,
+    const TileJob job{0,
+                      0,
+                      16,
+                      16,
+                      0,
+                      1,
+                      false,
+                      &finished,
                       [](void* film, int32_t count, const uint32_t*, const float*, const float*,
                          const float*) { *static_cast<int64_t*>(film) += count; },
                       nullptr};
@@ -255,7 +262,7 @@ BENCHMARK(BM_SortByMaterial)->Name("BM_StageSortByMaterial/" CIERZO_BENCH_ISA)->
 BENCHMARK(BM_Compaction)->Name("BM_StageCompaction/" CIERZO_BENCH_ISA);
 
 using B = xsimd::batch<float>;
-#define CIERZO_BENCH_BOTH(fn)      \
+#define CIERZO_BENCH_BOTH(fn)                  \
     BENCHMARK(fn<float>)->Name(#fn "/scalar"); \
     BENCHMARK(fn<B>)->Name(#fn "/" CIERZO_BENCH_ISA)
 CIERZO_BENCH_BOTH(BM_Plane);

@@ -101,7 +101,8 @@ inline MergeWeights<float> merge_weights(float r0, float alpha, int64_t n, int64
     const double area = kPi * r * r;
     // (η kept within 10^±12, so that η² and 1/η² are finite floats whatever the radius:
     // every strategy's weight takes the same η, so the weights still sum to 1)
-    const double eta = std::clamp(area * double(tile_paths) / double(connection_count), 1e-12, 1e12);
+    const double eta =
+        std::clamp(area * double(tile_paths) / double(connection_count), 1e-12, 1e12);
     if (light_paths <= 0 || !(area > 0.0) || !std::isfinite(area)) return m;
     m.vm_weight = float(eta * eta);
     m.vc_weight = connections ? float(1.0 / (eta * eta)) : 0.0f;
@@ -163,7 +164,8 @@ BsdfEval<T> phong_eval(const PhongVertex<T>& v, const Vec3<T>& wo, const Vec3<T>
 template <class T>
 T strategy_weight(const EstimatorSettings& e, const U32<T>& s, const U32<T>& t, const T& w) {
     if (e.strategy_s < 0) return e.unweighted ? T(1.0f) : w;
-    const auto kept = (to_float(s) == T(float(e.strategy_s))) & (to_float(t) == T(float(e.strategy_t)));
+    const auto kept =
+        (to_float(s) == T(float(e.strategy_s))) & (to_float(t) == T(float(e.strategy_t)));
     return select(kept, e.unweighted ? T(1.0f) : w, T(0.0f));
 }
 
@@ -259,7 +261,8 @@ void mis_after_lobe(const PathContext& c, SubpathMis<T>& m, const I32<T>& lobe,
                     const PhongVertex<T>& pv, const VertexFrame<T>& v, const Vec3<T>& d,
                     const Vec3<T>& dir, const MergeWeights<T>& mw) {
     const T cos_out = abs(dot(dir, v.nf));
-    const auto delta = mask_f32(lobe == I32<T>(kLobeMirror)) | mask_f32(lobe == I32<T>(kLobeRefract));
+    const auto delta =
+        mask_f32(lobe == I32<T>(kLobeMirror)) | mask_f32(lobe == I32<T>(kLobeRefract));
     SubpathMis<T> through_delta = m;
     if (any(delta)) mis_after_delta(through_delta, cos_out);
     if (!all(delta)) {
@@ -297,9 +300,9 @@ T emitter_hit_mis(const PathContext& c, const LightStartTable& lights, const Sub
     const auto sampled = mask_f32(id >= I32<T>(0)) & !first;
     if (none(sampled)) return strategy_weight(c.estimator, U32<T>(0u), vertices, T(1.0f));
     if (!connects(c.estimator.kind))
-        return strategy_weight(c.estimator, U32<T>(0u), vertices,
-                               select(sampled & !through_delta_only(m, vertices), T(0.0f),
-                                      T(1.0f)));
+        return strategy_weight(
+            c.estimator, U32<T>(0u), vertices,
+            select(sampled & !through_delta_only(m, vertices), T(0.0f), T(1.0f)));
     const I32<T> e = select(mask_i32(sampled), id, I32<T>(0));
     const T direct_w = emitter_pdf(c.emitters, e, prev, d, t, c.estimator.triangle_solid_angle);
     const T direct_a = direct_w * cos_l / (t * t);
@@ -336,17 +339,16 @@ struct CameraVertex {
     Vec3<T> origin;      // where its shadow rays start (shadow_origin)
     PhongVertex<T> phong;
     SubpathMis<T> mis;
-    U32<T> vertices;     // the camera subpath's vertices up to this one (bounce + 2)
+    U32<T> vertices;  // the camera subpath's vertices up to this one (bounce + 2)
 };
 
 // s = 1 from an emitter: the weight of a sample of sampled emitter `id` (or the
 // environment) in direction wi from camera vertex v, which the emitter sampler chose with
 // solid-angle density `light_pdf` (its pmf included) and v's Phong lobes would with b.pdf.
 template <class T>
-T emitter_sample_mis(const PathContext& c, const LightStartTable& lights,
-                     const CameraVertex<T>& v, const MergeWeights<T>& mw, const BsdfEval<T>& b,
-                     const Vec3<T>& wi, const T& light_pdf, const I32<T>& id,
-                     const Mask<T>& environment) {
+T emitter_sample_mis(const PathContext& c, const LightStartTable& lights, const CameraVertex<T>& v,
+                     const MergeWeights<T>& mw, const BsdfEval<T>& b, const Vec3<T>& wi,
+                     const T& light_pdf, const I32<T>& id, const Mask<T>& environment) {
     // The BSDF strategy hits the same point: its density against the sample's
     const T w_light = mis2(b.pdf / light_pdf);
     // A light subpath one vertex longer reaches this vertex: its density (its start's, by
@@ -383,9 +385,9 @@ ShadowRequest<T> nee_emitter(const PathContext& c, const LightStartTable& lights
     const T pdf = ls.pdf * T(est.light_pdf_scale);
     const BsdfEval<T> b = phong_eval(v.phong, v.wo, v.nsf, ls.wi, est.cosine_diffuse);
     const T cos_g = dot(ls.wi, v.nf);
-    const T weight = strategy_weight(
-        c.estimator, U32<T>(1u), v.vertices,
-        emitter_sample_mis(c, lights, v, mw, b, ls.wi, pdf, ls.id, ls.environment));
+    const T weight =
+        strategy_weight(c.estimator, U32<T>(1u), v.vertices,
+                        emitter_sample_mis(c, lights, v, mw, b, ls.wi, pdf, ls.id, ls.environment));
     ShadowRequest<T> r;
     r.origin = v.origin;
     r.dir = ls.wi;
@@ -429,8 +431,8 @@ ShadowRequest<T> nee_point_light(const PathContext& c, const LightStartTable& li
     r.origin = v.origin;
     r.dir = wi;
     r.tmax = dist * T(1.0f - 1e-5f);
-    r.value = Vec3<T>(T(src[0]), T(src[1]), T(src[2])) * b.f *
-              (max(b.cos_i, T(0.0f)) * weight / d2);
+    r.value =
+        Vec3<T>(T(src[0]), T(src[1]), T(src[2])) * b.f * (max(b.cos_i, T(0.0f)) * weight / d2);
     r.want = want & (cos_g > T(0.0f)) & (max_component(r.value) > T(0.0f)) &
              (r.value.x < T(kRayFar)) & (r.value.y < T(kRayFar)) & (r.value.z < T(kRayFar));
     return r;
@@ -444,8 +446,8 @@ struct LightVertex {
     Vec3<T> beta;        // the subpath's throughput arriving here
     PhongVertex<T> phong;
     SubpathMis<T> mis;
-    T magnitude;     // for its ray offsets
-    U32<T> length;   // segments from the light to here
+    T magnitude;    // for its ray offsets
+    U32<T> length;  // segments from the light to here
 };
 
 // What a light vertex's Phong lobes send along w (unit, away from it): f(wl, w)·|w·ns|, with
@@ -559,8 +561,8 @@ ShadowRequest<T> connect_drawn_vertex(const PathContext& c, const CameraVertex<T
                                       const T& weight, const Mask<T>& want) {
     ShadowRequest<T> r = connect_vertices(c, v, l, mw, want);
     r.value = r.value * weight;
-    r.want = r.want & (r.value.x < T(kRayFar)) & (r.value.y < T(kRayFar)) &
-             (r.value.z < T(kRayFar));
+    r.want =
+        r.want & (r.value.x < T(kRayFar)) & (r.value.y < T(kRayFar)) & (r.value.z < T(kRayFar));
     return r;
 }
 

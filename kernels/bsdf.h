@@ -201,8 +201,8 @@ Vec3<T> phong_f_cos(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const
 // The roulette's probabilities of the diffuse and the Phong specular lobe at a vertex (the
 // same scaling as choose_lobe), which the emitter sample's MIS weights need.
 template <class T>
-void phong_lobe_probabilities(const Bsdf<T>& m, float survival_cap, T& p_diffuse,
-                              T& p_specular, bool normalised = false) {
+void phong_lobe_probabilities(const Bsdf<T>& m, float survival_cap, T& p_diffuse, T& p_specular,
+                              bool normalised = false) {
     const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap, normalised);
     p_diffuse = lp.lobe[0];
     p_specular = lp.lobe[1];
@@ -216,8 +216,8 @@ struct PhongLobes {
     T pdf_diffuse, pdf_specular;
 };
 template <class T>
-PhongLobes<T> phong_lobes(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
-                          const Vec3<T>& wi, bool cosine) {
+PhongLobes<T> phong_lobes(const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf, const Vec3<T>& wi,
+                          bool cosine) {
     const T cos_i = dot(wi, nf);
     const auto above = cos_i > T(0.0f);
     const T c = select(above, cos_i, T(0.0f));
@@ -263,7 +263,8 @@ BsdfEval<T> bsdf_eval(const Bsdf<T>& m, const Vec3<T>& wo, const Vec3<T>& nf, co
     out.f = select(reflects, f, Vec3<T>(T(0.0f)));
     const LobeProbabilities<T> lp = lobe_probabilities(m, survival_cap, normalised);
     const auto diffuse_pdf = [&](const T& c) {
-        return cosine ? max(c, T(0.0f)) * T(kInvPi) : select(c > T(0.0f), T(0.5f * kInvPi), T(0.0f));
+        return cosine ? max(c, T(0.0f)) * T(kInvPi)
+                      : select(c > T(0.0f), T(0.5f * kInvPi), T(0.0f));
     };
     const T cos_a = dot(wi, normalize(reflect(d, nf)));
     const T lobe = select(cos_a > T(0.0f), pow_s(max(cos_a, T(0.0f)), m.shininess), T(0.0f));

@@ -11,9 +11,8 @@ inline namespace CIERZO_ISA_NAMESPACE {
 
 // (sx, sy): the position on the image in pixels, (0, 0) the top-left corner.
 template <class T>
-Ray<T> pinhole_ray(const Vec3f& origin, const Vec3f& forward, const Vec3f& left,
-                   const Vec3f& up, const T& sx, const T& sy, float inv_width,
-                   float inv_height) {
+Ray<T> pinhole_ray(const Vec3f& origin, const Vec3f& forward, const Vec3f& left, const Vec3f& up,
+                   const T& sx, const T& sy, float inv_width, float inv_height) {
     const T u = T(1.0f) - T(2.0f * inv_width) * sx;
     const T v = T(1.0f) - T(2.0f * inv_height) * sy;
     const Vec3<T> d = fma(Vec3<T>(left), u, fma(Vec3<T>(up), v, Vec3<T>(forward)));
@@ -45,8 +44,8 @@ FilmPoint<T> pinhole_project(const Vec3f& origin, const Vec3f& forward, const Ve
     FilmPoint<T> out;
     out.sx = (T(1.0f) - b * inv_a) * T(0.5f * width);
     out.sy = (T(1.0f) - c * inv_a) * T(0.5f * height);
-    out.on_film = (a > T(0.0f)) & (out.sx >= T(0.0f)) & (out.sx < T(width)) &
-                  (out.sy >= T(0.0f)) & (out.sy < T(height));
+    out.on_film = (a > T(0.0f)) & (out.sx >= T(0.0f)) & (out.sx < T(width)) & (out.sy >= T(0.0f)) &
+                  (out.sy < T(height));
     return out;
 }
 

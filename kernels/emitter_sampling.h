@@ -21,8 +21,8 @@ struct EmitterSample {
     Vec3<T> le;
     Mask<T> ok;
     Mask<T> sphere;
-    I32<T> id;             // the emitter chosen
-    Mask<T> environment;   // it is the environment
+    I32<T> id;            // the emitter chosen
+    Mask<T> environment;  // it is the environment
 };
 
 // 1 - cos θmax of the cone a sphere of squared radius r2 subtends at squared distance dc2,
@@ -59,11 +59,11 @@ Mask<T> emitter_is_rectangle(const EmitterTable& e, const I32<T>& id) {
 // A point uniform by area on the triangle v0, v0 + e1, v0 + e2 (below), or on the
 // rectangle v0 + [0, 1]·e1 + [0, 1]·e2 where `rectangle`.
 template <class T>
-Vec3<T> sample_triangle_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2,
-                             const T& u1, const T& u2);
+Vec3<T> sample_triangle_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2, const T& u1,
+                             const T& u2);
 template <class T>
-Vec3<T> sample_planar_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2,
-                           const T& u1, const T& u2, const Mask<T>& rectangle) {
+Vec3<T> sample_planar_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2, const T& u1,
+                           const T& u2, const Mask<T>& rectangle) {
     const Vec3<T> on_triangle = sample_triangle_area(v0, e1, e2, u1, u2);
     if (!any(rectangle)) return on_triangle;
     return select(rectangle, fma(e2, u2, fma(e1, u1, v0)), on_triangle);
@@ -72,8 +72,8 @@ Vec3<T> sample_planar_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& 
 // A point uniform by area on the triangle v0, v0 + e1, v0 + e2: barycentrics
 // (√u1(1 - u2), √u1·u2) of e1 and e2.
 template <class T>
-Vec3<T> sample_triangle_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2,
-                             const T& u1, const T& u2) {
+Vec3<T> sample_triangle_area(const Vec3<T>& v0, const Vec3<T>& e1, const Vec3<T>& e2, const T& u1,
+                             const T& u2) {
     const T su = sqrt(u1);
     return fma(e2, su * u2, fma(e1, su - su * u2, v0));
 }
@@ -113,9 +113,9 @@ Vec3<T> sample_spherical_triangle(const Vec3<T>& a, const Vec3<T>& b, const Vec3
     const T u = t - cos_alpha;
     const T v = s + sin_alpha * dot(a, b);  // (cos of the arc from a to b)
     const T den = (v * s + u * t) * sin_alpha;
-    const T q = max(min(select(den != T(0.0f), ((v * t - u * s) * cos_alpha - v) / den, T(1.0f)),
-                        T(1.0f)),
-                    T(-1.0f));
+    const T q =
+        max(min(select(den != T(0.0f), ((v * t - u * s) * cos_alpha - v) / den, T(1.0f)), T(1.0f)),
+            T(-1.0f));
     const Vec3<T> c_hat =
         fma(unit_or_zero(c - a * dot(c, a)), sqrt(max(T(1.0f) - q * q, T(0.0f))), a * q);
     const T z = T(1.0f) - u2 * (T(1.0f) - dot(c_hat, b));
@@ -189,8 +189,8 @@ RectangleView<T> rectangle_view(const Vec3<T>& x, const Vec3<T>& corner, const V
     r.b1 = r.y1 * i2;
     r.k = T(2.0f * kPi) - g2 - g3;
     r.omega = g0 + g1 - r.k;  // g0 + g1 + g2 + g3 - 2π
-    r.spherical = (r.omega >= T(kMinTriangleSolidAngle)) & (r.omega <= T(2.0f * kPi)) &
-                  (r.z0 < T(0.0f));
+    r.spherical =
+        (r.omega >= T(kMinTriangleSolidAngle)) & (r.omega <= T(2.0f * kPi)) & (r.z0 < T(0.0f));
     return r;
 }
 
@@ -204,17 +204,16 @@ Vec3<T> sample_spherical_rectangle(const RectangleView<T>& r, const Vec3<T>& x, 
     T s, c;
     sincos_2pi(au * T(0.5f * kInvPi), s, c);
     const T fu = (c * r.b0 - r.b1) / s;
-    const T cu = max(min(select(fu >= T(0.0f), T(1.0f), T(-1.0f)) /
-                             sqrt(fma(fu, fu, r.b0 * r.b0)),
-                         T(1.0f)),
-                     T(-1.0f));
+    const T cu =
+        max(min(select(fu >= T(0.0f), T(1.0f), T(-1.0f)) / sqrt(fma(fu, fu, r.b0 * r.b0)), T(1.0f)),
+            T(-1.0f));
     const T xu = max(min(-(cu * r.z0) / sqrt(max(T(1.0f) - cu * cu, T(1e-12f))), r.x1), r.x0);
     const T d2 = fma(xu, xu, r.z0 * r.z0);
     const T h0 = r.y0 / sqrt(d2 + r.y0 * r.y0), h1 = r.y1 / sqrt(d2 + r.y1 * r.y1);
     const T hv = fma(u2, h1 - h0, h0);
     const T hv2 = hv * hv;
-    const T yv = select(hv2 < T(1.0f - 1e-6f), hv * sqrt(d2) / sqrt(max(T(1.0f) - hv2, T(1e-12f))),
-                        r.y1);
+    const T yv =
+        select(hv2 < T(1.0f - 1e-6f), hv * sqrt(d2) / sqrt(max(T(1.0f) - hv2, T(1e-12f))), r.y1);
     return fma(r.ez, r.z0, fma(r.ey, min(max(yv, r.y0), r.y1), fma(r.ex, xu, x)));
 }
 
@@ -281,8 +280,8 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         const T a = select(inside, T(2.0f) * u1, u1 * one_minus);  // 1 - cos θ
         const T sin_t = sqrt(max(a * (T(2.0f) - a), T(0.0f)));
         const Vec3<T> local{sin_t * c, sin_t * s, T(1.0f) - a};
-        const Vec3<T> axis = select(inside, Vec3<T>(T(0.0f), T(0.0f), T(1.0f)),
-                                    to_c * (T(1.0f) / sqrt(dc2)));
+        const Vec3<T> axis =
+            select(inside, Vec3<T>(T(0.0f), T(0.0f), T(1.0f)), to_c * (T(1.0f) / sqrt(dc2)));
         const Vec3<T> dir = to_world(local, axis);
         T t(0.0f);
         const auto hit = intersect_sphere(Ray<T>{x, dir}, p0, size, T(kRayFar), t);
@@ -296,7 +295,8 @@ EmitterSample<T> sample_emitter(const EmitterTable& e, const Vec3<T>& x, const T
         out.ok = sphere & (inside | ((one_minus > T(0.0f)) & (t > T(0.0f))));
     }
     const bool environment = e.environment.emitter >= 0;
-    const auto triangle = environment ? !(sphere | choice.environment) : !sphere;  // (or a rectangle)
+    const auto triangle =
+        environment ? !(sphere | choice.environment) : !sphere;  // (or a rectangle)
     if (environment && any(choice.environment)) {
         const auto env = choice.environment;
         const EnvironmentSample<T> es = sample_environment(e.environment, u1, u2);

@@ -29,14 +29,14 @@ enum EmitterKind : int32_t {
 // (a row by row_cdf, then a column by its row's col_cdf) and a point in it uniformly in
 // (u, v); the density in solid angle is density[texel] / (2π² sin θ) (kernels/environment.h).
 struct EnvironmentMap {
-    int32_t width = 0, height = 0;     // 0: the scene has no environment
-    const float* radiance = nullptr;   // RGB per texel, row-major from the top
-    const float* row_cdf = nullptr;    // height + 1 entries, the first 0 and the last 1
-    const float* col_cdf = nullptr;    // per row, width + 1 entries, the first 0, the last 1
-    const float* density = nullptr;    // per texel: the density of the (u, v) it covers
+    int32_t width = 0, height = 0;    // 0: the scene has no environment
+    const float* radiance = nullptr;  // RGB per texel, row-major from the top
+    const float* row_cdf = nullptr;   // height + 1 entries, the first 0 and the last 1
+    const float* col_cdf = nullptr;   // per row, width + 1 entries, the first 0, the last 1
+    const float* density = nullptr;   // per texel: the density of the (u, v) it covers
     float to_local[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // row-major rotations
     float to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    int32_t emitter = -1;              // its entry in the emitter table, or -1 (not sampled)
+    int32_t emitter = -1;  // its entry in the emitter table, or -1 (not sampled)
 };
 
 // Floats per emitter record in EmitterTable::data:
@@ -52,12 +52,12 @@ inline constexpr int32_t kEmitterStride = 16;
 // slot i of `count` is kept with probability alias_q[i], else alias[i] is taken.
 struct EmitterTable {
     int32_t count = 0;
-    const float* alias_q = nullptr;    // count (padded)
-    const int32_t* alias = nullptr;    // count
-    const float* pmf = nullptr;        // count: the probability of choosing each emitter
-    const int32_t* kind = nullptr;     // count: EmitterKind
-    const float* data = nullptr;       // count * kEmitterStride
-    EnvironmentMap environment;        // the scene's, which paths that escape gather
+    const float* alias_q = nullptr;  // count (padded)
+    const int32_t* alias = nullptr;  // count
+    const float* pmf = nullptr;      // count: the probability of choosing each emitter
+    const int32_t* kind = nullptr;   // count: EmitterKind
+    const float* data = nullptr;     // count * kEmitterStride
+    EnvironmentMap environment;      // the scene's, which paths that escape gather
 };
 
 // Where paths from the lights start (light tracing, kernels/transport.h): a sampled emitter

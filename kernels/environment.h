@@ -51,10 +51,10 @@ I32<T> environment_texel(const EnvironmentMap& env, const Vec3<T>& d, T& sin_the
     const T u = fma(atan2(w.x, w.z), T(kInvTwoPi), T(0.5f));
     const T col_f = u * T(float(env.width));
     // (NaN, from a zero direction, becomes texel 0)
-    const I row = to_int(min(max(select(row_f == row_f, row_f, T(0.0f)), T(0.0f)),
-                             T(float(env.height - 1))));
-    const I col = to_int(min(max(select(col_f == col_f, col_f, T(0.0f)), T(0.0f)),
-                             T(float(env.width - 1))));
+    const I row =
+        to_int(min(max(select(row_f == row_f, row_f, T(0.0f)), T(0.0f)), T(float(env.height - 1))));
+    const I col =
+        to_int(min(max(select(col_f == col_f, col_f, T(0.0f)), T(0.0f)), T(float(env.width - 1))));
     return row * I(env.width) + col;
 }
 

@@ -19,8 +19,8 @@ inline constexpr float kRayFar = std::numeric_limits<float>::max();
 // accurate when the sphere is small and far away (Haines et al., Ray Tracing Gems ch. 7).
 // `d` must be unit length. Returns the mask of lanes with a hit in (0, tmax) and its t.
 template <class T>
-Mask<T> intersect_sphere(const Ray<T>& ray, const Vec3<T>& center, const T& radius,
-                         const T& tmax, T& t) {
+Mask<T> intersect_sphere(const Ray<T>& ray, const Vec3<T>& center, const T& radius, const T& tmax,
+                         T& t) {
     const Vec3<T> oc = ray.o - center;
     const T b = dot(oc, ray.d);
     const Vec3<T> v = oc - ray.d * b;
@@ -44,8 +44,8 @@ Mask<T> intersect_sphere(const Ray<T>& ray, const Vec3<T>& center, const T& radi
 // Plane n·p + d = 0 (the report's normal-and-distance form): with n = (1,0,0) and d = 1
 // it is the plane x = -1. Rays parallel to it give t = ±inf or NaN and miss.
 template <class T>
-Mask<T> intersect_plane(const Ray<T>& ray, const Vec3<T>& normal, const T& distance,
-                        const T& tmax, T& t) {
+Mask<T> intersect_plane(const Ray<T>& ray, const Vec3<T>& normal, const T& distance, const T& tmax,
+                        T& t) {
     t = -(dot(normal, ray.o) + distance) / dot(normal, ray.d);
     return (t > T(0.0f)) & (t < tmax);
 }
@@ -58,8 +58,8 @@ struct QuadricCoefficients {
 
 template <class T>
 T quadric_value(const QuadricCoefficients<T>& q, const Vec3<T>& p) {
-    return p.x * (q.a * p.x + q.d * p.y + q.f * p.z + q.g) +
-           p.y * (q.b * p.y + q.e * p.z + q.h) + p.z * (q.c * p.z + q.i) + q.j;
+    return p.x * (q.a * p.x + q.d * p.y + q.f * p.z + q.g) + p.y * (q.b * p.y + q.e * p.z + q.h) +
+           p.z * (q.c * p.z + q.i) + q.j;
 }
 
 // The gradient of the quadric: its unnormalised outward normal (towards f > 0).
@@ -75,13 +75,12 @@ Vec3<T> quadric_gradient(const QuadricCoefficients<T>& q, const Vec3<T>& p) {
 // in (0, tmax) whose point lies inside the box.
 template <class T>
 Mask<T> intersect_quadric(const Ray<T>& ray, const QuadricCoefficients<T>& q,
-                          const Vec3<T>& box_min, const Vec3<T>& box_max, const T& tmax,
-                          T& t) {
+                          const Vec3<T>& box_min, const Vec3<T>& box_max, const T& tmax, T& t) {
     const Vec3<T>& o = ray.o;
     const Vec3<T>& d = ray.d;
     // Coefficients of the polynomial in t
-    const T a = d.x * (q.a * d.x + q.d * d.y + q.f * d.z) + d.y * (q.b * d.y + q.e * d.z) +
-                q.c * d.z * d.z;
+    const T a =
+        d.x * (q.a * d.x + q.d * d.y + q.f * d.z) + d.y * (q.b * d.y + q.e * d.z) + q.c * d.z * d.z;
     const T b = T(2.0f) * (q.a * o.x * d.x + q.b * o.y * d.y + q.c * o.z * d.z) +
                 q.d * (o.x * d.y + o.y * d.x) + q.e * (o.y * d.z + o.z * d.y) +
                 q.f * (o.x * d.z + o.z * d.x) + q.g * d.x + q.h * d.y + q.i * d.z;

@@ -36,9 +36,9 @@ using std::sin;
 using std::sqrt;
 using xsimd::abs;
 using xsimd::acos;
-using xsimd::atan2;
 using xsimd::all;
 using xsimd::any;
+using xsimd::atan2;
 using xsimd::cos;
 using xsimd::floor;
 using xsimd::fma;
@@ -152,8 +152,8 @@ inline xsimd::batch<int32_t, A> to_int(const xsimd::batch<float, A>& v) {
     return xsimd::batch_cast<int32_t>(v);
 }
 
-// Bits of a mask, lane 0 in bit 0 (a bool is one lane). NEON has no movemask: each all-ones lane keeps its own
-// bit of {1, 2, 4, 8}, and the lanes are summed.
+// Bits of a mask, lane 0 in bit 0 (a bool is one lane). NEON has no movemask: each all-ones lane
+// keeps its own bit of {1, 2, 4, 8}, and the lanes are summed.
 template <class A>
 uint32_t mask_bits(const xsimd::batch_bool<float, A>& m) {
 #if defined(__AVX512F__)

@@ -36,8 +36,8 @@ T emitter_area_pdf(const T& pmf, const T& size, const Mask<T>& sphere) {
 // uniform by area on it: on a sphere over its whole surface (4πr²), on a triangle by the √u1
 // warp. pdf_A = pmf / area.
 template <class T>
-EmitterPosition<T> sample_emitter_position(const EmitterTable& e, const T& u_pick,
-                                           const T& u_alias, const T& u1, const T& u2) {
+EmitterPosition<T> sample_emitter_position(const EmitterTable& e, const T& u_pick, const T& u_alias,
+                                           const T& u1, const T& u2) {
     const EmitterChoice<T> choice = choose_emitter(e, u_pick, u_alias);
     const auto at = [&](int k) { return emitter_field<T>(e, choice.id, k); };
     const Vec3<T> p0{at(0), at(1), at(2)};

@@ -76,8 +76,7 @@ T emitter_hit_weight(const EmitterTable& e, Estimator kind, const I32<T>& id, co
     const auto sampled = mask_f32(id >= I32<T>(0)) & (lobe_pdf > T(0.0f));
     if (kind == Estimator::kReport || none(sampled)) return T(1.0f);
     if (kind == Estimator::kNee) return select(sampled, T(0.0f), T(1.0f));
-    const T light =
-        emitter_pdf(e, select(mask_i32(sampled), id, I32<T>(0)), x, d, t, solid_angle);
+    const T light = emitter_pdf(e, select(mask_i32(sampled), id, I32<T>(0)), x, d, t, solid_angle);
     return select(sampled, power_heuristic(lobe_pdf, light), T(1.0f));
 }
 

@@ -120,8 +120,7 @@ ShadowRequest<T> point_light_request(const PathContext& c, int32_t j, const Bsdf
 template <int kLobe, Transport kMode = Transport::kRadiance, class T>
 Scatter<T> continue_path(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
                          const VertexFrame<T>& v, const Vec3<T>& n, const Vec3<T>& ns,
-                         const T& probability, const SampleStream<T>& rng,
-                         const U32<T>& bounce) {
+                         const T& probability, const SampleStream<T>& rng, const U32<T>& bounce) {
     const bool smooth = c.smooth;
     T u1, u2;
     uniform2<T>(rng, bounce, Purpose::kDirection1, u1, u2);
@@ -137,8 +136,7 @@ Scatter<T> continue_path(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& 
     }
     // A reflection about the shading normal must leave on the geometric surface's side
     if constexpr (kLobe != kLobeRefract)
-        if (smooth)
-            sc.weight = select(on_arriving_side(sc.dir, v.nf), sc.weight, Vec3<T>(T(0.0f)));
+        if (smooth) sc.weight = select(on_arriving_side(sc.dir, v.nf), sc.weight, Vec3<T>(T(0.0f)));
     if constexpr (kMode == Transport::kImportance)
         if (smooth) sc.weight = sc.weight * shading_correction(-d, sc.dir, n, v.nsf);
     return sc;
@@ -161,8 +159,8 @@ void continuation_pdf(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
 // report's roulette it returns beta unchanged. u_roulette: the roulette's draw (slot 1's
 // second number, lobe_uniforms in kernels/sampler.h).
 template <class T>
-Vec3<T> throughput_roulette(const EstimatorSettings& est, const Vec3<T>& beta,
-                            const T& u_roulette, const U32<T>& bounce) {
+Vec3<T> throughput_roulette(const EstimatorSettings& est, const Vec3<T>& beta, const T& u_roulette,
+                            const U32<T>& bounce) {
     if (!normalised_lobes(est)) return beta;
     const auto due = to_float(bounce) >= T(float(est.roulette_depth));
     if (!any(due)) return beta;

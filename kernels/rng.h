@@ -10,9 +10,9 @@ inline namespace CIERZO_ISA_NAMESPACE {
 
 // What a random number is for at one path vertex. Each gets its own hash stream.
 enum class Purpose : uint32_t {
-    kPixelX = 0,    // jitter inside the pixel (bounce 0 only)
+    kPixelX = 0,  // jitter inside the pixel (bounce 0 only)
     kPixelY = 1,
-    kLobe = 2,      // Russian roulette: which lobe, or death
+    kLobe = 2,        // Russian roulette: which lobe, or death
     kDirection1 = 3,  // the two numbers that sample a direction in the chosen lobe
     kDirection2 = 4,
     kEmitterPick = 5,  // next-event estimation: which emitter (and, rehashed, its alias slot)
@@ -64,8 +64,7 @@ inline T uniform(const U32<T>& key, const U32<T>& bounce, Purpose purpose) {
 // hashed again, for a choice that needs more than 24 bits (an emitter among many, then its
 // alias slot).
 template <class T>
-inline void uniform_pair(const U32<T>& key, const U32<T>& bounce, Purpose purpose, T& u,
-                         T& v) {
+inline void uniform_pair(const U32<T>& key, const U32<T>& bounce, Purpose purpose, T& u, T& v) {
     using U = U32<T>;
     const U bits = purpose_bits<T>(key, bounce, purpose);
     u = to_float(bits >> 8) * T(0x1.0p-24f);

@@ -82,16 +82,17 @@ template <class A>
 inline xsimd::batch<uint32_t, A> reverse_bits(const xsimd::batch<uint32_t, A>& v) {
 #if defined(__aarch64__)
     if constexpr (std::is_base_of_v<xsimd::neon64, A>)
-        return xsimd::batch<uint32_t, A>(vreinterpretq_u32_u8(vrev32q_u8(vrbitq_u8(vreinterpretq_u8_u32(v.data)))));
+        return xsimd::batch<uint32_t, A>(
+            vreinterpretq_u32_u8(vrev32q_u8(vrbitq_u8(vreinterpretq_u8_u32(v.data)))));
     else
         return reverse_bits_by_shifts(v);
 #elif defined(__SSSE3__)
     // Nibble n reversed, in the high and the low half of a byte; bytes 3,2,1,0 of each lane
-    const __m128i high = _mm_setr_epi8(0x00, char(0x80), 0x40, char(0xc0), 0x20, char(0xa0),
-                                       0x60, char(0xe0), 0x10, char(0x90), 0x50, char(0xd0),
-                                       0x30, char(0xb0), 0x70, char(0xf0));
-    const __m128i low = _mm_setr_epi8(0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5,
-                                      0xd, 0x3, 0xb, 0x7, 0xf);
+    const __m128i high =
+        _mm_setr_epi8(0x00, char(0x80), 0x40, char(0xc0), 0x20, char(0xa0), 0x60, char(0xe0), 0x10,
+                      char(0x90), 0x50, char(0xd0), 0x30, char(0xb0), 0x70, char(0xf0));
+    const __m128i low = _mm_setr_epi8(0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd,
+                                      0x3, 0xb, 0x7, 0xf);
     const __m128i swap = _mm_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12);
 #if defined(__AVX512BW__)
     if constexpr (std::is_base_of_v<xsimd::avx512bw, A>) {
@@ -104,7 +105,7 @@ inline xsimd::batch<uint32_t, A> reverse_bits(const xsimd::batch<uint32_t, A>& v
     } else
 #endif
 #if defined(__AVX2__)
-    if constexpr (std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
+        if constexpr (std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
         const __m256i nib = _mm256_set1_epi8(0x0f);
         const __m256i lo = _mm256_and_si256(v.data, nib);
         const __m256i hi = _mm256_and_si256(_mm256_srli_epi16(v.data, 4), nib);
@@ -114,7 +115,7 @@ inline xsimd::batch<uint32_t, A> reverse_bits(const xsimd::batch<uint32_t, A>& v
         return xsimd::batch<uint32_t, A>(_mm256_shuffle_epi8(r, _mm256_broadcastsi128_si256(swap)));
     } else
 #endif
-    if constexpr (std::is_base_of_v<xsimd::sse2, A> && !std::is_base_of_v<xsimd::avx, A>) {
+        if constexpr (std::is_base_of_v<xsimd::sse2, A> && !std::is_base_of_v<xsimd::avx, A>) {
         const __m128i nib = _mm_set1_epi8(0x0f);
         const __m128i lo = _mm_and_si128(v.data, nib);
         const __m128i hi = _mm_and_si128(_mm_srli_epi16(v.data, 4), nib);
@@ -191,30 +192,27 @@ inline U pixel_key(uint32_t seed, const U& pixel) {
 
 // The numbers of camera sample `sample` of pixel (x, y) (pixel = y · width + x).
 template <class T>
-inline SampleStream<T> camera_stream(const SamplerSetup& setup, uint32_t seed,
-                                     const U32<T>& pixel, const U32<T>& x, const U32<T>& y,
-                                     const U32<T>& sample) {
+inline SampleStream<T> camera_stream(const SamplerSetup& setup, uint32_t seed, const U32<T>& pixel,
+                                     const U32<T>& x, const U32<T>& y, const U32<T>& sample) {
     using U = U32<T>;
     switch (setup.kind) {
-    case Sampler::kIndependent:
-        return {path_key(seed, pixel, sample), sample, setup};
-    case Sampler::kSobol:
-    case Sampler::kPmj02:
-        return {pixel_key(seed, pixel), sample, setup};
-    case Sampler::kZSobol: {
-        // Morton code of (x, y); its bits that do not fit beside the sample's L bits pick the
-        // scramble instead (images of more than 2^(32-L) pixels)
-        // scramble instead (images of more than 2^(32-L) pixels), as do the samples past 2^L
-        // (a render that goes on past the paths per pixel it was set up for)
-        const U morton = spread_bits(x) | (spread_bits(y) << 1);
-        const uint32_t l = setup.log2_spp;
-        const U mask(l >= 32 ? 0xffffffffu : (1u << l) - 1u);
-        const U high = l == 0 ? U(0u) : (morton >> (32u - l));
-        const U over = l >= 32 ? U(0u) : (sample >> l);
-        const U key = hash32(U(hash32(seed ^ 0xa54ff53au)) ^ hash32(high + U(1u)) ^
-                             hash32(over * splat<U, 0x6a09e667u>()));
-        return {key, (l >= 32 ? U(0u) : (morton << l)) | (sample & mask), setup};
-    }
+        case Sampler::kIndependent: return {path_key(seed, pixel, sample), sample, setup};
+        case Sampler::kSobol:
+        case Sampler::kPmj02: return {pixel_key(seed, pixel), sample, setup};
+        case Sampler::kZSobol: {
+            // Morton code of (x, y); its bits that do not fit beside the sample's L bits pick the
+            // scramble instead (images of more than 2^(32-L) pixels)
+            // scramble instead (images of more than 2^(32-L) pixels), as do the samples past 2^L
+            // (a render that goes on past the paths per pixel it was set up for)
+            const U morton = spread_bits(x) | (spread_bits(y) << 1);
+            const uint32_t l = setup.log2_spp;
+            const U mask(l >= 32 ? 0xffffffffu : (1u << l) - 1u);
+            const U high = l == 0 ? U(0u) : (morton >> (32u - l));
+            const U over = l >= 32 ? U(0u) : (sample >> l);
+            const U key = hash32(U(hash32(seed ^ 0xa54ff53au)) ^ hash32(high + U(1u)) ^
+                                 hash32(over * splat<U, 0x6a09e667u>()));
+            return {key, (l >= 32 ? U(0u) : (morton << l)) | (sample & mask), setup};
+        }
     }
     return {path_key(seed, pixel, sample), sample, setup};
 }
@@ -280,8 +278,8 @@ inline void sample_point(const SampleStream<T>& s, const U32<T>& bounce, uint32_
         const U octave = (ones >> 1) + U(1u);
         const U below = octave - U(1u);
         const U in_octave = owen_scramble(j & below, hash32(seed ^ octave)) & below;
-        const U table = hash32(seed ^ (s.index >> kBits) ^ splat<U, 0x510e527fu>()) &
-                        U(kPmj02Tables - 1u);
+        const U table =
+            hash32(seed ^ (s.index >> kBits) ^ splat<U, 0x510e527fu>()) & U(kPmj02Tables - 1u);
         const U at = (table << kBits) | select(j >= U(2u), octave | in_octave, j);
         const U p = gather_u32<T>(s.sampler.pmj02, at);
         // 16 bits from the table, the rest a jitter inside its finest cell
@@ -326,7 +324,8 @@ inline void uniform2(const SampleStream<T>& s, const U32<T>& bounce, Purpose fir
 template <class T>
 inline void uniform_pair(const SampleStream<T>& s, const U32<T>& bounce, Purpose purpose, T& u,
                          T& v) {
-    if (s.sampler.kind == Sampler::kIndependent) return uniform_pair<T>(s.key, bounce, purpose, u, v);
+    if (s.sampler.kind == Sampler::kIndependent)
+        return uniform_pair<T>(s.key, bounce, purpose, u, v);
     U32<T> x, y;
     sample_point(s, bounce, slot_of(purpose), x, y);
     u = unit_float<T>(x);
@@ -336,8 +335,8 @@ inline void uniform_pair(const SampleStream<T>& s, const U32<T>& bounce, Purpose
 // The lobe choice's number and, where `roulette` (the throughput roulette), the roulette's
 // draw: slot 1's pair, drawn once.
 template <class T>
-inline void lobe_uniforms(const SampleStream<T>& s, const U32<T>& bounce, bool roulette,
-                          T& u_lobe, T& u_roulette) {
+inline void lobe_uniforms(const SampleStream<T>& s, const U32<T>& bounce, bool roulette, T& u_lobe,
+                          T& u_roulette) {
     if (s.sampler.kind == Sampler::kIndependent) {
         u_lobe = uniform<T>(s.key, bounce, Purpose::kLobe);
         u_roulette = roulette ? second_uniform<T>(s.key, bounce, Purpose::kLobe) : T(0.0f);

@@ -23,15 +23,18 @@ void sincos_2pi(const T& u, T& s, T& c) {
     const T q = nearbyint(T(4.0f) * x);
     const T a = T(2.0f * kPi) * (x - T(0.25f) * q);
     const T a2 = a * a;
-    const T ps = a * fma(a2, fma(a2, fma(a2, fma(a2, T(1.0f / 362880.0f), T(-1.0f / 5040.0f)),
-                                             T(1.0f / 120.0f)),
-                                     T(-1.0f / 6.0f)),
-                         T(1.0f));
-    const T pc = fma(a2, fma(a2, fma(a2, fma(a2, fma(a2, T(-1.0f / 3628800.0f), T(1.0f / 40320.0f)),
-                                             T(-1.0f / 720.0f)),
-                                     T(1.0f / 24.0f)),
-                             T(-0.5f)),
-                     T(1.0f));
+    const T ps =
+        a * fma(a2,
+                fma(a2, fma(a2, fma(a2, T(1.0f / 362880.0f), T(-1.0f / 5040.0f)), T(1.0f / 120.0f)),
+                    T(-1.0f / 6.0f)),
+                T(1.0f));
+    const T pc = fma(
+        a2,
+        fma(a2,
+            fma(a2, fma(a2, fma(a2, T(-1.0f / 3628800.0f), T(1.0f / 40320.0f)), T(-1.0f / 720.0f)),
+                T(1.0f / 24.0f)),
+            T(-0.5f)),
+        T(1.0f));
     // Quadrant q mod 4: 0 (s, c), 1 (c, -s), 2 (-s, -c), 3 (-c, s)
     const auto qi = to_int(q) & I32<T>(3);
     const auto swap = mask_f32(qi == I32<T>(1)) | mask_f32(qi == I32<T>(3));
@@ -91,7 +94,9 @@ Vec3<T> sample_phong_lobe(const T& u1, const T& u2, const T& shininess) {
 }
 
 // cos^s for c in [0, 1]; 0^0 = 1 so s = 0 is a uniform lobe.
-inline float pow_s(float c, float s) { return s == 0.0f ? 1.0f : (c > 0.0f ? std::pow(c, s) : 0.0f); }
+inline float pow_s(float c, float s) {
+    return s == 0.0f ? 1.0f : (c > 0.0f ? std::pow(c, s) : 0.0f);
+}
 template <class A>
 xsimd::batch<float, A> pow_s(const xsimd::batch<float, A>& c, const xsimd::batch<float, A>& s) {
     using B = xsimd::batch<float, A>;

@@ -59,21 +59,24 @@ inline constexpr EstimatorTraits kEstimatorTraits[] = {
     /* mis */ {.samples_emitters = true, .draws_emitters = true},
     /* lt */ {.draws_emitters = true, .light_batches = true, .splats = true},
     /* bdpt */
-    {.draws_emitters = true, .splats = true, .bidirectional = true, .connects = true,
+    {.draws_emitters = true,
+     .splats = true,
+     .bidirectional = true,
+     .connects = true,
      .strategy_images = true},
     /* vcm */
-    {.draws_emitters = true, .splats = true, .bidirectional = true, .merges = true,
+    {.draws_emitters = true,
+     .splats = true,
+     .bidirectional = true,
+     .merges = true,
      .connects = true},
     /* bpm */ {.draws_emitters = true, .bidirectional = true, .merges = true},
     /* ppm */ {.draws_emitters = true, .bidirectional = true, .merges = true},
 };
-static_assert(sizeof(kEstimatorTraits) / sizeof(kEstimatorTraits[0]) ==
-                  size_t(Estimator::kPpm) + 1,
+static_assert(sizeof(kEstimatorTraits) / sizeof(kEstimatorTraits[0]) == size_t(Estimator::kPpm) + 1,
               "one row of kEstimatorTraits per estimator");
 
-inline constexpr const EstimatorTraits& traits(Estimator e) {
-    return kEstimatorTraits[size_t(e)];
-}
+inline constexpr const EstimatorTraits& traits(Estimator e) { return kEstimatorTraits[size_t(e)]; }
 
 // The questions asked most, by name.
 inline constexpr bool splats(Estimator e) { return traits(e).splats; }

@@ -57,8 +57,8 @@ CameraConnection<T> connect_camera(const PinholeFrame& c, const Vec3<T>& p) {
     const T d2 = dot(to, to);
     out.dist = sqrt(d2);
     out.wc = to * (T(1.0f) / out.dist);
-    const FilmPoint<T> fp = pinhole_project(origin, v3(c.forward), v3(c.left), v3(c.up), p,
-                                            c.width, c.height);
+    const FilmPoint<T> fp =
+        pinhole_project(origin, v3(c.forward), v3(c.left), v3(c.up), p, c.width, c.height);
     const T cos_c = -dot(out.wc, Vec3<T>(v3(c.film_normal)));
     out.factor = T(1.0f / c.film_area) / (cos_c * cos_c * cos_c * d2);
     out.ok = fp.on_film & (cos_c > T(0.0f)) & (d2 > T(0.0f)) & (out.factor < T(kRayFar));
@@ -75,9 +75,9 @@ CameraConnection<T> connect_camera(const PinholeFrame& c, const Vec3<T>& p) {
 template <class T>
 struct LightStart {
     Vec3<T> p, n;
-    Vec3<T> le;      // Le / (P(emitter)·pdf_A); 0 for a point light (never seen by the camera)
+    Vec3<T> le;  // Le / (P(emitter)·pdf_A); 0 for a point light (never seen by the camera)
     Vec3<T> dir;
-    Vec3<T> beta;    // Le·|cos θ| / (P·pdf_A·pdf_ω) = 2π·Le / (P·pdf_A); or 4π·I / P
+    Vec3<T> beta;  // Le·|cos θ| / (P·pdf_A·pdf_ω) = 2π·Le / (P·pdf_A); or 4π·I / P
     Mask<T> ok;
     Mask<T> on_surface;  // an emitter (else a point light)
     // For the bidirectional estimators' weights: the emitter (-1: a point light), the density
@@ -124,8 +124,7 @@ LightStart<T> sample_light_start(const EmitterTable& e, const LightStartTable& l
     const auto point = !out.on_surface;
     if (lights.point_count > 0 && any(point)) {
         // The point light whose cumulative probability u first stays below (few lights: a scan)
-        const T u = (u_kind - T(lights.emitter_probability)) /
-                    T(1.0f - lights.emitter_probability);
+        const T u = (u_kind - T(lights.emitter_probability)) / T(1.0f - lights.emitter_probability);
         I id(0);
         for (int32_t j = 0; j + 1 < lights.point_count; ++j)
             id = id + select(mask_i32(u >= T(lights.point_cdf[j])), I(1), I(0));
@@ -139,8 +138,9 @@ LightStart<T> sample_light_start(const EmitterTable& e, const LightStartTable& l
         out.beta = select(point, Vec3<T>{at(3), at(4), at(5)} * (T(1.0f) / pd.pdf), out.beta);
         out.ok = out.ok | point;
         if (lights.point_source) {
-            const T chosen = lights.point_count == 1 ? T(lights.point_source[3])
-                                                     : gather_table(lights.point_source, id * I(4) + I(3));
+            const T chosen = lights.point_count == 1
+                                 ? T(lights.point_source[3])
+                                 : gather_table(lights.point_source, id * I(4) + I(3));
             out.pdf_emit = select(point, chosen * pd.pdf, out.pdf_emit);
         }
     }
@@ -167,8 +167,8 @@ T shading_correction(const Vec3<T>& wl, const Vec3<T>& wo, const Vec3<T>& n, con
 // shading normal turned to it. Zero where the pinhole is not on the side the light came from.
 template <class T>
 Vec3<T> camera_contribution(const Bsdf<T>& m, const Vec3<T>& beta, const Vec3<T>& d,
-                            const Vec3<T>& nf, const Vec3<T>& nsf,
-                            const CameraConnection<T>& c, bool shading) {
+                            const Vec3<T>& nf, const Vec3<T>& nsf, const CameraConnection<T>& c,
+                            bool shading) {
     Vec3<T> v = beta * phong_f_cos(m, d, nsf, c.wc) * c.factor;
     if (shading)
         v = v * select(dot(c.wc, nf) > T(0.0f), shading_correction(-d, c.wc, nf, nsf), T(0.0f));

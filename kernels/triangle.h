@@ -57,9 +57,9 @@ inline xsimd::batch<float, A> rounded(const xsimd::batch<float, A>& x) {
 // when d[kz] < 0 so the winding of every triangle is preserved.
 template <class T>
 struct RayShear {
-    I32<T> kx, ky, kz;          // the axis indices (int32_t for float lanes)
-    AxisPick<T> px, py, pz;     // the same axes as masks, used for the permutation
-    T sx, sy, sz;               // d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]
+    I32<T> kx, ky, kz;       // the axis indices (int32_t for float lanes)
+    AxisPick<T> px, py, pz;  // the same axes as masks, used for the permutation
+    T sx, sy, sz;            // d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]
 };
 
 template <class T>

@@ -18,37 +18,100 @@ struct Vec3 {
     template <class U, class = std::enable_if_t<!std::is_same_v<U, T>>>
     explicit Vec3(const Vec3<U>& v) : x(T(v.x)), y(T(v.y)), z(T(v.z)) {}
 
-    Vec3& operator+=(const Vec3& o) { x += o.x; y += o.y; z += o.z; return *this; }
-    Vec3& operator-=(const Vec3& o) { x -= o.x; y -= o.y; z -= o.z; return *this; }
-    Vec3& operator*=(const Vec3& o) { x *= o.x; y *= o.y; z *= o.z; return *this; }
-    Vec3& operator*=(const T& s) { x *= s; y *= s; z *= s; return *this; }
+    Vec3& operator+=(const Vec3& o) {
+        x += o.x;
+        y += o.y;
+        z += o.z;
+        return *this;
+    }
+    Vec3& operator-=(const Vec3& o) {
+        x -= o.x;
+        y -= o.y;
+        z -= o.z;
+        return *this;
+    }
+    Vec3& operator*=(const Vec3& o) {
+        x *= o.x;
+        y *= o.y;
+        z *= o.z;
+        return *this;
+    }
+    Vec3& operator*=(const T& s) {
+        x *= s;
+        y *= s;
+        z *= s;
+        return *this;
+    }
     T operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
 };
 
 using Vec3f = Vec3<float>;
 
-template <class T> Vec3<T> operator+(const Vec3<T>& a, const Vec3<T>& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-template <class T> Vec3<T> operator-(const Vec3<T>& a, const Vec3<T>& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-template <class T> Vec3<T> operator-(const Vec3<T>& a) { return {-a.x, -a.y, -a.z}; }
-template <class T> Vec3<T> operator*(const Vec3<T>& a, const Vec3<T>& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
-template <class T> Vec3<T> operator*(const Vec3<T>& a, const T& s) { return {a.x * s, a.y * s, a.z * s}; }
-template <class T> Vec3<T> operator*(const T& s, const Vec3<T>& a) { return {a.x * s, a.y * s, a.z * s}; }
-template <class T> Vec3<T> operator/(const Vec3<T>& a, const T& s) { const T r = T(1.0f) / s; return a * r; }
+template <class T>
+Vec3<T> operator+(const Vec3<T>& a, const Vec3<T>& b) {
+    return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+template <class T>
+Vec3<T> operator-(const Vec3<T>& a, const Vec3<T>& b) {
+    return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+template <class T>
+Vec3<T> operator-(const Vec3<T>& a) {
+    return {-a.x, -a.y, -a.z};
+}
+template <class T>
+Vec3<T> operator*(const Vec3<T>& a, const Vec3<T>& b) {
+    return {a.x * b.x, a.y * b.y, a.z * b.z};
+}
+template <class T>
+Vec3<T> operator*(const Vec3<T>& a, const T& s) {
+    return {a.x * s, a.y * s, a.z * s};
+}
+template <class T>
+Vec3<T> operator*(const T& s, const Vec3<T>& a) {
+    return {a.x * s, a.y * s, a.z * s};
+}
+template <class T>
+Vec3<T> operator/(const Vec3<T>& a, const T& s) {
+    const T r = T(1.0f) / s;
+    return a * r;
+}
 
-template <class T> T dot(const Vec3<T>& a, const Vec3<T>& b) { return fma(a.x, b.x, fma(a.y, b.y, a.z * b.z)); }
-template <class T> Vec3<T> cross(const Vec3<T>& a, const Vec3<T>& b) {
+template <class T>
+T dot(const Vec3<T>& a, const Vec3<T>& b) {
+    return fma(a.x, b.x, fma(a.y, b.y, a.z * b.z));
+}
+template <class T>
+Vec3<T> cross(const Vec3<T>& a, const Vec3<T>& b) {
     return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-template <class T> T length(const Vec3<T>& a) { return sqrt(dot(a, a)); }
-template <class T> Vec3<T> normalize(const Vec3<T>& a) { return a * (T(1.0f) / length(a)); }
-template <class T> T max_component(const Vec3<T>& a) { return max(a.x, max(a.y, a.z)); }
-template <class T> Vec3<T> vmin(const Vec3<T>& a, const Vec3<T>& b) { return {min(a.x, b.x), min(a.y, b.y), min(a.z, b.z)}; }
-template <class T> Vec3<T> vmax(const Vec3<T>& a, const Vec3<T>& b) { return {max(a.x, b.x), max(a.y, b.y), max(a.z, b.z)}; }
-template <class T, class M> Vec3<T> select(const M& m, const Vec3<T>& a, const Vec3<T>& b) {
+template <class T>
+T length(const Vec3<T>& a) {
+    return sqrt(dot(a, a));
+}
+template <class T>
+Vec3<T> normalize(const Vec3<T>& a) {
+    return a * (T(1.0f) / length(a));
+}
+template <class T>
+T max_component(const Vec3<T>& a) {
+    return max(a.x, max(a.y, a.z));
+}
+template <class T>
+Vec3<T> vmin(const Vec3<T>& a, const Vec3<T>& b) {
+    return {min(a.x, b.x), min(a.y, b.y), min(a.z, b.z)};
+}
+template <class T>
+Vec3<T> vmax(const Vec3<T>& a, const Vec3<T>& b) {
+    return {max(a.x, b.x), max(a.y, b.y), max(a.z, b.z)};
+}
+template <class T, class M>
+Vec3<T> select(const M& m, const Vec3<T>& a, const Vec3<T>& b) {
     return {select(m, a.x, b.x), select(m, a.y, b.y), select(m, a.z, b.z)};
 }
 // A fused a*s + b per component.
-template <class T> Vec3<T> fma(const Vec3<T>& a, const T& s, const Vec3<T>& b) {
+template <class T>
+Vec3<T> fma(const Vec3<T>& a, const T& s, const Vec3<T>& b) {
     return {fma(a.x, s, b.x), fma(a.y, s, b.y), fma(a.z, s, b.z)};
 }
 

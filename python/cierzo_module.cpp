@@ -166,20 +166,20 @@ const std::vector<std::string> kSamplerNames = sampler_names();
 
 // ---- Render ----------------------------------------------------------------------------
 
-py::tuple py_render(const py::object& source, std::optional<int64_t> spp,
-                 std::optional<int> width, std::optional<int> height,
-                 const std::string& integrator, const std::string& isa, int threads,
-                 std::optional<int64_t> seed, std::optional<std::string> estimator,
-                 std::optional<float> survival_cap, std::optional<std::string> diffuse_sampling,
-                 std::optional<std::string> roulette, std::optional<int> roulette_depth,
-                 std::optional<std::string> triangle_sampling, std::optional<std::string> sampler,
-                 std::optional<int> min_length, std::optional<int> max_length,
-                 std::optional<std::pair<int, int>> strategy, bool unweighted,
-                 bool strategies, std::optional<float> merge_radius, std::optional<float> merge_alpha,
-                 std::optional<int> light_connections, int pool, bool variance, double time_budget, double target_error,
-                 bool progress, const py::object& cancel,
-                 const std::optional<fs::path>& checkpoint,
-                 std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
+py::tuple py_render(const py::object& source, std::optional<int64_t> spp, std::optional<int> width,
+                    std::optional<int> height, const std::string& integrator,
+                    const std::string& isa, int threads, std::optional<int64_t> seed,
+                    std::optional<std::string> estimator, std::optional<float> survival_cap,
+                    std::optional<std::string> diffuse_sampling,
+                    std::optional<std::string> roulette, std::optional<int> roulette_depth,
+                    std::optional<std::string> triangle_sampling,
+                    std::optional<std::string> sampler, std::optional<int> min_length,
+                    std::optional<int> max_length, std::optional<std::pair<int, int>> strategy,
+                    bool unweighted, bool strategies, std::optional<float> merge_radius,
+                    std::optional<float> merge_alpha, std::optional<int> light_connections,
+                    int pool, bool variance, double time_budget, double target_error, bool progress,
+                    const py::object& cancel, const std::optional<fs::path>& checkpoint,
+                    std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
     // The command line's checks of its options
     check_range<int64_t>("spp", spp, 1, UINT32_MAX);
     check_range<int>("width", width, 1, 1 << 16);
@@ -291,21 +291,19 @@ std::vector<std::string> split_csv(const std::string& line) {
     return out;
 }
 
-py::list py_converge(const py::object& source, const std::optional<fs::path>& reference,
-                  int64_t reference_spp, const std::string& reference_integrator,
-                  const std::optional<fs::path>& save_reference, const std::vector<int64_t>& spp,
-                  const std::vector<std::string>& integrator, const std::vector<std::string>& isa,
-                  const std::vector<int>& pool, const std::vector<float>& survival_cap,
-                  const std::vector<std::string>& diffuse_sampling,
-                  const std::vector<std::string>& roulette, std::optional<int> roulette_depth,
-                  const std::vector<std::string>& triangle_sampling,
-                  const std::vector<std::string>& sampler,
-                  const std::vector<std::string>& estimator,
-                  const std::vector<float>& merge_radius, const std::vector<float>& merge_alpha,
-                  const std::vector<int>& light_connections,
-                  std::optional<std::string> reference_estimator, std::optional<int> width,
-                  std::optional<int> height, int threads, int repeats,
-                  const std::optional<fs::path>& out, bool verbose, const py::object& cancel) {
+py::list py_converge(
+    const py::object& source, const std::optional<fs::path>& reference, int64_t reference_spp,
+    const std::string& reference_integrator, const std::optional<fs::path>& save_reference,
+    const std::vector<int64_t>& spp, const std::vector<std::string>& integrator,
+    const std::vector<std::string>& isa, const std::vector<int>& pool,
+    const std::vector<float>& survival_cap, const std::vector<std::string>& diffuse_sampling,
+    const std::vector<std::string>& roulette, std::optional<int> roulette_depth,
+    const std::vector<std::string>& triangle_sampling, const std::vector<std::string>& sampler,
+    const std::vector<std::string>& estimator, const std::vector<float>& merge_radius,
+    const std::vector<float>& merge_alpha, const std::vector<int>& light_connections,
+    std::optional<std::string> reference_estimator, std::optional<int> width,
+    std::optional<int> height, int threads, int repeats, const std::optional<fs::path>& out,
+    bool verbose, const py::object& cancel) {
     check_range<int64_t>("reference_spp", reference_spp, 1, UINT32_MAX);
     check_member("reference_integrator", reference_integrator, kIntegratorNames);
     for (int64_t v : spp) check_range<int64_t>("spp", v, 1, UINT32_MAX);
@@ -326,7 +324,8 @@ py::list py_converge(const py::object& source, const std::optional<fs::path>& re
     for (float v : merge_alpha)
         if (!(v > 0.0f && v < 1.0f))
             throw py::value_error("merge_alpha: each must be in (0, 1), exclusive");
-    for (int v : light_connections) check_range<int>("light_connections", v, 0, kMaxLightConnections);
+    for (int v : light_connections)
+        check_range<int>("light_connections", v, 0, kMaxLightConnections);
     check_member("reference_estimator", reference_estimator, kEstimatorNames);
     check_range<int>("width", width, 1, 1 << 16);
     check_range<int>("height", height, 1, 1 << 16);
@@ -440,14 +439,16 @@ tonemap_operators, isas. Classes: Scene, Cancel, Error.)";
                         "render settings. Renders never change it.")
         .def_property_readonly("width", [](const PyScene& s) { return s.scene->settings.width; })
         .def_property_readonly("height", [](const PyScene& s) { return s.scene->settings.height; })
-        .def_property_readonly("spp", [](const PyScene& s) { return s.scene->settings.spp; },
-                               "Paths per pixel (render.spp)")
+        .def_property_readonly(
+            "spp", [](const PyScene& s) { return s.scene->settings.spp; },
+            "Paths per pixel (render.spp)")
         .def_property_readonly("seed", [](const PyScene& s) { return s.scene->settings.seed; })
         .def_property_readonly(
             "estimator",
             [](const PyScene& s) { return estimator_name(s.scene->settings.estimator.kind); })
-        .def_property_readonly("source", [](const PyScene& s) { return s.scene->source.string(); },
-                               "The file it was read from ('<dict>' for a dict)")
+        .def_property_readonly(
+            "source", [](const PyScene& s) { return s.scene->source.string(); },
+            "The file it was read from ('<dict>' for a dict)")
         .def("__repr__", [](const PyScene& s) {
             const RenderSettings& r = s.scene->settings;
             return fmt::format("<cierzo.Scene '{}' {}x{}, {} spp, seed {}>",
@@ -458,8 +459,9 @@ tonemap_operators, isas. Classes: Scene, Cancel, Error.)";
                        "Stops a render or sweep from another thread: pass it as cancel=, then "
                        "call cancel() (a threading.Event works too).")
         .def(py::init<>())
-        .def("cancel", [](Cancel& c) { c.flag->store(true); },
-             "Ask the render to stop at the end of its pass in progress")
+        .def(
+            "cancel", [](Cancel& c) { c.flag->store(true); },
+            "Ask the render to stop at the end of its pass in progress")
         .def("is_set", [](const Cancel& c) { return c.flag->load(); })
         .def("clear", [](Cancel& c) { c.flag->store(false); });
 
@@ -471,18 +473,20 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
 
     m.def("render", &py_render, py::arg("scene"), py::kw_only(), py::arg("spp") = py::none(),
           py::arg("width") = py::none(), py::arg("height") = py::none(),
-          py::arg("integrator") = std::string(integrator_name(Integrator::kWavefront)), py::arg("isa") = "auto", py::arg("threads") = 0,
-          py::arg("seed") = py::none(), py::arg("estimator") = py::none(),
-          py::arg("survival_cap") = py::none(), py::arg("diffuse_sampling") = py::none(),
-          py::arg("roulette") = py::none(), py::arg("roulette_depth") = py::none(),
-          py::arg("triangle_sampling") = py::none(), py::arg("sampler") = py::none(),
-          py::arg("min_length") = py::none(), py::arg("max_length") = py::none(),
-          py::arg("strategy") = py::none(), py::arg("unweighted") = false,
-          py::arg("strategies") = false, py::arg("merge_radius") = py::none(), py::arg("merge_alpha") = py::none(),
-          py::arg("light_connections") = py::none(), py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
-          py::arg("target_error") = 0.0, py::arg("progress") = false,
-          py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
-          py::arg("checkpoint_every") = py::none(), py::arg("resume") = py::none(),
+          py::arg("integrator") = std::string(integrator_name(Integrator::kWavefront)),
+          py::arg("isa") = "auto", py::arg("threads") = 0, py::arg("seed") = py::none(),
+          py::arg("estimator") = py::none(), py::arg("survival_cap") = py::none(),
+          py::arg("diffuse_sampling") = py::none(), py::arg("roulette") = py::none(),
+          py::arg("roulette_depth") = py::none(), py::arg("triangle_sampling") = py::none(),
+          py::arg("sampler") = py::none(), py::arg("min_length") = py::none(),
+          py::arg("max_length") = py::none(), py::arg("strategy") = py::none(),
+          py::arg("unweighted") = false, py::arg("strategies") = false,
+          py::arg("merge_radius") = py::none(), py::arg("merge_alpha") = py::none(),
+          py::arg("light_connections") = py::none(), py::arg("pool") = 0,
+          py::arg("variance") = false, py::arg("time_budget") = 0.0, py::arg("target_error") = 0.0,
+          py::arg("progress") = false, py::arg("cancel") = py::none(),
+          py::arg("checkpoint") = py::none(), py::arg("checkpoint_every") = py::none(),
+          py::arg("resume") = py::none(),
           R"(Renders a scene (a Scene, a path or a dict) as `cierzo render` does.
 
 Returns (image, stats), or (image, variance, stats) with variance=True: float32 arrays of
@@ -527,7 +531,8 @@ seed, estimator or integrator is refused).)");
 
     m.def("converge", &py_converge, py::arg("scene"), py::kw_only(),
           py::arg("reference") = py::none(), py::arg("reference_spp") = 4096,
-          py::arg("reference_integrator") = ConvergeArgs{}.reference_integrator, py::arg("save_reference") = py::none(),
+          py::arg("reference_integrator") = ConvergeArgs{}.reference_integrator,
+          py::arg("save_reference") = py::none(),
           py::arg("spp") = std::vector<int64_t>{1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024},
           py::arg("integrator") = ConvergeArgs{}.integrators,
           py::arg("isa") = std::vector<std::string>{"auto"}, py::arg("pool") = std::vector<int>{0},
@@ -537,7 +542,8 @@ seed, estimator or integrator is refused).)");
           py::arg("triangle_sampling") = std::vector<std::string>{},
           py::arg("sampler") = std::vector<std::string>{},
           py::arg("estimator") = std::vector<std::string>{},
-          py::arg("merge_radius") = std::vector<float>{}, py::arg("merge_alpha") = std::vector<float>{},
+          py::arg("merge_radius") = std::vector<float>{},
+          py::arg("merge_alpha") = std::vector<float>{},
           py::arg("light_connections") = std::vector<int>{},
           py::arg("reference_estimator") = py::none(), py::arg("width") = py::none(),
           py::arg("height") = py::none(), py::arg("threads") = 0, py::arg("repeats") = 1,

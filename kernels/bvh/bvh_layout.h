@@ -93,12 +93,12 @@ struct BvhView {
     const uint32_t* triangle_mesh = nullptr;   // block lane (8 * block + lane) -> mesh
     const uint32_t* triangle_index = nullptr;  // block lane -> the triangle in its mesh
     const SphereBlock* spheres = nullptr;
-    const uint32_t* sphere_index = nullptr;    // block lane -> Scene sphere index
-    const uint32_t* items = nullptr;           // quadric or instance indices of leaves
-    const float* quadrics = nullptr;           // 16 floats per scene quadric: A..J, box min, max
+    const uint32_t* sphere_index = nullptr;  // block lane -> Scene sphere index
+    const uint32_t* items = nullptr;         // quadric or instance indices of leaves
+    const float* quadrics = nullptr;         // 16 floats per scene quadric: A..J, box min, max
     const BvhInstance* instances = nullptr;
     int32_t instance_count = 0;
-    float bounds[6] = {0, 0, 0, -1, -1, -1};   // min xyz, max xyz of everything (empty: min > max)
+    float bounds[6] = {0, 0, 0, -1, -1, -1};  // min xyz, max xyz of everything (empty: min > max)
 };
 
 // Alpha cut-outs (materials' "alpha", MTL d and map_d): a triangle of a masked mesh is hit
@@ -112,9 +112,9 @@ struct AlphaMask {
     float constant = 1.0f;
     const int32_t* bytes = nullptr;  // the image (RGBA8 or RGBA32F), as ImageView
     const float* floats = nullptr;
-    const float* decode = nullptr;   // byte / 255 (masks are data, never sRGB)
+    const float* decode = nullptr;  // byte / 255 (masks are data, never sRGB)
     int32_t width = 0, height = 0;
-    int32_t channel = 3;             // 0..2 red, green, blue; 3 alpha
+    int32_t channel = 3;  // 0..2 red, green, blue; 3 alpha
     float uv_scale[2] = {1.0f, 1.0f}, uv_offset[2] = {0.0f, 0.0f};
     uint32_t clamp = 0;
 };

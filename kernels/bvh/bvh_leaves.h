@@ -39,9 +39,9 @@ inline TraversalRay make_traversal_ray(const Vec3f& o, const Vec3f& d) {
 
 // What a ray hit in the tree.
 struct BvhHit {
-    uint32_t kind;      // BvhLeafKind
-    uint32_t lane;      // triangles, spheres: block lane (8 * block + lane); quadric: its index
-    int32_t instance;   // the instance a triangle was hit through, or -1
+    uint32_t kind;     // BvhLeafKind
+    uint32_t lane;     // triangles, spheres: block lane (8 * block + lane); quadric: its index
+    int32_t instance;  // the instance a triangle was hit through, or -1
 };
 
 // ---- Lanes ---------------------------------------------------------------------------------
@@ -105,8 +105,8 @@ inline Vec3f linear_map(const float m[], int stride, const float v[3]) {
 // The alpha of a hit on triangle `triangle` of scene mesh `mesh` at barycentrics (b1, b2)
 // (kernels/bvh/bvh_layout.h, AlphaMask): 1 where the mesh is not masked. One hit at a time, out
 // of line: only masked scenes come here.
-[[gnu::noinline]] inline float alpha_at(const AlphaTable& table, uint32_t mesh,
-                                        uint32_t triangle, float b1, float b2) {
+[[gnu::noinline]] inline float alpha_at(const AlphaTable& table, uint32_t mesh, uint32_t triangle,
+                                        float b1, float b2) {
     const MeshAlpha& m = table.meshes[mesh];
     if (m.mask < 0) return 1.0f;
     const AlphaMask& a = table.masks[m.mask];
@@ -172,8 +172,7 @@ uint32_t alpha_filter(const BvhView& bvh, const AlphaTable& table, int32_t objec
         const uint32_t lane = lane0 + h;
         const uint32_t mesh = object >= 0 ? uint32_t(object) : bvh.triangle_mesh[lane];
         const uint32_t triangle = bvh.triangle_index[lane];
-        if (!alpha_keeps(table, mesh, triangle, u[h], v[h], world.o, world.d))
-            hits &= ~(1u << h);
+        if (!alpha_keeps(table, mesh, triangle, u[h], v[h], world.o, world.d)) hits &= ~(1u << h);
     }
     return hits;
 }
@@ -224,8 +223,8 @@ inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r, const L
     // its per-lane picks are the identity, built here as constants that fold away (it
     // computes exactly what it would unpermuted: it reads no direction)
     const Mask<N> yes(true), no(false);
-    const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes}, {no, no},
-                            lr.sx, lr.sy, lr.sz};
+    const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes},
+                            {no, no},  lr.sx,     lr.sy,     lr.sz};
     bool any = false;
     const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
     for (uint32_t j = start; j < start + blocks; ++j) {

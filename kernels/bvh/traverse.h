@@ -91,10 +91,9 @@ inline void prefetch_children(const BvhView& bvh, const WideBvhNode& node, uint3
         const int i = std::countr_zero(bits);
         const bool leaf = (node.leaves >> i) & 1u;
         const bool triangles = node.kind[i] == kLeafTriangles;
-        const char* p =
-            !leaf ? reinterpret_cast<const char*>(bvh.nodes + node.child[i])
-            : triangles ? reinterpret_cast<const char*>(bvh.triangles + node.child[i])
-                        : reinterpret_cast<const char*>(bvh.spheres + node.child[i]);
+        const char* p = !leaf       ? reinterpret_cast<const char*>(bvh.nodes + node.child[i])
+                        : triangles ? reinterpret_cast<const char*>(bvh.triangles + node.child[i])
+                                    : reinterpret_cast<const char*>(bvh.spheres + node.child[i]);
         if (whole && leaf) {
             const uint32_t blocks = (node.count[i] + kWideBvhWidth - 1) / kWideBvhWidth;
             prefetch_lines(p, blocks * (triangles ? sizeof(TriangleBlock) : sizeof(SphereBlock)));
@@ -156,9 +155,9 @@ struct TraversalEntry {
 // exactly these steps, and so finds the same hits.
 // (flatten: the kernels are inlined, so the identity picks below fold away.)
 template <bool kAnyHit, class N, bool kTop>
-[[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax,
-                               BvhHit& hit, const AlphaTable* alpha, int32_t object,
-                               const TraversalRay* world, uint32_t root) {
+[[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax, BvhHit& hit,
+                               const AlphaTable* alpha, int32_t object, const TraversalRay* world,
+                               uint32_t root) {
     if (bvh.node_count == 0) return false;
     const NodeRay<N> nr = make_node_ray<N>(r);
     const LeafRay<N> lr = make_leaf_ray<N>(r);
@@ -182,16 +181,15 @@ template <bool kAnyHit, class N, bool kTop>
             const int i = std::countr_zero(leaves);
             if constexpr (!kAnyHit)
                 if (entry[i] > t) continue;
-            if (hit_leaf<kAnyHit, N, kTop>(bvh, r, lr, node.kind[i], node.child[i],
-                                           node.count[i], t, best, alpha, object, world)) {
+            if (hit_leaf<kAnyHit, N, kTop>(bvh, r, lr, node.kind[i], node.child[i], node.count[i],
+                                           t, best, alpha, object, world)) {
                 if constexpr (kAnyHit) return true;
                 found = true;
             }
         }
         // Into the nearest inner child entered, unless the leaves hit nearer than its box;
         // else the top of the stack, dropping boxes entered beyond the closest hit
-        if (push_children<kAnyHit>(node, enter & ~node.leaves, entry, e, stack, size) &&
-            e.t <= t)
+        if (push_children<kAnyHit>(node, enter & ~node.leaves, entry, e, stack, size) && e.t <= t)
             continue;
         do {
             if (size == 0) {
@@ -245,9 +243,8 @@ void closest_unbounded(const Ray<T>& ray, T& t, I32<T>& id, int32_t plane_count,
 
 // Whether an unbounded primitive blocks each ray within tmax; stops once all are blocked.
 template <class T, class Planes, class Quadrics>
-Mask<T> occluded_unbounded(const Ray<T>& ray, const T& tmax, Mask<T> blocked,
-                           int32_t plane_count, const Planes& plane, int32_t quadric_count,
-                           const Quadrics& quadric) {
+Mask<T> occluded_unbounded(const Ray<T>& ray, const T& tmax, Mask<T> blocked, int32_t plane_count,
+                           const Planes& plane, int32_t quadric_count, const Quadrics& quadric) {
     T th;
     for (int32_t j = 0; j < plane_count && !all(blocked); ++j) {
         const PlaneLanes<T> p = plane(j);
@@ -306,9 +303,9 @@ bool coherent(const Ray<T>& ray) {
 // (kAnyHit): the lanes hit below t, stopping once every active lane is.
 template <bool kAnyHit, class T, bool kTop = true>
 Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& inv,
-                        const RayShear<T>& shear, Mask<T> active, T& t, I32<T>& kind,
-                        I32<T>& lane, I32<T>& instance, const AlphaTable* alpha = nullptr,
-                        int32_t object = -1, const Ray<T>* world = nullptr) {
+                        const RayShear<T>& shear, Mask<T> active, T& t, I32<T>& kind, I32<T>& lane,
+                        I32<T>& instance, const AlphaTable* alpha = nullptr, int32_t object = -1,
+                        const Ray<T>* world = nullptr) {
     using I = I32<T>;
     Mask<T> hit(false);
     if (bvh.node_count == 0 || none(active)) return hit;
@@ -338,7 +335,8 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                     const uint32_t mesh = object >= 0 ? uint32_t(object) : bvh.triangle_mesh[id];
                     const uint32_t triangle = bvh.triangle_index[id];
                     const Ray<T>& w = world ? *world : ray;
-                    alignas(64) float u[kWidth<T>], v[kWidth<T>], wo[3][kWidth<T>], wd[3][kWidth<T>];
+                    alignas(64) float u[kWidth<T>], v[kWidth<T>], wo[3][kWidth<T>],
+                        wd[3][kWidth<T>];
                     store_lanes(b1, u), store_lanes(b2, v);
                     store_lanes(w.o.x, wo[0]), store_lanes(w.o.y, wo[1]), store_lanes(w.o.z, wo[2]);
                     store_lanes(w.d.x, wd[0]), store_lanes(w.d.y, wd[1]), store_lanes(w.d.z, wd[2]);
@@ -365,19 +363,20 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
                 const BvhInstance& in = bvh.instances[id];
                 const float* m = in.to_object;
                 const auto row = [&](int r, const Vec3<T>& v, bool point) {
-                    const T x = fma(T(m[4 * r]), v.x, fma(T(m[4 * r + 1]), v.y, T(m[4 * r + 2]) * v.z));
+                    const T x =
+                        fma(T(m[4 * r]), v.x, fma(T(m[4 * r + 1]), v.y, T(m[4 * r + 2]) * v.z));
                     return point ? x + T(m[4 * r + 3]) : x;
                 };
-                const Ray<T> local{{row(0, ray.o, true), row(1, ray.o, true), row(2, ray.o, true)},
-                                   {row(0, ray.d, false), row(1, ray.d, false), row(2, ray.d, false)}};
+                const Ray<T> local{
+                    {row(0, ray.o, true), row(1, ray.o, true), row(2, ray.o, true)},
+                    {row(0, ray.d, false), row(1, ray.d, false), row(2, ray.d, false)}};
                 const Vec3<T> local_inv(T(1.0f) / local.d.x, T(1.0f) / local.d.y,
                                         T(1.0f) / local.d.z);
                 I unused(0);
                 if constexpr (kTop) {
-                    h = packet_traverse<kAnyHit, T, false>(*in.geometry, local, local_inv,
-                                                           make_ray_shear(local.d), enter, t,
-                                                           kind, lane, unused, alpha,
-                                                           int32_t(in.mesh), &ray);
+                    h = packet_traverse<kAnyHit, T, false>(
+                        *in.geometry, local, local_inv, make_ray_shear(local.d), enter, t, kind,
+                        lane, unused, alpha, int32_t(in.mesh), &ray);
                 }
                 hit = hit | h;
                 if constexpr (kAnyHit) {

@@ -31,15 +31,15 @@ inline namespace CIERZO_ISA_NAMESPACE {
 struct alignas(64) GroupRay {
     alignas(32) float entry[kWideBvhWidth];  // where the ray enters leaf_node's children
     TraversalRay r;
-    float t;                       // the closest hit so far
-    uint32_t ray;                  // its index in the input
-    BvhHit best;                   // closest hit: the nearest so far
-    TraversalEntry next;           // the node its next step tests, if `ready`
-    uint32_t leaf_node;            // the node whose leaves `leaves` are still to be tested
-    uint32_t leaves;               // slots of leaf_node, in slot order
-    int32_t size;                  // entries on its stack
+    float t;              // the closest hit so far
+    uint32_t ray;         // its index in the input
+    BvhHit best;          // closest hit: the nearest so far
+    TraversalEntry next;  // the node its next step tests, if `ready`
+    uint32_t leaf_node;   // the node whose leaves `leaves` are still to be tested
+    uint32_t leaves;      // slots of leaf_node, in slot order
+    int32_t size;         // entries on its stack
     uint8_t found, ready;
-    TraversalEntry* stack;         // kWideBvhStackSize entries
+    TraversalEntry* stack;  // kWideBvhStackSize entries
 };
 
 // Memory for a group of up to kMaxTraversalGroup rays: their states and stacks (5.4 kB of
@@ -71,8 +71,8 @@ inline bool group_step(const BvhView& bvh, GroupRay& g, const AlphaTable* alpha)
             const int i = std::countr_zero(leaves);
             if constexpr (!kAnyHit)
                 if (g.entry[i] > t) continue;
-            if (hit_leaf<kAnyHit, N, true>(bvh, g.r, lr, node.kind[i], node.child[i],
-                                           node.count[i], t, best, alpha, -1, nullptr)) {
+            if (hit_leaf<kAnyHit, N, true>(bvh, g.r, lr, node.kind[i], node.child[i], node.count[i],
+                                           t, best, alpha, -1, nullptr)) {
                 found = true;
                 if constexpr (kAnyHit) break;
             }

@@ -55,9 +55,9 @@ inline size_t stream_scratch_ids(int count) {
 // (stream_tree()): found[r] = 1 and hit[r] where ray r hits, found untouched where it does
 // not. ids: stream_scratch_ids(count) entries.
 template <class N>
-[[gnu::flatten]] void stream_closest(const BvhView& bvh, const TraversalRay* rays, int count, float* t,
-                    BvhHit* hit, uint8_t* found, uint16_t* ids, uint8_t* masks,
-                    int single_below) {
+[[gnu::flatten]] void stream_closest(const BvhView& bvh, const TraversalRay* rays, int count,
+                                     float* t, BvhHit* hit, uint8_t* found, uint16_t* ids,
+                                     uint8_t* masks, int single_below) {
     constexpr int kLanes = kNodeLanes<N>;
     if (bvh.node_count == 0 || count <= 0) return;
     struct Entry {
@@ -111,12 +111,11 @@ template <class N>
                     const int i = std::countr_zero(leaves);
                     if (entry[i] > t[r]) continue;
                     uint32_t lane = 0;
-                    const bool h =
-                        node.kind[i] == kLeafTriangles
-                            ? hit_triangle_leaf<false>(bvh, ray, lr, node.child[i],
-                                                       node.count[i], t[r], lane)
-                            : hit_sphere_leaf<false>(bvh, lr, node.child[i], node.count[i],
-                                                     t[r], lane);
+                    const bool h = node.kind[i] == kLeafTriangles
+                                       ? hit_triangle_leaf<false>(bvh, ray, lr, node.child[i],
+                                                                  node.count[i], t[r], lane)
+                                       : hit_sphere_leaf<false>(bvh, lr, node.child[i],
+                                                                node.count[i], t[r], lane);
                     if (h) hit[r] = {node.kind[i], lane, -1}, found[r] = 1;
                 }
             }

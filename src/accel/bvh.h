@@ -30,7 +30,7 @@ struct BvhTriangles {
 
 // A quadric clipped to a finite box.
 struct BvhQuadric {
-    uint32_t index;       // into `quadric_table`
+    uint32_t index;  // into `quadric_table`
     Vec3f box_min, box_max;
 };
 
@@ -39,7 +39,7 @@ struct BvhObjectInstance {
     std::shared_ptr<const Bvh> geometry;  // triangles only; shared by every copy
     float to_object[12];
     float normal_to_world[9];
-    float to_world[12];              // for the instance's world box
+    float to_world[12];  // for the instance's world box
     uint32_t mesh;
 };
 
@@ -64,8 +64,8 @@ struct BvhStats {
     size_t primitives = 0;  // in the tree (degenerate triangles are left out)
     size_t references = 0;  // in the leaves: primitives plus the spatial splits' copies
     size_t nodes = 0, triangle_blocks = 0, sphere_blocks = 0, items = 0;
-    size_t bytes = 0;       // everything the traversal reads (not the shared geometry)
-    int depth = 0;          // of the binary build tree
+    size_t bytes = 0;  // everything the traversal reads (not the shared geometry)
+    int depth = 0;     // of the binary build tree
 };
 
 // The closest hit of a ray on a single mesh's BVH (the convenience queries below).

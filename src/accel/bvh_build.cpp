@@ -179,8 +179,8 @@ void Bvh::build(const BvhInput& in) {
     for (size_t s = 0; s < in.triangles.size(); ++s) {
         const BvhTriangles& set = in.triangles[s];
         if (set.indices.size() % 3 != 0)
-            throw InputError("BVH: the triangle index count (" + std::to_string(set.indices.size()) +
-                             ") is not a multiple of 3");
+            throw InputError("BVH: the triangle index count (" +
+                             std::to_string(set.indices.size()) + ") is not a multiple of 3");
         const size_t count = set.indices.size() / 3;
         const size_t first = b.refs.size();
         b.refs.resize(first + count);
@@ -196,7 +196,8 @@ void Bvh::build(const BvhInput& in) {
                     if (tri[0] >= set.positions.size() || tri[1] >= set.positions.size() ||
                         tri[2] >= set.positions.size()) {
                         size_t seen = bad.load(std::memory_order_relaxed);
-                        while (i < seen && !bad.compare_exchange_weak(seen, i)) {}
+                        while (i < seen && !bad.compare_exchange_weak(seen, i)) {
+                        }
                         keep[i] = 0;
                         continue;
                     }
@@ -283,9 +284,9 @@ void Bvh::build(const BvhInput& in) {
                                                 : 0.0f;  // (NaN: none)
     const bool triangles = std::any_of(b.refs.begin(), b.refs.end(),
                                        [](const Ref& r) { return r.kind == kLeafTriangles; });
-    const uint32_t capacity = uint32_t(std::min<double>(
-        triangles ? double(n) + std::floor(double(n) * double(budget)) : double(n),
-        double(std::numeric_limits<uint32_t>::max() / 2)));
+    const uint32_t capacity = uint32_t(
+        std::min<double>(triangles ? double(n) + std::floor(double(n) * double(budget)) : double(n),
+                         double(std::numeric_limits<uint32_t>::max() / 2)));
     b.spatial = capacity > n;
     b.refs.resize(capacity);
     b.ref_count = n;
@@ -364,11 +365,12 @@ void Bvh::build(const BvhInput& in) {
     stats_.triangle_blocks = triangles_.size();
     stats_.sphere_blocks = spheres_.size();
     stats_.items = items_.size();
-    stats_.bytes = nodes_.size() * sizeof(WideBvhNode) +
-                   triangles_.size() * (sizeof(TriangleBlock) + 2 * kWideBvhWidth * sizeof(uint32_t)) +
-                   spheres_.size() * (sizeof(SphereBlock) + kWideBvhWidth * sizeof(uint32_t)) +
-                   items_.size() * sizeof(uint32_t) + quadrics_.size() * sizeof(float) +
-                   instances_.size() * sizeof(BvhInstance);
+    stats_.bytes =
+        nodes_.size() * sizeof(WideBvhNode) +
+        triangles_.size() * (sizeof(TriangleBlock) + 2 * kWideBvhWidth * sizeof(uint32_t)) +
+        spheres_.size() * (sizeof(SphereBlock) + kWideBvhWidth * sizeof(uint32_t)) +
+        items_.size() * sizeof(uint32_t) + quadrics_.size() * sizeof(float) +
+        instances_.size() * sizeof(BvhInstance);
     update_view();
 }
 

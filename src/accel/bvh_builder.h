@@ -54,8 +54,14 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 
 struct Box {
     Vec3f lo{kInf}, hi{-kInf};
-    void grow(const Vec3f& p) { lo = vmin(lo, p); hi = vmax(hi, p); }
-    void grow(const Box& b) { lo = vmin(lo, b.lo); hi = vmax(hi, b.hi); }
+    void grow(const Vec3f& p) {
+        lo = vmin(lo, p);
+        hi = vmax(hi, p);
+    }
+    void grow(const Box& b) {
+        lo = vmin(lo, b.lo);
+        hi = vmax(hi, b.hi);
+    }
     // Half the surface area; zero for an empty box, finite for huge ones
     float half_area() const {
         if (!(lo.x <= hi.x)) return 0.0f;
@@ -73,7 +79,9 @@ inline float largest_abs(const Vec3f& v) {
     return std::max(std::fabs(v.x), std::max(std::fabs(v.y), std::fabs(v.z)));
 }
 
-inline float component(const Vec3f& v, int axis) { return axis == 0 ? v.x : (axis == 1 ? v.y : v.z); }
+inline float component(const Vec3f& v, int axis) {
+    return axis == 0 ? v.x : (axis == 1 ? v.y : v.z);
+}
 
 // Zero area (collinear or coincident vertices, evaluated in double) or a non-finite vertex.
 inline bool is_degenerate(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
@@ -87,7 +95,8 @@ inline bool is_degenerate(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
 }
 
 inline Vec3f affine(const float m[12], const Vec3f& p) {
-    return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+    return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3],
+            m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
             m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
 }
 
@@ -264,7 +273,8 @@ struct Bvh::Builder {
     void build(uint32_t node, uint32_t begin, uint32_t end, uint32_t ext_end, int level,
                const Extent& e) {
         int d = depth.load(std::memory_order_relaxed);
-        while (level > d && !depth.compare_exchange_weak(d, level)) {}
+        while (level > d && !depth.compare_exchange_weak(d, level)) {
+        }
         const Box& bounds = e.bounds;
         const Box& centroid_bounds = e.centroids;
         Node& out = nodes[node];
@@ -287,8 +297,8 @@ struct Bvh::Builder {
         Box object_left, object_right;
         bool evaluated = false;
         if (level < kMaxSahDepth && max_component(extent) > 0.0f) {
-            best = find_sah_split(begin, end, centroid_bounds, axis, bin, object_left,
-                                  object_right);
+            best =
+                find_sah_split(begin, end, centroid_bounds, axis, bin, object_left, object_right);
             evaluated = true;
         }
         SpatialSplit sp;
@@ -299,8 +309,10 @@ struct Bvh::Builder {
             const bool apart = overlap.lo.y > overlap.hi.y || overlap.lo.z > overlap.hi.z;
             if (bin < 0 || (!apart && overlap.half_area() > kSplitOverlap * root_area)) {
                 sp = find_spatial_split(begin, end, bounds);
-                if (!(sp.cost < best) || sp.left + sp.right - n > ext_end - end) sp.cost = kInf;
-                else best = sp.cost, evaluated = true;
+                if (!(sp.cost < best) || sp.left + sp.right - n > ext_end - end)
+                    sp.cost = kInf;
+                else
+                    best = sp.cost, evaluated = true;
             }
         }
         if (evaluated) {
@@ -321,9 +333,12 @@ struct Bvh::Builder {
             } else if (bin >= 0) {
                 const float lo = component(centroid_bounds.lo, axis);
                 const float scale = kBins / component(extent, axis);
-                mid = partition(begin, end, [&](const Ref& r) {
-                    return bin_of(component(r.centroid, axis), lo, scale, kBins) < bin;
-                }, left_extent, right_extent);
+                mid = partition(
+                    begin, end,
+                    [&](const Ref& r) {
+                        return bin_of(component(r.centroid, axis), lo, scale, kBins) < bin;
+                    },
+                    left_extent, right_extent);
                 measured = true;
             }
         }
@@ -335,13 +350,14 @@ struct Bvh::Builder {
             measured = false;
         }
         if (mid == begin || mid == end) {
-            const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0
-                                                                           : (extent.y >= extent.z ? 1 : 2);
+            const int axis =
+                extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
             mid = begin + n / 2;
             std::nth_element(order.data() + begin, order.data() + mid, order.data() + end,
                              [&](uint32_t a, uint32_t b) {
-                return component(refs[a].centroid, axis) < component(refs[b].centroid, axis);
-            });
+                                 return component(refs[a].centroid, axis) <
+                                        component(refs[b].centroid, axis);
+                             });
             measured = false;
         }
         if (!measured) left_extent = extent_of(begin, mid), right_extent = extent_of(mid, end);

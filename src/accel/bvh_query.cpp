@@ -14,8 +14,8 @@ bool Bvh::intersect(const Ray<float>& ray, float tmax, TriangleHit& hit) const {
     const uint32_t j = h.lane % kWideBvhWidth;
     float t2 = 0.0f, b1 = 0.0f, b2 = 0.0f;
     intersect_triangle(ray, make_ray_shear(ray.d), Vec3f(v[0][j], v[1][j], v[2][j]),
-                       Vec3f(v[3][j], v[4][j], v[5][j]), Vec3f(v[6][j], v[7][j], v[8][j]),
-                       kRayFar, t2, b1, b2);
+                       Vec3f(v[3][j], v[4][j], v[5][j]), Vec3f(v[6][j], v[7][j], v[8][j]), kRayFar,
+                       t2, b1, b2);
     hit = {t, b1, b2, hit_triangle(view_, h)};
     return true;
 }

@@ -25,8 +25,7 @@ void Bvh::Builder::vertices(const Ref& r, Vec3f v[3]) const {
     v[0] = set.positions[tri[0]], v[1] = set.positions[tri[1]], v[2] = set.positions[tri[2]];
 }
 
-bool Bvh::Builder::edge_crossing(const Vec3f v[3], int i, int axis, float plane,
-                                 Vec3f& x) {
+bool Bvh::Builder::edge_crossing(const Vec3f v[3], int i, int axis, float plane, Vec3f& x) {
     const Vec3f& p = v[i];
     const Vec3f& q = v[i == 2 ? 0 : i + 1];
     const float pa = component(p, axis), qa = component(q, axis);
@@ -49,11 +48,9 @@ Box Bvh::Builder::slab_box(const Vec3f v[3], int axis, float a, float b) {
 }
 
 Bvh::Builder::SpatialSplit Bvh::Builder::find_spatial_split(uint32_t begin, uint32_t end,
-                                                         const Box& bounds) const {
+                                                            const Box& bounds) const {
     SpatialSplit best[3];
-    auto axis_split = [&](int axis) {
-        best[axis] = find_spatial_split(begin, end, bounds, axis);
-    };
+    auto axis_split = [&](int axis) { best[axis] = find_spatial_split(begin, end, bounds, axis); };
     if (end - begin > kParallelBelow)  // (the axes in parallel where the tree is not yet)
         oneapi::tbb::parallel_invoke([&] { axis_split(0); }, [&] { axis_split(1); },
                                      [&] { axis_split(2); });
@@ -64,7 +61,7 @@ Bvh::Builder::SpatialSplit Bvh::Builder::find_spatial_split(uint32_t begin, uint
 }
 
 Bvh::Builder::SpatialSplit Bvh::Builder::find_spatial_split(uint32_t begin, uint32_t end,
-                                                         const Box& bounds, int axis) const {
+                                                            const Box& bounds, int axis) const {
     SpatialSplit best, s;
     s.axis = axis, s.lo = component(bounds.lo, axis);
     const float extent = component(bounds.hi, axis) - s.lo;
@@ -126,8 +123,8 @@ Bvh::Builder::SpatialSplit Bvh::Builder::find_spatial_split(uint32_t begin, uint
 }
 
 uint32_t Bvh::Builder::spatial_partition(uint32_t begin, uint32_t end, uint32_t ext_end,
-                                         const SpatialSplit& sp, Extent& a, Extent& b,
-                                         uint32_t& nl, uint32_t& nr) {
+                                         const SpatialSplit& sp, Extent& a, Extent& b, uint32_t& nl,
+                                         uint32_t& nr) {
     std::vector<uint32_t> left, right;
     left.reserve(sp.left), right.reserve(sp.right);
     const float plane = sp.position();

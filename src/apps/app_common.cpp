@@ -29,9 +29,10 @@ void check_render_size(const Scene& scene, const fs::path& scene_file) {
         throw InputError(fmt::format("--width/--height: {}x{} exceeds the limit of 2^28 pixels",
                                      s.width, s.height));
     if (double(s.width) * double(s.height) * double(s.spp) > kMaxPaths)
-        throw InputError(fmt::format("{}: {}x{} pixels x {} paths per pixel exceeds the limit "
-                                     "of 1e12 paths in one render",
-                                     scene_file.string(), s.width, s.height, s.spp));
+        throw InputError(
+            fmt::format("{}: {}x{} pixels x {} paths per pixel exceeds the limit "
+                        "of 1e12 paths in one render",
+                        scene_file.string(), s.width, s.height, s.spp));
 }
 
 ImageLayers variance_layers(const Image& variance) {
@@ -44,8 +45,7 @@ ImageLayers variance_layers(const Image& variance) {
     return layers;
 }
 
-Image variance_from_layers(const ImageLayers& layers, int width, int height,
-                           const fs::path& path) {
+Image variance_from_layers(const ImageLayers& layers, int width, int height, const fs::path& path) {
     Image v(width, height);
     for (int c = 0; c < 3; ++c) {
         const auto it = layers.find(kVarianceLayers[c]);

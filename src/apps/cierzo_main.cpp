@@ -56,15 +56,16 @@ int run_render(RenderArgs& args) {
             std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
     // A model names no estimator and no paths: say what it gets and how to ask for more
     if (root && is_model_file(args.scene) && (!a.estimator || !a.spp))
-        std::fprintf(stderr, "%s\n",
-                     fmt::format("cierzo: {}: a model: {} at {} paths per pixel; --spp N for more "
-                                 "paths (the error falls as 1/sqrt(N)), --estimator NAME for "
-                                 "another",
-                                 args.scene.string(),
-                                 a.estimator ? *a.estimator
-                                             : std::string(estimator_name(loaded.settings.estimator.kind)),
-                                 a.spp ? *a.spp : loaded.settings.spp)
-                         .c_str());
+        std::fprintf(
+            stderr, "%s\n",
+            fmt::format("cierzo: {}: a model: {} at {} paths per pixel; --spp N for more "
+                        "paths (the error falls as 1/sqrt(N)), --estimator NAME for "
+                        "another",
+                        args.scene.string(),
+                        a.estimator ? *a.estimator
+                                    : std::string(estimator_name(loaded.settings.estimator.kind)),
+                        a.spp ? *a.spp : loaded.settings.spp)
+                .c_str());
     const RenderJobResult done = run_render_job(std::move(loaded), a);
     if (!root) return 0;
     const Scene& scene = done.scene;
@@ -98,7 +99,8 @@ int run_render(RenderArgs& args) {
                                st.spp_reached, s.spp);
     std::fprintf(stderr, "%s\n", summary.c_str());
     if (st.checkpoint_final_failed) {
-        std::fprintf(stderr, "cierzo: %s: the render's last state could not be written (see "
+        std::fprintf(stderr,
+                     "cierzo: %s: the render's last state could not be written (see "
                      "above); the image is written, the checkpoint is an earlier one or none\n",
                      done.checkpoint.string().c_str());
         return 1;
@@ -125,17 +127,19 @@ int run_main(int argc, char** argv) {
     app.require_subcommand(1);
     RenderArgs a;
     CLI::App* r = app.add_subcommand("render", "Render a scene file to an HDR image");
-    r->add_option("scene", a.scene,
-                  "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model to render "
-                  "with its own materials under a white sky, framed by a default camera, at 512x512 "
-                  "and 16 paths per pixel of mis, to STEM.exr in the current folder. A scene "
-                  "or model that names no estimator renders with mis; the scenes of scenes/ "
-                  "name theirs")
+    r->add_option(
+         "scene", a.scene,
+         "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model to render "
+         "with its own materials under a white sky, framed by a default camera, at 512x512 "
+         "and 16 paths per pixel of mis, to STEM.exr in the current folder. A scene "
+         "or model that names no estimator renders with mis; the scenes of scenes/ "
+         "name theirs")
         ->required()
         ->check(CLI::ExistingFile);
     r->add_option("--spp", a.job.spp, "Paths per pixel (overrides render.spp)")
         ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)));
-    r->add_option("--threads", a.job.threads, "Worker threads; 0 = every CPU this process may run on")
+    r->add_option("--threads", a.job.threads,
+                  "Worker threads; 0 = every CPU this process may run on")
         ->check(CLI::Range(0, 4096))
         ->capture_default_str();
     r->add_option("--seed", a.job.seed, "Random seed (overrides render.seed)");
@@ -171,9 +175,10 @@ int run_main(int argc, char** argv) {
                   "The vertex the throughput roulette starts at, the camera's first hit being 0 "
                   "(overrides render.roulette_depth; default 1)")
         ->check(CLI::Range(0, kMaxRouletteDepth));
-    r->add_option("--sampler", a.job.sampler,
-                  "Where the random numbers come from: " + describe_samplers() +
-                  "; every estimator (overrides render.sampler; docs/estimators.md, \"samplers\")")
+    r->add_option(
+         "--sampler", a.job.sampler,
+         "Where the random numbers come from: " + describe_samplers() +
+             "; every estimator (overrides render.sampler; docs/estimators.md, \"samplers\")")
         ->check(CLI::IsMember(sampler_names()));
     r->add_option("--min-length", a.job.min_length,
                   "Count only light carried by paths of at least this many segments (the camera "
@@ -197,14 +202,16 @@ int run_main(int argc, char** argv) {
                   "One render, by the scalar integrator, in one process, without checkpoints "
                   "(docs/estimators.md, \"strategy images\")")
         ->type_name("DIR");
-    r->add_option("--merge-radius", a.job.merge_radius,
-                  "vcm, bpm, ppm: the first sample's merging radius r0, in scene units; sample n merges "
-                  "within r0 * (n + 1)^((alpha - 1) / 2) (overrides render.merge_radius; "
-                  "default: 0.05 of half the diagonal of the box around the scene's bounded "
-                  "objects and the camera)");
-    r->add_option("--merge-alpha", a.job.merge_alpha,
-                  "vcm, bpm, ppm: how fast the merging radius shrinks, alpha in (0, 1): the error's bias "
-                  "vanishes as the radius does (overrides render.merge_alpha; default 0.75)");
+    r->add_option(
+        "--merge-radius", a.job.merge_radius,
+        "vcm, bpm, ppm: the first sample's merging radius r0, in scene units; sample n merges "
+        "within r0 * (n + 1)^((alpha - 1) / 2) (overrides render.merge_radius; "
+        "default: 0.05 of half the diagonal of the box around the scene's bounded "
+        "objects and the camera)");
+    r->add_option(
+        "--merge-alpha", a.job.merge_alpha,
+        "vcm, bpm, ppm: how fast the merging radius shrinks, alpha in (0, 1): the error's bias "
+        "vanishes as the radius does (overrides render.merge_alpha; default 0.75)");
     r->add_option("--light-connections", a.job.light_connections,
                   "bdpt, vcm: what a Phong camera vertex connects to: 0, every stored vertex of "
                   "its own light subpath; N (1..64), N vertices drawn from the light vertex "
@@ -215,21 +222,25 @@ int run_main(int argc, char** argv) {
                 "With --strategy: without its MIS weight (each strategy alone is an unbiased "
                 "image of the paths it can make)");
     r->add_option("--estimator", a.job.estimator,
-                  describe_estimators() + "; overrides render.estimator. Sampled emitters: "
-                  "spheres and triangles of solid emission (two that make a rectangle as one). nee and mis "
-                  "default to cosine "
-                  "diffuse sampling, the throughput roulette, triangles by solid angle and the "
-                  "sobol sampler (chosen by measured efficiency; docs/estimators.md), bdpt, vcm, bpm and ppm "
-                  "to cosine diffuse sampling, triangles by solid angle and the sobol sampler "
-                  "(with the lobe roulette), report and lt to the report's settings; an option "
-                  "or scene key given keeps its value")
+                  describe_estimators() +
+                      "; overrides render.estimator. Sampled emitters: "
+                      "spheres and triangles of solid emission (two that make a rectangle as one). "
+                      "nee and mis "
+                      "default to cosine "
+                      "diffuse sampling, the throughput roulette, triangles by solid angle and the "
+                      "sobol sampler (chosen by measured efficiency; docs/estimators.md), bdpt, "
+                      "vcm, bpm and ppm "
+                      "to cosine diffuse sampling, triangles by solid angle and the sobol sampler "
+                      "(with the lobe roulette), report and lt to the report's settings; an option "
+                      "or scene key given keeps its value")
         ->check(CLI::IsMember(estimator_names()));
     r->add_option("--integrator", a.job.integrator, describe_integrators())
         ->check(CLI::IsMember(integrator_names()))
         ->capture_default_str();
     r->add_option("--isa", a.job.isa,
                   "Wavefront instruction set: auto (the best this CPU has), avx512, avx2, sse4.2 "
-                  "(x86-64), neon (aarch64); valid on this CPU: " + usable_isa_names())
+                  "(x86-64), neon (aarch64); valid on this CPU: " +
+                      usable_isa_names())
         ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2", "neon"}))
         ->capture_default_str();
     r->add_option("--pool", a.job.pool,
@@ -243,7 +254,8 @@ int run_main(int argc, char** argv) {
                   "measured fastest)")
         ->check(CLI::Range(1, 64))
         ->capture_default_str();
-    r->add_option("--out", a.job.out, "Output image, .exr (float32) or .pfm (overrides render.output)");
+    r->add_option("--out", a.job.out,
+                  "Output image, .exr (float32) or .pfm (overrides render.output)");
     r->add_option("--stats", a.job.stats,
                   "Write run statistics as JSON: time, paths, rays by kind, rays/s, error "
                   "(- for standard output)");
@@ -285,8 +297,9 @@ int run_main(int argc, char** argv) {
     CLI::App* converge = add_converge_command(app);
     CLI::App* trace = add_trace_command(app);
     CLI::App* isas = app.add_subcommand(
-        "isas", "List the wavefront's instruction sets: lanes, whether this CPU runs each (and "
-                "which auto picks), and why not");
+        "isas",
+        "List the wavefront's instruction sets: lanes, whether this CPU runs each (and "
+        "which auto picks), and why not");
     CLI11_PARSE(app, argc, argv);
     const mpi::World& world = mpi::world();
     // Messages of a rank other than 0 say which rank they come from
@@ -294,8 +307,9 @@ int run_main(int argc, char** argv) {
         world.rank == 0 ? "cierzo" : fmt::format("cierzo (rank {} of {})", world.rank, world.size);
     try {
         if (world.size > 1 && !r->parsed())
-            throw InputError("only `cierzo render` runs across MPI ranks; run this command in "
-                             "one process");
+            throw InputError(
+                "only `cierzo render` runs across MPI ranks; run this command in "
+                "one process");
         a.job.checkpoint_every_given = r->count("--checkpoint-every") > 0;
         a.job.integrator_given = r->count("--integrator") > 0;
         a.job.strategies = r->count("--strategies") > 0;

@@ -36,8 +36,8 @@ ConvergeArgs g_args;
 // Every combination of the knobs; those that do not apply to the scalar reference (ISA,
 // pool) are not repeated for it.
 std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
-    const std::vector<float> caps = a.survival_caps.empty() ? std::vector<float>{-1.0f}
-                                                            : a.survival_caps;
+    const std::vector<float> caps =
+        a.survival_caps.empty() ? std::vector<float>{-1.0f} : a.survival_caps;
     std::vector<int> diffuse;
     for (const std::string& d : a.diffuse_sampling) diffuse.push_back(d == "cosine");
     if (diffuse.empty()) diffuse.push_back(-1);
@@ -54,8 +54,10 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
     for (const std::string& s : a.samplers) samplers.push_back(int(*parse_sampler(s)));
     if (samplers.empty()) samplers.push_back(-1);
     // (the merging radius and exponent: swept for vcm, bpm and ppm alone)
-    const std::vector<float> radii = a.merge_radii.empty() ? std::vector<float>{-1.0f} : a.merge_radii;
-    const std::vector<float> alphas = a.merge_alphas.empty() ? std::vector<float>{-1.0f} : a.merge_alphas;
+    const std::vector<float> radii =
+        a.merge_radii.empty() ? std::vector<float>{-1.0f} : a.merge_radii;
+    const std::vector<float> alphas =
+        a.merge_alphas.empty() ? std::vector<float>{-1.0f} : a.merge_alphas;
     // (and the connections' draws for bdpt and vcm alone)
     const std::vector<int> draws =
         a.light_connections.empty() ? std::vector<int>{-1} : a.light_connections;
@@ -75,22 +77,25 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                                         const bool vcm = merges(Estimator(e));
                                         const bool connecting = connects(Estimator(e));
                                         for (float radius : vcm ? radii : std::vector<float>{-1.0f})
-                                          for (float alpha : vcm ? alphas : std::vector<float>{-1.0f})
-                                            for (int n : connecting ? draws : std::vector<int>{-1})
-                                                out.push_back({.integrator = integrator,
-                                                               .isa = scalar ? "auto" : isa,
-                                                               .pool_size = pool,
-                                                               .survival_cap = cap,
-                                                               .cosine_diffuse = d,
-                                                               .estimator = e,
-                                                               .roulette = r,
-                                                               .triangle_solid_angle = t,
-                                                               .roulette_depth =
-                                                                   a.roulette_depth.value_or(-1),
-                                                               .sampler = smp,
-                                                               .merge_radius = radius,
-                                                               .merge_alpha = alpha,
-                                                               .light_connections = n});
+                                            for (float alpha :
+                                                 vcm ? alphas : std::vector<float>{-1.0f})
+                                                for (int n :
+                                                     connecting ? draws : std::vector<int>{-1})
+                                                    out.push_back(
+                                                        {.integrator = integrator,
+                                                         .isa = scalar ? "auto" : isa,
+                                                         .pool_size = pool,
+                                                         .survival_cap = cap,
+                                                         .cosine_diffuse = d,
+                                                         .estimator = e,
+                                                         .roulette = r,
+                                                         .triangle_solid_angle = t,
+                                                         .roulette_depth =
+                                                             a.roulette_depth.value_or(-1),
+                                                         .sampler = smp,
+                                                         .merge_radius = radius,
+                                                         .merge_alpha = alpha,
+                                                         .light_connections = n});
                                     }
     }
     return out;
@@ -127,7 +132,8 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},"
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:."
+        "6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
         p.estimator.survival_cap, diffuse_name(p.estimator), roulette_label(p.estimator),
@@ -138,11 +144,11 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
         merges(p.estimator.kind) ? fmt::format("{:.6g}", p.estimator.merge_alpha) : std::string(),
         // (the connections' draws as rendered, bdpt's and vcm's; empty for the others)
         connects(p.estimator.kind) ? std::to_string(p.estimator.light_connections) : std::string(),
-        p.stats.threads,
-        scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
-        p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
-        e.reference_mse, e.reference_rel_mse, e.mse_corrected(), std::sqrt(e.mse_corrected()),
-        e.rel_mse_corrected(), p.estimated_relative_error, efficiency);
+        p.stats.threads, scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds,
+        p.rays, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse),
+        e.rel_mse, e.reference_mse, e.reference_rel_mse, e.mse_corrected(),
+        std::sqrt(e.mse_corrected()), e.rel_mse_corrected(), p.estimated_relative_error,
+        efficiency);
 }
 
 }  // namespace
@@ -153,7 +159,8 @@ CLI::App* add_converge_command(CLI::App& app) {
         "converge",
         "Measure error against time: render a scene at increasing paths per pixel for each "
         "combination of the knobs given, against a reference");
-    c->add_option("scene", a.scene, "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model")
+    c->add_option("scene", a.scene,
+                  "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model")
         ->required()
         ->check(CLI::ExistingFile);
     CLI::Option* reference =
@@ -191,7 +198,8 @@ CLI::App* add_converge_command(CLI::App& app) {
         ->capture_default_str();
     c->add_option("--isa", a.isas,
                   "Wavefront instruction sets to sweep: auto, avx512, avx2, sse4.2 (x86-64), "
-                  "neon (aarch64); valid on this CPU: " + usable_isa_names())
+                  "neon (aarch64); valid on this CPU: " +
+                      usable_isa_names())
         ->delimiter(',')
         ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2", "neon"}))
         ->capture_default_str();
@@ -213,9 +221,9 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "scene's")
         ->delimiter(',')
         ->check(CLI::IsMember({"area", "solid-angle"}));
-    c->add_option("--sampler", a.samplers,
-                  "Samplers to sweep, comma-separated: " + describe_samplers() +
-                      "; default: the scene's")
+    c->add_option(
+         "--sampler", a.samplers,
+         "Samplers to sweep, comma-separated: " + describe_samplers() + "; default: the scene's")
         ->delimiter(',')
         ->check(CLI::IsMember(sampler_names()));
     const auto positive = CLI::Validator(
@@ -230,14 +238,16 @@ CLI::App* add_converge_command(CLI::App& app) {
             return x > 0.0 && x < 1.0 ? std::string() : "must be in (0, 1), exclusive";
         },
         "(0, 1)");
-    c->add_option("--merge-radius", a.merge_radii,
-                  "The first merging radii r0 of vcm, bpm and ppm to sweep (scene units, each > 0; render's "
-                  "--merge-radius); default: the scene's")
+    c->add_option(
+         "--merge-radius", a.merge_radii,
+         "The first merging radii r0 of vcm, bpm and ppm to sweep (scene units, each > 0; render's "
+         "--merge-radius); default: the scene's")
         ->delimiter(',')
         ->check(positive);
-    c->add_option("--merge-alpha", a.merge_alphas,
-                  "The merging radius exponents alpha of vcm, bpm and ppm to sweep, each in (0, 1); "
-                  "default: the scene's")
+    c->add_option(
+         "--merge-alpha", a.merge_alphas,
+         "The merging radius exponents alpha of vcm, bpm and ppm to sweep, each in (0, 1); "
+         "default: the scene's")
         ->delimiter(',')
         ->check(open_unit);
     c->add_option("--light-connections", a.light_connections,
@@ -246,9 +256,9 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "default: the scene's")
         ->delimiter(',')
         ->check(CLI::Range(0, int(kMaxLightConnections)));
-    c->add_option("--roulette", a.roulettes,
-                  "Roulettes to sweep, comma-separated: " + describe_roulettes() +
-                      "; default: the scene's")
+    c->add_option(
+         "--roulette", a.roulettes,
+         "Roulettes to sweep, comma-separated: " + describe_roulettes() + "; default: the scene's")
         ->delimiter(',')
         ->check(CLI::IsMember(roulette_names()));
     c->add_option("--roulette-depth", a.roulette_depth,
@@ -285,7 +295,8 @@ CLI::App* add_converge_command(CLI::App& app) {
     c->footer(
         "Errors are averaged over pixels and channels: RMSE, and relative MSE (x-r)^2/(r^2+0.01).\n"
         "A rendered reference's own variance is subtracted (the *_corrected columns), so the\n"
-        "error is that against the true image; efficiency = 1 / (rel_mse_corrected x seconds).\n\n" +
+        "error is that against the true image; efficiency = 1 / (rel_mse_corrected x "
+        "seconds).\n\n" +
         std::string(kOutputPolicy));
     return c;
 }
@@ -312,8 +323,9 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
             const std::optional<Estimator> kind = parse_estimator(e);
             return kind && connects(*kind);
         }))
-        throw InputError("--light-connections: connections are bdpt's and vcm's; sweep them with "
-                         "--estimator bdpt (or vcm)");
+        throw InputError(
+            "--light-connections: connections are bdpt's and vcm's; sweep them with "
+            "--estimator bdpt (or vcm)");
     if (!a.merge_radii.empty() || !a.merge_alphas.empty()) {
         // (the radii are swept for the configurations of --estimator vcm, bpm or ppm alone: a
         // scene's own vcm without --estimator would ignore them)
@@ -321,9 +333,10 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
                 const std::optional<Estimator> kind = parse_estimator(e);
                 return kind && merges(*kind);
             }))
-            throw InputError(std::string(a.merge_radii.empty() ? "--merge-alpha" : "--merge-radius") +
-                             ": merging is vcm's, bpm's and ppm's; sweep it with --estimator vcm "
-                             "(or bpm, ppm)");
+            throw InputError(
+                std::string(a.merge_radii.empty() ? "--merge-alpha" : "--merge-radius") +
+                ": merging is vcm's, bpm's and ppm's; sweep it with --estimator vcm "
+                "(or bpm, ppm)");
     }
     if (!a.save_reference.empty() && a.save_reference.extension() != ".exr")
         throw InputError(a.save_reference.string() + ": --save-reference must end in .exr");
@@ -352,8 +365,8 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         if (a.reference.extension() == ".exr") {
             reference = read_exr(a.reference, nullptr, &layers);
             if (layers.count("variance.R")) {
-                variance = variance_from_layers(layers, reference.width, reference.height,
-                                                a.reference);
+                variance =
+                    variance_from_layers(layers, reference.width, reference.height, a.reference);
                 have_variance = true;
             }
         } else {
@@ -385,8 +398,8 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         have_variance = true;
         if (a.summary)
             std::fprintf(stderr, "reference: %lld paths per pixel, %s, %.2f s\n",
-                     static_cast<long long>(a.reference_spp), r.stats.isa.c_str(),
-                     r.stats.seconds);
+                         static_cast<long long>(a.reference_spp), r.stats.isa.c_str(),
+                         r.stats.seconds);
         if (!a.save_reference.empty())
             write_hdr(a.save_reference, reference,
                       {{"cierzo:scene", scene.source.string()},
@@ -417,8 +430,8 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
     };
     if (!a.quiet)
         std::fprintf(table, "%-9s %-7s %5s %5s %-7s %-11s %-11s %-6s %7s %10s %12s %12s %12s\n",
-                     "integr.", "isa", "pool", "cap", "diffuse", "roulette", "sampler", "est.", "spp",
-                     "seconds", "Mrays/s", "RMSE", "relMSE");
+                     "integr.", "isa", "pool", "cap", "diffuse", "roulette", "sampler", "est.",
+                     "spp", "seconds", "Mrays/s", "RMSE", "relMSE");
     const std::vector<ConvergePoint> points = run_converge(
         scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
             rows.push_back(csv_row(scene, p));
@@ -427,13 +440,12 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
             std::fprintf(table,
                          "%-9s %-7s %5d %5.2f %-7s %-11s %-11s %-6s %7lld %10.4f %12.2f %12.4g "
                          "%12.4g\n",
-                        p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
-                        p.estimator.survival_cap, diffuse_name(p.estimator),
-                        roulette_label(p.estimator).c_str(), sampler_name(p.estimator.sampler),
-                        estimator_name(p.estimator.kind),
-                        static_cast<long long>(p.spp), p.seconds,
-                        p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
-                        std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
+                         p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
+                         p.estimator.survival_cap, diffuse_name(p.estimator),
+                         roulette_label(p.estimator).c_str(), sampler_name(p.estimator.sampler),
+                         estimator_name(p.estimator.kind), static_cast<long long>(p.spp), p.seconds,
+                         p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
+                         std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
             std::fflush(table);
         });
 
@@ -453,8 +465,7 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
                      last->config.integrator.c_str(), last->stats.isa.c_str(),
                      last->stats.pool_size, last->estimator.survival_cap,
                      diffuse_name(last->estimator), roulette_label(last->estimator).c_str(),
-                     sampler_name(last->estimator.sampler),
-                     estimator_name(last->estimator.kind),
+                     sampler_name(last->estimator.sampler), estimator_name(last->estimator.kind),
                      log_log_slope(x, y), last->seconds / double(last->spp));
     }
     if (csv_stream) csv_stream->close();

@@ -43,8 +43,8 @@ struct ConvergeArgs {
     int threads = 0;
     int repeats = 1;
     std::filesystem::path out;
-    bool quiet = false;    // print only the summary
-    bool summary = true;   // print the reference's time and each configuration's slope
+    bool quiet = false;   // print only the summary
+    bool summary = true;  // print the reference's time and each configuration's slope
     const std::atomic<bool>* cancel = nullptr;  // set to stop: the rows measured so far
 };
 

@@ -30,7 +30,8 @@ namespace {
 // Whether `spp` ends a pass of an uninterrupted render of `target` paths per pixel
 // (pass_bounds from zero) of an image of `pixels`.
 bool on_pass_schedule(int64_t spp, int64_t target, int64_t pixels) {
-    for (int64_t b : pass_bounds(0, target, pixels)) if (b == spp) return true;
+    for (int64_t b : pass_bounds(0, target, pixels))
+        if (b == spp) return true;
     return false;
 }
 
@@ -44,34 +45,38 @@ StrategyLayout strategy_layout(const Scene& scene, const RenderJob& a, int ranks
     };
     if (!traits(e.kind).strategy_images)
         refuse(std::string("strategy images are bdpt's (this render's estimator is ") +
-               estimator_name(e.kind) + (merges(e.kind) ? "; merging is no strategy (s, t))" : ")"));
+               estimator_name(e.kind) +
+               (merges(e.kind) ? "; merging is no strategy (s, t))" : ")"));
     if (!a.strategy.empty())
         refuse("it records every strategy; --strategy keeps one (give one or the other)");
     if (a.integrator_given && integrator_of(a.integrator) != Integrator::kScalar)
-        refuse("the scalar integrator records the strategy images (--integrator scalar, or "
-               "leave --integrator out)");
+        refuse(
+            "the scalar integrator records the strategy images (--integrator scalar, or "
+            "leave --integrator out)");
     if (ranks > 1)
-        refuse("one process records the strategy images (this run has " +
-               std::to_string(ranks) + " MPI ranks)");
+        refuse("one process records the strategy images (this run has " + std::to_string(ranks) +
+               " MPI ranks)");
     if (!a.checkpoint.empty() || !a.resume.empty())
         refuse("a render with strategy images takes no checkpoint and resumes none");
     StrategyLayout layout;
     if (e.max_length == kNoLengthLimit) {
         layout.max_length = StrategyLayout::kDefaultLength;
     } else if (e.max_length > StrategyLayout::kLengthLimit) {
-        refuse(fmt::format("strategy images go up to paths of {} segments; the render's "
-                           "--max-length (or render.max_length) is {}",
-                           StrategyLayout::kLengthLimit, e.max_length));
+        refuse(
+            fmt::format("strategy images go up to paths of {} segments; the render's "
+                        "--max-length (or render.max_length) is {}",
+                        StrategyLayout::kLengthLimit, e.max_length));
     } else {
         layout.max_length = e.max_length;
     }
     const RenderSettings& s = scene.settings;
     const size_t bytes = StrategyFilm::bytes(s.width, s.height, layout);
     if (bytes > kStrategyMemoryLimit)
-        refuse(fmt::format("{} strategies (paths up to {} segments) at {}x{} take {:.1f} GiB, "
-                           "more than the {} GiB allowed: lower --max-length or the resolution",
-                           layout.count(), layout.max_length, s.width, s.height,
-                           double(bytes) / double(size_t(1) << 30), kStrategyMemoryLimit >> 30));
+        refuse(
+            fmt::format("{} strategies (paths up to {} segments) at {}x{} take {:.1f} GiB, "
+                        "more than the {} GiB allowed: lower --max-length or the resolution",
+                        layout.count(), layout.max_length, s.width, s.height,
+                        double(bytes) / double(size_t(1) << 30), kStrategyMemoryLimit >> 30));
     return layout;
 }
 
@@ -85,8 +90,8 @@ void check_render_outputs(const Scene& scene, const RenderJob& a, const fs::path
         const std::string ext = image.extension().string();
         if (ext != ".exr" && ext != ".pfm")
             throw InputError(image.string() + ": output must end in .exr or .pfm");
-        outputs.push_back({image, a.out.empty() ? "the scene's render.output" : "--out",
-                           "the image"});
+        outputs.push_back(
+            {image, a.out.empty() ? "the scene's render.output" : "--out", "the image"});
         outputs.push_back({a.stats, "--stats", "the statistics"});
         if (a.strategies && a.strategies_dir.empty())
             throw InputError("--strategies: empty folder name");
@@ -118,7 +123,8 @@ void check_render_outputs(const Scene& scene, const RenderJob& a, const fs::path
         if (checkpoint.extension() != ".exr")
             throw InputError(checkpoint.string() + ": a checkpoint must end in .exr");
         if (resolve_output(checkpoint, "the checkpoint").kind != OutputTarget::Kind::kFile)
-            throw InputError(checkpoint.string() + ": " + option + " must be a regular file "
+            throw InputError(checkpoint.string() + ": " + option +
+                             " must be a regular file "
                              "(a checkpoint is read back by --resume)");
         outputs.push_back({checkpoint, option, "the checkpoint"});
     }
@@ -146,8 +152,10 @@ void check_render_isa(const RenderJob& job) {
 void apply_spatial_splits(Scene& scene, std::optional<float> budget) {
     if (!budget) return;
     if (!(*budget >= 0.0f && *budget <= kBvhMaxSplitBudget))
-        throw InputError("--spatial-splits: must be in [0, 4], the fraction of extra triangle "
-                         "references the BVH may cut (got " + fmt::format("{}", *budget) + ")");
+        throw InputError(
+            "--spatial-splits: must be in [0, 4], the fraction of extra triangle "
+            "references the BVH may cut (got " +
+            fmt::format("{}", *budget) + ")");
     if (*budget == scene.settings.spatial_splits) return;
     scene.settings.spatial_splits = *budget;
     scene.finalize();  // (the BVH again, with the scene's other tables)
@@ -190,10 +198,11 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
     }
     if (a.light_connections) {
         if (*a.light_connections < 0 || *a.light_connections > kMaxLightConnections)
-            throw InputError("--light-connections: must be 0 (every vertex of the sample's own "
-                             "light subpath) or 1.." + std::to_string(kMaxLightConnections) +
-                             " draws from the light vertex cache (got " +
-                             std::to_string(*a.light_connections) + ")");
+            throw InputError(
+                "--light-connections: must be 0 (every vertex of the sample's own "
+                "light subpath) or 1.." +
+                std::to_string(kMaxLightConnections) + " draws from the light vertex cache (got " +
+                std::to_string(*a.light_connections) + ")");
         if (!connects(e.kind))
             throw InputError(std::string("--light-connections: connections are bdpt's and vcm's "
                                          "(this render's estimator is ") +
@@ -212,13 +221,15 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
         if (a.strategy.size() != 2 || a.strategy[0] < 0 || a.strategy[1] < 1 ||
             a.strategy[0] + a.strategy[1] < 2 || a.strategy[0] > kMaxLengthLimit ||
             a.strategy[1] > kMaxLengthLimit)
-            throw InputError("--strategy: expected S,T with S >= 0 light vertices and T >= 1 "
-                             "camera vertices (the pinhole counts as one), S + T >= 2");
+            throw InputError(
+                "--strategy: expected S,T with S >= 0 light vertices and T >= 1 "
+                "camera vertices (the pinhole counts as one), S + T >= 2");
         e.strategy_s = a.strategy[0], e.strategy_t = a.strategy[1];
     }
     if (a.unweighted && a.strategy.empty())
-        throw InputError("--unweighted: it shows one strategy without its weight; name it with "
-                         "--strategy S,T");
+        throw InputError(
+            "--unweighted: it shows one strategy without its weight; name it with "
+            "--strategy S,T");
     e.unweighted = a.unweighted;
     if (!a.out.empty()) s.output = a.out;
     check_render_size(scene, scene.source);
@@ -246,9 +257,7 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
 
     // Checkpoints: what the pixels depend on, the state to continue from, where to write
     const bool wavefront = options.integrator == Integrator::kWavefront;
-    const int pool = wavefront
-                         ? (a.pool > 0 ? a.pool : WavefrontRenderer::kDefaultPoolSize)
-                         : 0;
+    const int pool = wavefront ? (a.pool > 0 ? a.pool : WavefrontRenderer::kDefaultPoolSize) : 0;
     const Isa chosen = parse_isa(a.isa) == Isa::kAuto ? best_isa() : parse_isa(a.isa);
     const std::string isa = wavefront ? isa_name(chosen) : "scalar";
     const fs::path checkpoint = !a.checkpoint.empty() ? a.checkpoint : a.resume;
@@ -281,9 +290,10 @@ RenderJobResult run_render_job(Scene scene_in, const RenderJob& a) {
         resume_warnings = check_resume(a.resume, *resumed, identity);
         const int64_t spp_done = resumed->state.spp_done;
         if (spp_done > s.spp)
-            throw InputError(fmt::format("{}: the checkpoint already has {} paths per pixel, "
-                                         "more than the {} asked for",
-                                         a.resume.string(), spp_done, s.spp));
+            throw InputError(
+                fmt::format("{}: the checkpoint already has {} paths per pixel, "
+                            "more than the {} asked for",
+                            a.resume.string(), spp_done, s.spp));
         if (spp_done < s.spp && !on_pass_schedule(spp_done, s.spp, pass_pixels(scene)))
             resume_warnings.push_back(fmt::format(
                 "{}: the checkpoint is a finished render of {} paths per pixel; continued to {}, "
@@ -310,8 +320,8 @@ fs::path strategy_image_path(const fs::path& dir, const StrategyLayout& layout, 
                              bool weighted) {
     int s = 0, t = 0;
     layout.strategy(i, s, t);
-    return dir / fmt::format("length{}_s{}_t{}{}.exr", s + t - 1, s, t,
-                             weighted ? "" : "_unweighted");
+    return dir /
+           fmt::format("length{}_s{}_t{}{}.exr", s + t - 1, s, t, weighted ? "" : "_unweighted");
 }
 
 ImageMetadata render_metadata(const Scene& scene, const RenderStats& st) {
@@ -339,28 +349,35 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         {"spp_reached", st.spp_reached},
         {"seed", scene.settings.seed},
         {"estimator", estimator_name(scene.settings.estimator.kind)},
-        {"emitters", {{"sampled", scene.emitters.count()},
-                      {"sampled_objects", scene.emitters.sampled_objects},
-                      {"unsampled_objects", scene.emitters.unsampled_objects}}},
+        {"emitters",
+         {{"sampled", scene.emitters.count()},
+          {"sampled_objects", scene.emitters.sampled_objects},
+          {"unsampled_objects", scene.emitters.unsampled_objects}}},
         {"seconds", st.seconds},
         {"paths", st.paths},
-        {"rays", {{"camera", st.rays.camera}, {"extension", st.rays.extension},
-                  {"shadow", st.rays.shadow}, {"light", st.rays.light},
-                  {"total", st.rays.total()}}},
+        {"rays",
+         {{"camera", st.rays.camera},
+          {"extension", st.rays.extension},
+          {"shadow", st.rays.shadow},
+          {"light", st.rays.light},
+          {"total", st.rays.total()}}},
         {"rays_per_second", st.rays_per_second()},
         {"rays_per_second_per_thread", st.rays_per_second() / total_threads(st)},
         {"nonfinite_samples", st.nonfinite_samples},
-        {"lane_utilisation", {{"shading", st.shade_lane_utilisation},
-                              {"intersection", st.isect_lane_utilisation},
-                              {"shadow", st.shadow_lane_utilisation}}},
-        {"pool", {{"paths", st.pool_size}, {"bytes", st.pool_bytes},
-                  {"light_store_bytes", st.light_store_bytes}}},
+        {"lane_utilisation",
+         {{"shading", st.shade_lane_utilisation},
+          {"intersection", st.isect_lane_utilisation},
+          {"shadow", st.shadow_lane_utilisation}}},
+        {"pool",
+         {{"paths", st.pool_size},
+          {"bytes", st.pool_bytes},
+          {"light_store_bytes", st.light_store_bytes}}},
         {"ray_group", st.ray_group},
-        {"scheduler", {{"units", st.units},
-                       {"seconds", st.scheduler_seconds},
-                       {"microseconds_per_unit",
-                        st.units ? st.scheduler_seconds * 1e6 / double(st.units) : 0.0},
-                       {"idle_seconds", st.idle_seconds}}},
+        {"scheduler",
+         {{"units", st.units},
+          {"seconds", st.scheduler_seconds},
+          {"microseconds_per_unit", st.units ? st.scheduler_seconds * 1e6 / double(st.units) : 0.0},
+          {"idle_seconds", st.idle_seconds}}},
         {"mean_relative_error", st.mean_relative_error ? nlohmann::json(*st.mean_relative_error)
                                                        : nlohmann::json(nullptr)},
         {"stopped_by", st.stopped_by},
@@ -392,8 +409,12 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         uint64_t rays = 0;
         int threads = 0;
         for (const RankStats& r : st.ranks) {
-            ranks.push_back({{"rank", r.rank}, {"host", r.host}, {"threads", r.threads},
-                             {"units", r.units}, {"rays", r.rays}, {"seconds", r.seconds},
+            ranks.push_back({{"rank", r.rank},
+                             {"host", r.host},
+                             {"threads", r.threads},
+                             {"units", r.units},
+                             {"rays", r.rays},
+                             {"seconds", r.seconds},
                              {"rays_per_second", r.rays_per_second()}});
             rays += r.rays, threads += r.threads;
         }
@@ -413,10 +434,13 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         instances += m.instanced();
         if (m.bvh) mesh_bytes += m.bvh->stats().bytes;
     }
-    j["bvh"] = {{"primitives", b.primitives}, {"references", b.references},
+    j["bvh"] = {{"primitives", b.primitives},
+                {"references", b.references},
                 {"spatial_splits", scene.settings.spatial_splits},
-                {"nodes", b.nodes}, {"bytes", b.bytes},
-                {"instances", instances}, {"instanced_mesh_bytes", mesh_bytes},
+                {"nodes", b.nodes},
+                {"bytes", b.bytes},
+                {"instances", instances},
+                {"instanced_mesh_bytes", mesh_bytes},
                 {"unbounded", scene.planes.size() + scene.unbounded_quadrics.size()},
                 {"build_seconds", scene.bvh_seconds}};
     // Reading the scene: all of it, the images' decoding and the BVH's build within it

@@ -26,18 +26,18 @@ struct RenderJob {
     std::optional<uint32_t> seed;
     std::optional<int> width, height;
     std::optional<float> survival_cap;
-    std::optional<float> spatial_splits;          // the BVH's split budget (rebuilds it)
-    std::optional<std::string> diffuse_sampling;  // uniform or cosine
+    std::optional<float> spatial_splits;           // the BVH's split budget (rebuilds it)
+    std::optional<std::string> diffuse_sampling;   // uniform or cosine
     std::optional<std::string> triangle_sampling;  // area or solid-angle
-    std::optional<std::string> roulette;          // lobe or throughput
+    std::optional<std::string> roulette;           // lobe or throughput
     std::optional<int> roulette_depth;
-    std::optional<std::string> sampler;           // independent, sobol, zsobol or pmj02
-    std::optional<int> min_length, max_length;    // path lengths that count
-    std::vector<int> strategy;                    // bdpt: {s, t}, the one strategy kept
-    bool unweighted = false;                      // ... without its weight
+    std::optional<std::string> sampler;              // independent, sobol, zsobol or pmj02
+    std::optional<int> min_length, max_length;       // path lengths that count
+    std::vector<int> strategy;                       // bdpt: {s, t}, the one strategy kept
+    bool unweighted = false;                         // ... without its weight
     std::optional<float> merge_radius, merge_alpha;  // vcm: r0 and α
-    std::optional<int32_t> light_connections;       // bdpt, vcm: the light vertex cache's draws
-    std::optional<std::string> estimator;         // report, nee or mis
+    std::optional<int32_t> light_connections;        // bdpt, vcm: the light vertex cache's draws
+    std::optional<std::string> estimator;            // report, nee or mis
     // bdpt: also record every strategy's image (integrators/strategies.h), written to
     // `strategies_dir` when outputs are written (the Python module keeps them)
     bool strategies = false;

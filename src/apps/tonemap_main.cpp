@@ -48,9 +48,9 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--gamma", options.gamma, "Gamma G of the gamma and clamp-gamma operators")
         ->capture_default_str();
-    CLI::Option* clamp_option = app.add_option(
-        "--clamp", clamp,
-        "Saturation value V of clamp, equalize-clamp and clamp-gamma [default: 1]");
+    CLI::Option* clamp_option =
+        app.add_option("--clamp", clamp,
+                       "Saturation value V of clamp, equalize-clamp and clamp-gamma [default: 1]");
     app.footer(operator_footer() + "\n" + cierzo::kOutputPolicy + "\n");
     CLI11_PARSE(app, argc, argv);
 

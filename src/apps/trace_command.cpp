@@ -52,8 +52,8 @@ std::vector<float> read_rays(const fs::path& path) {
         throw InputError(path.string() + ": truncated: no ray count after the magic");
     const uintmax_t size = fs::file_size(path);
     if (count > (size - 16) / 28 || size != 16 + 28 * count)
-        throw InputError(path.string() + ": the header says " + std::to_string(count) +
-                         " rays (" + std::to_string(16 + 28 * count) + " bytes) but the file has " +
+        throw InputError(path.string() + ": the header says " + std::to_string(count) + " rays (" +
+                         std::to_string(16 + 28 * count) + " bytes) but the file has " +
                          std::to_string(size) + " bytes");
     std::vector<float> rays(size_t(count) * 7);
     in.read(reinterpret_cast<char*>(rays.data()), std::streamsize(rays.size() * sizeof(float)));
@@ -68,8 +68,9 @@ std::vector<float> read_rays(const fs::path& path) {
 
 CLI::App* add_trace_command(CLI::App& app) {
     CLI::App* t = app.add_subcommand(
-        "trace", "Trace the closest hit of every ray of a ray file through a scene, one thread, "
-                 "and print rays/s, hits and the sum of hit distances (the traversal alone)");
+        "trace",
+        "Trace the closest hit of every ray of a ray file through a scene, one thread, "
+        "and print rays/s, hits and the sum of hit distances (the traversal alone)");
     t->add_option("scene", g_args.scene, "Scene file (JSON; see docs/scene-format.md)")
         ->required()
         ->check(CLI::ExistingFile);
@@ -83,8 +84,8 @@ CLI::App* add_trace_command(CLI::App& app) {
                   "reference's, one ray at a time)")
         ->check(CLI::IsMember(integrator_names()))
         ->capture_default_str();
-    t->add_option("--isa", g_args.isa, "Wavefront instruction set; valid on this CPU: " +
-                                           usable_isa_names())
+    t->add_option("--isa", g_args.isa,
+                  "Wavefront instruction set; valid on this CPU: " + usable_isa_names())
         ->check(CLI::IsMember({"auto", "avx512", "avx2", "sse4.2", "neon"}))
         ->capture_default_str();
     t->add_option("--stream", g_args.stream_rays,
@@ -118,8 +119,9 @@ int run_trace_command() {
     const bool simd = integrator_of(a.integrator) == Integrator::kWavefront;
     if (simd) require_isa(isa, "--isa");
     if (!simd && a.stream_rays > 0)
-        throw InputError("--stream: the scalar integrator traces one ray at a time; streams are "
-                         "the wavefront's (--integrator wavefront)");
+        throw InputError(
+            "--stream: the scalar integrator traces one ray at a time; streams are "
+            "the wavefront's (--integrator wavefront)");
     const Scene scene = [&] {
         Scene s = load_scene(a.scene);
         apply_spatial_splits(s, a.spatial_splits);
@@ -130,8 +132,8 @@ int run_trace_command() {
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (simd) {
         prepare_path_context(scene);  // (the wavefront's flat scene holds the path context)
-        wavefront = std::make_unique<WavefrontRenderer>(scene, isa, 0, true, kLightStoreLimit,
-                                                        a.ray_group);
+        wavefront =
+            std::make_unique<WavefrontRenderer>(scene, isa, 0, true, kLightStoreLimit, a.ray_group);
     }
     const auto pass = [&](TraceTotals& totals) {
         if (wavefront)
@@ -152,12 +154,16 @@ int run_trace_command() {
         pass(t);
         timed.rays += t.rays;
     }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::printf("integrator: %s\nisa: %s\nray_group: %d\nstream: %d\nstreamed_rays: %llu\nrays: %zu\nrepeat: %d\ntrace_seconds: %.6f\n"
-                "rays_per_second: %.0f\nhits: %llu\nsum_t: %.9g\n",
-                a.integrator.c_str(), wavefront ? isa_name(wavefront->isa()).c_str() : "none",
-                wavefront ? wavefront->ray_group() : 1, a.stream_rays, static_cast<unsigned long long>(warm.streamed), count, a.repeat, seconds, double(timed.rays) / seconds,
-                static_cast<unsigned long long>(warm.hits), warm.sum_t);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf(
+        "integrator: %s\nisa: %s\nray_group: %d\nstream: %d\nstreamed_rays: %llu\nrays: "
+        "%zu\nrepeat: %d\ntrace_seconds: %.6f\n"
+        "rays_per_second: %.0f\nhits: %llu\nsum_t: %.9g\n",
+        a.integrator.c_str(), wavefront ? isa_name(wavefront->isa()).c_str() : "none",
+        wavefront ? wavefront->ray_group() : 1, a.stream_rays,
+        static_cast<unsigned long long>(warm.streamed), count, a.repeat, seconds,
+        double(timed.rays) / seconds, static_cast<unsigned long long>(warm.hits), warm.sum_t);
     return 0;
 }
 

@@ -64,7 +64,9 @@ struct Uninitialised {
     T* allocate(size_t n) { return static_cast<T*>(allocate_large(n * sizeof(T))); }
     void deallocate(T* p, size_t n) noexcept { free_large(p, n * sizeof(T)); }
     template <class U>
-    bool operator==(const Uninitialised<U>&) const noexcept { return true; }
+    bool operator==(const Uninitialised<U>&) const noexcept {
+        return true;
+    }
     template <class U>
     void construct(U*) noexcept {
         static_assert(std::is_trivially_copyable_v<U> && std::is_trivially_destructible_v<U>);

@@ -56,10 +56,10 @@ struct Hash {
 
 // The numbers of one pixel as 16 words: sum, sum_sq (3 doubles each), count, nonfinite.
 constexpr int kWords = 16;
-const char* kWordNames[kWords] = {
-    "sum.R.hi",   "sum.R.lo",   "sum.G.hi",   "sum.G.lo",   "sum.B.hi",     "sum.B.lo",
-    "sumsq.R.hi", "sumsq.R.lo", "sumsq.G.hi", "sumsq.G.lo", "sumsq.B.hi",   "sumsq.B.lo",
-    "count.hi",   "count.lo",   "nonfinite.hi", "nonfinite.lo"};
+const char* kWordNames[kWords] = {"sum.R.hi",   "sum.R.lo",   "sum.G.hi",     "sum.G.lo",
+                                  "sum.B.hi",   "sum.B.lo",   "sumsq.R.hi",   "sumsq.R.lo",
+                                  "sumsq.G.hi", "sumsq.G.lo", "sumsq.B.hi",   "sumsq.B.lo",
+                                  "count.hi",   "count.lo",   "nonfinite.hi", "nonfinite.lo"};
 
 void to_words(const PixelSums& p, uint32_t* w) {
     uint64_t v[8];
@@ -106,7 +106,9 @@ void words_to_film(const std::vector<uint32_t>& planes, Film& film) {
 
 std::string get(const Imf::Header& h, const fs::path& path, const std::string& key) {
     const auto* a = h.findTypedAttribute<Imf::StringAttribute>(key);
-    if (!a) throw InputError(path.string() + ": not a cierzo checkpoint (no '" + key + "' in its header)");
+    if (!a)
+        throw InputError(path.string() + ": not a cierzo checkpoint (no '" + key +
+                         "' in its header)");
     return a->value();
 }
 
@@ -118,7 +120,8 @@ int64_t get_int(const Imf::Header& h, const fs::path& path, const std::string& k
         if (used != v.size()) throw std::invalid_argument(v);
         return x;
     } catch (const std::exception&) {
-        throw InputError(path.string() + ": checkpoint header '" + key + "' is not a number: '" + v + "'");
+        throw InputError(path.string() + ": checkpoint header '" + key + "' is not a number: '" +
+                         v + "'");
     }
 }
 
@@ -188,8 +191,8 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     id.estimator = estimator_name(s.estimator.kind);
     // (vcm's radius as set, 0 for the scene's rule, and its exponent)
     if (merges(s.estimator.kind))
-        id.estimator += fmt::format(" r0 {:a} alpha {:a}", s.estimator.merge_radius,
-                                    s.estimator.merge_alpha);
+        id.estimator +=
+            fmt::format(" r0 {:a} alpha {:a}", s.estimator.merge_radius, s.estimator.merge_alpha);
     // (and the connections: a cache's draws, 0 for the pairing, and how many times its MIS
     // weights count each, which a build whose weights differ would not match)
     if (connects(s.estimator.kind) && s.estimator.light_connections > 0) {
@@ -216,7 +219,8 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     return id;
 }
 
-void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const RenderState& state) {
+void write_checkpoint(const fs::path& path, const CheckpointIdentity& id,
+                      const RenderState& state) {
     const Film& film = state.film;
     const int w = film.width(), h = film.height();
     Imf::Header header(w, h);
@@ -260,7 +264,8 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
     }
     const Image mean = film.mean();
     const std::vector<uint32_t> words = film_words(film);
-    const std::vector<uint32_t> pending_words = pending ? film_words(state.pending) : std::vector<uint32_t>{};
+    const std::vector<uint32_t> pending_words =
+        pending ? film_words(state.pending) : std::vector<uint32_t>{};
     const size_t n = size_t(w) * size_t(h);
     write_output_stream(path, [&](std::ofstream& out) {
         Imf::StdOFStream stream(out, path.c_str());
@@ -269,17 +274,21 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id, const 
         const size_t stride = 3 * sizeof(float);
         const char* names[3] = {"R", "G", "B"};
         for (int c = 0; c < 3; ++c)
-            frame.insert(names[c], Imf::Slice(Imf::FLOAT,
-                                              const_cast<char*>(reinterpret_cast<const char*>(mean.rgb.data() + c)),
-                                              stride, stride * size_t(w)));
+            frame.insert(
+                names[c],
+                Imf::Slice(Imf::FLOAT,
+                           const_cast<char*>(reinterpret_cast<const char*>(mean.rgb.data() + c)),
+                           stride, stride * size_t(w)));
         for (int k = 0; k < kWords; ++k) {
-            frame.insert(kWordNames[k],
-                         Imf::Slice(Imf::UINT, const_cast<char*>(reinterpret_cast<const char*>(words.data() + size_t(k) * n)),
-                                    sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
+            frame.insert(kWordNames[k], Imf::Slice(Imf::UINT,
+                                                   const_cast<char*>(reinterpret_cast<const char*>(
+                                                       words.data() + size_t(k) * n)),
+                                                   sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
             if (pending)
                 frame.insert(std::string("pending.") + kWordNames[k],
                              Imf::Slice(Imf::UINT,
-                                        const_cast<char*>(reinterpret_cast<const char*>(pending_words.data() + size_t(k) * n)),
+                                        const_cast<char*>(reinterpret_cast<const char*>(
+                                            pending_words.data() + size_t(k) * n)),
                                         sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
         }
         file.setFrameBuffer(frame);
@@ -294,12 +303,16 @@ Checkpoint read_checkpoint(const fs::path& path) {
         const Imf::Header& header = file.header();
         if (get(header, path, "cierzo:checkpoint") != kFormat)
             throw InputError(path.string() + ": a checkpoint of another format ('" +
-                             get(header, path, "cierzo:checkpoint") + "', this cierzo reads '" + kFormat + "')");
-        if (!file.isComplete()) throw InputError(path.string() + ": truncated checkpoint (pixel data missing)");
+                             get(header, path, "cierzo:checkpoint") + "', this cierzo reads '" +
+                             kFormat + "')");
+        if (!file.isComplete())
+            throw InputError(path.string() + ": truncated checkpoint (pixel data missing)");
         const Imath::Box2i win = header.dataWindow();
-        const int64_t w = int64_t(win.max.x) - win.min.x + 1, h = int64_t(win.max.y) - win.min.y + 1;
+        const int64_t w = int64_t(win.max.x) - win.min.x + 1,
+                      h = int64_t(win.max.y) - win.min.y + 1;
         if (win.min.x != 0 || win.min.y != 0 || w <= 0 || h <= 0 || w * h > kMaxImagePixels)
-            throw InputError(path.string() + ": checkpoint of an invalid size " + std::to_string(w) + "x" + std::to_string(h));
+            throw InputError(path.string() + ": checkpoint of an invalid size " +
+                             std::to_string(w) + "x" + std::to_string(h));
         Checkpoint c;
         CheckpointIdentity& id = c.id;
         id.scene = get(header, path, "cierzo:scene");
@@ -348,21 +361,28 @@ Checkpoint read_checkpoint(const fs::path& path) {
             for (const std::string& name : {std::string(n), "pending." + std::string(n)}) {
                 if (!pending && name.starts_with("pending.")) continue;
                 const Imf::Channel* ch = channels.findChannel(name);
-                if (!ch) throw InputError(path.string() + ": checkpoint channel '" + name + "' is missing");
+                if (!ch)
+                    throw InputError(path.string() + ": checkpoint channel '" + name +
+                                     "' is missing");
                 if (ch->type != Imf::UINT || ch->xSampling != 1 || ch->ySampling != 1)
-                    throw InputError(path.string() + ": checkpoint channel '" + name + "' is not a full-resolution UINT channel");
+                    throw InputError(path.string() + ": checkpoint channel '" + name +
+                                     "' is not a full-resolution UINT channel");
             }
         }
         const size_t n = size_t(w) * size_t(h);
         std::vector<uint32_t> words(n * kWords), pending_words(pending ? n * kWords : 0);
         Imf::FrameBuffer frame;
         for (int k = 0; k < kWords; ++k) {
-            frame.insert(kWordNames[k], Imf::Slice(Imf::UINT, reinterpret_cast<char*>(words.data() + size_t(k) * n),
-                                                   sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
+            frame.insert(
+                kWordNames[k],
+                Imf::Slice(Imf::UINT, reinterpret_cast<char*>(words.data() + size_t(k) * n),
+                           sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
             if (pending)
-                frame.insert(std::string("pending.") + kWordNames[k],
-                             Imf::Slice(Imf::UINT, reinterpret_cast<char*>(pending_words.data() + size_t(k) * n),
-                                        sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
+                frame.insert(
+                    std::string("pending.") + kWordNames[k],
+                    Imf::Slice(Imf::UINT,
+                               reinterpret_cast<char*>(pending_words.data() + size_t(k) * n),
+                               sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
         }
         file.setFrameBuffer(frame);
         file.readPixels(0, int(h) - 1);
@@ -381,7 +401,8 @@ Checkpoint read_checkpoint(const fs::path& path) {
                                  std::to_string(s.spp_done) + " paths (damaged file?)");
         if (pending) {
             if (s.pending_end <= s.spp_done)
-                throw InputError(path.string() + ": checkpoint has tiles of a pass but no pass in progress");
+                throw InputError(path.string() +
+                                 ": checkpoint has tiles of a pass but no pass in progress");
             s.pending = Film(int(w), int(h));
             words_to_film(pending_words, s.pending);
             const std::vector<Tile> tiles = image_tiles(int(w), int(h));
@@ -395,12 +416,15 @@ Checkpoint read_checkpoint(const fs::path& path) {
                 const PixelSums& first = s.pending.at(g.x0, g.y0);
                 const uint64_t have = first.count + first.nonfinite;
                 if (have != 0 && have != paths)
-                    throw InputError(path.string() + ": checkpoint tile " + std::to_string(t) + " of the pass in progress is damaged");
+                    throw InputError(path.string() + ": checkpoint tile " + std::to_string(t) +
+                                     " of the pass in progress is damaged");
                 for (int y = g.y0; y < g.y1; ++y)
                     for (int x = g.x0; x < g.x1; ++x) {
                         const PixelSums& p = s.pending.at(x, y);
                         if (p.count + p.nonfinite != have)
-                            throw InputError(path.string() + ": checkpoint tile " + std::to_string(t) + " of the pass in progress is damaged");
+                            throw InputError(path.string() + ": checkpoint tile " +
+                                             std::to_string(t) +
+                                             " of the pass in progress is damaged");
                     }
                 s.pending_tiles[t] = have != 0;
                 // (an older file's pass sums: the film's added first, as a render adds them)
@@ -428,8 +452,10 @@ std::vector<std::string> check_resume(const fs::path& path, const Checkpoint& c,
     auto differ = [&](const std::string& what, const std::string& a, const std::string& b) {
         if (a != b) diffs.push_back(what + " " + a + " (this render: " + b + ")");
     };
-    differ("scene content fingerprint", was.fingerprint + " of " + was.scene, now.fingerprint + " of " + now.scene);
-    differ("resolution", fmt::format("{}x{}", was.width, was.height), fmt::format("{}x{}", now.width, now.height));
+    differ("scene content fingerprint", was.fingerprint + " of " + was.scene,
+           now.fingerprint + " of " + now.scene);
+    differ("resolution", fmt::format("{}x{}", was.width, was.height),
+           fmt::format("{}x{}", now.width, now.height));
     differ("seed", std::to_string(was.seed), std::to_string(now.seed));
     differ("estimator", was.estimator, now.estimator);
     differ("survival cap", was.survival_cap, now.survival_cap);
@@ -440,7 +466,8 @@ std::vector<std::string> check_resume(const fs::path& path, const Checkpoint& c,
     differ("path lengths", was.lengths, now.lengths);
     differ("integrator", was.integrator, now.integrator);
     if (!diffs.empty()) {
-        std::string msg = path.string() + ": cannot resume: the checkpoint was rendered with another ";
+        std::string msg =
+            path.string() + ": cannot resume: the checkpoint was rendered with another ";
         for (size_t i = 0; i < diffs.size(); ++i) msg += (i ? "; " : "") + diffs[i];
         throw InputError(msg);
     }

@@ -26,17 +26,17 @@ struct CheckpointIdentity {
     std::string fingerprint;  // of the scene's content (scene_fingerprint)
     int width = 0, height = 0;
     uint32_t seed = 0;
-    std::string estimator;         // report, nee, mis
-    std::string survival_cap;      // exact, as %a
-    std::string roulette;          // "lobe", or "throughput from N" (its depth)
-    std::string sampler;           // its name; zsobol with its block of 2^L paths per pixel
-    std::string lengths;           // the path lengths that count: "1..", "2..3"
+    std::string estimator;          // report, nee, mis
+    std::string survival_cap;       // exact, as %a
+    std::string roulette;           // "lobe", or "throughput from N" (its depth)
+    std::string sampler;            // its name; zsobol with its block of 2^L paths per pixel
+    std::string lengths;            // the path lengths that count: "1..", "2..3"
     std::string triangle_sampling;  // "area" or "solid-angle"
-    std::string diffuse_sampling;  // uniform, cosine
-    std::string integrator;        // wavefront, scalar
-    std::string isa;               // the wavefront's kernels (the order of each pixel's sums)
-    int pool = 0;                  // wavefront paths per thread (the same)
-    int64_t spp = 0;               // the paths per pixel asked for
+    std::string diffuse_sampling;   // uniform, cosine
+    std::string integrator;         // wavefront, scalar
+    std::string isa;                // the wavefront's kernels (the order of each pixel's sums)
+    int pool = 0;                   // wavefront paths per thread (the same)
+    int64_t spp = 0;                // the paths per pixel asked for
 };
 
 // A 64-bit hash (hex) of everything in the scene that is not a render setting: the scene

@@ -16,8 +16,7 @@ ImageError image_error(const Image& image, const Image& reference,
                        const Image* reference_variance) {
     if (image.width != reference.width || image.height != reference.height)
         throw InputError(fmt::format("the reference is {}x{} but the image is {}x{}",
-                                     reference.width, reference.height, image.width,
-                                     image.height));
+                                     reference.width, reference.height, image.width, image.height));
     if (reference_variance && (reference_variance->width != reference.width ||
                                reference_variance->height != reference.height))
         throw InputError("the reference's variance does not match its size");
@@ -54,7 +53,8 @@ EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& 
         settings.triangle_solid_angle = config.triangle_solid_angle,
         settings.chosen |= kChoseTriangles;
     if (config.roulette_depth >= 0) settings.roulette_depth = config.roulette_depth;
-    if (config.sampler >= 0) settings.sampler = Sampler(config.sampler), settings.chosen |= kChoseSampler;
+    if (config.sampler >= 0)
+        settings.sampler = Sampler(config.sampler), settings.chosen |= kChoseSampler;
     if (config.merge_radius >= 0.0f) settings.merge_radius = config.merge_radius;
     if (config.merge_alpha >= 0.0f) settings.merge_alpha = config.merge_alpha;
     if (config.light_connections >= 0) settings.light_connections = config.light_connections;
@@ -65,8 +65,7 @@ EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& 
 }  // namespace
 
 std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& reference,
-                                        const Image* reference_variance,
-                                        const ConvergeSweep& sweep,
+                                        const Image* reference_variance, const ConvergeSweep& sweep,
                                         const std::function<void(const ConvergePoint&)>& on_point) {
     std::vector<ConvergePoint> points;
     for (const ConvergeConfig& config : sweep.configs) {

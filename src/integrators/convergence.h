@@ -43,17 +43,17 @@ ImageError image_error(const Image& image, const Image& reference,
 struct ConvergeConfig {
     std::string integrator = "wavefront";
     std::string isa = "auto";
-    int pool_size = 0;            // 0: the default
-    float survival_cap = -1.0f;   // < 0: the scene's
-    int cosine_diffuse = -1;      // -1: the scene's; 0 uniform, 1 cosine
-    int estimator = -1;           // -1: the scene's; else an Estimator
-    int roulette = -1;            // -1: the scene's; else a Roulette
+    int pool_size = 0;              // 0: the default
+    float survival_cap = -1.0f;     // < 0: the scene's
+    int cosine_diffuse = -1;        // -1: the scene's; 0 uniform, 1 cosine
+    int estimator = -1;             // -1: the scene's; else an Estimator
+    int roulette = -1;              // -1: the scene's; else a Roulette
     int triangle_solid_angle = -1;  // -1: the scene's; 0 area, 1 solid angle
-    int roulette_depth = -1;      // -1: the scene's
-    int sampler = -1;             // -1: the scene's; else a Sampler
-    float merge_radius = -1.0f;   // vcm: < 0 the scene's (0: from the scene's size)
-    float merge_alpha = -1.0f;    // vcm: < 0 the scene's
-    int light_connections = -1;   // bdpt, vcm: < 0 the scene's
+    int roulette_depth = -1;        // -1: the scene's
+    int sampler = -1;               // -1: the scene's; else a Sampler
+    float merge_radius = -1.0f;     // vcm: < 0 the scene's (0: from the scene's size)
+    float merge_alpha = -1.0f;      // vcm: < 0 the scene's
+    int light_connections = -1;     // bdpt, vcm: < 0 the scene's
 };
 
 struct ConvergePoint {
@@ -62,17 +62,17 @@ struct ConvergePoint {
     float merge_radius = 0.0f;    // vcm: the r0 rendered with (the scene's rule resolved)
     int64_t spp = 0;
     int repeats = 0;
-    double seconds = 0.0;        // median over the repeats
-    uint64_t rays = 0;           // of one render
-    ImageError error;            // averaged over the repeats
+    double seconds = 0.0;                   // median over the repeats
+    uint64_t rays = 0;                      // of one render
+    ImageError error;                       // averaged over the repeats
     double estimated_relative_error = 0.0;  // the render's own estimate, averaged
-    RenderStats stats;           // of the first repeat
+    RenderStats stats;                      // of the first repeat
 };
 
 struct ConvergeSweep {
     std::vector<ConvergeConfig> configs;
-    std::vector<int64_t> spp;    // paths per pixel, in the order rendered
-    int repeats = 1;             // renders per point, seeds scene seed + 1 + k
+    std::vector<int64_t> spp;  // paths per pixel, in the order rendered
+    int repeats = 1;           // renders per point, seeds scene seed + 1 + k
     int threads = 0;
     // Set (e.g. by SIGINT) to stop: the sweep returns the points measured so far
     const std::atomic<bool>* cancel = nullptr;
@@ -81,8 +81,7 @@ struct ConvergeSweep {
 // Renders every config at every spp of the sweep and compares each image with the
 // reference; `on_point` (may be empty) sees each point as soon as it is measured.
 std::vector<ConvergePoint> run_converge(const Scene& scene, const Image& reference,
-                                        const Image* reference_variance,
-                                        const ConvergeSweep& sweep,
+                                        const Image* reference_variance, const ConvergeSweep& sweep,
                                         const std::function<void(const ConvergePoint&)>& on_point);
 
 // The least-squares slope of log(y) against log(x) over the points with y > 0 (NaN when

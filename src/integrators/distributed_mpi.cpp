@@ -82,7 +82,7 @@ struct Transfer {
     Message message;
 };
 std::deque<Transfer> g_sends, g_receives;  // in the order started
-std::vector<std::vector<char>> g_buffers;     // recycled receive buffers
+std::vector<std::vector<char>> g_buffers;  // recycled receive buffers
 
 }  // namespace
 
@@ -114,8 +114,8 @@ std::optional<Message> try_receive(int tag, int source) {
         int flag = 0;
         MPI_Message handle;
         MPI_Status status;
-        check(MPI_Improbe(source < 0 ? MPI_ANY_SOURCE : source, tag, MPI_COMM_WORLD, &flag,
-                          &handle, &status),
+        check(MPI_Improbe(source < 0 ? MPI_ANY_SOURCE : source, tag, MPI_COMM_WORLD, &flag, &handle,
+                          &status),
               "MPI_Improbe");
         if (!flag) break;
         int count = 0;
@@ -128,7 +128,8 @@ std::optional<Message> try_receive(int tag, int source) {
             g_buffers.pop_back();
         }
         t.message.bytes.resize(size_t(count));
-        check(MPI_Imrecv(t.message.bytes.data(), count, MPI_BYTE, &handle, &t.request), "MPI_Imrecv");
+        check(MPI_Imrecv(t.message.bytes.data(), count, MPI_BYTE, &handle, &t.request),
+              "MPI_Imrecv");
     }
     // The first complete one of this tag and source (earlier ones of a sender first)
     for (auto it = g_receives.begin(); it != g_receives.end(); ++it) {
@@ -157,12 +158,13 @@ void recycle(std::vector<char>&& bytes) {
 
 std::vector<std::vector<char>> gather(const void* data, size_t bytes) {
     std::vector<char> all(g_world.rank == 0 ? bytes * size_t(g_world.size) : 0);
-    check(MPI_Gather(data, int(bytes), MPI_BYTE, all.data(), int(bytes), MPI_BYTE, 0,
-                     MPI_COMM_WORLD),
-          "MPI_Gather");
+    check(
+        MPI_Gather(data, int(bytes), MPI_BYTE, all.data(), int(bytes), MPI_BYTE, 0, MPI_COMM_WORLD),
+        "MPI_Gather");
     std::vector<std::vector<char>> out;
     for (int r = 0; g_world.rank == 0 && r < g_world.size; ++r)
-        out.emplace_back(all.begin() + ptrdiff_t(bytes) * r, all.begin() + ptrdiff_t(bytes) * (r + 1));
+        out.emplace_back(all.begin() + ptrdiff_t(bytes) * r,
+                         all.begin() + ptrdiff_t(bytes) * (r + 1));
     return out;
 }
 

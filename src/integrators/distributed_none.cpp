@@ -24,7 +24,9 @@ std::string host_name() {
     return name;
 }
 
-void send(int, int, std::vector<char>) { throw std::logic_error("mpi::send in a build without MPI"); }
+void send(int, int, std::vector<char>) {
+    throw std::logic_error("mpi::send in a build without MPI");
+}
 bool progress() { return true; }
 void recycle(std::vector<char>&&) {}
 std::optional<Message> try_receive(int, int) { return std::nullopt; }

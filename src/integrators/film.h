@@ -22,8 +22,8 @@ class StrategyTile;  // integrators/strategies.h
 struct PixelSums {
     double sum[3] = {0, 0, 0};
     double sum_sq[3] = {0, 0, 0};
-    uint64_t count = 0;       // finite samples
-    uint64_t nonfinite = 0;   // samples that were NaN or Inf, excluded
+    uint64_t count = 0;      // finite samples
+    uint64_t nonfinite = 0;  // samples that were NaN or Inf, excluded
 
     void add(const Vec3f& L) {
         if (accumulate(L)) ++count;
@@ -100,15 +100,26 @@ public:
     FilmTile() = default;
     // A tile owning its zeroed memory.
     FilmTile(int x0, int y0, int x1, int y1, int image_width)
-        : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
-          n_(size_t(x1 - x0) * size_t(y1 - y0)), own_(n_) {
+        : x0_(x0),
+          y0_(y0),
+          x1_(x1),
+          y1_(y1),
+          image_width_(image_width),
+          n_(size_t(x1 - x0) * size_t(y1 - y0)),
+          own_(n_) {
         px_ = own_.data();
     }
     // The same in borrowed memory of at least its pixels (a TilePool's, given back to it
     // with release()), zeroed here.
     FilmTile(int x0, int y0, int x1, int y1, int image_width, PixelSums* memory)
-        : x0_(x0), y0_(y0), x1_(x1), y1_(y1), image_width_(image_width),
-          n_(size_t(x1 - x0) * size_t(y1 - y0)), px_(memory), borrowed_(true) {
+        : x0_(x0),
+          y0_(y0),
+          x1_(x1),
+          y1_(y1),
+          image_width_(image_width),
+          n_(size_t(x1 - x0) * size_t(y1 - y0)),
+          px_(memory),
+          borrowed_(true) {
         std::fill(px_, px_ + n_, PixelSums{});
     }
     FilmTile(FilmTile&& o) noexcept { *this = std::move(o); }
@@ -124,8 +135,15 @@ public:
     }
     // (a copy owns its memory)
     FilmTile(const FilmTile& o)
-        : splats(o.splats), strategies(o.strategies), x0_(o.x0_), y0_(o.y0_), x1_(o.x1_),
-          y1_(o.y1_), image_width_(o.image_width_), n_(o.n_), own_(o.px_, o.px_ + o.n_) {
+        : splats(o.splats),
+          strategies(o.strategies),
+          x0_(o.x0_),
+          y0_(o.y0_),
+          x1_(o.x1_),
+          y1_(o.y1_),
+          image_width_(o.image_width_),
+          n_(o.n_),
+          own_(o.px_, o.px_ + o.n_) {
         px_ = own_.data();
     }
     FilmTile& operator=(const FilmTile& o) {

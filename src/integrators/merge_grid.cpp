@@ -41,15 +41,14 @@ uint32_t bucket_in_block(uint32_t block_products, uint32_t parity, uint32_t mask
     return (hash_mixed(block_products) << 3 | parity) & mask;
 }
 uint32_t bucket_of(int32_t ix, int32_t iy, int32_t iz, uint32_t mask) {
-    return bucket_in_block(uint32_t(ix >> 1) * kHashX ^ uint32_t(iy >> 1) * kHashY ^
-                               uint32_t(iz >> 1) * kHashZ,
-                           parity_bits(ix, iy, iz), mask);
+    return bucket_in_block(
+        uint32_t(ix >> 1) * kHashX ^ uint32_t(iy >> 1) * kHashY ^ uint32_t(iz >> 1) * kHashZ,
+        parity_bits(ix, iy, iz), mask);
 }
 
 }  // namespace
 
-void MergeGrid::build(const Photon* points_in, size_t count, const float* radius,
-                      size_t sets) {
+void MergeGrid::build(const Photon* points_in, size_t count, const float* radius, size_t sets) {
     const std::span<const Photon> points(points_in, count);
     inverse_cell_.resize(sets);
     for (size_t k = 0; k < sets; ++k) {
@@ -78,9 +77,9 @@ void MergeGrid::build(const Photon* points_in, size_t count, const float* radius
             scratch_[v] = ~0u;
             continue;
         }
-        const uint32_t b = table_[2 * p.set] + bucket_of(cell_of(p.p[0] * inv),
-                                                         cell_of(p.p[1] * inv),
-                                                         cell_of(p.p[2] * inv), table_[2 * p.set + 1]);
+        const uint32_t b =
+            table_[2 * p.set] + bucket_of(cell_of(p.p[0] * inv), cell_of(p.p[1] * inv),
+                                          cell_of(p.p[2] * inv), table_[2 * p.set + 1]);
         scratch_[v] = b;
         ++begin_[size_t(b) + 1];
     }

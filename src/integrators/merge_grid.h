@@ -19,10 +19,10 @@ namespace cierzo {
 
 // A stored light vertex as merging reads it (kernels/bidirectional.h, merge_vertices).
 struct alignas(64) Photon {
-    float p[3];     // position
-    float wl[3];    // unit, towards the previous vertex
-    float beta[3];  // the light subpath's throughput arriving
-    float vcm, vm;  // its MIS quantities (dVC is not read by merging)
+    float p[3];       // position
+    float wl[3];      // unit, towards the previous vertex
+    float beta[3];    // the light subpath's throughput arriving
+    float vcm, vm;    // its MIS quantities (dVC is not read by merging)
     uint32_t length;  // segments from the light
     uint32_t set;     // its set (the sample's offset in the unit)
 };
@@ -57,8 +57,8 @@ private:
     std::vector<uint32_t> table_;       // per set: its first bucket, and its mask (pairs)
     std::vector<int32_t> begin_;        // per bucket + 1: its first photon
     std::vector<Photon> sorted_;
-    const Photon* photons_ = nullptr;   // sorted_'s (the kernels read no std::vector)
-    std::vector<uint32_t> scratch_;     // each point's bucket (or ~0: left out), and counts
+    const Photon* photons_ = nullptr;  // sorted_'s (the kernels read no std::vector)
+    std::vector<uint32_t> scratch_;    // each point's bucket (or ~0: left out), and counts
 };
 
 // A unit's merging quantities per sample index (kernels/bidirectional.h's MergeWeights and
@@ -68,12 +68,12 @@ private:
 struct MergeTable {
     int32_t paths_per_sample = 1;  // the unit's light subpaths per sample index (its pixels)
     int32_t samples = 0;
-    float *vm_weight = nullptr, *vc_weight = nullptr, *normalization = nullptr,
-          *radius2 = nullptr, *radius = nullptr;
+    float *vm_weight = nullptr, *vc_weight = nullptr, *normalization = nullptr, *radius2 = nullptr,
+          *radius = nullptr;
     Photon* photons = nullptr;  // room for at least the count of the last reserve_photons
 
-    void resize(size_t sample_count);     // (merge_grid.cpp)
-    void reserve_photons(size_t count);   // (merge_grid.cpp)
+    void resize(size_t sample_count);    // (merge_grid.cpp)
+    void reserve_photons(size_t count);  // (merge_grid.cpp)
 
 private:
     std::vector<float> values_;

@@ -34,8 +34,7 @@ inline Vec3f merge_at(const PathContext& c, const MergeGrid& grid, const CameraV
             const Vec3f to = p - v.p;
             // (a bucket also holds other cells' photons)
             if (ph.set != set || !(dot(to, to) <= mw.radius2)) continue;
-            if (!length_counts<float>(c.estimator, ph.length + v.vertices - 1u))
-                continue;
+            if (!length_counts<float>(c.estimator, ph.length + v.vertices - 1u)) continue;
             LightVertex<float> l{};
             l.p = p;
             l.wl = {ph.wl[0], ph.wl[1], ph.wl[2]};

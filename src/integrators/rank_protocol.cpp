@@ -84,9 +84,13 @@ size_t encoded_size(const UnitResult& r) {
 }
 
 void encode_result(std::vector<char>& msg, const UnitResult& r) {
-    append(msg, ResultHeader{r.unit.tile, r.unit.pass, r.unit.s0, r.unit.s1,
+    append(msg, ResultHeader{r.unit.tile,
+                             r.unit.pass,
+                             r.unit.s0,
+                             r.unit.s1,
                              {r.rays.camera, r.rays.extension, r.rays.shadow, r.rays.light},
-                             r.lanes, r.sums.splats.size()});
+                             r.lanes,
+                             r.sums.splats.size()});
     const std::span<const PixelSums> px = std::as_const(r.sums).pixels();
     const char* p = reinterpret_cast<const char*>(px.data());
     msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
@@ -208,8 +212,10 @@ void serve_as_worker(const UnitRenderer& renderer, TilePool& pool, int threads, 
                     UnitResult r = renderer.render(*u);
                     const auto t1 = Clock::now();
                     rays += r.rays.total(), ++units;
-                    busy_ns += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
-                    last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - start).count();
+                    busy_ns += uint64_t(
+                        std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+                    last_ns =
+                        std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - start).count();
                     queue.finished(std::move(r));
                 }
             } catch (...) {
@@ -230,8 +236,9 @@ void serve_as_worker(const UnitRenderer& renderer, TilePool& pool, int threads, 
             const uint64_t done = units.load();
             const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
             const size_t high = std::min<size_t>(
-                4096, std::max<size_t>(2 * size_t(threads),
-                                       unit_seconds > 0 ? size_t(kQueuedSeconds * threads / unit_seconds) : 0));
+                4096, std::max<size_t>(
+                          2 * size_t(threads),
+                          unit_seconds > 0 ? size_t(kQueuedSeconds * threads / unit_seconds) : 0));
             const size_t low = std::max<size_t>(size_t(threads), high / 2);
             if (!waiting) {
                 const size_t pending = queue.pending();
@@ -282,7 +289,10 @@ void serve_as_worker(const UnitRenderer& renderer, TilePool& pool, int threads, 
 
 RankService::RankService(Coordinator& coord, const std::vector<Tile>& tiles, int ranks,
                          TilePool& pool)
-    : coord_(coord), tiles_(tiles), pool_(pool), waiting_(size_t(ranks)),
+    : coord_(coord),
+      tiles_(tiles),
+      pool_(pool),
+      waiting_(size_t(ranks)),
       told_over_(size_t(ranks), false) {
     told_over_[0] = true;
 }

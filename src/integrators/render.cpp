@@ -35,8 +35,8 @@ void refuse_light_store(const Scene& scene, size_t limit, size_t vertices) {
         "{}: {}: a unit's light subpaths need more than {} of light-vertex store (over {} "
         "vertices): paths this long come from a survival cap near 1 (survival_cap {}); lower "
         "it (--survival-cap), or use an estimator without light subpaths",
-        scene.source.string(), estimator_name(scene.settings.estimator.kind), bound,
-        vertices, scene.settings.estimator.survival_cap));
+        scene.source.string(), estimator_name(scene.settings.estimator.kind), bound, vertices,
+        scene.settings.estimator.survival_cap));
 }
 
 namespace {
@@ -163,7 +163,8 @@ std::vector<Tile> image_tiles(int width, int height) {
     std::vector<Tile> tiles;
     for (int y = 0; y < height; y += kTileSize)
         for (int x = 0; x < width; x += kTileSize)
-            tiles.push_back({x, y, std::min(x + kTileSize, width), std::min(y + kTileSize, height)});
+            tiles.push_back(
+                {x, y, std::min(x + kTileSize, width), std::min(y + kTileSize, height)});
     return tiles;
 }
 
@@ -211,21 +212,20 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                 "textured emission are not sampled): light tracing adds nothing, the image is "
                 "the camera paths' alone");
     }
-    if (options.strategies &&
-        (options.integrator != Integrator::kScalar ||
-         !traits(scene.settings.estimator.kind).strategy_images || world.size > 1 || options.resume ||
-         options.checkpoint || options.strategies->width() != scene.settings.width ||
-         options.strategies->height() != scene.settings.height))
+    if (options.strategies && (options.integrator != Integrator::kScalar ||
+                               !traits(scene.settings.estimator.kind).strategy_images ||
+                               world.size > 1 || options.resume || options.checkpoint ||
+                               options.strategies->width() != scene.settings.width ||
+                               options.strategies->height() != scene.settings.height))
         throw std::logic_error("strategy images are scalar bdpt's, in one process, from zero");
     // (the light vertex cache's estimate of the light subpaths' vertices, once per scene and
     // settings, here before the clock for both integrators, as the trees' build is)
     prepare_path_context(scene);
     std::unique_ptr<WavefrontRenderer> wavefront;
     if (options.integrator == Integrator::kWavefront)
-        wavefront = std::make_unique<WavefrontRenderer>(scene, parse_isa(options.isa),
-                                                        options.pool_size, options.specialise,
-                                                        options.light_store_limit,
-                                                        options.ray_group);
+        wavefront = std::make_unique<WavefrontRenderer>(
+            scene, parse_isa(options.isa), options.pool_size, options.specialise,
+            options.light_store_limit, options.ray_group);
     const int threads =
         options.threads > 0 ? options.threads : oneapi::tbb::info::default_concurrency();
     const RenderSettings& rs = scene.settings;
@@ -320,9 +320,12 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         st.stopped_by = coord.stopped_by();
         st.rays = coord.rays();
         const LaneStats lanes = coord.lanes();
-        st.shade_lane_utilisation = double(lanes.shade_active) / double(std::max<uint64_t>(lanes.shade_total, 1));
-        st.isect_lane_utilisation = double(lanes.isect_active) / double(std::max<uint64_t>(lanes.isect_total, 1));
-        st.shadow_lane_utilisation = double(lanes.shadow_active) / double(std::max<uint64_t>(lanes.shadow_total, 1));
+        st.shade_lane_utilisation =
+            double(lanes.shade_active) / double(std::max<uint64_t>(lanes.shade_total, 1));
+        st.isect_lane_utilisation =
+            double(lanes.isect_active) / double(std::max<uint64_t>(lanes.isect_total, 1));
+        st.shadow_lane_utilisation =
+            double(lanes.shadow_active) / double(std::max<uint64_t>(lanes.shadow_total, 1));
         if (wavefront) st.light_store_bytes = wavefront->light_store_bytes();
     }
     st.seconds = seconds_since(start);

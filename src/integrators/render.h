@@ -37,8 +37,8 @@ inline constexpr size_t kLightStoreLimit = size_t(1) << 30;
 struct RayCounts {
     uint64_t camera = 0;
     uint64_t extension = 0;
-    uint64_t shadow = 0;    // towards point lights, emitter samples and (lt) the pinhole
-    uint64_t light = 0;     // the first ray of each path from the lights (lt)
+    uint64_t shadow = 0;  // towards point lights, emitter samples and (lt) the pinhole
+    uint64_t light = 0;   // the first ray of each path from the lights (lt)
     uint64_t total() const { return camera + extension + shadow + light; }
     RayCounts& operator+=(const RayCounts& o) {
         camera += o.camera, extension += o.extension, shadow += o.shadow, light += o.light;
@@ -64,14 +64,14 @@ struct RenderState {
 struct RenderOptions {
     int threads = 0;  // 0: every CPU this process may run on (TBB's default concurrency)
     Integrator integrator = Integrator::kWavefront;
-    std::string isa = "auto";              // wavefront: auto, avx512, avx2, sse4.2, neon
-    int pool_size = 0;                     // wavefront: paths in flight per thread, 0 = default
-    int ray_group = 1;  // wavefront: rays in flight per thread through the tree (1-64)
-    bool specialise = true;                // wavefront: skip what the scene does not use
-    bool progress = true;                  // progress line on stderr
+    std::string isa = "auto";  // wavefront: auto, avx512, avx2, sse4.2, neon
+    int pool_size = 0;         // wavefront: paths in flight per thread, 0 = default
+    int ray_group = 1;         // wavefront: rays in flight per thread through the tree (1-64)
+    bool specialise = true;    // wavefront: skip what the scene does not use
+    bool progress = true;      // progress line on stderr
     // Stopping early (the image then holds fewer paths per pixel, the same in every pixel):
-    double time_budget = 0.0;    // seconds; 0 = none
-    double target_error = 0.0;   // mean relative standard error to reach; 0 = none
+    double time_budget = 0.0;   // seconds; 0 = none
+    double target_error = 0.0;  // mean relative standard error to reach; 0 = none
     // Set (e.g. by SIGINT) to stop: the image then holds the passes finished so far (at
     // least the first), and a checkpoint also keeps the tiles done of the pass in progress
     const std::atomic<bool>* cancel = nullptr;
@@ -94,9 +94,9 @@ struct RankStats {
     int rank = 0;
     std::string host;
     int threads = 1;
-    uint64_t rays = 0;       // traced by this rank (passes abandoned at a stop included)
-    uint64_t units = 0;      // tile × pass units rendered
-    double seconds = 0.0;    // from the start of the render to its last unit
+    uint64_t rays = 0;     // traced by this rank (passes abandoned at a stop included)
+    uint64_t units = 0;    // tile × pass units rendered
+    double seconds = 0.0;  // from the start of the render to its last unit
     double rays_per_second() const { return seconds > 0 ? double(rays) / seconds : 0.0; }
 };
 
@@ -108,7 +108,7 @@ struct RenderStats {
     uint64_t paths = 0;
     RayCounts rays;  // of the passes in the image, this run's (a resumed run: its own)
     uint64_t nonfinite_samples = 0;
-    int64_t spp_resumed = 0;  // paths per pixel the resumed checkpoint already had
+    int64_t spp_resumed = 0;       // paths per pixel the resumed checkpoint already had
     std::vector<RankStats> ranks;  // under MPI: one per rank (empty for one process)
     // Under MPI, rank 0's service of the others: the CPU time its main thread spent
     // receiving their units, adding them up and answering, how many units and bytes
@@ -122,9 +122,9 @@ struct RenderStats {
     // waiting for a unit (at pass ends, when every unit of two passes is out)
     uint64_t units = 0;
     double scheduler_seconds = 0.0, idle_seconds = 0.0;
-    int checkpoint_failures = 0;         // writes that failed (each a warning)
-    bool checkpoint_final_failed = false;  // the last state could not be written
-    std::vector<std::string> warnings;  // e.g. a checkpoint that could not be written
+    int checkpoint_failures = 0;                // writes that failed (each a warning)
+    bool checkpoint_final_failed = false;       // the last state could not be written
+    std::vector<std::string> warnings;          // e.g. a checkpoint that could not be written
     std::optional<double> mean_relative_error;  // none at 1 path per pixel
     int64_t spp_reached = 0;
     std::string stopped_by;  // empty, or "time budget", "target error", "interrupted"

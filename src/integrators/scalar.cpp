@@ -7,8 +7,7 @@
 
 namespace cierzo {
 
-Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
-                 RayCounts& rays) {
+Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key, RayCounts& rays) {
     const PathContext c = scene.path_context();
     return trace_path(scene, c, camera_ray, independent_stream<float>(key), rays);
 }
@@ -35,9 +34,9 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         if (material.is_emitter()) {
             Vec3f le = scene.emission_at(hit);
             if (weighs_emitter_hits(c))
-                le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind,
-                                                scene.emitter_id(hit), lobe_pdf, ray.o, ray.d,
-                                                hit.t, c.estimator.triangle_solid_angle);
+                le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind, scene.emitter_id(hit),
+                                                lobe_pdf, ray.o, ray.d, hit.t,
+                                                c.estimator.triangle_solid_angle);
             if (length_counts<float>(c.estimator, bounce + 1)) radiance += throughput * le;
             break;
         }
@@ -55,18 +54,19 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                     scene, point_light_request(c, j, m, ray.d, v, origin, Vec3f(1.0f), true), rays);
             if (c.light_count > 0) radiance += throughput * lights;
             if (c.nee)
-                radiance += throughput * trace_request(scene,
-                                                       emitter_request(c, m, ray.d, v, origin,
-                                                                       Vec3f(1.0f), true, rng, bounce),
-                                                       rays);
+                radiance +=
+                    throughput * trace_request(scene,
+                                               emitter_request(c, m, ray.d, v, origin, Vec3f(1.0f),
+                                                               true, rng, bounce),
+                                               rays);
         }
 
         // Russian roulette picks one lobe, or the path's death; the lobe continues it
         float p = 0.0f;
         float u_lobe, u_roulette;
         lobe_uniforms<float>(rng, bounce, normalised_lobes(c.estimator), u_lobe, u_roulette);
-        const int32_t lobe = choose_lobe(m, u_lobe, c.estimator.survival_cap, p,
-                                         normalised_lobes(c.estimator));
+        const int32_t lobe =
+            choose_lobe(m, u_lobe, c.estimator.survival_cap, p, normalised_lobes(c.estimator));
         if (lobe == kLobeAbsorbed || !may_extend<float>(c.estimator, bounce)) break;
         const ScalarContinuation next =
             continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
@@ -124,8 +124,8 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
                                        const SampleStream<float>& camera_rng, FilmTile& film,
                                        RayCounts& rays) {
     LightTracing at{scene, c, pinhole, film, rays};
-    walk_light_subpath(scene, c, scene.light_starts.table(), camera_rng, MergeWeights<float>{},
-                       at, rays);
+    walk_light_subpath(scene, c, scene.light_starts.table(), camera_rng, MergeWeights<float>{}, at,
+                       rays);
 }
 
 void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays) {

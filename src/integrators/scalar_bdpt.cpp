@@ -79,11 +79,13 @@ struct LightSubpath {
         if (store.size() >= limit.vertices) refuse_light_store(scene, limit.bytes, store.size());
         store.push_back(lv);
         // t = 1: the vertex seen from the pinhole
-        if (!film || !connects(c.estimator.kind) || !length_counts<float>(c.estimator, lv.length + 1))
+        if (!film || !connects(c.estimator.kind) ||
+            !length_counts<float>(c.estimator, lv.length + 1))
             return;
         const CameraConnection<float> cc = connect_camera(pinhole, lv.p);
         if (!cc.ok || !on_arriving_side(cc.wc, lv.nf)) return;
-        const Vec3f unweighted = camera_contribution(m, lv.beta, -lv.wl, lv.nf, lv.nsf, cc, c.smooth);
+        const Vec3f unweighted =
+            camera_contribution(m, lv.beta, -lv.wl, lv.nf, lv.nsf, cc, c.smooth);
         const Vec3f value = unweighted * camera_connection_mis(c, lv, cc, mw);
         const int strategy = rec.strategy(lv.length + 1, 1);
         if (!(max_component(value) > 0.0f) && !(strategy >= 0 && max_component(unweighted) > 0.0f))
@@ -100,14 +102,11 @@ struct LightSubpath {
 // One light subpath, with the numbers of the camera sample whose stream it takes: its Phong
 // vertices appended to `store`, each one's connection to the pinhole splatted (t = 1) on
 // `film` (none without one).
-CIERZO_PATH_LOOP void trace_light_subpath(const Scene& scene, const PathContext& c,
-                                          const LightStartTable& lights,
-                                          const PinholeFrame& pinhole,
-                                          const SampleStream<float>& camera_rng,
-                                          const MergeWeights<float>& mw,
-                                          std::vector<LightVertex<float>>& store,
-                                          const StoreLimit& limit, FilmTile* film,
-                                          const Recorder& rec, RayCounts& rays) {
+CIERZO_PATH_LOOP void trace_light_subpath(
+    const Scene& scene, const PathContext& c, const LightStartTable& lights,
+    const PinholeFrame& pinhole, const SampleStream<float>& camera_rng,
+    const MergeWeights<float>& mw, std::vector<LightVertex<float>>& store, const StoreLimit& limit,
+    FilmTile* film, const Recorder& rec, RayCounts& rays) {
     LightSubpath at{scene, c, pinhole, mw, store, limit, film, rec, rays};
     walk_light_subpath(scene, c, lights, camera_rng, mw, at, rays);
 }
@@ -174,21 +173,28 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
         const PhongVertex<float> pv = phong_vertex(m, cap);
 
         if (material.has_phong()) {
-            const CameraVertex<float> cv{hit.p,  v.nf, v.nsf, -ray.d, shadow_origin(v, hit.p, magnitude),
-                                         pv,     mis,  bounce + 2};
+            const CameraVertex<float> cv{
+                hit.p, v.nf, v.nsf,     -ray.d, shadow_origin(v, hit.p, magnitude),
+                pv,    mis,  bounce + 2};
             // s = 1: the lights sampled from here
             const bool connecting = connects(c.estimator.kind);
             if (connecting && length_counts<float>(c.estimator, bounce + 2)) {
                 Vec3f direct(0.0f);
                 const int i = rec.strategy(1, bounce + 2);
                 if (c.emitters.count > 0)
-                    direct += trace_strategy(scene, c, i, [&](const PathContext& x) {
-                        return nee_emitter(x, lights, cv, mw, rng, bounce, true);
-                    }, throughput, rec, rays);
+                    direct += trace_strategy(
+                        scene, c, i,
+                        [&](const PathContext& x) {
+                            return nee_emitter(x, lights, cv, mw, rng, bounce, true);
+                        },
+                        throughput, rec, rays);
                 for (int32_t j = 0; j < lights.point_count; ++j)
-                    direct += trace_strategy(scene, c, i, [&](const PathContext& x) {
-                        return nee_point_light(x, lights, j, cv, mw, true);
-                    }, throughput, rec, rays);
+                    direct += trace_strategy(
+                        scene, c, i,
+                        [&](const PathContext& x) {
+                            return nee_point_light(x, lights, j, cv, mw, true);
+                        },
+                        throughput, rec, rays);
                 radiance += throughput * direct;
             }
             // s, t ≥ 2: every stored vertex of this sample's light subpath, or draws from the
@@ -200,7 +206,8 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                     cache_draw_weight<float>(merging.cache_vertices, merging.cache_paths, draws);
                 for (int32_t j = 0; j < draws; ++j) {
                     const LightVertex<float>& l = merging.cache[cache_vertex<float>(
-                        connection_uniform<float>(rng, bounce, uint32_t(j)), merging.cache_vertices)];
+                        connection_uniform<float>(rng, bounce, uint32_t(j)),
+                        merging.cache_vertices)];
                     if (!length_counts<float>(c.estimator, l.length + bounce + 2)) continue;
                     connected += trace_strategy(
                         scene, c, rec.strategy(l.length + 1, bounce + 2),
@@ -214,7 +221,9 @@ CIERZO_PATH_LOOP Vec3f trace_camera_subpath(const Scene& scene, const PathContex
                 if (!length_counts<float>(c.estimator, light[k].length + bounce + 2)) continue;
                 connected += trace_strategy(
                     scene, c, rec.strategy(light[k].length + 1, bounce + 2),
-                    [&](const PathContext& x) { return connect_vertices(x, cv, light[k], mw, true); },
+                    [&](const PathContext& x) {
+                        return connect_vertices(x, cv, light[k], mw, true);
+                    },
                     throughput, rec, rays);
             }
             radiance += throughput * connected;
@@ -264,8 +273,8 @@ double light_subpath_vertices(const Scene& scene, const PathContext& context, in
     return double(vertices) / double(paths);
 }
 
-void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film,
-                             RayCounts& rays, size_t light_store_limit) {
+void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays,
+                             size_t light_store_limit) {
     // (with vcm each vertex also takes a photon)
     const size_t vertex_bytes =
         sizeof(LightVertex<float>) + (merges(scene.settings.estimator.kind) ? sizeof(Photon) : 0);
@@ -278,7 +287,8 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
     const bool has_lights = lights.emitter_probability > 0.0f || lights.point_count > 0;
     const auto stream = [&](int x, int y, int64_t s) {
         const uint32_t pixel = uint32_t(y) * uint32_t(rs.width) + uint32_t(x);
-        return camera_stream<float>(c.sampler, rs.seed, pixel, uint32_t(x), uint32_t(y), uint32_t(s));
+        return camera_stream<float>(c.sampler, rs.seed, pixel, uint32_t(x), uint32_t(y),
+                                    uint32_t(s));
     };
     // The strategy images' recording, if the unit has them
     Recorder rec;
@@ -292,10 +302,10 @@ void render_tile_bdpt_scalar(const Scene& scene, const Tile& tile, FilmTile& fil
         uniform2<float>(rng, 0u, Purpose::kPixelX, jx, jy);
         ++rays.camera;
         rec.x = x, rec.y = y;
-        film.at(x, y).add(trace_camera_subpath(
-            scene, c, lights, pinhole,
-            scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h), rng, merging,
-            light, light_count, rec, rays));
+        film.at(x, y).add(
+            trace_camera_subpath(scene, c, lights, pinhole,
+                                 scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h),
+                                 rng, merging, light, light_count, rec, rays));
     };
     std::vector<LightVertex<float>> store;
     const bool cached = c.estimator.light_connections > 0 && connects(c.estimator.kind);

@@ -35,8 +35,7 @@ inline Vec3f trace_request(const Scene& scene, const ShadowRequest<float>& r, Ra
 // weighs nothing, and skips them.
 template <class At>
 inline void walk_light_subpath(const Scene& scene, const PathContext& c,
-                               const LightStartTable& lights,
-                               const SampleStream<float>& camera_rng,
+                               const LightStartTable& lights, const SampleStream<float>& camera_rng,
                                const MergeWeights<float>& mw, At& at, RayCounts& rays) {
     const SampleStream<float> rng = light_stream(camera_rng);
     const LightStart<float> start = sample_light_start<float>(c.emitters, lights, rng);
@@ -46,11 +45,12 @@ inline void walk_light_subpath(const Scene& scene, const PathContext& c,
     if (!may_extend<float>(c.estimator, 0u)) return;
     SubpathMis<float> mis{};
     if constexpr (At::kMis) mis = light_start_mis(c, start, mw);
-    Ray<float> ray{start.on_surface
-                       ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
-                                           max_abs(start.p))
-                       : start.p,
-                   start.dir};
+    Ray<float> ray{
+        start.on_surface
+            ? offset_ray_origin(start.p, dot(start.dir, start.n) > 0.0f ? start.n : -start.n,
+                                max_abs(start.p))
+            : start.p,
+        start.dir};
     Vec3f beta = start.beta;
     const float cap = c.estimator.survival_cap;
     for (uint32_t bounce = 1;; ++bounce) {
@@ -69,8 +69,9 @@ inline void walk_light_subpath(const Scene& scene, const PathContext& c,
             pv = phong_vertex(m, cap);
         }
         if (material.has_phong())
-            at.vertex(LightVertex<float>{hit.p, v.nf, v.nsf, -ray.d, beta, pv, mis, magnitude, bounce},
-                      m);
+            at.vertex(
+                LightVertex<float>{hit.p, v.nf, v.nsf, -ray.d, beta, pv, mis, magnitude, bounce},
+                m);
 
         // The roulette and the chosen lobe, in importance mode
         float p = 0.0f;

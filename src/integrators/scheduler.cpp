@@ -109,8 +109,8 @@ UnitResult UnitRenderer::render(const Unit& u) const {
     Tile t = tiles_[size_t(u.tile)];
     t.s0 = u.s0, t.s1 = u.s1;
     UnitResult r{u, pool_.make(t, scene_.settings.width), {}, {}};
-    if (t.light) r.sums.splats.reserve(size_t(t.x1 - t.x0) * size_t(t.y1 - t.y0) *
-                                       size_t(t.s1 - t.s0));
+    if (t.light)
+        r.sums.splats.reserve(size_t(t.x1 - t.x0) * size_t(t.y1 - t.y0) * size_t(t.s1 - t.s0));
     if (wavefront_) {
         wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
     } else if (bidirectional(scene_.settings.estimator.kind)) {
@@ -136,8 +136,14 @@ void Coordinator::PassWork::reset(size_t tiles, size_t splat_pixels) {
 Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
                          const std::vector<Tile>& tiles, std::vector<int64_t> bounds, Film& film,
                          Clock::time_point start, Progress& progress, TilePool& pool)
-    : options_(options), tiles_(tiles), bounds_(std::move(bounds)), film_(film), start_(start),
-      progress_(progress), pool_(pool), width_(scene.settings.width),
+    : options_(options),
+      tiles_(tiles),
+      bounds_(std::move(bounds)),
+      film_(film),
+      start_(start),
+      progress_(progress),
+      pool_(pool),
+      width_(scene.settings.width),
       splat_pixels_(splats(scene.settings.estimator.kind)
                         ? size_t(scene.settings.width) * size_t(scene.settings.height)
                         : 0),
@@ -162,8 +168,7 @@ void Coordinator::restore_pending(const RenderState& state) {
         // (the state holds the film's tile with the pass added)
         const Tile& g = tiles_[t];
         for (int y = g.y0; y < g.y1; ++y)
-            for (int x = g.x0; x < g.x1; ++x)
-                added(x, y) = state.pending.at(x, y);
+            for (int x = g.x0; x < g.x1; ++x) added(x, y) = state.pending.at(x, y);
         w.done[t] = 1;
         ++w.done_count;
     }
@@ -403,8 +408,8 @@ void Coordinator::commit_passes() {
         } else if (options_.time_budget > 0.0 && elapsed >= options_.time_budget) {
             stopped_by_ = "time budget";
         } else if (options_.target_error > 0.0 && bounds_[size_t(frontier_)] >= 16 &&
-                   film_.mean_relative_error().value_or(
-                       std::numeric_limits<double>::infinity()) <= options_.target_error) {
+                   film_.mean_relative_error().value_or(std::numeric_limits<double>::infinity()) <=
+                       options_.target_error) {
             // (from 16 paths per pixel on: fewer give no trustworthy variance)
             stopped_by_ = "target error";
         }

@@ -95,8 +95,12 @@ public:
     UnitRenderer(const Scene& scene, const WavefrontRenderer* wavefront,
                  const std::vector<Tile>& tiles, TilePool& pool, size_t light_store_limit,
                  const StrategyFilm* strategies = nullptr)
-        : scene_(scene), wavefront_(wavefront), tiles_(tiles), pool_(pool),
-          light_store_limit_(light_store_limit), strategies_(strategies) {}
+        : scene_(scene),
+          wavefront_(wavefront),
+          tiles_(tiles),
+          pool_(pool),
+          light_store_limit_(light_store_limit),
+          strategies_(strategies) {}
     UnitResult render(const Unit& u) const;
 
 private:
@@ -104,7 +108,7 @@ private:
     const WavefrontRenderer* wavefront_;
     const std::vector<Tile>& tiles_;
     TilePool& pool_;
-    size_t light_store_limit_;  // the scalar bidirectional estimators' (RenderOptions)
+    size_t light_store_limit_;        // the scalar bidirectional estimators' (RenderOptions)
     const StrategyFilm* strategies_;  // the strategy images recorded, if any
 };
 

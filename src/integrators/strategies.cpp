@@ -15,11 +15,17 @@ void StrategyLayout::strategy(int i, int& s, int& t) const {
 }
 
 StrategyTile::StrategyTile(const StrategyLayout& layout, int x0, int y0, int x1, int y1)
-    : layout_(layout), x0_(x0), y0_(y0), x1_(x1), y1_(y1),
+    : layout_(layout),
+      x0_(x0),
+      y0_(y0),
+      x1_(x1),
+      y1_(y1),
       sums_(size_t(x1 - x0) * size_t(y1 - y0) * 6 * size_t(layout.count()), 0.0f) {}
 
 StrategyFilm::StrategyFilm(int width, int height, const StrategyLayout& layout)
-    : width_(width), height_(height), layout_(layout),
+    : width_(width),
+      height_(height),
+      layout_(layout),
       sums_(size_t(width) * size_t(height) * 6 * size_t(layout.count()), 0.0) {}
 
 size_t StrategyFilm::bytes(int width, int height, const StrategyLayout& layout) {
@@ -32,8 +38,8 @@ void StrategyFilm::merge(const StrategyTile& tile) {
     const size_t tile_width = size_t(tile.x1_ - tile.x0_);
     for (int y = tile.y0_; y < tile.y1_; ++y)
         for (int x = tile.x0_; x < tile.x1_; ++x) {
-            const float* from =
-                tile.sums_.data() + (size_t(y - tile.y0_) * tile_width + size_t(x - tile.x0_)) * stride;
+            const float* from = tile.sums_.data() +
+                                (size_t(y - tile.y0_) * tile_width + size_t(x - tile.x0_)) * stride;
             double* to = sums_.data() + (size_t(y) * size_t(width_) + size_t(x)) * stride;
             for (size_t i = 0; i < stride; ++i) to[i] += double(from[i]);
         }

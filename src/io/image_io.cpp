@@ -99,8 +99,9 @@ void check_exr_header(const fs::path& path) {
         head[2] != 0x31 || head[3] != 0x01)
         read_error(path, "not an OpenEXR file (no EXR magic number)");
     if (head[5] & 0x18)  // (version flags: 0x08 deep data, 0x10 multi-part)
-        read_error(path, "a deep or multi-part OpenEXR file is not read (a single-part "
-                         "scanline or tiled image is)");
+        read_error(path,
+                   "a deep or multi-part OpenEXR file is not read (a single-part "
+                   "scanline or tiled image is)");
     const auto token = [&]() {
         std::string t;
         char c;
@@ -128,8 +129,10 @@ void check_exr_header(const fs::path& path) {
             if (width <= 0 || height <= 0 || width > 65536 || height > 65536 ||
                 width * height > kMaxImagePixels)
                 read_error(path, "refusing an image of " + std::to_string(width) + "x" +
-                                     std::to_string(height) + " pixels (at most 65536 on a "
-                                     "side and " + std::to_string(kMaxImagePixels) + " in all)");
+                                     std::to_string(height) +
+                                     " pixels (at most 65536 on a "
+                                     "side and " +
+                                     std::to_string(kMaxImagePixels) + " in all)");
             return;
         }
         in.seekg(size, std::ios::cur);
@@ -154,8 +157,8 @@ Image read_exr_file(const fs::path& path, ImageMetadata* metadata, ImageLayers* 
         const Imf::ChannelList& channels = header.channels();
         for (const char* name : kRgbNames) {
             if (channels.findChannel(name) == nullptr) {
-                read_error(path, std::string("missing channel ") + name +
-                                     " (an RGB image is required)");
+                read_error(path,
+                           std::string("missing channel ") + name + " (an RGB image is required)");
             }
         }
         for (auto it = channels.begin(); it != channels.end(); ++it) {
@@ -184,8 +187,8 @@ Image read_exr_file(const fs::path& path, ImageMetadata* metadata, ImageLayers* 
                 }
                 std::vector<float>& data = extra[name];
                 data.assign(size_t(width) * size_t(height), 0.0f);
-                frame.insert(name, Imf::Slice::Make(Imf::FLOAT, data.data(), window,
-                                                    sizeof(float), sizeof(float) * size_t(width)));
+                frame.insert(name, Imf::Slice::Make(Imf::FLOAT, data.data(), window, sizeof(float),
+                                                    sizeof(float) * size_t(width)));
             }
         }
         file.setFrameBuffer(frame);
@@ -334,16 +337,17 @@ void write_exr(const fs::path& path, const Image& image, const ImageMetadata& me
         const size_t stride = 3 * sizeof(float);
         for (int c = 0; c < 3; ++c) {
             // OpenEXR only reads through output slices, but its API takes char*.
-            frame.insert(kRgbNames[c],
-                         Imf::Slice(Imf::FLOAT, const_cast<char*>(reinterpret_cast<const char*>(
-                                                    image.rgb.data() + c)),
-                                    stride, stride * size_t(image.width)));
+            frame.insert(
+                kRgbNames[c],
+                Imf::Slice(Imf::FLOAT,
+                           const_cast<char*>(reinterpret_cast<const char*>(image.rgb.data() + c)),
+                           stride, stride * size_t(image.width)));
         }
         for (const auto& [name, data] : layers) {
-            frame.insert(name, Imf::Slice(Imf::FLOAT,
-                                          const_cast<char*>(
-                                              reinterpret_cast<const char*>(data.data())),
-                                          sizeof(float), sizeof(float) * size_t(image.width)));
+            frame.insert(name,
+                         Imf::Slice(Imf::FLOAT,
+                                    const_cast<char*>(reinterpret_cast<const char*>(data.data())),
+                                    sizeof(float), sizeof(float) * size_t(image.width)));
         }
         file.setFrameBuffer(frame);
         file.writePixels(image.height);

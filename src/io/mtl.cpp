@@ -24,8 +24,8 @@ std::string_view trim(std::string_view s) {
 bool parse_number(std::string_view token, float& out) {
     if (!token.empty() && token[0] == '+') token.remove_prefix(1);
     double d = 0.0;
-    const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), d,
-                                           std::chars_format::general);
+    const auto [end, ec] =
+        std::from_chars(token.data(), token.data() + token.size(), d, std::chars_format::general);
     if (token.empty() || ec != std::errc() || end != token.data() + token.size() ||
         !std::isfinite(d) || std::fabs(d) > 3.0e38)
         return false;
@@ -40,19 +40,30 @@ struct Unmodelled {
     std::string_view key, what;
 };
 constexpr Unmodelled kUnmodelled[] = {
-    {"bump", "a bump map"},           {"map_bump", "a bump map"},
-    {"map_Bump", "a bump map"},       {"norm", "a normal map"},
-    {"map_norm", "a normal map"},     {"disp", "a displacement map"},
-    {"decal", "a decal map"},         {"refl", "a reflection map"},
-    {"map_refl", "a reflection map"}, {"map_Ns", "a shininess map"},
-    {"map_Ni", "an index map"},       {"map_Tr", "a transparency map (use map_d)"},
+    {"bump", "a bump map"},
+    {"map_bump", "a bump map"},
+    {"map_Bump", "a bump map"},
+    {"norm", "a normal map"},
+    {"map_norm", "a normal map"},
+    {"disp", "a displacement map"},
+    {"decal", "a decal map"},
+    {"refl", "a reflection map"},
+    {"map_refl", "a reflection map"},
+    {"map_Ns", "a shininess map"},
+    {"map_Ni", "an index map"},
+    {"map_Tr", "a transparency map (use map_d)"},
     {"sharpness", "reflection sharpness"},
-    {"Pr", "PBR roughness"},          {"Pm", "PBR metallic"},
-    {"Ps", "PBR sheen"},              {"Pc", "PBR clearcoat"},
+    {"Pr", "PBR roughness"},
+    {"Pm", "PBR metallic"},
+    {"Ps", "PBR sheen"},
+    {"Pc", "PBR clearcoat"},
     {"Pcr", "PBR clearcoat roughness"},
-    {"aniso", "PBR anisotropy"},      {"anisor", "PBR anisotropy rotation"},
-    {"map_Pr", "a PBR roughness map"}, {"map_Pm", "a PBR metallic map"},
-    {"map_Ps", "a PBR sheen map"},    {"map_Pc", "a PBR clearcoat map"},
+    {"aniso", "PBR anisotropy"},
+    {"anisor", "PBR anisotropy rotation"},
+    {"map_Pr", "a PBR roughness map"},
+    {"map_Pm", "a PBR metallic map"},
+    {"map_Ps", "a PBR sheen map"},
+    {"map_Pc", "a PBR clearcoat map"},
     {"map_Pcr", "a PBR clearcoat roughness map"},
     {"map_Ke_ior", "an emission map"},
 };
@@ -68,8 +79,10 @@ struct LineReader {
     void colour(std::string_view rest, float out[3]) const {
         std::string_view first = next_token(rest);
         if (first == "spectral" || first == "xyz")
-            fail(fmt::format("'{} {}': spectral and CIE XYZ colours are not supported (give "
-                             "linear RGB)", key, first));
+            fail(
+                fmt::format("'{} {}': spectral and CIE XYZ colours are not supported (give "
+                            "linear RGB)",
+                            key, first));
         float v[3];
         size_t n = 0;
         for (std::string_view t = first; !t.empty(); t = next_token(rest)) {
@@ -132,8 +145,8 @@ struct LineReader {
                 numbers(3, v);
                 for (int k = 0; k < 2; ++k)
                     if (!(std::fabs(v[k]) <= 1e6f))
-                        fail(fmt::format("'{}' option '{}' {} is out of range (at most 1e6)",
-                                         key, t, v[k]));
+                        fail(fmt::format("'{}' option '{}' {} is out of range (at most 1e6)", key,
+                                         t, v[k]));
                 float* out = t == "-s" ? m.scale : m.offset;
                 out[0] = v[0], out[1] = v[1];
             } else if (t == "-clamp") {
@@ -148,8 +161,10 @@ struct LineReader {
                 numbers(3, nullptr);
             } else if (t == "-imfchan") {
                 const std::string_view x = next_token(rest);
-                if (x.size() != 1 || std::string_view("rgbmlz").find(x[0]) == std::string_view::npos)
-                    fail(fmt::format("'{}' option -imfchan takes r, g, b, m, l or z, got '{}'", key, x));
+                if (x.size() != 1 ||
+                    std::string_view("rgbmlz").find(x[0]) == std::string_view::npos)
+                    fail(fmt::format("'{}' option -imfchan takes r, g, b, m, l or z, got '{}'", key,
+                                     x));
                 m.channel = x[0];
             } else if (t == "-colorspace") {
                 // (tinyobjloader's extension: how an 8-bit file's values are encoded)
@@ -200,9 +215,10 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
             if (n.empty()) {
                 // A name with '#' in it: no 'newmtl' can give it (the line ends at '#')
                 m->name = fmt::format("#unnamed-line-{}", line_no);
-                lib.warnings.push_back(fmt::format("{}: line {}: 'newmtl' without a name: the "
-                                                   "material is called '{}'",
-                                                   src.path, line_no, m->name));
+                lib.warnings.push_back(
+                    fmt::format("{}: line {}: 'newmtl' without a name: the "
+                                "material is called '{}'",
+                                src.path, line_no, m->name));
             } else {
                 m->name = std::string(n);
             }
@@ -214,9 +230,10 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
             if (u.key != key) continue;
             unmodelled = true;
             if (warned.insert(u.key).second)
-                lib.warnings.push_back(fmt::format("{}: line {}: '{}' ({}) is not modelled by "
-                                                   "cierzo and is ignored",
-                                                   src.path, line_no, key, u.what));
+                lib.warnings.push_back(
+                    fmt::format("{}: line {}: '{}' ({}) is not modelled by "
+                                "cierzo and is ignored",
+                                src.path, line_no, key, u.what));
         }
         if (unmodelled) continue;
         if (!m) r.fail(fmt::format("'{}' before the first 'newmtl'", key));

@@ -33,13 +33,13 @@ struct MtlMaterial {
     bool has_kd = false, has_ks = false, has_ke = false, has_tf = false;
     float kd_rgb[3] = {0, 0, 0}, ks_rgb[3] = {0, 0, 0}, ke_rgb[3] = {0, 0, 0},
           tf_rgb[3] = {1, 1, 1};
-    float ns = 0.0f;   // Phong exponent
-    float ni = 1.0f;   // index of refraction (0 when a file leaves it unset)
+    float ns = 0.0f;  // Phong exponent
+    float ni = 1.0f;  // index of refraction (0 when a file leaves it unset)
     size_t ni_line = 0;
-    float d = 1.0f;    // dissolve (opacity): 1 opaque; Tr is 1 - d
-    size_t d_line = 0;      // the line that set it (0: not given)
+    float d = 1.0f;          // dissolve (opacity): 1 opaque; Tr is 1 - d
+    size_t d_line = 0;       // the line that set it (0: not given)
     bool d_from_tr = false;  // set by Tr (the later of d and Tr wins)
-    int illum = -1;    // illumination model, -1 when not given
+    int illum = -1;          // illumination model, -1 when not given
     std::optional<MtlMap> map_kd, map_ks, map_ke, map_d;
 };
 
@@ -58,9 +58,9 @@ struct MtlLibrary {
 };
 
 // Throws InputError naming the file and line: a number that does not parse or is out of
-// range (colours finite and >= 0, Ns in [0, 1e6], Ni in [0, 1000], d and Tr in [0, 1], illum 0..10),
-// a colour given as a spectral curve or in CIE XYZ, a value before the first 'newmtl', a map
-// without a file name, a name defined twice. A 'newmtl' without a name is a warning; its
+// range (colours finite and >= 0, Ns in [0, 1e6], Ni in [0, 1000], d and Tr in [0, 1], illum
+// 0..10), a colour given as a spectral curve or in CIE XYZ, a value before the first 'newmtl', a
+// map without a file name, a name defined twice. A 'newmtl' without a name is a warning; its
 // material is called "#unnamed-line-N" (N its line), which no 'newmtl' can name, as '#'
 // starts a comment.
 MtlLibrary read_mtl(const std::filesystem::path& path);

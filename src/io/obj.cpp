@@ -40,8 +40,8 @@ using Source = MeshSource;
 // A decimal number, all of the token (a leading '+' allowed), finite and within float range.
 bool parse_number(std::string_view token, double& out) {
     if (!token.empty() && token[0] == '+') token.remove_prefix(1);
-    const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), out,
-                                           std::chars_format::general);
+    const auto [end, ec] =
+        std::from_chars(token.data(), token.data() + token.size(), out, std::chars_format::general);
     return ec == std::errc() && end == token.data() + token.size() && std::isfinite(out) &&
            std::fabs(out) <= double(std::numeric_limits<float>::max());
 }
@@ -50,8 +50,8 @@ bool parse_number(std::string_view token, double& out) {
 bool parse_index(std::string_view token, int64_t& out) {
     if (!token.empty() && token[0] == '+') token.remove_prefix(1);
     const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), out);
-    return !token.empty() && ec == std::errc() && end == token.data() + token.size() &&
-           out != 0 && out > -(int64_t(1) << 31) && out < (int64_t(1) << 31);
+    return !token.empty() && ec == std::errc() && end == token.data() + token.size() && out != 0 &&
+           out > -(int64_t(1) << 31) && out < (int64_t(1) << 31);
 }
 
 // What the line pass counted: the elements tinyobjloader must then report.
@@ -60,10 +60,10 @@ struct Counts {
     // The faces and corners handed to tinyobjloader: a face of more than kMaxPieceCorners
     // is several pieces, each after the first repeating two corners
     uint64_t pieces = 0, piece_corners = 0;
-    bool colors = true;          // every vertex has a colour
-    bool corner_normals = true;  // every corner names a normal
+    bool colors = true;            // every vertex has a colour
+    bool corner_normals = true;    // every corner names a normal
     bool corner_texcoords = true;  // every corner names a texture coordinate
-    size_t max_line = 0;  // the line of the largest absolute vertex index, for its message
+    size_t max_line = 0;           // the line of the largest absolute vertex index, for its message
     int64_t max_vertex = 0, max_normal = 0, max_texcoord = 0;
     size_t max_normal_line = 0, max_texcoord_line = 0;
     std::string checked;  // the file's checked lines, every other line emptied
@@ -88,8 +88,10 @@ Counts check_lines(std::string_view bytes, const Source& src) {
         if (key != "f") c.checked.push_back('\n');
         if (key == "usemtl") {
             std::string_view name = rest;
-            while (!name.empty() && (name.front() == ' ' || name.front() == '\t')) name.remove_prefix(1);
-            while (!name.empty() && (name.back() == ' ' || name.back() == '\t')) name.remove_suffix(1);
+            while (!name.empty() && (name.front() == ' ' || name.front() == '\t'))
+                name.remove_prefix(1);
+            while (!name.empty() && (name.back() == ' ' || name.back() == '\t'))
+                name.remove_suffix(1);
             // (an empty name is the default material, as before any 'usemtl')
             if (!c.materials && c.faces > 0) c.material_names.push_back("");
             c.materials = true;
@@ -116,21 +118,26 @@ Counts check_lines(std::string_view bytes, const Source& src) {
             for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest)) {
                 if (n == 7 || !parse_number(t, value[n]))
                     src.fail_at(line_no, fmt::format("'{}' is not a number in float range "
-                                                     "(or there are too many values)", t));
+                                                     "(or there are too many values)",
+                                                     t));
                 ++n;
             }
             if (key == "vn") {
-                if (n != 3) src.fail_at(line_no, fmt::format("a normal 'vn' needs 3 numbers, "
-                                                             "not {}", n));
+                if (n != 3)
+                    src.fail_at(line_no, fmt::format("a normal 'vn' needs 3 numbers, "
+                                                     "not {}",
+                                                     n));
                 ++c.normals;
                 continue;
             }
             if (n == 4 && value[3] != 1.0)
-                src.fail_at(line_no, "a vertex with a weight w other than 1 (rational "
-                                     "geometry) is not supported");
+                src.fail_at(line_no,
+                            "a vertex with a weight w other than 1 (rational "
+                            "geometry) is not supported");
             if (n != 3 && n != 4 && n != 6)
                 src.fail_at(line_no, fmt::format("a vertex 'v' needs 3 numbers (x y z), 4 "
-                                                 "(x y z 1) or 6 (x y z r g b), not {}", n));
+                                                 "(x y z 1) or 6 (x y z r g b), not {}",
+                                                 n));
             c.colors &= n == 6;
             ++c.vertices;
         } else if (key == "vt") {
@@ -140,7 +147,8 @@ Counts check_lines(std::string_view bytes, const Source& src) {
             for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest), ++n)
                 if (n == 3 || !parse_number(t, value))
                     src.fail_at(line_no, fmt::format("'{}' is not a number in float range "
-                                                     "(or there are too many values)", t));
+                                                     "(or there are too many values)",
+                                                     t));
             if (n == 0) src.fail_at(line_no, "a texture coordinate 'vt' needs 1 to 3 numbers");
             ++c.texcoords;
         } else if (key == "f") {
@@ -156,9 +164,9 @@ Counts check_lines(std::string_view bytes, const Source& src) {
                 size_t parts = 0;
                 for (size_t a = 0;;) {
                     const size_t slash = t.find('/', a);
-                    if (parts == 3)
-                        src.fail_at(line_no, fmt::format("bad face corner '{}'", t));
-                    part[parts++] = t.substr(a, slash == std::string_view::npos ? slash : slash - a);
+                    if (parts == 3) src.fail_at(line_no, fmt::format("bad face corner '{}'", t));
+                    part[parts++] =
+                        t.substr(a, slash == std::string_view::npos ? slash : slash - a);
                     if (slash == std::string_view::npos) break;
                     a = slash + 1;
                 }
@@ -168,7 +176,8 @@ Counts check_lines(std::string_view bytes, const Source& src) {
                     if (!parse_index(part[k], index[k]))
                         src.fail_at(line_no,
                                     fmt::format("bad face corner '{}' (indices are non-zero "
-                                                "integers; 1 is the first element)", t));
+                                                "integers; 1 is the first element)",
+                                                t));
                 }
                 // Relative (negative) indices count back from the last element read
                 const uint64_t count[3] = {c.vertices, c.texcoords, c.normals};
@@ -182,8 +191,7 @@ Counts check_lines(std::string_view bytes, const Source& src) {
                 const int64_t v = index[0] < 0 ? int64_t(c.vertices) + index[0] + 1 : index[0];
                 if (v > c.max_vertex) c.max_vertex = v, c.max_line = line_no;
                 if (parts == 3) {
-                    const int64_t vn =
-                        index[2] < 0 ? int64_t(c.normals) + index[2] + 1 : index[2];
+                    const int64_t vn = index[2] < 0 ? int64_t(c.normals) + index[2] + 1 : index[2];
                     if (vn > c.max_normal) c.max_normal = vn, c.max_normal_line = line_no;
                 } else {
                     c.corner_normals = false;
@@ -210,7 +218,8 @@ Counts check_lines(std::string_view bytes, const Source& src) {
             }
             c.checked.push_back('\n');
             if (corners < 3)
-                src.fail_at(line_no, fmt::format("a face needs at least 3 corners, not {}", corners));
+                src.fail_at(line_no,
+                            fmt::format("a face needs at least 3 corners, not {}", corners));
             ++c.faces;
             c.corners += corners;
             c.piece_corners += in_piece;
@@ -220,10 +229,12 @@ Counts check_lines(std::string_view bytes, const Source& src) {
     }
     if (uint64_t(c.max_vertex) > c.vertices)
         src.fail_at(c.max_line, fmt::format("face refers to vertex {}, but the file has {} "
-                                            "vertices", c.max_vertex, c.vertices));
+                                            "vertices",
+                                            c.max_vertex, c.vertices));
     if (uint64_t(c.max_normal) > c.normals)
         src.fail_at(c.max_normal_line, fmt::format("face refers to normal {}, but the file has "
-                                                   "{} normals", c.max_normal, c.normals));
+                                                   "{} normals",
+                                                   c.max_normal, c.normals));
     if (uint64_t(c.max_texcoord) > c.texcoords)
         src.fail_at(c.max_texcoord_line,
                     fmt::format("face refers to texture coordinate {}, but the file has {}",
@@ -265,10 +276,11 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
         attrib.normals.size() != counts.normals * 3 ||
         attrib.texcoords.size() != counts.texcoords * 2 || faces != counts.pieces ||
         corners != counts.piece_corners)
-        src.fail(fmt::format("the OBJ parser read {} vertices, {} normals and {} faces where "
-                             "the file has {}, {} and {}: a line it reads otherwise",
-                             attrib.vertices.size() / 3, attrib.normals.size() / 3, faces,
-                             counts.vertices, counts.normals, counts.pieces));
+        src.fail(
+            fmt::format("the OBJ parser read {} vertices, {} normals and {} faces where "
+                        "the file has {}, {} and {}: a line it reads otherwise",
+                        attrib.vertices.size() / 3, attrib.normals.size() / 3, faces,
+                        counts.vertices, counts.normals, counts.pieces));
 
     MeshData mesh;
     const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3;
@@ -314,7 +326,8 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
         if (added) {
             for (int k = 0; k < 3; ++k) {
                 mesh.positions.push_back(attrib.vertices[3 * size_t(idx.vertex_index) + k]);
-                if (normals) mesh.normals.push_back(attrib.normals[3 * size_t(idx.normal_index) + k]);
+                if (normals)
+                    mesh.normals.push_back(attrib.normals[3 * size_t(idx.normal_index) + k]);
                 if (colors) mesh.colors.push_back(attrib.colors[3 * size_t(idx.vertex_index) + k]);
             }
             if (texcoords)
@@ -338,7 +351,8 @@ MeshData parse_obj(std::string_view bytes, const std::filesystem::path& name) {
             for (size_t k = 2; k < n; ++k) {
                 const uint32_t next = vertex_of(shape.mesh.indices[at + k]);
                 mesh.indices.insert(mesh.indices.end(), {first, previous, next});
-                if (counts.materials) mesh.triangle_material.push_back(counts.piece_material[piece]);
+                if (counts.materials)
+                    mesh.triangle_material.push_back(counts.piece_material[piece]);
                 previous = next;
             }
             at += n;

@@ -114,8 +114,7 @@ std::optional<Identity> existing_identity(const fs::path& path) {
 // The identity of what a resolved output writes to.
 Identity output_identity(const OutputTarget& target) {
     struct stat st;
-    if (target.descriptor >= 0 && ::fstat(target.descriptor, &st) == 0)
-        return identity_of_stat(st);
+    if (target.descriptor >= 0 && ::fstat(target.descriptor, &st) == 0) return identity_of_stat(st);
     if (std::optional<Identity> id = existing_identity(target.file)) return *id;
     Identity id;
     std::error_code ec;
@@ -136,8 +135,8 @@ fs::path create_temp_file(const fs::path& path, const fs::path& dir, const std::
     for (int attempt = 0; attempt < 100; ++attempt) {
         std::string name = ".";  // (appended: GCC 12 warns falsely of "a" + string)
         name += stem.substr(0, kMaxTempStem);
-        name += ".tmp." + std::to_string(::getpid()) + "." +
-                std::to_string(temp_counter.fetch_add(1));
+        name +=
+            ".tmp." + std::to_string(::getpid()) + "." + std::to_string(temp_counter.fetch_add(1));
         const fs::path tmp = dir / name;
         const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
         if (fd >= 0) {
@@ -235,14 +234,14 @@ void write_stream_target(const fs::path& path, const OutputTarget& target,
 }  // namespace
 
 OutputTarget resolve_output(const fs::path& path, const std::string& what) {
-    if (path.empty()) throw InputError("cannot write" + (what.empty() ? "" : " " + what) +
-                                       ": empty file name");
+    if (path.empty())
+        throw InputError("cannot write" + (what.empty() ? "" : " " + what) + ": empty file name");
     const LinkEnd end = follow_links(path, what);
     OutputTarget t;
     if (end.descriptor) {
         if (::fcntl(*end.descriptor, F_GETFD) == -1)
-            throw InputError(cannot(path, what) + "descriptor " +
-                             std::to_string(*end.descriptor) + " is not open");
+            throw InputError(cannot(path, what) + "descriptor " + std::to_string(*end.descriptor) +
+                             " is not open");
         t.kind = OutputTarget::Kind::kStream;
         t.descriptor = *end.descriptor;
         return t;
@@ -272,8 +271,8 @@ OutputTarget resolve_output(const fs::path& path, const std::string& what) {
     if (!fs::is_directory(dir, ec))
         throw InputError(cannot(path, what) + "folder '" + dir.string() + "' does not exist");
     if (::access(dir.c_str(), W_OK | X_OK) != 0)
-        throw InputError(cannot(path, what) + "folder '" + dir.string() + "': " +
-                         errno_text(errno));
+        throw InputError(cannot(path, what) + "folder '" + dir.string() +
+                         "': " + errno_text(errno));
     t.kind = OutputTarget::Kind::kFile;
     t.file = p;
     return t;

@@ -119,8 +119,10 @@ struct BinaryReader {
         uint64_t stride = 0;
         bool fixed = true;
         for (const Property& property : element.properties) {
-            if (property.is_list) fixed = false;
-            else stride += type_size(property.type);
+            if (property.is_list)
+                fixed = false;
+            else
+                stride += type_size(property.type);
         }
         if (fixed) {
             uint64_t available = (body.size() - pos) / (stride ? stride : 1);
@@ -159,8 +161,8 @@ struct BinaryReader {
                 int64_t n = load_integer(take(type_size(property.count_type), i, element),
                                          property.count_type, swap);
                 if (n < 0) {
-                    src->fail(fmt::format("vertex {} has a negative list length ({}) for '{}'",
-                                          i, n, property.name));
+                    src->fail(fmt::format("vertex {} has a negative list length ({}) for '{}'", i,
+                                          n, property.name));
                 }
                 take(uint64_t(n) * type_size(property.type), i, element);
             }
@@ -181,8 +183,8 @@ struct BinaryReader {
                                          property.count_type, swap);
                 if (int(p) != index_property) {
                     if (n < 0) {
-                        src->fail(fmt::format("face {} has a negative list length ({}) for '{}'",
-                                              i, n, property.name));
+                        src->fail(fmt::format("face {} has a negative list length ({}) for '{}'", i,
+                                              n, property.name));
                     }
                     take(uint64_t(n) * type_size(property.type), i, element);
                     continue;
@@ -197,9 +199,10 @@ struct BinaryReader {
                 for (int64_t k = 0; k < n; ++k) {
                     int64_t index = load_integer(items + size_t(k) * item, property.type, swap);
                     if (index < 0 || uint64_t(index) >= vertex_count) {
-                        src->fail(fmt::format("face {} has vertex index {} out of range "
-                                              "(the file has {} vertices)",
-                                              i, index, vertex_count));
+                        src->fail(
+                            fmt::format("face {} has vertex index {} out of range "
+                                        "(the file has {} vertices)",
+                                        i, index, vertex_count));
                     }
                     uint32_t v = uint32_t(index);
                     if (k >= 2) mesh.indices.insert(mesh.indices.end(), {corner[0], corner[1], v});
@@ -266,8 +269,8 @@ struct AsciiReader {
 
     std::string_view token(size_t k, uint64_t i, const Element& element) const {
         if (k >= tokens.size()) {
-            src->fail_at(line_no, fmt::format("{} {} has {} values, expected {}", element.name,
-                                              i, tokens.size(), values_needed(element)));
+            src->fail_at(line_no, fmt::format("{} {} has {} values, expected {}", element.name, i,
+                                              tokens.size(), values_needed(element)));
         }
         return tokens[k];
     }
@@ -290,8 +293,8 @@ struct AsciiReader {
         double value = 0.0;
         auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), value);
         if (ec == std::errc::result_out_of_range) {
-            src->fail_at(line_no, fmt::format("{} {}: value '{}' is out of range", element.name,
-                                              i, t));
+            src->fail_at(line_no,
+                         fmt::format("{} {}: value '{}' is out of range", element.name, i, t));
         }
         if (ec != std::errc() || end != t.data() + t.size()) {
             src->fail_at(line_no, fmt::format("{} {}: '{}' is not a number", element.name, i, t));
@@ -383,9 +386,12 @@ template <class Reader>
 void read_body(Reader& reader, const Header& header, const MeshLayout& layout, MeshData& mesh) {
     for (size_t e = 0; e < header.elements.size(); ++e) {
         const Element& element = header.elements[e];
-        if (e == layout.vertex_element) reader.read_vertices(element, layout.vertex, mesh);
-        else if (e == layout.face_element) reader.read_faces(element, layout.face_indices, mesh);
-        else reader.skip_element(element);
+        if (e == layout.vertex_element)
+            reader.read_vertices(element, layout.vertex, mesh);
+        else if (e == layout.face_element)
+            reader.read_faces(element, layout.face_indices, mesh);
+        else
+            reader.skip_element(element);
     }
 }
 

@@ -22,8 +22,8 @@ constexpr uint64_t max_vertices_or_faces = uint64_t(1) << 31;
 
 // "element NAME COUNT" (after the keyword), with the 2^31 cap on vertices and faces.
 // `names` holds the names of the elements before it (a set: a header may have many).
-Element parse_element(std::string_view rest, size_t line_no,
-                      std::unordered_set<std::string>& names, const Source& src) {
+Element parse_element(std::string_view rest, size_t line_no, std::unordered_set<std::string>& names,
+                      const Source& src) {
     Element element;
     element.name = std::string(next_token(rest));
     std::string_view count = next_token(rest);
@@ -59,8 +59,8 @@ Property parse_property(std::string_view rest, size_t line_no, const Source& src
         std::string_view count_type = next_token(rest);
         property.count_type = type_of(count_type);
         if (!is_integer(property.count_type)) {
-            src.fail_at(line_no, fmt::format("list count type '{}' is not an integer type",
-                                             count_type));
+            src.fail_at(line_no,
+                        fmt::format("list count type '{}' is not an integer type", count_type));
         }
         type = next_token(rest);
     }
@@ -97,10 +97,14 @@ Header parse_header(std::string_view file, const Source& src) {
             if (have_format) src.fail_at(line_no, "second 'format' line");
             std::string_view name = next_token(rest);
             std::string_view version = next_token(rest);
-            if (name == "ascii") header.format = Format::Ascii;
-            else if (name == "binary_little_endian") header.format = Format::BinaryLittleEndian;
-            else if (name == "binary_big_endian") header.format = Format::BinaryBigEndian;
-            else src.fail_at(line_no, fmt::format("unknown format '{}'", name));
+            if (name == "ascii")
+                header.format = Format::Ascii;
+            else if (name == "binary_little_endian")
+                header.format = Format::BinaryLittleEndian;
+            else if (name == "binary_big_endian")
+                header.format = Format::BinaryBigEndian;
+            else
+                src.fail_at(line_no, fmt::format("unknown format '{}'", name));
             if (version != "1.0") {
                 src.fail_at(line_no, fmt::format("unsupported format version '{}'", version));
             }
@@ -154,19 +158,28 @@ MeshLayout find_mesh_layout(const Header& header, const Source& src) {
     for (size_t p = 0; p < vertex.properties.size(); ++p) {
         const Property& property = vertex.properties[p];
         int* slot = nullptr;
-        if (property.name == "x") slot = &layout.vertex.x;
-        else if (property.name == "y") slot = &layout.vertex.y;
-        else if (property.name == "z") slot = &layout.vertex.z;
-        else if (property.name == "red") slot = &layout.vertex.red;
-        else if (property.name == "green") slot = &layout.vertex.green;
-        else if (property.name == "blue") slot = &layout.vertex.blue;
-        else if (property.name == "nx") slot = &layout.vertex.nx;
-        else if (property.name == "ny") slot = &layout.vertex.ny;
-        else if (property.name == "nz") slot = &layout.vertex.nz;
+        if (property.name == "x")
+            slot = &layout.vertex.x;
+        else if (property.name == "y")
+            slot = &layout.vertex.y;
+        else if (property.name == "z")
+            slot = &layout.vertex.z;
+        else if (property.name == "red")
+            slot = &layout.vertex.red;
+        else if (property.name == "green")
+            slot = &layout.vertex.green;
+        else if (property.name == "blue")
+            slot = &layout.vertex.blue;
+        else if (property.name == "nx")
+            slot = &layout.vertex.nx;
+        else if (property.name == "ny")
+            slot = &layout.vertex.ny;
+        else if (property.name == "nz")
+            slot = &layout.vertex.nz;
         if (!slot) continue;
         if (property.is_list) {
-            src.fail(fmt::format("vertex property '{}' is a list, expected a number",
-                                 property.name));
+            src.fail(
+                fmt::format("vertex property '{}' is a list, expected a number", property.name));
         }
         if (*slot >= 0) src.fail(fmt::format("vertex property '{}' appears twice", property.name));
         *slot = int(p);
@@ -181,8 +194,8 @@ MeshLayout find_mesh_layout(const Header& header, const Source& src) {
     for (size_t p = 0; p < face.properties.size(); ++p) {
         const Property& property = face.properties[p];
         if (property.name != "vertex_indices" && property.name != "vertex_index") continue;
-        if (!property.is_list) src.fail(fmt::format("face property '{}' is not a list",
-                                                    property.name));
+        if (!property.is_list)
+            src.fail(fmt::format("face property '{}' is not a list", property.name));
         if (!is_integer(property.type)) {
             src.fail(fmt::format("face property '{}' has non-integer index type '{}'",
                                  property.name, type_name(property.type)));
@@ -219,14 +232,14 @@ void check_claimed_sizes(const Header& header, const MeshLayout& layout, uint64_
     uint64_t budget = binary ? body_bytes : (body_bytes + 1) / 2;
     for (size_t e = 0; e < header.elements.size(); ++e) {
         const Element& element = header.elements[e];
-        uint64_t min_size = min_element_size(element, e == layout.face_element,
-                                             layout.face_indices, binary);
+        uint64_t min_size =
+            min_element_size(element, e == layout.face_element, layout.face_indices, binary);
         if (min_size == 0) continue;
         if (element.count > budget / min_size) {
-            src.fail(fmt::format("header claims {} '{}' elements, but the file is only {} bytes "
-                                 "after the header (needs at least {} {} each)",
-                                 element.count, element.name, body_bytes, min_size,
-                                 binary ? "bytes" : "values"));
+            src.fail(fmt::format(
+                "header claims {} '{}' elements, but the file is only {} bytes "
+                "after the header (needs at least {} {} each)",
+                element.count, element.name, body_bytes, min_size, binary ? "bytes" : "values"));
         }
         budget -= element.count * min_size;
     }

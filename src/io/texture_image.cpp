@@ -46,10 +46,10 @@ void summarise(TextureImage& t) {
             const float* px = &t.floats[4 * i];
             for (int c = 0; c < 4; ++c)
                 if (!(px[c] >= 0.0f) || !std::isfinite(px[c]))
-                    fail(t.path, fmt::format("texel ({}, {}) has the value {} in channel {}: "
-                                             "texels must be finite and >= 0",
-                                             i % size_t(t.width), i / size_t(t.width), px[c],
-                                             "RGBA"[c]));
+                    fail(t.path,
+                         fmt::format("texel ({}, {}) has the value {} in channel {}: "
+                                     "texels must be finite and >= 0",
+                                     i % size_t(t.width), i / size_t(t.width), px[c], "RGBA"[c]));
             for (int c = 0; c < 3; ++c) sum[c] += px[c], biggest[c] = std::max(biggest[c], px[c]);
             opaque &= px[3] >= 1.0f;
         }
@@ -92,7 +92,8 @@ TextureImage read_exr_texture(const fs::path& path) {
     t.floats.resize(t.texels() * 4);
     for (size_t i = 0; i < t.texels(); ++i) {
         for (int c = 0; c < 3; ++c) t.floats[4 * i + size_t(c)] = image.rgb[3 * i + size_t(c)];
-        t.floats[4 * i + 3] = alpha == layers.end() ? 1.0f : std::clamp(alpha->second[i], 0.0f, 1.0f);
+        t.floats[4 * i + 3] =
+            alpha == layers.end() ? 1.0f : std::clamp(alpha->second[i], 0.0f, 1.0f);
     }
     summarise(t);
     return t;
@@ -163,7 +164,8 @@ void check_pnm(const std::string& bytes, const fs::path& name) {
     }
     if (values[2] < 1 || values[2] > 255)
         fail(name, fmt::format("is a PNM file of maxval {}: only 8-bit PNM (maxval 1 to 255) is "
-                               "read", values[2]));
+                               "read",
+                               values[2]));
     check_size(name, values[0], values[1]);
     const int64_t channels = bytes[1] == '5' ? 1 : 3;
     const int64_t need = int64_t(at) + 1 + values[0] * values[1] * channels;
@@ -187,15 +189,15 @@ void check_raw_size(const std::string& bytes, const fs::path& name, Format forma
         check_size(name, w, h);
         if (int64_t(bytes.size()) < n)
             fail(name, fmt::format("is truncated: its {} x {} texels need at least {} bytes, "
-                                   "the file has {}", w, h, n, bytes.size()));
+                                   "the file has {}",
+                                   w, h, n, bytes.size()));
     };
     if (format == Format::kTga && bytes.size() >= 18) {
         const int64_t w = le16(bytes, 12), h = le16(bytes, 14);
         const int type = uint8_t(bytes[2]), bits = uint8_t(bytes[16]);
-        const int64_t head = 18 + int64_t(uint8_t(bytes[0])) +
-                             (uint8_t(bytes[1]) ? int64_t(le16(bytes, 5)) *
-                                                      ((uint8_t(bytes[7]) + 7) / 8)
-                                                : 0);
+        const int64_t head =
+            18 + int64_t(uint8_t(bytes[0])) +
+            (uint8_t(bytes[1]) ? int64_t(le16(bytes, 5)) * ((uint8_t(bytes[7]) + 7) / 8) : 0);
         const int64_t texel = std::max((bits + 7) / 8, 1);
         if (type >= 1 && type <= 3) need(head + w * h * texel, w, h);
         if (type >= 9 && type <= 11) need(head + (w * h + 127) / 128 * (1 + texel), w, h);
@@ -217,8 +219,9 @@ TextureImage decode_texture_image(const std::string& bytes, const fs::path& name
         fail(name, "is too large to be an image texture (over 2 GiB)");
     const Format format = format_of(bytes, name);
     if (format == Format::kUnknown)
-        fail(name, "is not an image texture cierzo can read (PNG, JPEG, TGA, BMP, PNM, HDR or "
-                   "EXR, known by their contents; TGA and EXR by the extension .tga, .exr)");
+        fail(name,
+             "is not an image texture cierzo can read (PNG, JPEG, TGA, BMP, PNM, HDR or "
+             "EXR, known by their contents; TGA and EXR by the extension .tga, .exr)");
     if (format == Format::kPnm) check_pnm(bytes, name);
     check_raw_size(bytes, name, format);
     const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());

@@ -25,7 +25,7 @@ struct TextureImage {
     bool srgb = false;  // the bytes' colour channels are sRGB-encoded (decoded on look-up)
     float max_rgb[3] = {0.0f, 0.0f, 0.0f};  // the largest linear value of each channel
     double mean_rgb[3] = {0.0, 0.0, 0.0};   // the mean linear value of each channel
-    bool opaque = true;  // every alpha is 1
+    bool opaque = true;                     // every alpha is 1
 
     size_t texels() const { return size_t(width) * size_t(height); }
     size_t memory_bytes() const { return bytes.size() * 4 + floats.size() * 4; }

@@ -45,7 +45,8 @@ void Scene::build_light_starts() {
         ls.emitter_probability = 1.0f;
         return;
     }
-    if (emitter_power > 0.0 && ls.emitter_probability >= 1.0f) ls.emitter_probability = 0x1.fffffep-1f;
+    if (emitter_power > 0.0 && ls.emitter_probability >= 1.0f)
+        ls.emitter_probability = 0x1.fffffep-1f;
     // P(point lights) as the sampler computes it, from the float probability
     const double p_points = 1.0 - double(ls.emitter_probability);
     double cumulative = 0.0;
@@ -71,8 +72,7 @@ namespace {
 // Vose's alias table for weights w (all > 0): q[i], alias[i] such that picking a slot
 // uniformly, keeping it with probability q, else taking its alias, chooses i with
 // probability w[i] / Σw.
-void build_alias(const std::vector<double>& w, std::vector<float>& q,
-                 std::vector<int32_t>& alias) {
+void build_alias(const std::vector<double>& w, std::vector<float>& q, std::vector<int32_t>& alias) {
     const size_t n = w.size();
     double total = 0.0;
     for (double x : w) total += x;
@@ -163,7 +163,8 @@ void Scene::build_environment() {
     e.environment_width = w, e.environment_height = h;
     std::copy(environment.to_world, environment.to_world + 9, e.environment_to_world);
     for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) e.environment_to_local[3 * i + j] = environment.to_world[3 * j + i];
+        for (int j = 0; j < 3; ++j)
+            e.environment_to_local[3 * i + j] = environment.to_world[3 * j + i];
     // f = max RGB · sin θ at each row's centre; rows by their sums, columns within a row
     std::vector<double> f(size_t(w) * size_t(h)), row_sum(size_t(h), 0.0);
     double total = 0.0, mean = 0.0;
@@ -194,7 +195,7 @@ void Scene::build_environment() {
         for (int32_t x = 0; x < w; ++x) {
             const size_t i = size_t(y) * size_t(w) + size_t(x);
             in_row += f[i];
-            cdf[x + 1] = x + 1 == w ? 1.0f
+            cdf[x + 1] = x + 1 == w                 ? 1.0f
                          : row_sum[size_t(y)] > 0.0 ? float(in_row / row_sum[size_t(y)])
                                                     : float(x + 1) / float(w);
             e.environment_density[i] = float(f[i] / total * double(w) * double(h));
@@ -208,7 +209,7 @@ void Scene::build_emitters() {
     build_environment();
     std::vector<double> power;
     std::vector<size_t> rectangles;  // the first entry of each
-    const auto add = [&](EmitterKind kind, const float (&record)[kEmitterStride], double p) {
+    const auto add = [&](EmitterKind kind, const float(&record)[kEmitterStride], double p) {
         e.kind.push_back(kind);
         e.data.insert(e.data.end(), record, record + kEmitterStride);
         power.push_back(p);
@@ -230,8 +231,9 @@ void Scene::build_emitters() {
             continue;
         }
         e.sphere_id[i] = int32_t(e.kind.size());
-        const float record[kEmitterStride] = {spheres.cx[i], spheres.cy[i], spheres.cz[i], r, 0,
-                                              0, 0, 0, 0, 0, 0, 0, 0, le.x, le.y, le.z};
+        const float record[kEmitterStride] = {
+            spheres.cx[i], spheres.cy[i], spheres.cz[i], r, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+            le.x,          le.y,          le.z};
         add(kEmitterSphere, record, area * double(max_component(le)));
         ++e.sampled_objects;
     }
@@ -264,8 +266,8 @@ void Scene::build_emitters() {
             // (a degenerate triangle keeps its slot, with no power: it is never chosen)
             const Vec3f n = twice > 0.0f ? c * (1.0f / twice) : Vec3f(0.0f, 0.0f, 1.0f);
             const float record[kEmitterStride] = {v0.x, v0.y, v0.z, 0.5f * twice, e1.x, e1.y,
-                                                  e1.z, e2.x, e2.y,  e2.z,        n.x,  n.y,
-                                                  n.z,  le.x, le.y,  le.z};
+                                                  e1.z, e2.x, e2.y, e2.z,         n.x,  n.y,
+                                                  n.z,  le.x, le.y, le.z};
             const double area = 0.5 * double(twice);
             add(kEmitterTriangle, record,
                 std::isfinite(area) ? area * double(max_component(le)) : 0.0);
@@ -280,13 +282,13 @@ void Scene::build_emitters() {
             if (!find_rectangle(c, r)) continue;
             const Vec3f n = normalize(cross(r.e1, r.e2));
             const float area = length(cross(r.e1, r.e2));
-            const float record[kEmitterStride] = {r.corner.x, r.corner.y, r.corner.z, area,
-                                                  r.e1.x,     r.e1.y,     r.e1.z,     r.e2.x,
-                                                  r.e2.y,     r.e2.z,     n.x,        n.y,
-                                                  n.z,        le.x,       le.y,       le.z};
+            const float record[kEmitterStride] = {
+                r.corner.x, r.corner.y, r.corner.z, area, r.e1.x, r.e1.y, r.e1.z, r.e2.x,
+                r.e2.y,     r.e2.z,     n.x,        n.y,  n.z,    le.x,   le.y,   le.z};
             for (size_t k : {first + t, first + t + 1}) {
                 e.kind[k] = kEmitterRectangle;
-                std::copy(record, record + kEmitterStride, e.data.begin() + ptrdiff_t(k * kEmitterStride));
+                std::copy(record, record + kEmitterStride,
+                          e.data.begin() + ptrdiff_t(k * kEmitterStride));
             }
             power[first + t] = std::isfinite(area) ? double(area) * double(max_component(le)) : 0.0;
             power[first + t + 1] = 0.0;

@@ -43,23 +43,23 @@ struct FlatImage {
 // positions and colours (those of the geometry it instances), and for an instance the
 // world-to-object map (its vertices are in the file's space).
 struct FlatMesh {
-    const int32_t* indices = nullptr;    // 3 vertex indices per triangle
-    const float* positions = nullptr;    // x, y, z per vertex
-    const float* colors = nullptr;       // r, g, b per vertex; null when the mesh has none
-    const float* to_object = nullptr;    // row-major 3 × 4; null for world-space vertices
-    const float* normals = nullptr;      // x, y, z per vertex; null unless the object is smooth
+    const int32_t* indices = nullptr;        // 3 vertex indices per triangle
+    const float* positions = nullptr;        // x, y, z per vertex
+    const float* colors = nullptr;           // r, g, b per vertex; null when the mesh has none
+    const float* to_object = nullptr;        // row-major 3 × 4; null for world-space vertices
+    const float* normals = nullptr;          // x, y, z per vertex; null unless the object is smooth
     const float* normal_to_world = nullptr;  // row-major 3 × 3, for an instance's normals
-    const float* uvs = nullptr;          // u, v per vertex; null when the mesh has none
+    const float* uvs = nullptr;              // u, v per vertex; null when the mesh has none
 };
 
 // Which stages and primitive loops a scene needs; the kernels skip everything else.
 struct FlatFeatures {
     bool spheres, planes, quadrics, meshes;
-    bool bvh;  // anything bounded: the scene BVH is traversed
+    bool bvh;     // anything bounded: the scene BVH is traversed
     bool packet;  // the BVH is one node, tested K rays at a time (kernels/bvh/traverse.h)
     bool lights, emitters;
     bool diffuse, specular, mirror, refraction;
-    bool textures;  // procedural or vertex colours anywhere: materials are sorted and evaluated
+    bool textures;   // procedural or vertex colours anywhere: materials are sorted and evaluated
     int lobe_kinds;  // how many of the four lobes occur (1: no lobe bucketing needed)
     uint32_t texture_channels;  // bit c: some material textures colour channel c
     // (whether the estimator samples emitters, traces light paths, and whether some mesh is
@@ -77,30 +77,30 @@ struct FlatScene {
     // The same four values of each plane (nx, ny, nz, d), each repeated in 16 lanes, 64-byte
     // aligned: the intersection loop reads them as whole vectors, an operand of the
     // arithmetic instead of a broadcast per batch
-    const float* plane_lanes;   // 4 * 16 per plane
+    const float* plane_lanes;  // 4 * 16 per plane
     int32_t quadric_count;
-    const float* quadric;  // 16 floats each: A..J, box min xyz, box max xyz
+    const float* quadric;        // 16 floats each: A..J, box min xyz, box max xyz
     const float* quadric_lanes;  // the same 16 values, each repeated in 16 lanes
     const int32_t* quadric_material;
-    int32_t unbounded_quadric_count;     // the quadrics without a finite box, tested beside
-    const int32_t* unbounded_quadrics;   // the BVH: their indices
-    const BvhView* bvh;                  // everything bounded
-    const AlphaTable* alpha;             // the meshes' alpha cut-outs, or null (none)
+    int32_t unbounded_quadric_count;    // the quadrics without a finite box, tested beside
+    const int32_t* unbounded_quadrics;  // the BVH: their indices
+    const BvhView* bvh;                 // everything bounded
+    const AlphaTable* alpha;            // the meshes' alpha cut-outs, or null (none)
     int32_t mesh_count;
     const int32_t* mesh_material;
     const FlatMesh* meshes;
 
     // Materials: solid colours as SoA [channel][component][material], flags, sources
     int32_t material_count;
-    int32_t material_stride;    // material_count rounded up to 16 (tables are padded)
-    const float* color;         // kColCount * 3 * material_stride
-    const float* shininess;     // material_count
-    const float* ior;           // material_count
-    const int32_t* emitter;     // material_count, 1 if the material emits (ends paths)
-    const int32_t* phong;       // material_count, 1 if kd or ks is non-zero
-    const int32_t* textured;    // material_count, bit c set if colour channel c is not solid
-    const FlatColor* sources;   // material_count * kColCount
-    const FlatImage* images;    // the image textures the sources name
+    int32_t material_stride;   // material_count rounded up to 16 (tables are padded)
+    const float* color;        // kColCount * 3 * material_stride
+    const float* shininess;    // material_count
+    const float* ior;          // material_count
+    const int32_t* emitter;    // material_count, 1 if the material emits (ends paths)
+    const int32_t* phong;      // material_count, 1 if kd or ks is non-zero
+    const int32_t* textured;   // material_count, bit c set if colour channel c is not solid
+    const FlatColor* sources;  // material_count * kColCount
+    const FlatImage* images;   // the image textures the sources name
 
     // Point lights: position xyz, intensity rgb
     int32_t light_count;

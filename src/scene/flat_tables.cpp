@@ -34,7 +34,8 @@ AlignedFloats lanes_of(const std::vector<float>& values) {
     AlignedFloats out;
     out.memory.reset(static_cast<float*>(std::aligned_alloc(64, (bytes + 63) / 64 * 64)));
     if (!out.memory) throw std::bad_alloc();
-    for (size_t i = 0; i < values.size(); ++i) std::fill_n(out.memory.get() + 16 * i, 16, values[i]);
+    for (size_t i = 0; i < values.size(); ++i)
+        std::fill_n(out.memory.get() + 16 * i, 16, values[i]);
     return out;
 }
 // Value k of primitive j of four SoA arrays, repeated in 16 lanes at [(4j + k) * 16, +16).
@@ -50,15 +51,9 @@ AlignedFloats lanes_of(std::initializer_list<const std::vector<float>*> arrays) 
 }
 
 FlatColor flatten(const ColorSource& c) {
-    return {uint32_t(c.kind),
-            {c.a.x, c.a.y, c.a.z},
-            {c.b.x, c.b.y, c.b.z},
-            c.frequency,
-            {c.axis.x, c.axis.y, c.axis.z},
-            {c.axis2.x, c.axis2.y, c.axis2.z},
-            c.image,
-            {c.uv_scale[0], c.uv_scale[1]},
-            {c.uv_offset[0], c.uv_offset[1]},
+    return {uint32_t(c.kind), {c.a.x, c.a.y, c.a.z},          {c.b.x, c.b.y, c.b.z},
+            c.frequency,      {c.axis.x, c.axis.y, c.axis.z}, {c.axis2.x, c.axis2.y, c.axis2.z},
+            c.image,          {c.uv_scale[0], c.uv_scale[1]}, {c.uv_offset[0], c.uv_offset[1]},
             c.clamp ? 1u : 0u};
 }
 
@@ -87,10 +82,9 @@ std::shared_ptr<const FlatTables> build_flat_tables(const Scene& scene) {
     t->plane[3] = padded(pl.distance), t->plane_material = padded(pl.material);
     t->plane_lanes = lanes_of({&pl.nx, &pl.ny, &pl.nz, &pl.distance});
     for (const Quadric& q : scene.quadrics) {
-        t->quadric.insert(t->quadric.end(),
-                          {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h, q.q.i, q.q.j,
-                           q.box_min.x, q.box_min.y, q.box_min.z, q.box_max.x, q.box_max.y,
-                           q.box_max.z});
+        t->quadric.insert(t->quadric.end(), {q.q.a, q.q.b, q.q.c, q.q.d, q.q.e, q.q.f, q.q.g, q.q.h,
+                                             q.q.i, q.q.j, q.box_min.x, q.box_min.y, q.box_min.z,
+                                             q.box_max.x, q.box_max.y, q.box_max.z});
         t->quadric_material.push_back(q.material);
     }
     t->quadric = padded(t->quadric), t->quadric_material = padded(t->quadric_material);
@@ -205,8 +199,18 @@ FlatView flat_view(const Scene& scene) {
     const bool tree = !scene.bvh.empty();
     const bool packet = tree && packet_tree(scene.bvh.view());
     f.ray_group = 1;
-    f.features = {sf.spheres, sf.planes, sf.quadrics, sf.meshes, tree, packet,
-                  sf.point_lights, sf.emitters, sf.diffuse, sf.specular, sf.mirror, sf.refraction,
+    f.features = {sf.spheres,
+                  sf.planes,
+                  sf.quadrics,
+                  sf.meshes,
+                  tree,
+                  packet,
+                  sf.point_lights,
+                  sf.emitters,
+                  sf.diffuse,
+                  sf.specular,
+                  sf.mirror,
+                  sf.refraction,
                   sf.procedural_textures || sf.vertex_colors || sf.image_textures,
                   int(sf.diffuse) + int(sf.specular) + int(sf.mirror) + int(sf.refraction),
                   t.texture_channels};

@@ -1,8 +1,9 @@
 // The scene's flat form (scene/flat_scene.h), built in one place. The tables the SIMD loads
 // need (every primitive and material table padded to whole registers, plane and quadric
-// values repeated in 16 lanes, the materials as structure of arrays) are built once, by Scene::finalize, and shared by copies of the scene; a view binds
-// them, with the scene's own BVH, vertices, emitters and light starts, to the camera and the
-// settings the scene has when it is taken.
+// values repeated in 16 lanes, the materials as structure of arrays) are built once, by
+// Scene::finalize, and shared by copies of the scene; a view binds them, with the scene's own BVH,
+// vertices, emitters and light starts, to the camera and the settings the scene has when it is
+// taken.
 #pragma once
 
 #include <memory>

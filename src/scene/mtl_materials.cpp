@@ -65,25 +65,27 @@ Material MtlMaterials::from_mtl(const MtlMaterial& mtl, const MtlLibrary& lib) {
         m.kt = solid(mtl.tf_rgb);
         if (!(mtl.ni > 0.0f))
             throw InputError(lib.path.string() + ": line " +
-                             std::to_string(mtl.ni_line ? mtl.ni_line : mtl.line) +
-                             ": material '" + mtl.name + "' is glass (illum " +
-                             std::to_string(illum) + ") and needs an index Ni > 0");
+                             std::to_string(mtl.ni_line ? mtl.ni_line : mtl.line) + ": material '" +
+                             mtl.name + "' is glass (illum " + std::to_string(illum) +
+                             ") and needs an index Ni > 0");
         m.ior = mtl.ni;
     } else if (illum >= 2) {
         m.ks = ks;
         m.shininess = mtl.ns;
     }
-    if (mtl.map_ke) m.emission = image(*mtl.map_ke, true);
-    else if (mtl.has_ke) m.emission = solid(mtl.ke_rgb);
+    if (mtl.map_ke)
+        m.emission = image(*mtl.map_ke, true);
+    else if (mtl.has_ke)
+        m.emission = solid(mtl.ke_rgb);
     // Dissolve: d (or 1 - Tr) is the opacity, map_d a mask; glass is transparent by
     // refraction, and its d is not applied (exporters write d < 1 for glass)
     const bool glass = !m.kt.is_zero();
     if (!glass) m.alpha.constant = mtl.d;
     if (!glass && mtl.d == 0.0f && mtl.d_from_tr && !mtl.map_d)
-        scene.warnings.push_back(
-            lib.path.string() + ": line " + std::to_string(mtl.d_line) + ": material '" +
-            mtl.name + "' has 'Tr 1', fully transparent: it is invisible (some exporters "
-            "write Tr as the opacity; 'd 1' would make it opaque)");
+        scene.warnings.push_back(lib.path.string() + ": line " + std::to_string(mtl.d_line) +
+                                 ": material '" + mtl.name +
+                                 "' has 'Tr 1', fully transparent: it is invisible (some exporters "
+                                 "write Tr as the opacity; 'd 1' would make it opaque)");
     if (mtl.map_d) {
         const ColorSource s = image(*mtl.map_d, true);  // (the bytes as they are: a mask)
         m.alpha.image = s.image;
@@ -97,19 +99,19 @@ Material MtlMaterials::from_mtl(const MtlMaterial& mtl, const MtlLibrary& lib) {
     return m;
 }
 
-int32_t MtlMaterials::material(const std::string& name,
-                               const std::vector<const MtlLibrary*>& libs,
+int32_t MtlMaterials::material(const std::string& name, const std::vector<const MtlLibrary*>& libs,
                                const std::string& obj) {
     for (const MtlLibrary* lib : libs) {
         const MtlMaterial* mtl = lib->find(name);
         if (!mtl) continue;
-        const auto [it, added] =
-            mtl_ids.try_emplace({lib->path.lexically_normal(), name}, int32_t(scene.materials.size()));
+        const auto [it, added] = mtl_ids.try_emplace({lib->path.lexically_normal(), name},
+                                                     int32_t(scene.materials.size()));
         if (added) scene.materials.push_back(from_mtl(*mtl, *lib));
         return it->second;
     }
     if (!name.empty())
-        scene.warnings.push_back(obj + ": 'usemtl " + name + "' names a material no "
+        scene.warnings.push_back(obj + ": 'usemtl " + name +
+                                 "' names a material no "
                                  "material library of the file defines: its faces take "
                                  "the default material (diffuse grey 0.8)");
     if (default_material < 0) {

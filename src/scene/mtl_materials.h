@@ -28,8 +28,7 @@ struct MtlMaterials {
 
     // The library at `path`, which the OBJ file `obj` names; a file that does not exist is a
     // warning and an empty library, one that cannot be read read_mtl's InputError.
-    const MtlLibrary& library(const std::filesystem::path& path,
-                              const std::filesystem::path& obj);
+    const MtlLibrary& library(const std::filesystem::path& path, const std::filesystem::path& obj);
     // The scene's material for the MTL material `name` of the first of `libs` that defines
     // it, else the OBJ default (diffuse grey 0.8; with a warning naming `obj` where a name is
     // given).

@@ -97,8 +97,8 @@ private:
         for (int attempt = 0; attempt < 1 << 20; ++attempt) {
             const uint32_t x = (columns_[rng_.below(uint32_t(columns_.size()))] << (32 - m_)) |
                                (rng_.next() & jitter);
-            const uint32_t y = (rows_[rng_.below(uint32_t(rows_.size()))] << (32 - m_)) |
-                               (rng_.next() & jitter);
+            const uint32_t y =
+                (rows_[rng_.below(uint32_t(rows_.size()))] << (32 - m_)) | (rng_.next() & jitter);
             if (free_at(x, y)) {
                 occupy(x, y);
                 x_.push_back(x), y_.push_back(y);

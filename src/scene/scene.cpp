@@ -23,8 +23,8 @@ namespace cierzo {
 Camera look_at_camera(const Vec3f& position, const Vec3f& target, const Vec3f& up_hint,
                       float vfov_degrees, float aspect, Handedness hand) {
     const Vec3f f = normalize(target - position);
-    const Vec3f right = hand == Handedness::kLeft ? normalize(cross(up_hint, f))
-                                                  : normalize(cross(f, up_hint));
+    const Vec3f right =
+        hand == Handedness::kLeft ? normalize(cross(up_hint, f)) : normalize(cross(f, up_hint));
     const Vec3f up = hand == Handedness::kLeft ? cross(f, right) : cross(right, f);
     const float half = std::tan(vfov_degrees * kPi / 360.0f);
     Camera c;
@@ -70,9 +70,9 @@ void Scene::finalize() {
     const auto start = std::chrono::steady_clock::now();
     light_pilot_ = std::make_shared<LightPilot>();
     // (hit records hold an index of 24 bits: kernels/prim_id.h)
-    for (const auto& [count, what] : {std::pair{spheres.size(), "spheres"},
-                                      std::pair{planes.size(), "planes"},
-                                      std::pair{quadrics.size(), "quadrics"}})
+    for (const auto& [count, what] :
+         {std::pair{spheres.size(), "spheres"}, std::pair{planes.size(), "planes"},
+          std::pair{quadrics.size(), "quadrics"}})
         if (count > size_t(kPrimIndexMask))
             throw InputError(source.string() + ": " + std::to_string(count) + " " + what +
                              "; a scene holds at most 16,777,215 of each");
@@ -184,7 +184,7 @@ void Scene::build_alpha() {
             t->indices.push_back(meshes[g].indices);
         }
         out.uvs = t->uvs[copy->second].data();  // (a vector's buffer stays where it is
-                                                 // when the outer vector moves it)
+                                                // when the outer vector moves it)
         out.indices = t->indices[copy->second].data();
     }
     t->table = {t->meshes.data(), t->masks.data()};
@@ -227,8 +227,9 @@ PathContext Scene::path_context() const {
             std::lock_guard lock(light_pilot_->mutex);
             const LightPilot::Entry* k = kept_light_pilot(c.estimator);
             if (!k)
-                throw std::logic_error("Scene::path_context: no light pilot for these settings "
-                                       "(integrators/light_pilot.h, prepare_path_context)");
+                throw std::logic_error(
+                    "Scene::path_context: no light pilot for these settings "
+                    "(integrators/light_pilot.h, prepare_path_context)");
             kept = k->vertices;
         }
         const double vertices = std::max(kept, kMinLightPilotVertices);
@@ -272,7 +273,8 @@ float Scene::merge_radius() const {
 double Scene::bounds_radius() const {
     if (!bvh.empty()) {
         const Vec3f d = bvh.bounds_max() - bvh.bounds_min();
-        const double half = 0.5 * std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
+        const double half =
+            0.5 * std::sqrt(double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z);
         if (half > 0.0 && std::isfinite(half)) return half;
     }
     return 1.0;
@@ -282,9 +284,9 @@ void Scene::set_resolution(int width, int height) {
     settings.width = width;
     settings.height = height;
     if (look_at)
-        camera = look_at_camera(look_at->position, look_at->target, look_at->up,
-                                look_at->vfov_degrees, float(width) / float(height),
-                                look_at->handedness);
+        camera =
+            look_at_camera(look_at->position, look_at->target, look_at->up, look_at->vfov_degrees,
+                           float(width) / float(height), look_at->handedness);
 }
 
 SceneFeatures Scene::features() const {
@@ -329,7 +331,6 @@ struct ScalarQuadrics {
         return {x.q, x.box_min, x.box_max, i};
     }
 };
-
 
 }  // namespace
 
@@ -415,8 +416,7 @@ bool Scene::occluded(const Ray<float>& ray, float tmax) const {
         return true;
     BvhHit unused;
     float t = tmax;
-    return traverse<true, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), t, unused,
-                                 alpha());
+    return traverse<true, float>(bvh.view(), make_traversal_ray(ray.o, ray.d), t, unused, alpha());
 }
 
 int32_t Scene::add_image(std::shared_ptr<const TextureImage> image) {
@@ -477,8 +477,8 @@ Vec3f Scene::color_at(const ColorSource& c, const Hit& hit) const {
 
 Bsdf<float> Scene::bsdf_at(const Hit& hit) const {
     const Material& m = materials[size_t(hit.material)];
-    return {color_at(m.kd, hit), color_at(m.ks, hit), color_at(m.kr, hit), color_at(m.kt, hit),
-            m.shininess, m.ior};
+    return {color_at(m.kd, hit), color_at(m.ks, hit), color_at(m.kr, hit),
+            color_at(m.kt, hit), m.shininess,         m.ior};
 }
 
 Vec3f Scene::emission_at(const Hit& hit) const {

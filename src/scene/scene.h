@@ -74,27 +74,26 @@ struct Quadric {
 // first of those objects (`geometry` = its own index), which also holds their BVH, and
 // every one of them (`geometry` = that index) is traced through its transform.
 struct Mesh {
-    std::string source;  // file name, for messages
+    std::string source;            // file name, for messages
     std::vector<Vec3f> positions;  // world space, or the file's space (geometry owner); or
                                    // empty (an instance of another entry's geometry)
-    std::vector<Vec3f> colors;  // per vertex, or empty
-    std::vector<Vec3f> normals;  // per vertex, unit or zero (in the space of positions), for
-                                 // shading; filled for "smooth" objects (and the geometry of
-                                 // smooth instances), else empty
-    std::vector<float> uvs;  // texture coordinates u, v per vertex, or empty
+    std::vector<Vec3f> colors;     // per vertex, or empty
+    std::vector<Vec3f> normals;    // per vertex, unit or zero (in the space of positions), for
+                                   // shading; filled for "smooth" objects (and the geometry of
+                                   // smooth instances), else empty
+    std::vector<float> uvs;        // texture coordinates u, v per vertex, or empty
     std::vector<uint32_t> indices;
     int32_t material = 0;
     int32_t geometry = -1;  // -1: own world-space vertices; else the entry with the vertices
     float to_world[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};  // row-major 3 × 4 (instances)
     float to_object[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
     float normal_to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // inverse transpose of to_world
-    bool mirrored = false;  // to_world has a negative determinant
-    bool smooth = false;    // shaded with the interpolated vertex normals
+    bool mirrored = false;                                   // to_world has a negative determinant
+    bool smooth = false;             // shaded with the interpolated vertex normals
     std::shared_ptr<const Bvh> bvh;  // geometry owners only: over the file-space triangles
     bool instanced() const { return geometry >= 0; }
     size_t triangle_count() const { return indices.size() / 3; }
 };
-
 
 struct PointLight {
     Vec3f position;
@@ -155,8 +154,13 @@ struct Emitters {
 
     size_t count() const { return pmf.size(); }
     EmitterTable table() const {
-        EmitterTable t{int32_t(pmf.size()), alias_q.data(), alias.data(), pmf.data(), kind.data(),
-                       data.data(), {}};
+        EmitterTable t{int32_t(pmf.size()),
+                       alias_q.data(),
+                       alias.data(),
+                       pmf.data(),
+                       kind.data(),
+                       data.data(),
+                       {}};
         if (environment_width > 0) {
             EnvironmentMap& m = t.environment;
             m.width = environment_width, m.height = environment_height;
@@ -176,7 +180,7 @@ struct Emitters {
 // equirectangular image (kernels/emitter_table.h, EnvironmentMap, says how directions map to
 // it), and its rotation. Scene::finalize makes its tables (Emitters).
 struct Environment {
-    ColorSource emission;  // zero: no environment
+    ColorSource emission;                             // zero: no environment
     float to_world[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // row-major rotation
     bool present() const { return !emission.is_zero(); }
 };
@@ -246,9 +250,9 @@ public:
     // finite box, world-space triangles, instances), and the quadrics tested beside it.
     Bvh bvh;
     std::vector<int32_t> unbounded_quadrics;
-    double bvh_seconds = 0.0;  // building every BVH, in finalize()
-    double load_seconds = 0.0;   // load_scene() as a whole: reading, decoding, building
-    double image_seconds = 0.0;  // decoding the image textures (in parallel), in load_scene()
+    double bvh_seconds = 0.0;     // building every BVH, in finalize()
+    double load_seconds = 0.0;    // load_scene() as a whole: reading, decoding, building
+    double image_seconds = 0.0;   // decoding the image textures (in parallel), in load_scene()
     bool smooth_shading = false;  // some mesh is smooth (set by finalize())
     Emitters emitters;
     LightStarts light_starts;
@@ -324,8 +328,7 @@ public:
     // sampling, length limits) by the integrators' pilot, `estimate(pilot_context())`, which
     // is called only where no estimate is kept for them (integrators/light_pilot.h); kept
     // for the scene and its copies.
-    double light_subpath_vertices(
-        const std::function<double(const PathContext&)>& estimate) const;
+    double light_subpath_vertices(const std::function<double(const PathContext&)>& estimate) const;
 
     // vcm's r0: render.merge_radius / --merge-radius if set, else kMergeRadiusFraction of
     // half the diagonal of the box around the bounded primitives and the camera (1 if that
@@ -337,8 +340,8 @@ public:
 
     // The pinhole as paths from the lights see it (kernels/transport.h).
     PinholeFrame pinhole() const {
-        return pinhole_frame(camera.origin, camera.forward, camera.left, camera.up,
-                             settings.width, settings.height);
+        return pinhole_frame(camera.origin, camera.forward, camera.left, camera.up, settings.width,
+                             settings.height);
     }
 
     // The unit shading normal of a hit on smooth mesh `object` (Hit::ns).

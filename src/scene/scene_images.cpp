@@ -50,10 +50,10 @@ void load_images(Scene& scene, const ImageRequests& images, const std::filesyste
     for (Material& m : scene.materials)
         for (ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt}) sources.push_back(c);
     for (ColorSource* c : sources)
-            if (c->kind == TextureKind::kImage) {
-                const TextureImage& im = *scene.images[size_t(c->image)];
-                c->b = {c->a.x * im.max_rgb[0], c->a.y * im.max_rgb[1], c->a.z * im.max_rgb[2]};
-            }
+        if (c->kind == TextureKind::kImage) {
+            const TextureImage& im = *scene.images[size_t(c->image)];
+            c->b = {c->a.x * im.max_rgb[0], c->a.y * im.max_rgb[1], c->a.z * im.max_rgb[2]};
+        }
     const auto imaged = [&](int32_t material) {
         const Material& m = scene.materials[size_t(material)];
         for (const ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt})

@@ -72,11 +72,11 @@ void Loader::check_alpha() const {
     const auto refuse = [&](int32_t material, const char* what) {
         if (!masked[size_t(material)]) return;
         const Material& m = scene.materials[size_t(material)];
-        throw InputError(file.string() + ": " +
-                         (m.name.empty() ? std::string("an inline material")
-                                         : "material '" + m.name + "'") +
-                         " has an 'alpha' below 1, but is used by a " + what +
-                         ": alpha cut-outs apply to triangles and meshes only");
+        throw InputError(
+            file.string() + ": " +
+            (m.name.empty() ? std::string("an inline material") : "material '" + m.name + "'") +
+            " has an 'alpha' below 1, but is used by a " + what +
+            ": alpha cut-outs apply to triangles and meshes only");
     };
     for (int32_t mat : scene.spheres.material) refuse(mat, "sphere");
     for (int32_t mat : scene.planes.material) refuse(mat, "plane");
@@ -89,10 +89,11 @@ void Loader::environment(const json& j) {
     if (c.kind != TextureKind::kSolid && c.kind != TextureKind::kImage)
         r.fail("'emission' must be a colour or an image texture (an equirectangular map)");
     if (c.kind == TextureKind::kImage &&
-        (c.clamp || c.uv_scale[0] != 1.0f || c.uv_scale[1] != 1.0f ||
-         c.uv_offset[0] != 0.0f || c.uv_offset[1] != 0.0f))
-        r.fail("an environment image covers every direction once: 'scale', 'offset' and "
-               "'wrap' do not apply (turn it with 'rotate')");
+        (c.clamp || c.uv_scale[0] != 1.0f || c.uv_scale[1] != 1.0f || c.uv_offset[0] != 0.0f ||
+         c.uv_offset[1] != 0.0f))
+        r.fail(
+            "an environment image covers every direction once: 'scale', 'offset' and "
+            "'wrap' do not apply (turn it with 'rotate')");
     const Vec3f rot = r.vec3("rotate", Vec3f(0.0f)) * (kPi / 180.0f);
     double a[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     for (int axis = 0; axis < 3; ++axis) {
@@ -124,17 +125,20 @@ void Loader::camera(const json& j, float aspect) {
         if (!(vfov > 0.0 && vfov < 180.0)) r.fail("'vfov' must be in (0, 180) degrees");
         if (!(length(target - position) > 0.0f)) r.fail("'look_at' equals 'position'");
         if (!std::isfinite(length(target - position)))
-            r.fail("'look_at' is too far from 'position' (beyond about 1e19: their "
-                   "distance squared overflows a float)");
+            r.fail(
+                "'look_at' is too far from 'position' (beyond about 1e19: their "
+                "distance squared overflows a float)");
         if (!(length(cross(up, target - position)) > 0.0f))
             r.fail("'up' is parallel to the viewing direction");
         if (r.has("forward") || r.has("left"))
-            r.fail("'forward' and 'left' belong to the explicit frame form; they cannot be "
-                   "combined with 'look_at'");
+            r.fail(
+                "'forward' and 'left' belong to the explicit frame form; they cannot be "
+                "combined with 'look_at'");
         const std::string hand = r.string("handedness", "left");
         if (hand != "left" && hand != "right")
-            r.fail("'handedness' must be \"left\" (the report's: up +y and looking along +z "
-                   "put +x on the right) or \"right\" (OBJ, glTF, Blender: +x on the left)");
+            r.fail(
+                "'handedness' must be \"left\" (the report's: up +y and looking along +z "
+                "put +x on the right) or \"right\" (OBJ, glTF, Blender: +x on the left)");
         const Handedness h = hand == "left" ? Handedness::kLeft : Handedness::kRight;
         scene.look_at = LookAt{position, target, up, float(vfov), h};
         scene.camera = look_at_camera(position, target, up, float(vfov), aspect, h);
@@ -142,7 +146,8 @@ void Loader::camera(const json& j, float aspect) {
         // upside-down frame) and one just above 0 to a frame of zero size
         if (!(dot(scene.camera.up, up) > 0.0f) ||
             !frame_is_normalisable(scene.camera.forward, scene.camera.left, scene.camera.up))
-            r.fail("'vfov' " + short_number(vfov) + " is too close to 0 or 180 degrees "
+            r.fail("'vfov' " + short_number(vfov) +
+                   " is too close to 0 or 180 degrees "
                    "to build a camera frame in float");
     } else {
         scene.camera.origin = position;
@@ -153,14 +158,17 @@ void Loader::camera(const json& j, float aspect) {
             !(length(scene.camera.up) > 0.0f))
             r.fail("'forward', 'left' and 'up' must be non-zero");
         if (!frame_is_normalisable(scene.camera.forward, scene.camera.left, scene.camera.up))
-            r.fail("'forward', 'left' and 'up' are too long: forward ± left ± up must stay "
-                   "below about 1e19 in length, or the ray directions overflow a float");
+            r.fail(
+                "'forward', 'left' and 'up' are too long: forward ± left ± up must stay "
+                "below about 1e19 in length, or the ray directions overflow a float");
         if (r.has("vfov"))
-            r.fail("'vfov' belongs to the 'look_at' form; in the explicit frame form the "
-                   "lengths of 'left' and 'up' set the field of view");
+            r.fail(
+                "'vfov' belongs to the 'look_at' form; in the explicit frame form the "
+                "lengths of 'left' and 'up' set the field of view");
         if (r.has("handedness"))
-            r.fail("'handedness' belongs to the 'look_at' form; in the explicit frame form "
-                   "'left' says where the image's left is");
+            r.fail(
+                "'handedness' belongs to the 'look_at' form; in the explicit frame form "
+                "'left' says where the image's left is");
     }
     r.finish();
 }
@@ -182,8 +190,9 @@ void Loader::render_settings(Reader& root) {
     s.seed = uint32_t(r.integer("seed", s.seed, 0, int64_t(UINT32_MAX)));
     s.spatial_splits = float(r.number("spatial_splits", s.spatial_splits));
     if (!(s.spatial_splits >= 0.0f && s.spatial_splits <= kBvhMaxSplitBudget))
-        r.fail("'spatial_splits' must be in [0, 4]: the fraction of extra triangle references "
-               "the BVH's spatial splits may make (0: none)");
+        r.fail(
+            "'spatial_splits' must be in [0, 4]: the fraction of extra triangle references "
+            "the BVH's spatial splits may make (0: none)");
     s.estimator.survival_cap = float(r.number("survival_cap", s.estimator.survival_cap));
     if (!(s.estimator.survival_cap > 0.0f && s.estimator.survival_cap < 1.0f))
         r.fail("'survival_cap' must be in (0, 1): every path needs a chance to die");
@@ -223,7 +232,8 @@ void Loader::render_settings(Reader& root) {
     if (e.max_length < e.min_length)
         r.fail("'max_length' (" + std::to_string(e.max_length) + ") is below 'min_length' (" +
                std::to_string(e.min_length) + "): no path would count");
-    const std::optional<Estimator> kind = parse_estimator(r.string("estimator", estimator_name(kDefaultEstimator)));
+    const std::optional<Estimator> kind =
+        parse_estimator(r.string("estimator", estimator_name(kDefaultEstimator)));
     if (!kind) {
         std::string names;
         for (const std::string& n : estimator_names())
@@ -234,7 +244,9 @@ void Loader::render_settings(Reader& root) {
     if (r.has("merge_radius")) {
         const double r0 = r.number("merge_radius", 0.0);
         if (!(r0 > 0.0) || !std::isfinite(float(r0)))
-            r.fail("'merge_radius' must be a positive length (the first merging radius of vcm, bpm and ppm)");
+            r.fail(
+                "'merge_radius' must be a positive length (the first merging radius of vcm, bpm "
+                "and ppm)");
         e.merge_radius = float(r0);
     } else {
         r.allow({"merge_radius"});
@@ -242,7 +254,8 @@ void Loader::render_settings(Reader& root) {
     if (r.has("merge_alpha")) {
         const double alpha = r.number("merge_alpha", kMergeAlpha);
         if (!(alpha > 0.0 && alpha < 1.0))
-            r.fail("'merge_alpha' must be in (0, 1), exclusive (how fast the merging radius shrinks)");
+            r.fail(
+                "'merge_alpha' must be in (0, 1), exclusive (how fast the merging radius shrinks)");
         e.merge_alpha = float(alpha);
     } else {
         r.allow({"merge_alpha"});
@@ -264,8 +277,10 @@ void Loader::render_settings(Reader& root) {
     if ((r.has("merge_radius") || r.has("merge_alpha")) && !merges(e.kind))
         r.fail("'merge_radius' and 'merge_alpha' are vcm's, bpm's and ppm's (the estimator is \"" +
                std::string(estimator_name(e.kind)) + "\")");
-    if (r.has("output")) s.output = file.parent_path() / r.string("output");
-    else r.allow({"output"});
+    if (r.has("output"))
+        s.output = file.parent_path() / r.string("output");
+    else
+        r.allow({"output"});
     r.finish();
 }
 
@@ -322,8 +337,10 @@ Scene build_scene(Loader& l, const json& root) {
         l.object(objects[i], "objects[" + std::to_string(i) + "]");
     l.finish_meshes();
     for (auto& [mat, mesh] : l.loose_triangles) l.scene.meshes.push_back(std::move(mesh));
-    if (r.has("environment")) l.environment(r.get("environment"));
-    else r.allow({"environment"});
+    if (r.has("environment"))
+        l.environment(r.get("environment"));
+    else
+        r.allow({"environment"});
     load_images(l.scene, l.images, l.file);
     l.check_alpha();
 
@@ -403,7 +420,8 @@ Scene load_mesh_as_scene(const fs::path& path) {
     const Vec3f from = centre + normalize(Vec3f{0.45f, 0.35f, 1.0f}) * distance;
     scene.look_at = LookAt{from, centre, Vec3f{0.0f, 1.0f, 0.0f}, vfov, Handedness::kRight};
     scene.set_resolution(scene.settings.width, scene.settings.height);
-    if (!scene.files.empty() && scene.files.front() != path) scene.files.insert(scene.files.begin(), path);
+    if (!scene.files.empty() && scene.files.front() != path)
+        scene.files.insert(scene.files.begin(), path);
     return scene;
 }
 

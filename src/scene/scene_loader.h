@@ -63,7 +63,8 @@ public:
     int64_t integer(const std::string& key, int64_t fallback, int64_t lo, int64_t hi) {
         if (!has(key)) return used_.insert(key), fallback;
         const json& v = get(key);
-        if (!v.is_number_integer() && !(v.is_number() && v.get<double>() == std::floor(v.get<double>())))
+        if (!v.is_number_integer() &&
+            !(v.is_number() && v.get<double>() == std::floor(v.get<double>())))
             fail("'" + key + "' must be an integer");
         const double d = v.get<double>();
         if (d < double(lo) || d > double(hi))
@@ -151,7 +152,9 @@ struct Loader {
 
     // "materials": each named material; and an object's "material"
     void materials(Reader& root, const json& mats);
-    int32_t material_ref(Reader& r) { return material_value(r, r.get("material"), r.where("material")); }
+    int32_t material_ref(Reader& r) {
+        return material_value(r, r.get("material"), r.where("material"));
+    }
 
     // A material by name, or an inline one.
     int32_t material_value(Reader& r, const json& v, const std::string& where);
@@ -168,10 +171,10 @@ struct Loader {
     // Mesh files read so far, by path: the file's data and the objects using it
     struct MeshFile {
         MeshData data;
-        std::vector<size_t> objects;  // indices into scene.meshes
+        std::vector<size_t> objects;     // indices into scene.meshes
         std::vector<std::string> where;  // their place in the file, for messages
-        std::vector<int> instance;    // per object: its "instance" (1, 0), or -1 for automatic
-        size_t automatic = 0;         // objects of the file without "instance"
+        std::vector<int> instance;       // per object: its "instance" (1, 0), or -1 for automatic
+        size_t automatic = 0;            // objects of the file without "instance"
     };
     // A file used by several objects without "instance" is traced through instances when
     // their copies would hold more triangles than this in all; below, the copies are put

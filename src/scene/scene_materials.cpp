@@ -37,14 +37,18 @@ void read_image_color(Reader& r, ColorSource& c, const fs::path& file, ImageRequ
     const bool srgb = [&] {
         if (!r.has("srgb")) return r.allow({"srgb"}), true;
         const json& v = r.get("srgb");
-        if (!v.is_boolean()) r.fail("'srgb' must be true (8-bit colours are sRGB-encoded, as "
-                                    "in colour maps) or false (linear, as in data maps)");
+        if (!v.is_boolean())
+            r.fail(
+                "'srgb' must be true (8-bit colours are sRGB-encoded, as "
+                "in colour maps) or false (linear, as in data maps)");
         return v.get<bool>();
     }();
     c.image = images.request(file.parent_path() / name, srgb, r.where("file"));
     c.a = Vec3f(1.0f);
-    if (r.has("factor")) c.a = colour_value(r, r.get("factor"), "factor");
-    else r.allow({"factor"});
+    if (r.has("factor"))
+        c.a = colour_value(r, r.get("factor"), "factor");
+    else
+        r.allow({"factor"});
     read_uv_map(r, c.uv_scale, c.uv_offset, c.clamp);
 }
 
@@ -63,8 +67,10 @@ void read_uv_map(Reader& r, float scale[2], float offset[2], bool& clamp) {
         } else if (v.is_array() && v.size() == 2 && ok(v[0]) && ok(v[1])) {
             out[0] = v[0].get<float>(), out[1] = v[1].get<float>();
         } else {
-            r.fail(std::string("'") + key + "' must be a number or [u, v], finite and at most "
-                   "1e6 in magnitude, got " + v.dump());
+            r.fail(std::string("'") + key +
+                   "' must be a number or [u, v], finite and at most "
+                   "1e6 in magnitude, got " +
+                   v.dump());
         }
     };
     pair("scale", 1.0f, scale);
@@ -99,15 +105,19 @@ AlphaSource read_alpha(Reader& parent, const fs::path& file, ImageRequests& imag
     // image says; asked for as a colour map, so that a colour map with an alpha channel that
     // is also the mask is decoded once)
     a.image = images.request(file.parent_path() / name, true, r.where("file"));
-    if (r.has("factor")) a.constant = unit(r, r.get("factor"), "factor");
-    else r.allow({"factor"});
+    if (r.has("factor"))
+        a.constant = unit(r, r.get("factor"), "factor");
+    else
+        r.allow({"factor"});
     const std::string channel = r.string("channel", "auto");
     static const std::map<std::string, int32_t> channels = {
         {"auto", -1}, {"r", 0}, {"g", 1}, {"b", 2}, {"a", 3}};
     const auto it = channels.find(channel);
     if (it == channels.end())
-        r.fail("'channel' must be \"auto\" (the image's alpha where it has one, else its red), "
-               "\"r\", \"g\", \"b\" or \"a\"; got \"" + channel + "\"");
+        r.fail(
+            "'channel' must be \"auto\" (the image's alpha where it has one, else its red), "
+            "\"r\", \"g\", \"b\" or \"a\"; got \"" +
+            channel + "\"");
     a.channel = it->second;
     read_uv_map(r, a.uv_scale, a.uv_offset, a.clamp);
     r.finish();
@@ -125,8 +135,10 @@ ColorSource read_color(Reader& parent, const std::string& key, const fs::path& f
     Reader r(v, parent.where(key), file);
     const std::string kind = r.string("texture");
     static const std::map<std::string, TextureKind> kinds = {
-        {"solid", TextureKind::kSolid},           {"sin", TextureKind::kSin},
-        {"sin2", TextureKind::kSin2},             {"sincos", TextureKind::kSinCos},
+        {"solid", TextureKind::kSolid},
+        {"sin", TextureKind::kSin},
+        {"sin2", TextureKind::kSin2},
+        {"sincos", TextureKind::kSinCos},
         {"vertex_nearest", TextureKind::kVertexNearest},
         {"vertex_weighted", TextureKind::kVertexWeighted},
         {"image", TextureKind::kImage}};
@@ -139,8 +151,10 @@ ColorSource read_color(Reader& parent, const std::string& key, const fs::path& f
         read_image_color(r, c, file, images);
     } else if (c.is_vertex()) {
         c.a = Vec3f(1.0f);
-        if (r.has("scale")) c.a = colour_value(r, r.get("scale"), "scale");
-        else r.allow({"scale"});
+        if (r.has("scale"))
+            c.a = colour_value(r, r.get("scale"), "scale");
+        else
+            r.allow({"scale"});
     } else {
         c.a = colour_value(r, r.get("a"), "a");
         if (c.kind != TextureKind::kSolid) {
@@ -159,17 +173,24 @@ Material read_material(const json& j, const std::string& where, const std::strin
     Reader r(j, where, file);
     Material m;
     m.name = name;
-    for (auto [key, dst] : {std::pair{"emission", &m.emission}, {"kd", &m.kd}, {"ks", &m.ks},
-                            {"kr", &m.kr}, {"kt", &m.kt}}) {
-        if (r.has(key)) *dst = read_color(r, key, file, images);
-        else r.allow({key});
+    for (auto [key, dst] : {std::pair{"emission", &m.emission},
+                            {"kd", &m.kd},
+                            {"ks", &m.ks},
+                            {"kr", &m.kr},
+                            {"kt", &m.kt}}) {
+        if (r.has(key))
+            *dst = read_color(r, key, file, images);
+        else
+            r.allow({key});
     }
     m.shininess = float(r.number("shininess", 0.0));
     if (m.shininess < 0.0f || m.shininess > 1e6f) r.fail("'shininess' must be in [0, 1e6]");
     m.ior = float(r.number("ior", 1.0));
     if (!(m.ior > 0.0f)) r.fail("'ior' must be > 0");
-    if (r.has("alpha")) m.alpha = read_alpha(r, file, images);
-    else r.allow({"alpha"});
+    if (r.has("alpha"))
+        m.alpha = read_alpha(r, file, images);
+    else
+        r.allow({"alpha"});
     r.finish();
     return m;
 }
@@ -186,8 +207,7 @@ void Loader::materials(Reader& root, const json& mats) {
 int32_t Loader::material_value(Reader& r, const json& v, const std::string& where) {
     if (v.is_string()) {
         const auto it = material_ids.find(v.get<std::string>());
-        if (it == material_ids.end())
-            r.fail("unknown material '" + v.get<std::string>() + "'");
+        if (it == material_ids.end()) r.fail("unknown material '" + v.get<std::string>() + "'");
         return it->second;
     }
     scene.materials.push_back(read_material(v, where, "", file, images));

@@ -35,7 +35,8 @@ MeshData Loader::group_of(const MeshData& data, uint32_t g) {
                 remap[v] = uint32_t(out.positions.size() / 3);
                 const auto copy = [v](const std::vector<float>& from, std::vector<float>& to,
                                       size_t n) {
-                    if (!from.empty()) to.insert(to.end(), from.begin() + n * v, from.begin() + n * (v + 1));
+                    if (!from.empty())
+                        to.insert(to.end(), from.begin() + n * v, from.begin() + n * (v + 1));
                 };
                 copy(data.positions, out.positions, 3);
                 copy(data.colors, out.colors, 3);
@@ -85,7 +86,8 @@ void Loader::object(const json& j, const std::string& where) {
     } else if (type == "mesh") {
         mesh(t);
     } else {
-        t.fail("unknown object type '" + type + "' (valid: sphere, plane, quadric, triangle, mesh)");
+        t.fail("unknown object type '" + type +
+               "' (valid: sphere, plane, quadric, triangle, mesh)");
     }
     t.finish();
 }
@@ -93,8 +95,9 @@ void Loader::object(const json& j, const std::string& where) {
 void Loader::quadric(Reader& t) {
     const json& c = t.get("coefficients");
     if (!c.is_array() || c.size() != 10)
-        t.fail("'coefficients' must be an array of 10 numbers [A..J] of "
-               "Ax²+By²+Cz²+Dxy+Eyz+Fxz+Gx+Hy+Iz+J=0");
+        t.fail(
+            "'coefficients' must be an array of 10 numbers [A..J] of "
+            "Ax²+By²+Cz²+Dxy+Eyz+Fxz+Gx+Hy+Iz+J=0");
     float k[10];
     for (size_t i = 0; i < 10; ++i) {
         if (!c[i].is_number() || !std::isfinite(c[i].get<float>()))
@@ -150,8 +153,9 @@ void Loader::triangle(Reader& t) {
                    std::fabs(x[0].get<double>()) <= 1e6 && std::fabs(x[1].get<double>()) <= 1e6;
         };
         if (!uv.is_array() || uv.size() != 3 || !ok(uv[0]) || !ok(uv[1]) || !ok(uv[2]))
-            t.fail("'uvs' must be 3 texture coordinates [[u, v], [u, v], [u, v]], each at "
-                   "most 1e6 in magnitude");
+            t.fail(
+                "'uvs' must be 3 texture coordinates [[u, v], [u, v], [u, v]], each at "
+                "most 1e6 in magnitude");
         for (size_t i = 0; i < 3; ++i)
             m.uvs.insert(m.uvs.end(), {uv[i][0].get<float>(), uv[i][1].get<float>()});
     } else {
@@ -200,8 +204,9 @@ void Loader::mesh(Reader& t) {
             t.fail("missing required key 'material' ('" + ply.string() +
                    "' names no materials of its own: no 'usemtl')");
         if (t.has("materials"))
-            t.fail("'materials' overrides the OBJ file's own materials by name; with "
-                   "'material' every face takes that one");
+            t.fail(
+                "'materials' overrides the OBJ file's own materials by name; with "
+                "'material' every face takes that one");
         t.allow({"materials"});
         const int32_t mat = material_ref(t);
         parts.push_back({key, mat});
@@ -218,18 +223,18 @@ void Loader::mesh(Reader& t) {
         std::map<std::string, int32_t> overrides;
         if (t.has("materials")) {
             const json& o = t.get("materials");
-            if (!o.is_object())
-                t.fail("'materials' must be an object of MTL name: material");
+            if (!o.is_object()) t.fail("'materials' must be an object of MTL name: material");
             for (auto it = o.begin(); it != o.end(); ++it) {
-                if (std::find(data.material_names.begin(), data.material_names.end(),
-                              it.key()) == data.material_names.end()) {
+                if (std::find(data.material_names.begin(), data.material_names.end(), it.key()) ==
+                    data.material_names.end()) {
                     std::string known;
                     for (const std::string& n : data.material_names)
                         if (!n.empty()) known += (known.empty() ? "" : ", ") + n;
-                    t.fail("'materials' overrides '" + it.key() + "', which '" +
-                           ply.string() + "' does not use (its materials: " + known + ")");
+                    t.fail("'materials' overrides '" + it.key() + "', which '" + ply.string() +
+                           "' does not use (its materials: " + known + ")");
                 }
-                overrides[it.key()] = material_value(t, it.value(), t.where("materials." + it.key()));
+                overrides[it.key()] =
+                    material_value(t, it.value(), t.where("materials." + it.key()));
             }
         } else {
             t.allow({"materials"});
@@ -240,15 +245,18 @@ void Loader::mesh(Reader& t) {
             if (used[g] == 0) continue;
             const std::string& name = data.material_names[g];
             const auto o = overrides.find(name);
-            const int32_t mat = o != overrides.end() ? o->second
-                                                     : mtl.material(name, libs, ply.string());
+            const int32_t mat =
+                o != overrides.end() ? o->second : mtl.material(name, libs, ply.string());
             parts.push_back({fs::path(key.string() + "#" + std::to_string(g)), mat});
         }
     }
     for (const auto& [part, material] : parts) {
         if (mesh_files.find(part) != mesh_files.end()) continue;
-        MeshData piece = part == key ? data : group_of(data, uint32_t(std::stoul(
-                                                  part.string().substr(key.string().size() + 1))));
+        MeshData piece =
+            part == key
+                ? data
+                : group_of(data,
+                           uint32_t(std::stoul(part.string().substr(key.string().size() + 1))));
         mesh_files.emplace(part, MeshFile{std::move(piece), {}, {}, {}, 0});
     }
     // Transform: scale, then rotate about x, y, z (degrees), then translate
@@ -301,12 +309,13 @@ void Loader::mesh(Reader& t) {
         const size_t n = piece.positions.size() / 3;
         const size_t triangles = piece.indices.size() / 3;
         const bool first = f.objects.empty();
-        const bool keep = instance == 0 ||
-                          (instance < 0 && (first || (f.automatic + 1) * triangles <= kInstanceAbove));
+        const bool keep =
+            instance == 0 ||
+            (instance < 0 && (first || (f.automatic + 1) * triangles <= kInstanceAbove));
         if (keep) m.positions.reserve(n);
         for (size_t i = 0; i < n; ++i) {
-            const Vec3f p = transform({piece.positions[3 * i], piece.positions[3 * i + 1],
-                                       piece.positions[3 * i + 2]});
+            const Vec3f p = transform(
+                {piece.positions[3 * i], piece.positions[3 * i + 1], piece.positions[3 * i + 2]});
             if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
                 t.fail("'scale', 'rotate' and 'translate' take vertex " + std::to_string(i) +
                        " of '" + ply.string() + "' beyond float range");
@@ -340,8 +349,7 @@ void Loader::set_transform(Mesh& m, const double a[3][3], const Vec3f& move) {
             m.normal_to_world[3 * i + j] = float(inv[j][i]);
         }
         m.to_world[4 * i + 3] = float(t[i]);
-        m.to_object[4 * i + 3] =
-            float(-(inv[i][0] * t[0] + inv[i][1] * t[1] + inv[i][2] * t[2]));
+        m.to_object[4 * i + 3] = float(-(inv[i][0] * t[0] + inv[i][1] * t[1] + inv[i][2] * t[2]));
     }
     m.mirrored = det < 0.0;
 }
@@ -369,10 +377,10 @@ void Loader::finish_meshes() {
                     for (size_t i = 0; i + 2 < f.data.normals.size(); i += 3) {
                         const float* n = &f.data.normals[i];
                         const float* a = m.normal_to_world;
-                        m.normals.push_back(unit_or_zero(
-                            {a[0] * n[0] + a[1] * n[1] + a[2] * n[2],
-                             a[3] * n[0] + a[4] * n[1] + a[5] * n[2],
-                             a[6] * n[0] + a[7] * n[1] + a[8] * n[2]}));
+                        m.normals.push_back(
+                            unit_or_zero({a[0] * n[0] + a[1] * n[1] + a[2] * n[2],
+                                          a[3] * n[0] + a[4] * n[1] + a[5] * n[2],
+                                          a[6] * n[0] + a[7] * n[1] + a[8] * n[2]}));
                     }
                 continue;
             }

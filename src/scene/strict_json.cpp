@@ -42,8 +42,8 @@ public:
         Open& object = open_.back();
         auto [it, fresh] = object.value->get_ref<json::object_t&>().try_emplace(k);
         if (!fresh)
-            throw InputError(file_.string() + ": " + name(open_.size() - 1) +
-                             ": duplicate key '" + k + "' (each key may be given once)");
+            throw InputError(file_.string() + ": " + name(open_.size() - 1) + ": duplicate key '" +
+                             k + "' (each key may be given once)");
         object.key = &it->first;
         object.member = &it->second;
         return true;

@@ -24,9 +24,7 @@ struct OperatorEntry {
 
 const std::vector<OperatorEntry>& operator_table() {
     static const std::vector<OperatorEntry> table = {
-        {Operator::Clamp,
-         {"clamp", "min(x, V) / V              values above V saturate"},
-         true},
+        {Operator::Clamp, {"clamp", "min(x, V) / V              values above V saturate"}, true},
         {Operator::Equalize,
          {"equalize", "x / M                      linear normalisation by the maximum"},
          false},
@@ -143,25 +141,19 @@ Image tonemap(const Image& image, const TonemapOptions& options, TonemapStats* s
     const double inv_gamma = 1.0 / double(options.gamma);
     const auto map = [&](double x) {
         switch (entry.op) {
-        case Operator::Clamp:
-        case Operator::EqualizeClamp:
-            return std::min(x, limit) / limit;
-        case Operator::Equalize:
-            return max_value > 0.0 ? x / max_value : 0.0;
-        case Operator::Gamma:
-            return max_value > 0.0 ? std::pow(x / max_value, inv_gamma) : 0.0;
-        case Operator::ClampGamma:
-            return std::pow(std::min(x, limit) / limit, inv_gamma);
-        case Operator::Reinhard:
-            return x / (1.0 + x);
+            case Operator::Clamp:
+            case Operator::EqualizeClamp: return std::min(x, limit) / limit;
+            case Operator::Equalize: return max_value > 0.0 ? x / max_value : 0.0;
+            case Operator::Gamma: return max_value > 0.0 ? std::pow(x / max_value, inv_gamma) : 0.0;
+            case Operator::ClampGamma: return std::pow(std::min(x, limit) / limit, inv_gamma);
+            case Operator::Reinhard: return x / (1.0 + x);
         }
         return 0.0;
     };
 
     Image out(image.width, image.height);
-    std::transform(image.rgb.begin(), image.rgb.end(), out.rgb.begin(), [&](float v) {
-        return float(std::clamp(map(input(v)), 0.0, 1.0));
-    });
+    std::transform(image.rgb.begin(), image.rgb.end(), out.rgb.begin(),
+                   [&](float v) { return float(std::clamp(map(input(v)), 0.0, 1.0)); });
     if (stats != nullptr) {
         *stats = counts;
     }

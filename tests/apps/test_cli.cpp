@@ -117,8 +117,8 @@ TEST_F(cli, WritesPfmByExtension) {
 TEST_F(cli, AnIsaThisCpuCannotRunIsRefusedWithTheReason) {
     const fs::path scene = write("tiny.json", kTinyScene);
     int refused = 0;
-    for (cierzo::Isa isa : {cierzo::Isa::kAvx512, cierzo::Isa::kAvx2, cierzo::Isa::kSse42,
-                            cierzo::Isa::kNeon}) {
+    for (cierzo::Isa isa :
+         {cierzo::Isa::kAvx512, cierzo::Isa::kAvx2, cierzo::Isa::kSse42, cierzo::Isa::kNeon}) {
         if (cierzo::isa_supported(isa)) continue;
         const std::string name = cierzo::isa_name(isa);
         SCOPED_TRACE(name);
@@ -131,8 +131,8 @@ TEST_F(cli, AnIsaThisCpuCannotRunIsRefusedWithTheReason) {
         EXPECT_NE(r.err.find("valid here: " + cierzo::usable_isa_names()), std::string::npos)
             << r.err;
         EXPECT_FALSE(fs::exists(out));
-        const Outcome c = run(quote(scene) + " --spp 1 --reference-spp 2 --threads 1 --isa " + name,
-                              "converge");
+        const Outcome c =
+            run(quote(scene) + " --spp 1 --reference-spp 2 --threads 1 --isa " + name, "converge");
         EXPECT_EQ(c.exit_code, 1) << c.err;
         EXPECT_NE(c.err.find(why), std::string::npos) << c.err;
         ++refused;
@@ -179,9 +179,10 @@ TEST_F(cli, OneThreadHandsNothingBetweenThreads) {
     const std::string program = CIERZO_BINARY_DIR "/cierzo";
     const std::string scene = CIERZO_SOURCE_DIR "/scenes/cornell.json";
     const std::string out = (dir_ / "c.exr").string(), stats = (dir_ / "c.json").string();
-    std::vector<std::string> args = {program, "render", scene, "--width", "250", "--height",
-                                     "250", "--spp", "16", "--threads", "1", "--quiet",
-                                     "--integrator", "wavefront", "--out", out, "--stats", stats};
+    std::vector<std::string> args = {
+        program,        "render",    scene,   "--width",   "250",     "--height",
+        "250",          "--spp",     "16",    "--threads", "1",       "--quiet",
+        "--integrator", "wavefront", "--out", out,         "--stats", stats};
     std::vector<char*> argv;
     for (std::string& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -201,7 +202,8 @@ TEST_F(cli, OneThreadHandsNothingBetweenThreads) {
 // `converge` offer every one (a name the program refuses would be a second list), and the
 // docs describe every one (an entry added without docs fails here).
 TEST_F(cli, EveryIntegratorAndEstimatorIsOfferedAndDocumented) {
-    const std::string render_help = run("--help").out, converge_help = run("--help", "converge").out;
+    const std::string render_help = run("--help").out,
+                      converge_help = run("--help", "converge").out;
     const std::string estimators_doc = read_file(CIERZO_SOURCE_DIR "/docs/estimators.md");
     const std::string readme = read_file(CIERZO_SOURCE_DIR "/README.md");
     for (const cierzo::IntegratorEntry& e : cierzo::kIntegrators) {
@@ -234,14 +236,14 @@ TEST_F(cli, StatsAreConsistent) {
     const fs::path stats = dir_ / "stats.json";
     for (const std::string integrator : {"scalar", "wavefront"}) {
         SCOPED_TRACE(integrator);
-        const Outcome r = run(quote(scene) + kQuiet + " --integrator " + integrator +
-                              " --stats " + quote(stats));
+        const Outcome r =
+            run(quote(scene) + kQuiet + " --integrator " + integrator + " --stats " + quote(stats));
         ASSERT_EQ(r.exit_code, 0) << r.err;
         const json j = json::parse(read_file(stats));
-        for (const char* key : {"scene", "integrator", "isa", "threads", "width", "height", "spp",
-                                "spp_reached", "seed", "seconds", "paths", "rays",
-                                "rays_per_second", "rays_per_second_per_thread",
-                                "nonfinite_samples", "mean_relative_error"})
+        for (const char* key :
+             {"scene", "integrator", "isa", "threads", "width", "height", "spp", "spp_reached",
+              "seed", "seconds", "paths", "rays", "rays_per_second", "rays_per_second_per_thread",
+              "nonfinite_samples", "mean_relative_error"})
             EXPECT_TRUE(j.contains(key)) << key;
         EXPECT_EQ(j["scene"], scene.string());
         EXPECT_EQ(j["integrator"], integrator);
@@ -325,26 +327,27 @@ TEST_F(cli, TheEstimatorIsChosenRecordedAndChecked) {
     // One emitter sample per Phong vertex on top of the point light's shadow rays
     EXPECT_GT(shadow[1], shadow[0]);
     EXPECT_EQ(shadow[1], shadow[2]);
-    ASSERT_EQ(run(quote(scene) + kQuiet + " --out " + quote(out) + " --stats " + quote(stats))
-                  .exit_code,
-              0);
+    ASSERT_EQ(
+        run(quote(scene) + kQuiet + " --out " + quote(out) + " --stats " + quote(stats)).exit_code,
+        0);
     EXPECT_EQ(json::parse(read_file(stats))["estimator"], "mis") << "the default";
 
     // From the scene file, and refused when unknown (file and option)
     std::string text = kTinyScene;
     text.replace(text.find("\"seed\": 3"), 9, "\"seed\": 3, \"estimator\": \"nee\"");
     const fs::path with = write("with.json", text);
-    ASSERT_EQ(run(quote(with) + kQuiet + " --out " + quote(out) + " --stats " + quote(stats))
-                  .exit_code,
-              0);
+    ASSERT_EQ(
+        run(quote(with) + kQuiet + " --out " + quote(out) + " --stats " + quote(stats)).exit_code,
+        0);
     EXPECT_EQ(json::parse(read_file(stats))["estimator"], "nee");
     text.replace(text.find("\"nee\""), 5, "\"path\"");
     const fs::path bad = write("bad.json", text);
     const Outcome b = run(quote(bad) + kQuiet);
     EXPECT_EQ(b.exit_code, 1);
     EXPECT_NE(b.err.find("bad.json"), std::string::npos) << b.err;
-    EXPECT_NE(b.err.find("'estimator' must be one of \"report\", \"nee\", \"mis\", \"lt\", \"bdpt\""),
-              std::string::npos)
+    EXPECT_NE(
+        b.err.find("'estimator' must be one of \"report\", \"nee\", \"mis\", \"lt\", \"bdpt\""),
+        std::string::npos)
         << b.err;
     const Outcome o = run(quote(scene) + kQuiet + " --estimator sppm");
     EXPECT_GT(o.exit_code, 0);
@@ -385,24 +388,31 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
     EXPECT_NE(b.err.find("'merge_radius' must be a positive length"), std::string::npos) << b.err;
     for (const char* value : {"1.5", "-2", "100"}) {
         text = kTinyScene;
-        text.replace(text.find("\"seed\": 3"), 9,
-                     std::string("\"seed\": 3, \"estimator\": \"bdpt\", \"light_connections\": ") + value);
-        const Outcome c = run(quote(write("bad_draws.json", text)) + kQuiet + " --out " + quote(out));
+        text.replace(
+            text.find("\"seed\": 3"), 9,
+            std::string("\"seed\": 3, \"estimator\": \"bdpt\", \"light_connections\": ") + value);
+        const Outcome c =
+            run(quote(write("bad_draws.json", text)) + kQuiet + " --out " + quote(out));
         EXPECT_EQ(c.exit_code, 1) << value;
         EXPECT_NE(c.err.find("bad_draws.json"), std::string::npos) << c.err;
         EXPECT_NE(c.err.find("'light_connections' must be a whole number in 0..64"),
-                  std::string::npos) << c.err;
+                  std::string::npos)
+            << c.err;
         EXPECT_FALSE(fs::exists(out));
     }
     // (and accepted in range: the image is written)
-    const Outcome ok = run(quote(scene) + kQuiet + " --estimator vcm --merge-radius 0.05 "
-                           "--merge-alpha 0.5 --spp 2 --out " + quote(out));
+    const Outcome ok = run(quote(scene) + kQuiet +
+                           " --estimator vcm --merge-radius 0.05 "
+                           "--merge-alpha 0.5 --spp 2 --out " +
+                           quote(out));
     EXPECT_EQ(ok.exit_code, 0) << ok.err;
     EXPECT_TRUE(fs::exists(out));
     fs::remove(out);
     const fs::path stats = dir_ / "drawn.json";
-    const Outcome drawn = run(quote(scene) + kQuiet + " --estimator bdpt --light-connections 3 "
-                              "--spp 2 --out " + quote(out) + " --stats " + quote(stats));
+    const Outcome drawn = run(quote(scene) + kQuiet +
+                              " --estimator bdpt --light-connections 3 "
+                              "--spp 2 --out " +
+                              quote(out) + " --stats " + quote(stats));
     EXPECT_EQ(drawn.exit_code, 0) << drawn.err;
     EXPECT_TRUE(fs::exists(out));
     // --stats gives the cache's draws, its estimate of the light subpaths' vertices and the
@@ -414,7 +424,9 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
     EXPECT_NEAR(count, 3.0 / vertices, 1e-5 * count);
     fs::remove(out);
     ASSERT_EQ(run(quote(scene) + kQuiet + " --estimator mis --spp 1 --out " + quote(out) +
-                  " --stats " + quote(stats)).exit_code, 0);
+                  " --stats " + quote(stats))
+                  .exit_code,
+              0);
     EXPECT_FALSE(json::parse(read_file(stats)).contains("light_vertex_cache"));
 }
 
@@ -424,8 +436,9 @@ TEST_F(cli, MergingOptionsOutOfRangeAreRefused) {
 TEST_F(cli, StrategiesWritesEveryStrategysImagesOrIsRefused) {
     const fs::path scene = write("scene.json", kTinyScene);
     const fs::path out = dir_ / "whole.exr", strategies = dir_ / "strategies";
-    const Outcome ok = run(quote(scene) + kQuiet + " --estimator bdpt --max-length 3 --strategies " +
-                           quote(strategies) + " --out " + quote(out));
+    const Outcome ok =
+        run(quote(scene) + kQuiet + " --estimator bdpt --max-length 3 --strategies " +
+            quote(strategies) + " --out " + quote(out));
     ASSERT_EQ(ok.exit_code, 0) << ok.err;
     EXPECT_TRUE(fs::exists(out));
     std::vector<std::string> names;
@@ -453,9 +466,11 @@ TEST_F(cli, StrategiesWritesEveryStrategysImagesOrIsRefused) {
         {" --estimator bdpt --strategy 1,2 --strategies " + quote(fresh), "--strategy"},
         {" --estimator bdpt --max-length 13 --strategies " + quote(fresh), "12"},
         {" --estimator bdpt --width 4000 --height 4000 --max-length 12 --strategies " +
-             quote(fresh), "GiB"},
+             quote(fresh),
+         "GiB"},
         {" --estimator bdpt --checkpoint " + quote(dir_ / "c.exr") + " --strategies " +
-             quote(fresh), "checkpoint"},
+             quote(fresh),
+         "checkpoint"},
         {" --estimator bdpt --strategies " + quote(file), "must name a folder"},
         {" --estimator bdpt --strategies " + quote(dir_ / "no" / "such"), "does not exist"},
     };
@@ -546,8 +561,8 @@ TEST_F(cli, AModelRendersWithMisAndSaysHowToAskForMorePaths) {
                                  "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
                                  "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
     const fs::path out = dir_ / "tet.exr", stats = dir_ / "s.json";
-    const std::string common = quote(model) + kQuiet + " --width 8 --height 8 --out " +
-                               quote(out) + " --stats " + quote(stats);
+    const std::string common = quote(model) + kQuiet + " --width 8 --height 8 --out " + quote(out) +
+                               " --stats " + quote(stats);
     Outcome r = run(common);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_EQ(json::parse(read_file(stats))["estimator"], "mis");
@@ -611,10 +626,10 @@ std::vector<std::vector<std::string>> read_csv(const fs::path& p) {
 TEST_F(cli, ConvergeWritesOneRowPerPoint) {
     const fs::path scene = write("tiny.json", kTinyScene);
     const fs::path csv = dir_ / "c.csv", ref = dir_ / "ref.exr";
-    const Outcome r = run(quote(scene) + kQuiet + " --spp 1,16 --integrator scalar,wavefront " +
-                              "--reference-spp 1024 --save-reference " + quote(ref) +
-                              " --out " + quote(csv),
-                          "converge");
+    const Outcome r =
+        run(quote(scene) + kQuiet + " --spp 1,16 --integrator scalar,wavefront " +
+                "--reference-spp 1024 --save-reference " + quote(ref) + " --out " + quote(csv),
+            "converge");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto rows = read_csv(csv);
     ASSERT_EQ(rows.size(), 5u);
@@ -701,7 +716,8 @@ TEST_F(cli, ConvergeSweepsTheLightConnections) {
 TEST_F(cli, ConvergeRefusesBadReferencesAndKnobs) {
     const fs::path scene = write("tiny.json", kTinyScene);
     const fs::path small = dir_ / "small.pfm";
-    ASSERT_EQ(run(quote(scene) + kQuiet + " --width 4 --height 4 --out " + quote(small)).exit_code, 0);
+    ASSERT_EQ(run(quote(scene) + kQuiet + " --width 4 --height 4 --out " + quote(small)).exit_code,
+              0);
     Outcome r = run(quote(scene) + kQuiet + " --reference " + quote(small), "converge");
     EXPECT_EQ(r.exit_code, 1) << r.err;
     EXPECT_NE(r.err.find(small.string()), std::string::npos) << r.err;
@@ -759,7 +775,8 @@ TEST_F(cli, TraceFindsTheSameHitsWithEveryIntegratorAndIsa) {
         rays.push_back({0, 0, -3, x / n, y / n, 3 / n, i == 7 ? 0.5f : 3.4028235e38f});
     }
     const fs::path file = write("r.rays", ray_file(rays, rays.size()));
-    const Outcome scalar = run(quote(scene) + " --rays " + quote(file) + " --integrator scalar", "trace");
+    const Outcome scalar =
+        run(quote(scene) + " --rays " + quote(file) + " --integrator scalar", "trace");
     ASSERT_EQ(scalar.exit_code, 0) << scalar.err;
     const auto want = key_values(scalar.out);
     EXPECT_EQ(want.at("rays"), "200");
@@ -768,9 +785,8 @@ TEST_F(cli, TraceFindsTheSameHitsWithEveryIntegratorAndIsa) {
     EXPECT_LT(hits, 200);  // some rays go to the sky
     for (const cierzo::Isa isa : cierzo::compiled_isas()) {
         if (!cierzo::isa_supported(isa)) continue;
-        const Outcome w = run(quote(scene) + " --rays " + quote(file) + " --isa " +
-                                  cierzo::isa_name(isa),
-                              "trace");
+        const Outcome w = run(
+            quote(scene) + " --rays " + quote(file) + " --isa " + cierzo::isa_name(isa), "trace");
         ASSERT_EQ(w.exit_code, 0) << w.err;
         const auto got = key_values(w.out);
         EXPECT_EQ(got.at("hits"), want.at("hits")) << cierzo::isa_name(isa);
@@ -786,12 +802,16 @@ TEST_F(cli, SpatialSplitsFindWhatTheTreeWithoutFinds) {
     // 1,000 straws (long thin triangles of every direction) in a box of 4
     std::string objects;
     uint32_t h = 777;
-    const auto unit = [&] { h = h * 1664525u + 1013904223u; return float(h >> 8) * 0x1p-24f * 2 - 1; };
+    const auto unit = [&] {
+        h = h * 1664525u + 1013904223u;
+        return float(h >> 8) * 0x1p-24f * 2 - 1;
+    };
     for (int i = 0; i < 1000; ++i) {
         const float a[3] = {2 * unit(), 2 * unit(), 2 * unit()};
         const float b[3] = {a[0] + unit(), a[1] + unit(), a[2] + unit()};
         const auto point = [](float x, float y, float z) {
-            return "[" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) + "]";
+            return "[" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) +
+                   "]";
         };
         objects += std::string(i ? ",\n" : "") + "{\"type\": \"triangle\", \"vertices\": [" +
                    point(a[0], a[1], a[2]) + ", " + point(b[0], b[1], b[2]) + ", " +
@@ -815,25 +835,30 @@ TEST_F(cli, SpatialSplitsFindWhatTheTreeWithoutFinds) {
     EXPECT_GT(std::stoi(want.at("hits")), 300);
     std::vector<std::string> variants = {" --integrator scalar"};
     for (const cierzo::Isa isa : cierzo::compiled_isas())
-        if (cierzo::isa_supported(isa)) variants.push_back(std::string(" --isa ") + cierzo::isa_name(isa));
+        if (cierzo::isa_supported(isa))
+            variants.push_back(std::string(" --isa ") + cierzo::isa_name(isa));
     for (const std::string& v : variants) {
         const Outcome cut = run(args + v + " --spatial-splits 1", "trace");
         ASSERT_EQ(cut.exit_code, 0) << cut.err;
         const auto got = key_values(cut.out);
         EXPECT_EQ(got.at("hits"), want.at("hits")) << v;
         EXPECT_NEAR(std::stod(got.at("sum_t")), std::stod(want.at("sum_t")),
-                    1e-6 * std::stod(want.at("sum_t"))) << v;
+                    1e-6 * std::stod(want.at("sum_t")))
+            << v;
     }
     const fs::path out = dir_ / "straws.pfm", stats = dir_ / "straws.stats.json";
-    ASSERT_EQ(run(quote(scene) + kQuiet + " --spatial-splits 1 --out " + quote(out) +
-                  " --stats " + quote(stats)).exit_code, 0);
+    ASSERT_EQ(run(quote(scene) + kQuiet + " --spatial-splits 1 --out " + quote(out) + " --stats " +
+                  quote(stats))
+                  .exit_code,
+              0);
     const json bvh = json::parse(read_file(stats))["bvh"];
     EXPECT_EQ(bvh["primitives"], 1000);
     EXPECT_GT(bvh["references"].get<int>(), 1000);
     EXPECT_LE(bvh["references"].get<int>(), 2000);
     EXPECT_EQ(bvh["spatial_splits"], 1.0);
     fs::remove(out);
-    const Outcome refused = run(quote(scene) + kQuiet + " --spatial-splits 4.5 --out " + quote(out));
+    const Outcome refused =
+        run(quote(scene) + kQuiet + " --spatial-splits 4.5 --out " + quote(out));
     EXPECT_EQ(refused.exit_code, 1);
     EXPECT_NE(refused.err.find("--spatial-splits: must be in [0, 4]"), std::string::npos)
         << refused.err;
@@ -861,7 +886,10 @@ TEST_F(cli, TraceWithRayStreamsFindsWhatSingleRaysFind) {
         "objects": [)" + objects + "]}");
     std::vector<std::array<float, 7>> rays;
     uint32_t h = 12345;
-    const auto unit = [&] { h = h * 1664525u + 1013904223u; return float(h >> 8) * 0x1p-24f * 2 - 1; };
+    const auto unit = [&] {
+        h = h * 1664525u + 1013904223u;
+        return float(h >> 8) * 0x1p-24f * 2 - 1;
+    };
     for (int i = 0; i < 3000; ++i) {
         // From in front of the field towards a point in it
         const float o[3] = {unit() * 8, 1 + unit(), unit() * 2 - 8};
@@ -893,9 +921,8 @@ TEST_F(cli, TraceWithRayStreamsFindsWhatSingleRaysFind) {
     const Outcome scalar = run(args + " --integrator scalar --stream 64", "trace");
     EXPECT_EQ(scalar.exit_code, 1);
     EXPECT_NE(scalar.err.find("--stream"), std::string::npos) << scalar.err;
-    const Outcome tiny = run(quote(write("s.json", kTinyScene)) + " --rays " + quote(file) +
-                                 " --stream 64",
-                             "trace");
+    const Outcome tiny = run(
+        quote(write("s.json", kTinyScene)) + " --rays " + quote(file) + " --stream 64", "trace");
     ASSERT_EQ(tiny.exit_code, 0) << tiny.err;
     EXPECT_EQ(key_values(tiny.out).at("streamed_rays"), "0") << "a one-node tree is not streamed";
 }

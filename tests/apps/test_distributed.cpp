@@ -121,7 +121,8 @@ nlohmann::json stats(const fs::path& p) { return nlohmann::json::parse(text(p));
     if (std::memcmp(ia.rgb.data(), ib.rgb.data(), ia.rgb.size() * sizeof(float)) != 0)
         return ::testing::AssertionFailure() << a << " and " << b << " differ in their pixels";
     for (const auto& [name, data] : la)
-        if (!lb.count(name) || std::memcmp(data.data(), lb[name].data(), data.size() * sizeof(float)))
+        if (!lb.count(name) ||
+            std::memcmp(data.data(), lb[name].data(), data.size() * sizeof(float)))
             return ::testing::AssertionFailure() << a << " and " << b << " differ in " << name;
     return ::testing::AssertionSuccess();
 }
@@ -131,7 +132,7 @@ bool emulated() { return cierzo::test::lighter_settings(); }
 
 bool have_mpi() { return std::strlen(CIERZO_TEST_MPIEXEC) > 0; }
 
-#define REQUIRE_MPI()                                                                    \
+#define REQUIRE_MPI() \
     if (!have_mpi()) GTEST_SKIP() << "built without MPI (CIERZO_MPI=OFF or no MPI found)"
 
 std::vector<std::string> render_args(const std::string& scene, const fs::path& out,
@@ -150,24 +151,49 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
     const std::vector<Case> cases = {
         {"cornell.json", "wavefront", {"--spp", "40", "--width", "72", "--height", "56"}},
         {"cornell.json", "scalar", {"--spp", "12", "--width", "40", "--height", "36"}},
-        {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis"}},
+        {"small_emitter.json",
+         "wavefront",
+         {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis"}},
         // (light tracing: splats of any unit land anywhere in the image)
-        {"emitting_spheres.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "lt"}},
-        {"point_lights.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt"}},
+        {"emitting_spheres.json",
+         "wavefront",
+         {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "lt"}},
+        {"point_lights.json",
+         "scalar",
+         {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt"}},
         // (bidirectional: each unit's light subpaths splat anywhere, its camera paths connect
         // to them)
-        {"caustic.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "bdpt"}},
-        {"point_lights.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "bdpt"}},
+        {"caustic.json",
+         "wavefront",
+         {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "bdpt"}},
+        {"point_lights.json",
+         "scalar",
+         {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "bdpt"}},
         // (vcm: a unit merges with its own light subpaths, per sample index)
-        {"caustic.json", "wavefront", {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "vcm"}},
-        {"point_lights.json", "scalar", {"--spp", "4", "--width", "40", "--height", "32", "--estimator", "vcm", "--merge-radius", "0.2"}},
+        {"caustic.json",
+         "wavefront",
+         {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "vcm"}},
+        {"point_lights.json",
+         "scalar",
+         {"--spp", "4", "--width", "40", "--height", "32", "--estimator", "vcm", "--merge-radius",
+          "0.2"}},
         // (bpm and ppm: merging alone, per-path sums as no light path splats)
-        {"caustic_mirror.json", "wavefront", {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "bpm"}},
-        {"cornell.json", "scalar", {"--spp", "4", "--width", "40", "--height", "32", "--estimator", "ppm"}},
+        {"caustic_mirror.json",
+         "wavefront",
+         {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "bpm"}},
+        {"cornell.json",
+         "scalar",
+         {"--spp", "4", "--width", "40", "--height", "32", "--estimator", "ppm"}},
         // (the samplers other than the independent one: their streams too are keyed by the
         // pixel and sample, not by the rank)
-        {"small_emitter.json", "wavefront", {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis", "--sampler", "zsobol"}},
-        {"emitting_spheres.json", "scalar", {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt", "--sampler", "pmj02"}},
+        {"small_emitter.json",
+         "wavefront",
+         {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis", "--sampler",
+          "zsobol"}},
+        {"emitting_spheres.json",
+         "scalar",
+         {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt", "--sampler",
+          "pmj02"}},
     };
     int k = 0;
     for (const Case& c : cases) {
@@ -177,7 +203,8 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         const fs::path one = kDir / ("one" + std::to_string(k) + ".exr");
         ASSERT_EQ(run({render_args(c.scene, one, extra)}, "one"), 0) << text(kDir / "one.stderr");
         for (int ranks : {2, 3}) {
-            const fs::path out = kDir / ("mpi" + std::to_string(k) + "_" + std::to_string(ranks) + ".exr");
+            const fs::path out =
+                kDir / ("mpi" + std::to_string(k) + "_" + std::to_string(ranks) + ".exr");
             const fs::path js = kDir / ("mpi" + std::to_string(k) + ".json");
             std::vector<std::string> a = render_args(c.scene, out, extra);
             a.insert(a.end(), {"--stats", js.string()});
@@ -219,8 +246,8 @@ TEST(Mpi, ATimeBudgetStopsEveryRankWithEqualPathsPerPixel) {
 // same image, as in one process.
 TEST(Mpi, ATargetErrorStopsAtTheSamePassWithTheSameImageAsOneProcess) {
     REQUIRE_MPI();
-    const std::vector<std::string> args = {"--spp", "100000", "--width", "48", "--height", "40",
-                                           "--target-error", "0.08"};
+    const std::vector<std::string> args = {"--spp",    "100000", "--width",        "48",
+                                           "--height", "40",     "--target-error", "0.08"};
     std::vector<std::string> one = render_args("cornell.json", kDir / "te1.exr", args);
     one.insert(one.end(), {"--stats", (kDir / "te1.json").string()});
     ASSERT_EQ(run({one}, "te1"), 0) << text(kDir / "te1.stderr");
@@ -262,10 +289,12 @@ pid_t find_rank(const std::string& token, int rank) {
         if (name.find_first_not_of("0123456789") != std::string::npos) continue;
         std::string cmd = text(e.path() / "cmdline"), env = text(e.path() / "environ");
         std::replace(cmd.begin(), cmd.end(), '\0', ' ');
-        if (cmd.find(token) == std::string::npos || cmd.find("mpirun") != std::string::npos) continue;
+        if (cmd.find(token) == std::string::npos || cmd.find("mpirun") != std::string::npos)
+            continue;
         const std::string want = "OMPI_COMM_WORLD_RANK=" + std::to_string(rank);
         for (size_t at = 0; (at = env.find(want, at)) != std::string::npos; at += want.size())
-            if ((at == 0 || env[at - 1] == '\0') && (at + want.size() == env.size() || env[at + want.size()] == '\0'))
+            if ((at == 0 || env[at - 1] == '\0') &&
+                (at + want.size() == env.size() || env[at + want.size()] == '\0'))
                 return pid_t(std::stoi(name));
     }
     return -1;
@@ -302,7 +331,8 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     for (const std::string& a : estimator)
         if (a.rfind("--", 0) != 0) tag += "_" + a;
     const fs::path full = kDir / ("full_" + tag + ".exr"), ck = kDir / ("ck_" + tag + ".exr");
-    const fs::path part = kDir / ("part_" + tag + ".exr"), resumed = kDir / ("resumed_" + tag + ".exr");
+    const fs::path part = kDir / ("part_" + tag + ".exr"),
+                   resumed = kDir / ("resumed_" + tag + ".exr");
     // (long enough that the kill lands mid-render: natively a 300-path render can end before
     // its first checkpoint, and the test would then have checked nothing)
     // (bdpt's paths cost several times a camera path's: a smaller image takes as long)
@@ -313,8 +343,9 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     // per pixel outlast the first checkpoint many times over)
     const std::string spp = emulated() ? (heavy ? "100" : "300") : heavy ? "800" : "2000";
     const bool small = emulated() || heavy;
-    std::vector<std::string> scene = {"--spp", spp, "--width", small ? "64" : "160",
-                                      "--height", small ? "48" : "120", "--variance"};
+    std::vector<std::string> scene = {
+        "--spp",     spp, "--width", small ? "64" : "160", "--height", small ? "48" : "120",
+        "--variance"};
     scene.insert(scene.end(), estimator.begin(), estimator.end());
     ASSERT_EQ(run({render_args(scene_file, full, scene)}, "full"), 0);
     fs::remove(ck), fs::remove(part);
@@ -344,7 +375,8 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     EXPECT_FALSE(fs::exists(part));
     std::vector<std::string> more = scene;
     more.insert(more.end(), {"--resume", ck.string(), "--stats", (kDir / "res.json").string()});
-    ASSERT_EQ(run({render_args(scene_file, resumed, more)}, "resume"), 0) << text(kDir / "resume.stderr");
+    ASSERT_EQ(run({render_args(scene_file, resumed, more)}, "resume"), 0)
+        << text(kDir / "resume.stderr");
     EXPECT_TRUE(same_pixels(full, resumed)) << "resumed from " << c.state.spp_done;
     EXPECT_EQ(stats(kDir / "res.json")["spp_resumed"].get<int64_t>(), c.state.spp_done);
     // The resume kept checkpointing into the same file, which now holds the finished render
@@ -383,7 +415,8 @@ TEST(Checkpoints, KilledAndResumedWithTheSobolSamplerGivesTheUninterruptedImage)
 TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
     const fs::path ck = kDir / "other.exr", out = kDir / "keep.pfm";
     ASSERT_EQ(run({render_args("cornell.json", kDir / "o.exr",
-                               {"--spp", "4", "--width", "32", "--height", "32", "--checkpoint", ck.string()})},
+                               {"--spp", "4", "--width", "32", "--height", "32", "--checkpoint",
+                                ck.string()})},
                   "other"),
               0);
     std::ofstream(out) << "precious";
@@ -400,8 +433,9 @@ TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
         {{"--spp", "2"}, "already has 4 paths per pixel"},
     };
     for (const Case& c : cases) {
-        std::vector<std::string> a = {"render", kScenes + "cornell.json", "--quiet", "--out", out.string(),
-                                      "--resume", ck.string()};
+        std::vector<std::string> a = {
+            "render",   kScenes + "cornell.json", "--quiet", "--out", out.string(), "--resume",
+            ck.string()};
         a.insert(a.end(), c.args.begin(), c.args.end());
         // (the settings the case does not change are the checkpoint's)
         for (const char* o : {"--width", "--height", "--spp"})
@@ -413,14 +447,20 @@ TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
         EXPECT_NE(err.find("other.exr"), std::string::npos) << err;
     }
     // Another scene
-    EXPECT_EQ(run({render_args("box.json", out, {"--width", "32", "--height", "32", "--spp", "8", "--resume", ck.string()})}, "refused"), 1);
+    EXPECT_EQ(run({render_args(
+                      "box.json", out,
+                      {"--width", "32", "--height", "32", "--spp", "8", "--resume", ck.string()})},
+                  "refused"),
+              1);
     EXPECT_NE(text(kDir / "refused.stderr").find("scene content fingerprint"), std::string::npos);
     // The checkpoint and the image in one file
     EXPECT_EQ(run({render_args("cornell.json", ck, {"--checkpoint", ck.string()})}, "refused"), 1);
-    EXPECT_NE(text(kDir / "refused.stderr").find("--checkpoint is the same file as --out"), std::string::npos);
+    EXPECT_NE(text(kDir / "refused.stderr").find("--checkpoint is the same file as --out"),
+              std::string::npos);
     // An interval without a checkpoint file
     EXPECT_EQ(run({render_args("cornell.json", out, {"--checkpoint-every", "5"})}, "refused"), 1);
-    EXPECT_NE(text(kDir / "refused.stderr").find("--checkpoint-every needs --checkpoint"), std::string::npos);
+    EXPECT_NE(text(kDir / "refused.stderr").find("--checkpoint-every needs --checkpoint"),
+              std::string::npos);
     EXPECT_TRUE(text(out) == "precious") << "the existing output was changed";
     EXPECT_TRUE(text(ck) == before) << "the checkpoint was changed";
 }
@@ -428,7 +468,8 @@ TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
 TEST(Checkpoints, AWriteOverAFileSizeLimitKeepsThePreviousCheckpoint) {
     const fs::path ck = kDir / "limited.exr";
     ASSERT_EQ(run({render_args("cornell.json", kDir / "l.exr",
-                               {"--spp", "2", "--width", "96", "--height", "96", "--checkpoint", ck.string()})},
+                               {"--spp", "2", "--width", "96", "--height", "96", "--checkpoint",
+                                ck.string()})},
                   "first"),
               0);
     const std::string before = text(ck);
@@ -436,16 +477,18 @@ TEST(Checkpoints, AWriteOverAFileSizeLimitKeepsThePreviousCheckpoint) {
     // A longer render into the same checkpoint, with files limited to 300 kB: every
     // checkpoint write fails (EFBIG), the image (a 110 kB PFM) and the statistics are
     // written, and the exit status says that the last state was not
-    Launch l{render_args("cornell.json", kDir / "l.pfm",
-                         {"--spp", "64", "--width", "96", "--height", "96", "--checkpoint", ck.string(),
-                          "--checkpoint-every", "0.05", "--stats", (kDir / "l.json").string()}),
-             0, rlim_t(300000)};
+    Launch l{
+        render_args("cornell.json", kDir / "l.pfm",
+                    {"--spp", "64", "--width", "96", "--height", "96", "--checkpoint", ck.string(),
+                     "--checkpoint-every", "0.05", "--stats", (kDir / "l.json").string()}),
+        0, rlim_t(300000)};
     EXPECT_EQ(run(l, "limited"), 1) << text(kDir / "limited.stderr");
     const std::string err = text(kDir / "limited.stderr");
     EXPECT_NE(err.find("limited.exr: cannot write"), std::string::npos) << err;
     EXPECT_NE(err.find("the previous checkpoint is kept"), std::string::npos) << err;
     EXPECT_NE(err.find("limited.exr: the render's last state could not be written"),
-              std::string::npos) << err;
+              std::string::npos)
+        << err;
     EXPECT_GE(stats(kDir / "l.json")["checkpoint"]["failed_writes"].get<int>(), 1);
     EXPECT_TRUE(text(ck) == before) << "the checkpoint was changed";
     EXPECT_EQ(cierzo::read_checkpoint(ck).state.spp_done, 2);
@@ -453,7 +496,8 @@ TEST(Checkpoints, AWriteOverAFileSizeLimitKeepsThePreviousCheckpoint) {
     EXPECT_FALSE(stats(kDir / "l.json")["warnings"].empty());
     // No temporary file is left behind
     for (const auto& e : fs::directory_iterator(kDir))
-        EXPECT_EQ(e.path().filename().string().find(".limited.exr.tmp"), std::string::npos) << e.path();
+        EXPECT_EQ(e.path().filename().string().find(".limited.exr.tmp"), std::string::npos)
+            << e.path();
 }
 
 }  // namespace

@@ -100,8 +100,7 @@ TEST_F(outputs, StatsOverTheImageIsRefused) {
     const Outcome r =
         run(quote(scene_) + kFast + " --out " + quote(image) + " --stats " + quote(image));
     EXPECT_EQ(r.exit_code, 1) << r.err;
-    EXPECT_NE(r.err.find(image.string() + ": --stats is the same file as --out " +
-                         image.string()),
+    EXPECT_NE(r.err.find(image.string() + ": --stats is the same file as --out " + image.string()),
               std::string::npos)
         << r.err;
     EXPECT_EQ(read_file(image), "precious");
@@ -123,12 +122,11 @@ TEST_F(outputs, ConvergeOutOverTheSceneOrTheReferenceIsRefused) {
     EXPECT_NE(r.err.find("--out is the same file as --reference"), std::string::npos) << r.err;
     EXPECT_EQ(read_file(dir_ / "ref.exr"), ref);
     fs::create_symlink("ref.exr", dir_ / "link.csv");
-    r = run(quote(scene_) + kConverge + " --save-reference " + quote(dir_ / "ref.exr") +
-                " --out " + quote(dir_ / "link.csv"),
+    r = run(quote(scene_) + kConverge + " --save-reference " + quote(dir_ / "ref.exr") + " --out " +
+                quote(dir_ / "link.csv"),
             "converge");
     EXPECT_EQ(r.exit_code, 1) << r.err;
-    EXPECT_NE(r.err.find("--save-reference is the same file as --out"), std::string::npos)
-        << r.err;
+    EXPECT_NE(r.err.find("--save-reference is the same file as --out"), std::string::npos) << r.err;
     EXPECT_EQ(read_file(dir_ / "ref.exr"), ref);
 }
 
@@ -197,9 +195,13 @@ TEST_F(outputs, AResumedFinishedRenderOffTheScheduleWarns) {
     const fs::path ck16 = dir_ / "ck16.exr", ck8 = dir_ / "ck8.exr";
     const std::string size = " --width 16 --height 16 --threads 1 --quiet";
     ASSERT_EQ(run(quote(scene_) + size + " --spp 16 --out " + quote(dir_ / "a.exr") +
-                  " --checkpoint " + quote(ck16)).exit_code, 0);
+                  " --checkpoint " + quote(ck16))
+                  .exit_code,
+              0);
     ASSERT_EQ(run(quote(scene_) + size + " --spp 8 --out " + quote(dir_ / "b.exr") +
-                  " --checkpoint " + quote(ck8)).exit_code, 0);
+                  " --checkpoint " + quote(ck8))
+                  .exit_code,
+              0);
     Outcome r = run(quote(scene_) + size + " --spp 32 --out " + quote(dir_ / "c.exr") +
                     " --resume " + quote(ck16));
     EXPECT_EQ(r.exit_code, 0) << r.err;
@@ -311,16 +313,19 @@ TEST_F(outputs, AFullDeviceFailsEveryOutputKindNamingIt) {
         std::string program, args, names;
     };
     const std::vector<Case> cases = {
-        {"image", "cierzo", "render " + quote(scene_) + kFast + " --out " +
-                                quote(dir_ / "full.exr"), "full.exr"},
-        {"statistics", "cierzo", "render " + quote(scene_) + kFast + out + " --stats " +
-                                     quote(full), "full"},
-        {"checkpoint", "cierzo", "render " + quote(scene_) + kFast + out + " --checkpoint " +
-                                     quote(dir_ / "full.exr"), "full.exr"},
-        {"csv", "cierzo", "converge " + quote(scene_) + kConverge + " --out " +
-                              quote(dir_ / "full.csv"), "full.csv"},
-        {"reference", "cierzo", "converge " + quote(scene_) + kConverge + " --save-reference " +
-                                    quote(dir_ / "full.exr"), "full.exr"},
+        {"image", "cierzo",
+         "render " + quote(scene_) + kFast + " --out " + quote(dir_ / "full.exr"), "full.exr"},
+        {"statistics", "cierzo",
+         "render " + quote(scene_) + kFast + out + " --stats " + quote(full), "full"},
+        {"checkpoint", "cierzo",
+         "render " + quote(scene_) + kFast + out + " --checkpoint " + quote(dir_ / "full.exr"),
+         "full.exr"},
+        {"csv", "cierzo",
+         "converge " + quote(scene_) + kConverge + " --out " + quote(dir_ / "full.csv"),
+         "full.csv"},
+        {"reference", "cierzo",
+         "converge " + quote(scene_) + kConverge + " --save-reference " + quote(dir_ / "full.exr"),
+         "full.exr"},
         {"tone-mapped image", "cierzo-tonemap",
          quote(dir_ / "in.exr") + " " + quote(dir_ / "full.png"), "full.png"},
     };
@@ -338,11 +343,10 @@ TEST_F(outputs, TheToneMapperKeepsItsInput) {
     ASSERT_EQ(run(quote(scene_) + kFast + " --out " + quote(dir_ / "in.exr")).exit_code, 0);
     const std::string before = read_file(dir_ / "in.exr");
     fs::create_symlink("in.exr", dir_ / "out.png");
-    const Outcome r = run_program("cierzo-tonemap",
-                                  quote(dir_ / "in.exr") + " " + quote(dir_ / "out.png"));
+    const Outcome r =
+        run_program("cierzo-tonemap", quote(dir_ / "in.exr") + " " + quote(dir_ / "out.png"));
     EXPECT_EQ(r.exit_code, 1) << r.err;
-    EXPECT_NE(r.err.find("the output image is the same file as the input image"),
-              std::string::npos)
+    EXPECT_NE(r.err.find("the output image is the same file as the input image"), std::string::npos)
         << r.err;
     EXPECT_EQ(read_file(dir_ / "in.exr"), before);
 }
@@ -379,25 +383,30 @@ TEST_F(output_file, PathsResolveToWhatIsWritten) {
     t = cierzo::resolve_output(dir_ / "err");
     EXPECT_EQ(t.kind, OutputTarget::Kind::kStream);
     EXPECT_EQ(t.descriptor, 2);
-    EXPECT_NE(input_error([&] { cierzo::resolve_output(dir_ / "loop1"); })
-                  .find("too many levels of symbolic links"),
+    EXPECT_NE(input_error([&] {
+                  cierzo::resolve_output(dir_ / "loop1");
+              }).find("too many levels of symbolic links"),
               std::string::npos);
-    EXPECT_NE(input_error([&] { cierzo::resolve_output(dir_, "the image"); })
-                  .find(dir_.string() + ": cannot write the image: it is a folder"),
+    EXPECT_NE(input_error([&] {
+                  cierzo::resolve_output(dir_, "the image");
+              }).find(dir_.string() + ": cannot write the image: it is a folder"),
               std::string::npos);
-    EXPECT_NE(input_error([&] { cierzo::resolve_output(dir_ / "no" / "x.exr"); })
-                  .find("folder '" + (dir_ / "no").string() + "' does not exist"),
+    EXPECT_NE(input_error([&] {
+                  cierzo::resolve_output(dir_ / "no" / "x.exr");
+              }).find("folder '" + (dir_ / "no").string() + "' does not exist"),
               std::string::npos);
-    EXPECT_NE(input_error([&] { cierzo::resolve_output("/proc/self/fd/987"); })
-                  .find("descriptor 987 is not open"),
+    EXPECT_NE(input_error([&] {
+                  cierzo::resolve_output("/proc/self/fd/987");
+              }).find("descriptor 987 is not open"),
               std::string::npos);
 }
 
 TEST_F(output_file, ABlockDeviceIsRefused) {
     if (::mknod((dir_ / "disk").c_str(), S_IFBLK | 0600, makedev(7, 0)) != 0)
         GTEST_SKIP() << "mknod needs root: " << std::strerror(errno);
-    EXPECT_NE(input_error([&] { cierzo::write_output_stream(dir_ / "disk", [](std::ofstream&) {}); })
-                  .find("it is a block device"),
+    EXPECT_NE(input_error([&] {
+                  cierzo::write_output_stream(dir_ / "disk", [](std::ofstream&) {});
+              }).find("it is a block device"),
               std::string::npos);
     struct stat st;
     ASSERT_EQ(::lstat((dir_ / "disk").c_str(), &st), 0);

@@ -56,10 +56,11 @@ nlohmann::json stats(const fs::path& p) {
 
 TEST(Stopping, TimeBudgetEndsBetweenPassesWithEqualPathsPerPixel) {
     const auto start = std::chrono::steady_clock::now();
-    ASSERT_EQ(run({"render", kScene, "--spp", "1000000", "--time-budget", "0.3", "--quiet",
-                   "--out", (kDir / "tb.exr").string(), "--stats", (kDir / "tb.json").string()}),
+    ASSERT_EQ(run({"render", kScene, "--spp", "1000000", "--time-budget", "0.3", "--quiet", "--out",
+                   (kDir / "tb.exr").string(), "--stats", (kDir / "tb.json").string()}),
               0);
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_LT(s, 20.0);  // a million paths per pixel would take hours
     const auto j = stats(kDir / "tb.json");
     EXPECT_EQ(j["stopped_by"], "time budget");
@@ -96,10 +97,10 @@ TEST(Stopping, InterruptWritesTheImageSoFarAndExits130) {
 }
 
 TEST(Stopping, AFullRenderSaysItWasNotStopped) {
-    ASSERT_EQ(run({"render", kScene, "--spp", "4", "--width", "32", "--height", "32", "--quiet",
-                   "--out", (kDir / "full.exr").string(), "--stats",
-                   (kDir / "full.json").string()}),
-              0);
+    ASSERT_EQ(
+        run({"render", kScene, "--spp", "4", "--width", "32", "--height", "32", "--quiet", "--out",
+             (kDir / "full.exr").string(), "--stats", (kDir / "full.json").string()}),
+        0);
     const auto j = stats(kDir / "full.json");
     EXPECT_EQ(j["stopped_by"], "");
     EXPECT_EQ(j["spp_reached"].get<int64_t>(), 4);

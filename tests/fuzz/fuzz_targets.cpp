@@ -44,8 +44,8 @@ bool finite(const Vec3f& v) {
 
 bool valid_colour(const ColorSource& c) {
     return finite(c.a) && finite(c.b) && std::isfinite(c.frequency) && finite(c.axis) &&
-           finite(c.axis2) && c.a.x >= 0 && c.a.y >= 0 && c.a.z >= 0 && c.b.x >= 0 &&
-           c.b.y >= 0 && c.b.z >= 0;
+           finite(c.axis2) && c.a.x >= 0 && c.a.y >= 0 && c.a.z >= 0 && c.b.x >= 0 && c.b.y >= 0 &&
+           c.b.z >= 0;
 }
 
 // ---- Scene files -----------------------------------------------------------------------
@@ -76,8 +76,7 @@ bool mesh_files_stay_inside(const std::string& text) {
         stack.pop_back();
         if (j.is_object()) {
             for (auto it = j.begin(); it != j.end(); ++it) {
-                if (it.key() == "file" && it->is_string() &&
-                    !stays_inside(it->get<std::string>()))
+                if (it.key() == "file" && it->is_string() && !stays_inside(it->get<std::string>()))
                     return false;
                 stack.push_back(&*it);
             }
@@ -138,8 +137,10 @@ void check_scene(const Scene& s) {
         if (object.instanced()) {
             const Mesh& g = s.meshes[size_t(object.geometry)];
             require(g.geometry == object.geometry && g.bvh, "instance geometry owns its BVH");
-            for (const float v : object.to_world) require(std::isfinite(v), "instance transform finite");
-            for (const float v : object.to_object) require(std::isfinite(v), "instance inverse finite");
+            for (const float v : object.to_world)
+                require(std::isfinite(v), "instance transform finite");
+            for (const float v : object.to_object)
+                require(std::isfinite(v), "instance inverse finite");
         }
         if (object.instanced() && object.geometry != int32_t(i)) {
             require(object.positions.empty() && object.indices.empty(),
@@ -169,10 +170,8 @@ void check_scene(const Scene& s) {
 
 void check_mesh(const MeshData& m) {
     require(m.positions.size() % 3 == 0, "three coordinates per vertex");
-    require(m.colors.empty() || m.colors.size() == m.positions.size(),
-            "one colour per vertex");
-    require(m.normals.empty() || m.normals.size() == m.positions.size(),
-            "one normal per vertex");
+    require(m.colors.empty() || m.colors.size() == m.positions.size(), "one colour per vertex");
+    require(m.normals.empty() || m.normals.size() == m.positions.size(), "one normal per vertex");
     for (float n : m.normals) require(std::isfinite(n), "normal finite");
     require(m.indices.size() % 3 == 0, "three indices per triangle");
     const size_t vertices = m.positions.size() / 3;
@@ -196,8 +195,8 @@ bool fuzz_one_scene(const uint8_t* data, size_t size) {
 
 bool fuzz_one_ply(const uint8_t* data, size_t size) {
     try {
-        check_mesh(parse_ply(std::string_view(reinterpret_cast<const char*>(data), size),
-                             "fuzz.ply"));
+        check_mesh(
+            parse_ply(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.ply"));
         return true;
     } catch (const InputError&) {
         return false;
@@ -284,7 +283,8 @@ bool fuzz_one_image(const uint8_t* data, size_t size) {
             require(t.bytes.size() == t.texels() || t.floats.size() == 4 * t.texels(),
                     "one RGBA texel per pixel");
             require(t.bytes.empty() != t.floats.empty(), "bytes or floats, not both");
-            for (float f : t.floats) require(std::isfinite(f) && f >= 0.0f, "texel finite and >= 0");
+            for (float f : t.floats)
+                require(std::isfinite(f) && f >= 0.0f, "texel finite and >= 0");
             for (int c = 0; c < 3; ++c)
                 require(std::isfinite(t.max_rgb[c]) && std::isfinite(t.mean_rgb[c]) &&
                             t.mean_rgb[c] <= double(t.max_rgb[c]) * (1.0 + 1e-6) + 1e-30,

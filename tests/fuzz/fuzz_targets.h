@@ -1,6 +1,6 @@
 // The bodies of the fuzz targets, shared by the libFuzzer programs (fuzz_scene.cpp,
-// fuzz_ply.cpp, fuzz_obj.cpp, fuzz_image.cpp) and the fuzz_regressions test, which replays every corpus and regression file
-// through them. See docs/fuzzing.md.
+// fuzz_ply.cpp, fuzz_obj.cpp, fuzz_image.cpp) and the fuzz_regressions test, which replays every
+// corpus and regression file through them. See docs/fuzzing.md.
 #pragma once
 
 #include <cstddef>

@@ -153,8 +153,9 @@ TEST(FuzzRegressions, ManyPlyElementsAreCheckedInLinearTime) {
     // (about 30 s here); with a set it takes milliseconds, far below the limit
     std::string ply = "ply\nformat ascii 1.0\n";
     for (int i = 0; i < 200000; ++i) ply += "element e" + std::to_string(i) + " 0\n";
-    ply += "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
-           "element face 0\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n";
+    ply +=
+        "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 0\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n";
     std::snprintf(g_current, sizeof g_current, "(generated: 200000 elements)");
     const auto start = std::chrono::steady_clock::now();
     EXPECT_TRUE(fuzz_one_ply(bytes_of(ply), ply.size()));

@@ -1,9 +1,10 @@
 // Wavefront against the scalar reference, on every scene in scenes/ (with each estimator
-// that samples its emitters) and on every ISA this CPU has. Both integrators draw the same random numbers for the same path vertex, so they
-// trace the same paths and their images differ only where rounding sends a path elsewhere.
-// Tolerances (per channel): the image means within 0.3%, and fewer than 2% of pixels off
-// by more than 2% of the image mean. A 5% error in any one lobe's weight breaks them (the
-// second test plants one in each lobe of a four-lobe material and checks it is caught).
+// that samples its emitters) and on every ISA this CPU has. Both integrators draw the same random
+// numbers for the same path vertex, so they trace the same paths and their images differ only where
+// rounding sends a path elsewhere. Tolerances (per channel): the image means within 0.3%, and fewer
+// than 2% of pixels off by more than 2% of the image mean. A 5% error in any one lobe's weight
+// breaks them (the second test plants one in each lobe of a four-lobe material and checks it is
+// caught).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,8 +23,8 @@ namespace {
 namespace fs = std::filesystem;
 
 struct Difference {
-    double mean_rel[3];      // |mean_w - mean_s| / mean_s
-    double pixels_off[3];    // fraction of pixels off by more than 2% of the image mean
+    double mean_rel[3];    // |mean_w - mean_s| / mean_s
+    double pixels_off[3];  // fraction of pixels off by more than 2% of the image mean
 };
 
 Difference compare(const Film& a, const Film& b) {
@@ -42,7 +43,8 @@ Difference compare(const Film& a, const Film& b) {
     return d;
 }
 
-RenderResult render_with(const Scene& scene, const std::string& integrator, const std::string& isa) {
+RenderResult render_with(const Scene& scene, const std::string& integrator,
+                         const std::string& isa) {
     RenderOptions o;
     o.integrator = integrator_of(integrator);
     o.isa = isa;
@@ -141,13 +143,15 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
             {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "white"},
             {"type": "plane", "normal": [0, -1, 0], "distance": 1, "material": "light"},
             {"type": "plane", "normal": [0, 0, -1], "distance": 1, "material": "white"},
-            {"type": "mesh", "file": ")" + ico + R"(", "scale": 0.3,
+            {"type": "mesh", "file": ")" + ico +
+                                               R"(", "scale": 0.3,
              "translate": [-0.5, -0.6, 0.2], "material": "painted"},
-            {"type": "mesh", "file": ")" + ico + R"(", "scale": 0.3,
+            {"type": "mesh", "file": ")" + ico +
+                                               R"(", "scale": 0.3,
              "translate": [0.5, -0.6, 0.2], "material": "painted"},
             {"type": "sphere", "center": [0.5, 0.3, 0.3], "radius": 0.25, "material": "nearest"},
             {"type": "sphere", "center": [-0.5, 0.5, 0.5], "radius": 0.2, "material": "glow"}]})",
-                                   "/tmp/textures_everywhere.json");
+                                           "/tmp/textures_everywhere.json");
     // A tetrahedron without vertex colours, of material "nearest"
     Mesh plain;
     plain.source = "tetrahedron";
@@ -163,8 +167,8 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
     for (Isa isa : compiled_isas()) {
         if (!isa_supported(isa)) continue;
         SCOPED_TRACE(isa_name(isa));
-        const Difference d = compare(render_with(scene, "wavefront", isa_name(isa)).film,
-                                     reference.film);
+        const Difference d =
+            compare(render_with(scene, "wavefront", isa_name(isa)).film, reference.film);
         for (int c = 0; c < 3; ++c) {
             EXPECT_LT(d.mean_rel[c], 0.003) << "channel " << c;
             EXPECT_LT(d.pixels_off[c], 0.02) << "channel " << c;
@@ -175,8 +179,8 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
 // The box of cornell.json around a sphere of one material with all four lobes, every colour
 // channel non-zero; `scale` multiplies the channels below each lobe's max by (1 + error).
 Scene mixed_scene(int lobe, float error) {
-    float c[4][3] = {{0.30f, 0.20f, 0.25f}, {0.20f, 0.15f, 0.10f}, {0.20f, 0.10f, 0.15f},
-                     {0.15f, 0.20f, 0.10f}};
+    float c[4][3] = {
+        {0.30f, 0.20f, 0.25f}, {0.20f, 0.15f, 0.10f}, {0.20f, 0.10f, 0.15f}, {0.15f, 0.20f, 0.10f}};
     if (lobe >= 0)
         for (float& v : c[lobe])
             if (v < std::max({c[lobe][0], c[lobe][1], c[lobe][2]})) v *= 1.0f + error;
@@ -187,8 +191,8 @@ Scene mixed_scene(int lobe, float error) {
         return out;
     };
     const std::string mat = R"({"kd": )" + rgb(c[0]) + R"(, "ks": )" + rgb(c[1]) +
-                            R"(, "shininess": 20, "kr": )" + rgb(c[2]) + R"(, "kt": )" +
-                            rgb(c[3]) + R"(, "ior": 1.5})";
+                            R"(, "shininess": 20, "kr": )" + rgb(c[2]) + R"(, "kt": )" + rgb(c[3]) +
+                            R"(, "ior": 1.5})";
     return test::parse_report_scene(R"({
         "render": {"width": 40, "height": 40, "spp": 16},
         "camera": {"position": [0, 0, -3.5], "forward": [0, 0, 3], "left": [-1, 0, 0],
@@ -202,8 +206,8 @@ Scene mixed_scene(int lobe, float error) {
             {"type": "plane", "normal": [0, -1, 0], "distance": 1, "material": "light"},
             {"type": "plane", "normal": [0, 0, -1], "distance": 1, "material": "white"},
             {"type": "sphere", "center": [0, -0.3, 0], "radius": 0.65, "material": )" +
-                           mat + "}]}",
-                       "/tmp/mixed.json");
+                                        mat + "}]}",
+                                    "/tmp/mixed.json");
 }
 
 bool differs(const Difference& d) {
@@ -216,8 +220,8 @@ TEST(Agreement, TheToleranceCatchesAFivePercentLobeError) {
     // Scaling a lobe's non-maximal channels keeps the roulette (the max RGB) and so the
     // paths, and changes only that lobe's weight: a stand-in for a 5% weight error
     const RenderResult reference = render_with(mixed_scene(-1, 0.0f), "scalar", "auto");
-    EXPECT_FALSE(differs(compare(render_with(mixed_scene(-1, 0.0f), "wavefront", "auto").film,
-                                 reference.film)));
+    EXPECT_FALSE(differs(
+        compare(render_with(mixed_scene(-1, 0.0f), "wavefront", "auto").film, reference.film)));
     for (int lobe = 0; lobe < 4; ++lobe) {
         const RenderResult w = render_with(mixed_scene(lobe, 0.05f), "wavefront", "auto");
         EXPECT_TRUE(differs(compare(w.film, reference.film)))

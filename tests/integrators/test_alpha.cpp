@@ -57,7 +57,8 @@ using test::refusal_of;
 // pixel shows the share of its rays that pass the quad.
 std::string veil_scene(const std::string& alpha) {
     return R"({
-        "materials": {"veil": {"kd": 0, "alpha": )" + alpha + R"(},
+        "materials": {"veil": {"kd": 0, "alpha": )" +
+           alpha + R"(},
                       "sky": {"emission": 1}},
         "objects": [
             {"type": "triangle", "vertices": [[-1, -1, 1], [1, -1, 1], [1, 1, 1]],
@@ -78,11 +79,12 @@ Scene scene_from(const std::string& name, const std::string& text) {
 // The camera's rays through a veil of constant alpha a bring 1 - a; through a checkerboard
 // mask (of 1 and 0 in its alpha channel, or in its grey) one half; through alpha 1 nothing.
 TEST(Alpha, VeilsLetThroughOneMinusTheirAlpha) {
-    write_tga(scratch() / "checker.tga", 64, 64, [](int, int) { return 255; },
-              [](int x, int y) { return (x / 2 + y / 2) % 2 ? 255 : 0; });
-    write_tga(scratch() / "grey_checker.tga", 64, 64,
-              [](int x, int y) { return (x / 2 + y / 2) % 2 ? 0 : 255; },
-              [](int, int) { return 255; });
+    write_tga(
+        scratch() / "checker.tga", 64, 64, [](int, int) { return 255; },
+        [](int x, int y) { return (x / 2 + y / 2) % 2 ? 255 : 0; });
+    write_tga(
+        scratch() / "grey_checker.tga", 64, 64,
+        [](int x, int y) { return (x / 2 + y / 2) % 2 ? 0 : 255; }, [](int, int) { return 255; });
     const struct {
         std::string alpha;
         double expected;
@@ -117,10 +119,12 @@ TEST(Alpha, VeilsLetThroughOneMinusTheirAlpha) {
 // +y at the top. A mask opaque in its left half (u < 1/2) darkens the image's right half; one
 // opaque in its top rows darkens the image's top half.
 TEST(Alpha, MasksAreOrientedByTheirTextureCoordinates) {
-    write_tga(scratch() / "left.tga", 16, 16, [](int, int) { return 255; },
-              [](int x, int) { return x < 8 ? 255 : 0; });
-    write_tga(scratch() / "top.tga", 16, 16, [](int, int) { return 255; },
-              [](int, int y) { return y < 8 ? 255 : 0; });
+    write_tga(
+        scratch() / "left.tga", 16, 16, [](int, int) { return 255; },
+        [](int x, int) { return x < 8 ? 255 : 0; });
+    write_tga(
+        scratch() / "top.tga", 16, 16, [](int, int) { return 255; },
+        [](int, int y) { return y < 8 ? 255 : 0; });
     for (const char* mask : {"left", "top"}) {
         const Scene scene = scene_from(
             "oriented.json",
@@ -147,10 +151,11 @@ TEST(Alpha, MasksAreOrientedByTheirTextureCoordinates) {
 // transparent quad (alpha 0, or a mask of zeros) changes no pixel, bit for bit; an opaque
 // one shadows the floor; a checkerboard mask halves the light that reaches it.
 TEST(Alpha, TransparentQuadIsInvisibleAndCastsNoShadowAndAMaskHalvesTheLight) {
-    write_tga(scratch() / "clear.tga", 8, 8, [](int, int) { return 255; },
-              [](int, int) { return 0; });
-    write_tga(scratch() / "fine.tga", 128, 128, [](int, int) { return 255; },
-              [](int x, int y) { return (x + y) % 2 ? 255 : 0; });
+    write_tga(
+        scratch() / "clear.tga", 8, 8, [](int, int) { return 255; }, [](int, int) { return 0; });
+    write_tga(
+        scratch() / "fine.tga", 128, 128, [](int, int) { return 255; },
+        [](int x, int y) { return (x + y) % 2 ? 255 : 0; });
     const auto floor_scene = [](const std::string& quad_alpha) {
         std::string quad;
         if (!quad_alpha.empty())
@@ -175,11 +180,11 @@ TEST(Alpha, TransparentQuadIsInvisibleAndCastsNoShadowAndAMaskHalvesTheLight) {
     };
     Scene open = scene_from("open.json", floor_scene(""));
     Scene clear = scene_from("clear.json", floor_scene("0"));
-    Scene clear_mask = scene_from(
-        "clear_mask.json", floor_scene(R"({"texture": "image", "file": "clear.tga"})"));
+    Scene clear_mask =
+        scene_from("clear_mask.json", floor_scene(R"({"texture": "image", "file": "clear.tga"})"));
     Scene opaque = scene_from("opaque.json", floor_scene("1"));
-    Scene checker = scene_from(
-        "checker.json", floor_scene(R"({"texture": "image", "file": "fine.tga"})"));
+    Scene checker =
+        scene_from("checker.json", floor_scene(R"({"texture": "image", "file": "fine.tga"})"));
     for (const char* estimator : {"report", "nee", "mis", "lt"}) {
         for (Scene* s : {&open, &clear, &clear_mask, &opaque, &checker})
             use_estimator(s->settings.estimator, *parse_estimator(estimator));
@@ -232,11 +237,12 @@ TEST(Alpha, StochasticTestPassesAShareAlphaOfRays) {
 TEST(Alpha, WavefrontAgreesWithTheScalarReference) {
     const fs::path dir = scratch() / "leaves";
     fs::create_directories(dir);
-    write_tga(dir / "leaf.tga", 32, 32, [](int x, int) { return 60 + 5 * x; },
-              [](int x, int y) {
-                  const double dx = x - 15.5, dy = y - 15.5;
-                  return dx * dx + dy * dy < 14.0 * 14.0 ? 255 : 0;
-              });
+    write_tga(
+        dir / "leaf.tga", 32, 32, [](int x, int) { return 60 + 5 * x; },
+        [](int x, int y) {
+            const double dx = x - 15.5, dy = y - 15.5;
+            return dx * dx + dy * dy < 14.0 * 14.0 ? 255 : 0;
+        });
     write_text(dir / "leaf.obj",
                "mtllib leaf.mtl\nv -1 0 0\nv 1 0 0\nv 1 2 0\nv -1 2 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
                "vt 0 1\nusemtl leaf\nf 1/1 2/2 3/3 4/4\n");
@@ -277,7 +283,8 @@ TEST(Alpha, WavefrontAgreesWithTheScalarReference) {
 TEST(Alpha, MtlDissolveMapsToAlpha) {
     const fs::path dir = scratch() / "mtl";
     fs::create_directories(dir);
-    write_tga(dir / "m.tga", 4, 4, [](int, int) { return 255; }, [](int, int) { return 0; });
+    write_tga(
+        dir / "m.tga", 4, 4, [](int, int) { return 255; }, [](int, int) { return 0; });
     write_text(dir / "model.obj",
                "mtllib model.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
                "usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 2/2 3/3\nusemtl c\nf 1/1 2/2 3/3\n"
@@ -289,7 +296,8 @@ TEST(Alpha, MtlDissolveMapsToAlpha) {
                "newmtl d\nKs 0.1 0.1 0.1\nTf 1 1 1\nNi 1.5\nillum 7\nd 0.3\n"
                "newmtl e\nKd 0.5 0.5 0.5\nmap_d -imfchan g -s 2 2 1 m.tga\n"
                "newmtl f\nKd 0.5 0.5 0.5\nTr 1\n");
-    write_text(dir / "scene.json", R"({"camera": {"position": [0.5, 0.5, 3], "look_at": [0.5, 0.5, 0]},
+    write_text(dir / "scene.json",
+               R"({"camera": {"position": [0.5, 0.5, 3], "look_at": [0.5, 0.5, 0]},
         "objects": [{"type": "mesh", "file": "model.obj"}]})");
     const Scene s = load_scene(dir / "scene.json");
     const auto named = [&](const std::string& n) -> const Material& {
@@ -318,14 +326,17 @@ TEST(Alpha, MtlDissolveMapsToAlpha) {
 TEST(Alpha, BadAlphasAreRefusedNamingTheFile) {
     const auto with = [](const std::string& object, const std::string& alpha) {
         return R"({"materials": {"m": {"kd": 0.5, "alpha": )" + alpha + R"(}},
-                   "objects": [)" + object + R"(],
+                   "objects": [)" +
+               object + R"(],
                    "camera": {"position": [0, 0, 3], "look_at": [0, 0, 0]}})";
     };
     const std::string tri =
         R"({"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "m"})";
-    const std::string sphere = R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"})";
+    const std::string sphere =
+        R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"})";
     write_text(scratch() / "nouv.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    write_tga(scratch() / "ok.tga", 2, 2, [](int, int) { return 1; }, [](int, int) { return 0; });
+    write_tga(
+        scratch() / "ok.tga", 2, 2, [](int, int) { return 1; }, [](int, int) { return 0; });
     const struct {
         std::string text, message;
     } cases[] = {
@@ -333,8 +344,7 @@ TEST(Alpha, BadAlphasAreRefusedNamingTheFile) {
         {with(tri, "-0.1"), "opacity from 0"},
         {with(tri, "\"half\""), "opacity from 0"},
         {with(sphere, "0.5"), "triangles and meshes only"},
-        {with(R"({"type": "plane", "normal": [0, 1, 0], "distance": 0, "material": "m"})",
-              "0.5"),
+        {with(R"({"type": "plane", "normal": [0, 1, 0], "distance": 0, "material": "m"})", "0.5"),
          "used by a plane"},
         {with(tri, R"({"texture": "sin", "a": 1})"), "must be a number or"},
         {with(tri, R"({"texture": "image", "file": "missing.tga"})"), "missing.tga"},

@@ -45,8 +45,9 @@ Scene scene_at(const char* file, int w, int h, int64_t spp) {
         return ::testing::AssertionFailure() << "sizes differ";
     for (size_t i = 0; i < a.pixels().size(); ++i) {
         const PixelSums &p = a.pixels()[i], &q = b.pixels()[i];
-        if (std::memcmp(p.sum, q.sum, sizeof(p.sum)) || std::memcmp(p.sum_sq, q.sum_sq, sizeof(p.sum_sq)) ||
-            p.count != q.count || p.nonfinite != q.nonfinite)
+        if (std::memcmp(p.sum, q.sum, sizeof(p.sum)) ||
+            std::memcmp(p.sum_sq, q.sum_sq, sizeof(p.sum_sq)) || p.count != q.count ||
+            p.nonfinite != q.nonfinite)
             return ::testing::AssertionFailure()
                    << "pixel " << i << " differs: " << p.sum[0] << " vs " << q.sum[0] << ", "
                    << p.count << " vs " << q.count << " paths";
@@ -174,18 +175,21 @@ TEST(Checkpoint, EveryStateResumesToTheUninterruptedFilm) {
             ++mid;
             with_pending += !s.pending_tiles.empty();
             // The film of a state holds whole passes: the same paths in every pixel
-            for (const PixelSums& p : s.film.pixels()) ASSERT_EQ(int64_t(p.count + p.nonfinite), s.spp_done);
+            for (const PixelSums& p : s.film.pixels())
+                ASSERT_EQ(int64_t(p.count + p.nonfinite), s.spp_done);
             RenderOptions r = options_for(v, 1);  // another thread count, too
             r.resume = &s;
             const RenderResult resumed = render(scene, r);
             ASSERT_TRUE(same_film(full.film, resumed.film))
                 << "resumed from " << s.spp_done << " paths per pixel with "
-                << std::count(s.pending_tiles.begin(), s.pending_tiles.end(), 1) << " tiles of the next pass";
+                << std::count(s.pending_tiles.begin(), s.pending_tiles.end(), 1)
+                << " tiles of the next pass";
             EXPECT_EQ(resumed.stats.spp_resumed, s.spp_done);
             // ...and it rendered only what the state lacked (a resume that started over
             // would end in the same film, so the paths traced tell them apart)
-            EXPECT_EQ(resumed.stats.rays.camera,
-                      uint64_t(w * h) * uint64_t(scene.settings.spp - s.spp_done) - pass_paths_done(s));
+            EXPECT_EQ(
+                resumed.stats.rays.camera,
+                uint64_t(w * h) * uint64_t(scene.settings.spp - s.spp_done) - pass_paths_done(s));
         }
         std::printf("%s %s: %zu mid-render states resumed, %zu with tiles of a pass\n",
                     v.integrator.c_str(), v.isa.c_str(), mid, with_pending);
@@ -276,10 +280,13 @@ TEST(Checkpoint, AnInterruptedStateWithTilesOfAPassResumesExactly) {
         EXPECT_TRUE(same_film(full.film, resumed.film));
         const uint64_t have = pass_paths_done(last);
         EXPECT_GT(have, 0u);
-        EXPECT_EQ(resumed.stats.rays.camera, uint64_t(80 * 64) * uint64_t(64 - last.spp_done) - have);
-        std::printf("stopped mid-pass in render %d, at %lld paths per pixel with %zu tiles of the next pass\n",
-                    attempts + 1, static_cast<long long>(last.spp_done),
-                    size_t(std::count(last.pending_tiles.begin(), last.pending_tiles.end(), 1)));
+        EXPECT_EQ(resumed.stats.rays.camera,
+                  uint64_t(80 * 64) * uint64_t(64 - last.spp_done) - have);
+        std::printf(
+            "stopped mid-pass in render %d, at %lld paths per pixel with %zu tiles of the next "
+            "pass\n",
+            attempts + 1, static_cast<long long>(last.spp_done),
+            size_t(std::count(last.pending_tiles.begin(), last.pending_tiles.end(), 1)));
         return;
     }
     if (interrupted == 0) GTEST_SKIP() << "every render ended before the stop";
@@ -422,7 +429,8 @@ TEST(CheckpointFile, AnOlderFilesPassSumsAreAddedToTheFilm) {
     const size_t at = bytes.find("cierzo:pending_form");
     ASSERT_NE(at, std::string::npos);
     bytes.replace(at, 19, "cierzo:pending_xxxx");
-    std::ofstream(kDir / "older.exr", std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    std::ofstream(kDir / "older.exr", std::ios::binary)
+        .write(bytes.data(), std::streamsize(bytes.size()));
     const Checkpoint c = read_checkpoint(kDir / "older.exr");
     EXPECT_TRUE(same_film(c.state.film, s.film));
     EXPECT_EQ(c.state.pending_tiles, s.pending_tiles);
@@ -458,7 +466,8 @@ TEST(CheckpointFile, ADamagedOrForeignFileIsRefusedNamingIt) {
     {
         std::ifstream in(kDir / "good.exr", std::ios::binary);
         std::string bytes((std::istreambuf_iterator<char>(in)), {});
-        std::ofstream(kDir / "cut.exr", std::ios::binary).write(bytes.data(), std::streamsize(bytes.size() * 2 / 3));
+        std::ofstream(kDir / "cut.exr", std::ios::binary)
+            .write(bytes.data(), std::streamsize(bytes.size() * 2 / 3));
     }
     refused(kDir / "cut.exr", "truncated");
     // An ordinary image is no checkpoint

@@ -93,8 +93,7 @@ const Reference& box_reference() {
     static const Reference ref = [] {
         Scene s = parse_scene(kBox, "/tmp/box.json");
         s.settings.spp = emulated() ? 4096 : 16384;
-        if (emulated())
-            std::cout << "CIERZO_TEST_EMULATED: a reference of 4096 paths per pixel\n";
+        if (emulated()) std::cout << "CIERZO_TEST_EMULATED: a reference of 4096 paths per pixel\n";
         RenderOptions o;
         o.progress = false;
         const RenderResult r = render(s, o);

@@ -46,7 +46,8 @@ void write_sky(const fs::path& path) {
             p[0] = y < 8 ? 0.3f : 0.2f, p[1] = y < 8 ? 0.5f : 0.2f, p[2] = y < 8 ? 1.0f : 0.2f;
         }
     for (int y = 3; y < 5; ++y)
-        for (int x = 10; x < 12; ++x) sky.pixel(x, y)[0] = sky.pixel(x, y)[1] = sky.pixel(x, y)[2] = 400.0f;
+        for (int x = 10; x < 12; ++x)
+            sky.pixel(x, y)[0] = sky.pixel(x, y)[1] = sky.pixel(x, y)[2] = 400.0f;
     float* black = sky.pixel(30, 12);
     black[0] = black[1] = black[2] = 0.0f;
     write_exr(path, sky);
@@ -166,7 +167,8 @@ TEST(Environment, EstimatorsAndIntegratorsAgreeUnderAnHdrSky) {
         }
         for (size_t k = 1; k < vs.size(); ++k) {
             const RenderResult w = test::run(scene, vs[k]);
-            EXPECT_GE(test::pixels_agreeing(scalar.film, w.film), 0.99) << estimator << " " << vs[k].isa;
+            EXPECT_GE(test::pixels_agreeing(scalar.film, w.film), 0.99)
+                << estimator << " " << vs[k].isa;
         }
     }
 }
@@ -176,7 +178,8 @@ TEST(Environment, BadEnvironmentsAreRefusedNamingTheFile) {
         const std::string text = R"({"materials": {"p": {"kd": 0.5}},
             "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "p"}],
             "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0]},
-            "environment": )" + environment + "}";
+            "environment": )" + environment +
+                                 "}";
         try {
             scene_from("bad.json", text);
         } catch (const InputError& e) {

@@ -50,11 +50,13 @@ const Estimator kAll[3] = {Estimator::kReport, Estimator::kNee, Estimator::kMis}
 std::string plane_scene(const std::string& emitter, int spp, float cam_x) {
     return R"({"render": {"width": 16, "height": 16, "spp": )" + std::to_string(spp) +
            R"(, "seed": 3},
-        "camera": {"position": [)" + std::to_string(cam_x) + R"(, 1.2, 0.3], "look_at": [0, 0, 0],
+        "camera": {"position": [)" +
+           std::to_string(cam_x) + R"(, 1.2, 0.3], "look_at": [0, 0, 0],
                    "up": [0, 1, 0], "vfov": 2},
         "materials": {"floor": {"kd": [0.5, 0.25, 0.7]}, "L": {"emission": [4, 2, 1]}},
         "objects": [{"type": "plane", "normal": [0, 1, 0], "distance": 0, "material": "floor"},
-                    )" + emitter + "]}";
+                    )" +
+           emitter + "]}";
 }
 
 // The expected image mean: the radiance at each pixel centre's floor point, averaged
@@ -91,8 +93,8 @@ double under_square(double x, double z, int c, double a, double h) {
                (2 * M_PI);
     };
     // Signed widths: the point may lie inside the square's shadow (it does here)
-    const double f = corner(a - x, a - z) + corner(a + x, a - z) + corner(a - x, a + z) +
-                     corner(a + x, a + z);
+    const double f =
+        corner(a - x, a - z) + corner(a + x, a - z) + corner(a - x, a + z) + corner(a + x, a + z);
     return kKd[c] / M_PI * M_PI * kLe[c] * f;
 }
 
@@ -131,11 +133,13 @@ void expect_answer_everywhere(const Scene& scene, double (*radiance)(double, dou
 
 TEST(Estimators, IrradianceUnderAnEmittingSphere) {
     expect_answer_everywhere(
-        test::parse_report_scene(plane_scene(kSphereEmitter, 1024, 1.6f), "/tmp/under.json"), sphere_answer);
+        test::parse_report_scene(plane_scene(kSphereEmitter, 1024, 1.6f), "/tmp/under.json"),
+        sphere_answer);
 }
 
 TEST(Estimators, IrradianceUnderASquareOfTwoTriangles) {
-    Scene scene = test::parse_report_scene(plane_scene(kSquareEmitter, 1024, 1.6f), "/tmp/under.json");
+    Scene scene =
+        test::parse_report_scene(plane_scene(kSquareEmitter, 1024, 1.6f), "/tmp/under.json");
     EXPECT_EQ(scene.emitters.count(), 2u);
     expect_answer_everywhere(scene, square_answer);
     // The triangles sampled by solid angle
@@ -244,12 +248,14 @@ std::string sphere_in_sphere(double offset, double r) {
     const std::string c = vec(offset, offset, offset);
     const std::string cam = vec(offset, offset, offset - 3 * r);
     return R"({"render": {"width": 16, "height": 16, "spp": 32},
-        "camera": {"position": )" + cam + R"(, "look_at": )" + c + R"(, "vfov": 30},
+        "camera": {"position": )" +
+           cam + R"(, "look_at": )" + c + R"(, "vfov": 30},
         "materials": {"w": {"kd": 0.8}, "L": {"emission": 1}},
-        "objects": [{"type": "sphere", "center": )" + c + R"(, "radius": )" + num(r) +
+        "objects": [{"type": "sphere", "center": )" +
+           c + R"(, "radius": )" + num(r) +
            R"(, "material": "w"},
-                    {"type": "sphere", "center": )" + c + R"(, "radius": )" + num(10 * r) +
-           R"(, "material": "L"}]})";
+                    {"type": "sphere", "center": )" +
+           c + R"(, "radius": )" + num(10 * r) + R"(, "material": "L"}]})";
 }
 
 TEST(Estimators, InsideAnEmittingSphereAtEveryScale) {
@@ -296,8 +302,10 @@ TEST(Estimators, ExtremeEmittersAndLobesStayFinite) {
             EXPECT_EQ(res.stats.nonfinite_samples, 0u);
             const ImageMean m = image_mean(res.film, 1);
             EXPECT_TRUE(std::isfinite(m.mean) && std::isfinite(m.sigma));
-            if (e == Estimator::kReport) report = m;
-            else EXPECT_NEAR(m.mean, report.mean, 4.0 * std::hypot(m.sigma, report.sigma));
+            if (e == Estimator::kReport)
+                report = m;
+            else
+                EXPECT_NEAR(m.mean, report.mean, 4.0 * std::hypot(m.sigma, report.sigma));
         }
     }
 }

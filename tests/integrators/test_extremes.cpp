@@ -36,8 +36,8 @@
 namespace cierzo {
 namespace {
 
-using test::Variant;
 using test::run;
+using test::Variant;
 using test::variants;
 
 // Mean of a channel over the image, and whether every pixel is finite.
@@ -61,13 +61,15 @@ std::string sphere_in_emitter(double x, double y, double z, double r) {
     std::snprintf(radius, sizeof radius, "%.9g", r);
     std::snprintf(big, sizeof big, "%.9g", 10 * r);
     return R"({"render": {"width": 24, "height": 24, "spp": 64},
-        "camera": {"position": )" + v(x, y, z - 3 * r) + R"(, "look_at": )" + v(x, y, z) +
+        "camera": {"position": )" +
+           v(x, y, z - 3 * r) + R"(, "look_at": )" + v(x, y, z) +
            R"(, "vfov": 60},
         "materials": {"w": {"kd": 0.8}, "L": {"emission": 1}},
-        "objects": [{"type": "sphere", "center": )" + v(x, y, z) + R"(, "radius": )" + radius +
+        "objects": [{"type": "sphere", "center": )" +
+           v(x, y, z) + R"(, "radius": )" + radius +
            R"(, "material": "w"},
-                    {"type": "sphere", "center": )" + v(x, y, z) + R"(, "radius": )" + big +
-           R"(, "material": "L"}]})";
+                    {"type": "sphere", "center": )" +
+           v(x, y, z) + R"(, "radius": )" + big + R"(, "material": "L"}]})";
 }
 
 TEST(Extremes, NoAcneAndTheSameImageAtEveryScale) {
@@ -75,11 +77,13 @@ TEST(Extremes, NoAcneAndTheSameImageAtEveryScale) {
     // meets the emitter, so a sphere pixel is 0.8 in expectation and nothing is darker
     for (const Variant& v : variants()) {
         SCOPED_TRACE(std::string(v.integrator) + " " + v.isa);
-        const RenderResult unit = run(test::parse_report_scene(sphere_in_emitter(0, 0, 0, 1), "/tmp/e.json"), v);
+        const RenderResult unit =
+            run(test::parse_report_scene(sphere_in_emitter(0, 0, 0, 1), "/tmp/e.json"), v);
         const double reference = image_mean(unit.film, 0);
         for (auto [x, r] : {std::pair{0.0, 1e-4}, {0.0, 1e6}, {1e4, 1.0}, {-3e3, 1e-1}}) {
             SCOPED_TRACE(testing::Message() << "offset " << x << " radius " << r);
-            const Scene scene = test::parse_report_scene(sphere_in_emitter(x, x, x, r), "/tmp/e.json");
+            const Scene scene =
+                test::parse_report_scene(sphere_in_emitter(x, x, x, r), "/tmp/e.json");
             const RenderResult res = run(scene, v);
             bool finite = true;
             EXPECT_NEAR(image_mean(res.film, 0, &finite), reference, 1e-3 * reference);
@@ -106,27 +110,32 @@ std::string box_scene(const std::string& extra_materials, const std::string& ext
                       int spp = 32, const std::string& lights = "[]") {
     return R"({"render": {"width": 24, "height": 24, "spp": )" + std::to_string(spp) + R"(},
         "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0], "vfov": 60},
-        "materials": {"w": {"kd": 0.8}, "L": {"emission": 1})" + extra_materials + R"(},
-        "objects": [)" + kBox + extra_objects + R"(], "lights": )" + lights + "}";
+        "materials": {"w": {"kd": 0.8}, "L": {"emission": 1})" +
+           extra_materials + R"(},
+        "objects": [)" +
+           kBox + extra_objects + R"(], "lights": )" + lights + "}";
 }
 
 TEST(Extremes, AnIorOneSphereVanishes) {
     for (const Variant& v : variants()) {
         SCOPED_TRACE(std::string(v.integrator) + " " + v.isa);
-        const RenderResult empty = run(test::parse_report_scene(box_scene("", "", 512), "/tmp/e.json"), v);
-        const RenderResult glass = run(
-            test::parse_report_scene(box_scene(R"(, "g": {"kt": 1, "ior": 1})",
-                                  R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.5,
+        const RenderResult empty =
+            run(test::parse_report_scene(box_scene("", "", 512), "/tmp/e.json"), v);
+        const RenderResult glass =
+            run(test::parse_report_scene(
+                    box_scene(R"(, "g": {"kt": 1, "ior": 1})",
+                              R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.5,
                                         "material": "g"})",
-                                  512),
-                        "/tmp/e.json"),
-            v);
+                              512),
+                    "/tmp/e.json"),
+                v);
         // Standard error of the image mean from the per-pixel variances
         const Image var = empty.film.variance_of_mean();
         double v_sum = 0;
         for (size_t i = 0; i < var.rgb.size(); i += 3) v_sum += var.rgb[i];
         const double se = std::sqrt(v_sum) / double(var.rgb.size() / 3);
-        EXPECT_NEAR(image_mean(glass.film, 0), image_mean(empty.film, 0), 5.0 * se * std::sqrt(2.0));
+        EXPECT_NEAR(image_mean(glass.film, 0), image_mean(empty.film, 0),
+                    5.0 * se * std::sqrt(2.0));
     }
 }
 
@@ -142,13 +151,15 @@ TEST(Extremes, HardMaterialsAndLightsStayFinite) {
                      {"type": "sphere", "center": [0.5, 0, 0], "radius": 0.4, "material": "q"},
                      {"type": "sphere", "center": [0, 0.8, 0], "radius": 0.05, "material": "hot"})"),
         // Albedo 1 everywhere, a point light on the floor and one of 1e6
-        box_scene(R"(, "one": {"kd": 1})",
-                  R"(, {"type": "sphere", "center": [0, -0.5, 0], "radius": 0.4, "material": "one"})",
-                  32, R"([{"position": [0, -1, 0], "intensity": 1},
+        box_scene(
+            R"(, "one": {"kd": 1})",
+            R"(, {"type": "sphere", "center": [0, -0.5, 0], "radius": 0.4, "material": "one"})", 32,
+            R"([{"position": [0, -1, 0], "intensity": 1},
                          {"position": [0.2, 0.3, 0.1], "intensity": 1e6}])"),
         // Degenerate triangles and a nearly empty quadric; a black absorber
-        box_scene(R"(, "black": {"kd": 0})",
-                  R"(, {"type": "triangle", "vertices": [[0, 0, 0], [0, 0, 0], [1, 1, 1]], "material": "w"},
+        box_scene(
+            R"(, "black": {"kd": 0})",
+            R"(, {"type": "triangle", "vertices": [[0, 0, 0], [0, 0, 0], [1, 1, 1]], "material": "w"},
                      {"type": "triangle", "vertices": [[0, 0, 0], [0.5, 0.5, 0.5], [1, 1, 1]], "material": "w"},
                      {"type": "quadric", "coefficients": [0, 0, 0, 0, 0, 0, 0, 0, 1e-30, 0], "material": "w"},
                      {"type": "sphere", "center": [0, 0, 0.5], "radius": 0.3, "material": "black"})")};
@@ -231,8 +242,7 @@ std::string vec(double a, double b, double c) {
 // all emit 1: from the floor every direction upwards meets an emitter, so a floor point's
 // radiance is exactly 0.8, and a sample that meets a wall directly is exactly 1. (Cosine
 // sampling: a floor sample is then 0 or kd/P = 1.)
-std::string floor_box(const std::string& camera, int size, int spp, double half_width,
-                      double far) {
+std::string floor_box(const std::string& camera, int size, int spp, double half_width, double far) {
     char walls[900];
     std::snprintf(walls, sizeof walls, R"(
         {"type": "plane", "normal": [1, 0, 0], "distance": %.9g, "material": "L"},
@@ -245,9 +255,11 @@ std::string floor_box(const std::string& camera, int size, int spp, double half_
     return R"({"render": {"width": )" + std::to_string(size) + R"(, "height": )" +
            std::to_string(size) + R"(, "spp": )" + std::to_string(spp) +
            R"(, "seed": 9, "diffuse_sampling": "cosine"},
-        "camera": )" + camera + R"(,
+        "camera": )" +
+           camera + R"(,
         "materials": {"floor": {"kd": 0.8}, "L": {"emission": 1}},
-        "objects": [)" + walls + "]}";
+        "objects": [)" +
+           walls + "]}";
 }
 
 TEST(Extremes, ACameraInThePlaneOfAFloorSeesOnlyTheEmitters) {
@@ -277,8 +289,8 @@ TEST(Extremes, ACameraJustAboveAFloorSeesItAtGrazingAngles) {
     // sample 0 or 1); the row next to the horizon is the most grazing
     const int size = 24, spp = 64;
     const Scene scene = test::parse_report_scene(
-        floor_box(R"({"position": [0, 1e-7, -3], "look_at": [0, 1e-7, 0], "vfov": 60})", size,
-                  spp, 2, 4),
+        floor_box(R"({"position": [0, 1e-7, -3], "look_at": [0, 1e-7, 0], "vfov": 60})", size, spp,
+                  2, 4),
         "/tmp/e.json");
     for (const Variant& v : variants()) {
         SCOPED_TRACE(std::string(v.integrator) + " " + v.isa);
@@ -313,10 +325,11 @@ TEST(Extremes, AFloorSeenAt89Point99DegreesHasItsAnalyticValue) {
         std::snprintf(vfov, sizeof vfov, "%.9g", elevation / 2);
         const std::string camera = R"({"position": )" + vec(0, h, 0) + R"(, "look_at": )" +
                                    vec(0, 0, d) + R"(, "vfov": )" + vfov + "}";
-        const Scene scene = test::parse_report_scene(floor_box(camera, 16, 64, 4 * d, 4 * d), "/tmp/e.json");
+        const Scene scene =
+            test::parse_report_scene(floor_box(camera, 16, 64, 4 * d, 4 * d), "/tmp/e.json");
         for (const Variant& v : variants()) {
-            SCOPED_TRACE(testing::Message() << v.integrator << " " << v.isa << ", elevation "
-                                            << elevation << "°");
+            SCOPED_TRACE(testing::Message()
+                         << v.integrator << " " << v.isa << ", elevation " << elevation << "°");
             const RenderResult r = run(scene, v);
             EXPECT_EQ(r.stats.nonfinite_samples, 0u);
             for (int y = 0; y < 16; ++y)
@@ -341,15 +354,16 @@ std::string sphere_in_emitter(const std::string& material, const std::string& ca
     return R"({"render": {"width": )" + std::to_string(size) + R"(, "height": )" +
            std::to_string(size) + R"(, "spp": )" + std::to_string(spp) +
            R"(, "seed": 4, "survival_cap": )" + cap + R"(},
-        "camera": )" + camera + R"(, "materials": {"glass": )" + material +
+        "camera": )" +
+           camera + R"(, "materials": {"glass": )" + material +
            R"(, "L": {"emission": 1}},
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glass"},
                     {"type": "sphere", "center": [0, 0, 0], "radius": 10, "material": "L"}]})";
 }
 
 // The same with a refracting sphere.
-std::string glass_in_emitter(double kt, double ior, const std::string& camera, int size,
-                             int spp, double survival_cap = 0.9) {
+std::string glass_in_emitter(double kt, double ior, const std::string& camera, int size, int spp,
+                             double survival_cap = 0.9) {
     char material[100];
     std::snprintf(material, sizeof material, R"({"kt": %.9g, "ior": %.9g})", kt, ior);
     return sphere_in_emitter(material, camera, size, spp, survival_cap);
@@ -394,10 +408,10 @@ TEST(Extremes, InsideARefractingSphereTheImageIsKtWithoutTotalInternalReflection
     // The camera 0.374 from the centre of a sphere of ior 1.5: every ray leaves at an
     // impact parameter below 1/1.5, so it refracts out once and meets the emitter. The
     // roulette keeps it with P = min(kt, 0.9) and weights it kt/P: the image is kt
-    const std::string camera =
-        R"({"position": [0.3, 0.2, 0.1], "look_at": [1, 1, 1], "vfov": 90})";
+    const std::string camera = R"({"position": [0.3, 0.2, 0.1], "look_at": [1, 1, 1], "vfov": 90})";
     for (double kt : {1.0, 0.6}) {
-        const Scene scene = test::parse_report_scene(glass_in_emitter(kt, 1.5, camera, 24, 32), "/tmp/e.json");
+        const Scene scene =
+            test::parse_report_scene(glass_in_emitter(kt, 1.5, camera, 24, 32), "/tmp/e.json");
         for (const Variant& v : variants()) {
             SCOPED_TRACE(testing::Message() << v.integrator << " " << v.isa << ", kt " << kt);
             const RenderResult r = run(scene, v);
@@ -481,7 +495,8 @@ TEST(Extremes, HighIorSpheresInAUniformEmitterNeitherGainNorLoseEnergy) {
     const std::string outside = R"({"position": [0, 0, -3], "look_at": [0, 0, 0], "vfov": 50})";
     const std::string inside = R"({"position": [0.2, 0, 0], "look_at": [1, 0.5, 2], "vfov": 90})";
     for (auto [ior, camera] : {std::pair{3.5, outside}, {3.5, inside}, {0.3, outside}}) {
-        const Scene scene = test::parse_report_scene(glass_in_emitter(1.0, ior, camera, 24, 32), "/tmp/e.json");
+        const Scene scene =
+            test::parse_report_scene(glass_in_emitter(1.0, ior, camera, 24, 32), "/tmp/e.json");
         for (const Variant& v : variants()) {
             SCOPED_TRACE(testing::Message() << v.integrator << " " << v.isa << ", ior " << ior
                                             << (camera == inside ? " inside" : " outside"));
@@ -505,10 +520,11 @@ TEST(Extremes, TheImageScalesLinearlyWithTheLightsFrom1eMinus6To1e6) {
     const auto scene_at = [](double e) {
         char text[200];
         std::snprintf(text, sizeof text, R"(, "glossy": {"kd": 0.3, "ks": 0.5, "shininess": 20},
-                      "lamp": {"emission": %.9g})", e);
+                      "lamp": {"emission": %.9g})",
+                      e);
         char light[120];
-        std::snprintf(light, sizeof light,
-                      R"([{"position": [0.3, 0.6, -0.2], "intensity": %.9g}])", e);
+        std::snprintf(light, sizeof light, R"([{"position": [0.3, 0.6, -0.2], "intensity": %.9g}])",
+                      e);
         std::string json = box_scene(text, R"(,
             {"type": "sphere", "center": [-0.4, -0.5, 0], "radius": 0.4, "material": "glossy"},
             {"type": "sphere", "center": [0.5, 0.8, 0.5], "radius": 0.1, "material": "lamp"})",
@@ -615,12 +631,12 @@ struct MeshInEmitter {
 };
 MeshInEmitter mesh_in_emitter(int size, int spp) {
     MeshInEmitter m{test::parse_report_scene(R"({"render": {"width": )" + std::to_string(size) +
-                                    R"(, "height": )" + std::to_string(size) + R"(, "spp": )" +
-                                    std::to_string(spp) + R"(},
+                                                 R"(, "height": )" + std::to_string(size) +
+                                                 R"(, "spp": )" + std::to_string(spp) + R"(},
         "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1]},
         "materials": {"L": {"emission": 1}, "black": {"kd": 0}},
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 5, "material": "L"}]})",
-                                "/tmp/e.json"),
+                                             "/tmp/e.json"),
                     test::uv_sphere(12, 24)};
     Mesh mesh;
     mesh.source = "uv_sphere(12, 24)";
@@ -657,8 +673,7 @@ TEST(Extremes, AClosedAbsorbingMeshAroundTheCameraLetsNoLightIn) {
     std::vector<Vec3f> targets;
     for (size_t i = 0; i < p.size(); i += 7) targets.push_back(p[i]);
     targets.push_back(p.back());  // a pole
-    for (size_t i = 0; i < t.size(); i += 3 * 29)
-        targets.push_back((p[t[i]] + p[t[i + 1]]) * 0.5f);
+    for (size_t i = 0; i < t.size(); i += 3 * 29) targets.push_back((p[t[i]] + p[t[i + 1]]) * 0.5f);
     for (const Vec3f& target : targets) {
         views.push_back({Vec3f{0.0f}, target});
         views.push_back({Vec3f{0.3f, -0.2f, 0.1f}, target});
@@ -672,7 +687,8 @@ TEST(Extremes, AClosedAbsorbingMeshAroundTheCameraLetsNoLightIn) {
                 i < 6 ? std::vector<float>{120.0f} : std::vector<float>{1e-3f, 1e-5f};
             for (float vfov : fovs) {
                 const Vec3f up = std::fabs(target.y - position.y) > 0.9f * length(target - position)
-                                     ? Vec3f{1, 0, 0} : Vec3f{0, 1, 0};
+                                     ? Vec3f{1, 0, 0}
+                                     : Vec3f{0, 1, 0};
                 m.scene.camera = look_at_camera(position, target, up, vfov, 1.0f);
                 expect_black(run(m.scene, v));
             }

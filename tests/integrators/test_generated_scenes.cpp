@@ -23,13 +23,15 @@ const fs::path kScenes = CIERZO_BINARY_DIR "/scenes-generated";
 Scene load(const std::string& name) {
     const fs::path p = kScenes / (name + ".json");
     if (!fs::exists(p))
-        throw std::runtime_error(p.string() + " is missing: the generate_scenes test writes it "
-                                 "(scripts/make_scenes.py --out " + kScenes.string() + ")");
+        throw std::runtime_error(p.string() +
+                                 " is missing: the generate_scenes test writes it "
+                                 "(scripts/make_scenes.py --out " +
+                                 kScenes.string() + ")");
     return load_scene(p);
 }
 
-RenderResult render_with(const Scene& scene, const std::string& integrator,
-                         const std::string& isa, int threads) {
+RenderResult render_with(const Scene& scene, const std::string& integrator, const std::string& isa,
+                         int threads) {
     RenderOptions o;
     o.integrator = integrator_of(integrator);
     o.isa = isa;
@@ -78,8 +80,8 @@ TEST_P(Generated, WavefrontMatchesScalarOnEveryIsaAndThreadsDoNotChangeTheImage)
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, Generated,
-                         testing::Values("spheres_10", "spheres_1000", "spheres_10000",
-                                         "mesh_200k", "instances_100"),
+                         testing::Values("spheres_10", "spheres_1000", "spheres_10000", "mesh_200k",
+                                         "instances_100"),
                          [](const auto& info) { return std::string(info.param); });
 
 TEST(Generated, AHundredInstancesCostAboutOneMesh) {

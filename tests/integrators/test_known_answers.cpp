@@ -20,7 +20,9 @@
 namespace cierzo {
 namespace {
 
-Scene scene_from(const std::string& json) { return test::parse_report_scene(json, "/tmp/known.json"); }
+Scene scene_from(const std::string& json) {
+    return test::parse_report_scene(json, "/tmp/known.json");
+}
 
 // The integrator under test: this file is built once per integrator (and ISA).
 #ifndef CIERZO_TEST_INTEGRATOR
@@ -111,14 +113,14 @@ TEST_F(KnownAnswer, PointLightInsideADiffuseSphereBothSamplers) {
         SCOPED_TRACE(sampling);
         const Scene scene = scene_from(std::string(R"({
             "render": {"width": 16, "height": 16, "spp": 1024, "seed": 3,
-                       "diffuse_sampling": ")") + sampling + R"("},
+                       "diffuse_sampling": ")") +
+                                       sampling + R"("},
             "camera": {"position": [0.3, 0.2, 0.1], "look_at": [0, 0, 1], "vfov": 120},
             "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 2,
                          "material": {"kd": [0.5, 0.3, 0.7]}}],
             "lights": [{"position": [0, 0, 0], "intensity": 5}]})");
         Vec3f expected;
-        for (int c = 0; c < 3; ++c)
-            (&expected.x)[c] = rho[c] * I / (kPi * r * r * (1.0f - rho[c]));
+        for (int c = 0; c < 3; ++c) (&expected.x)[c] = rho[c] * I / (kPi * r * r * (1.0f - rho[c]));
         expect_image_mean(render_quiet(scene, 2), expected);
     }
 }

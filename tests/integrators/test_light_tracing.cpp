@@ -59,8 +59,9 @@ std::string room(bool ball, const std::string& extra = "", bool light = true) {
         "materials": {"wall": {"kd": [0.5, 0.5, 0.5]}, "glass": {"kt": [1, 1, 1], "ior": 1.5},
                       "hot": {"emission": [10, 10, 10]}},
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": "wall"})") +
-           (ball ? R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "glass"})"
-                 : "") +
+           (ball
+                ? R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "glass"})"
+                : "") +
            extra + "]" +
            (light ? R"(, "lights": [{"position": [0, 0, 0], "intensity": [1, 1, 1]}])" : "") + "}";
 }
@@ -127,9 +128,9 @@ TEST(LightTracing, CameraInsideAnEmittingSphere) {
 // unchanged by the report's refraction), light paths leave the glass with (η_i/η_t)² = 2.25:
 // the two estimate the same image only with the adjoint right.
 TEST(LightTracing, RefractionIsTheAdjointOfTheCamerasRefraction) {
-    const std::string json =
-        room(true, R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.25, "material": "hot"})",
-             false);
+    const std::string json = room(
+        true, R"(, {"type": "sphere", "center": [0, 0, 0], "radius": 0.25, "material": "hot"})",
+        false);
     const Variant v = variants().back();
     const RenderResult lt = run(scene_of(json, Estimator::kLt, spp(512, 64)), v);
     const RenderResult mis = run(scene_of(json, Estimator::kMis, spp(512, 64)), v);
@@ -195,9 +196,10 @@ TEST(LightTracing, APlantedFivePercentErrorIsCaught) {
     const RenderResult mis = run(scene_of(kBox, Estimator::kMis, n), v);
     // Every start weight 5% high: emitters' and point lights' alike
     std::string json = kBox;
-    for (const auto& [from, to] : {std::pair<std::string, std::string>{"[6, 5, 4]", "[6.3, 5.25, 4.2]"},
-                                   {"[3, 3, 5]", "[3.15, 3.15, 5.25]"},
-                                   {"[0.3, 0.3, 0.2]", "[0.315, 0.315, 0.21]"}}) {
+    for (const auto& [from, to] :
+         {std::pair<std::string, std::string>{"[6, 5, 4]", "[6.3, 5.25, 4.2]"},
+          {"[3, 3, 5]", "[3.15, 3.15, 5.25]"},
+          {"[0.3, 0.3, 0.2]", "[0.315, 0.315, 0.21]"}}) {
         const size_t at = json.find(from);
         ASSERT_NE(at, std::string::npos);
         json.replace(at, from.size(), to);
@@ -266,7 +268,9 @@ TEST(SplatSums, SameBitsInAnyOrderAndSplit) {
     // Not finite, or too large to add: counted and left out
     SplatSums bad;
     bad.reset(2);
-    bad.add({{1, Vec3f(NAN, 0, 0)}, {1, Vec3f(0, INFINITY, 0)}, {0, Vec3f(1e30f, 0, 0)},
+    bad.add({{1, Vec3f(NAN, 0, 0)},
+             {1, Vec3f(0, INFINITY, 0)},
+             {0, Vec3f(1e30f, 0, 0)},
              {0, Vec3f(2.0f, 0, 0)}});
     EXPECT_EQ(bad.nonfinite(), 3u);
     EXPECT_EQ(bad.at(0, 0), 2.0);
@@ -283,16 +287,16 @@ TEST(SplatSums, RoundEachValueToTheNearestUnitTiesToEven) {
         double expected;
     };
     const std::vector<Case> cases = {
-        {0.5f * unit, 0.0},             // a tie: to the even 0
-        {1.5f * unit, 2.0 * unit},      // a tie: to the even 2
-        {2.5f * unit, 2.0 * unit},      // a tie: to the even 2
+        {0.5f * unit, 0.0},         // a tie: to the even 0
+        {1.5f * unit, 2.0 * unit},  // a tie: to the even 2
+        {2.5f * unit, 2.0 * unit},  // a tie: to the even 2
         {-1.5f * unit, -2.0 * unit},
         {0.75f * unit, 1.0 * unit},
         {0.25f * unit, 0.0},
         {3.0f, 3.0},
-        {0x1.0p21f, 0x1.0p21},          // below 2^22: one instruction
+        {0x1.0p21f, 0x1.0p21},  // below 2^22: one instruction
         {0x1.fffffep21f, 0x1.fffffep21},
-        {0x1.0p22f, 0x1.0p22},          // from 2^22 on: the other way
+        {0x1.0p22f, 0x1.0p22},  // from 2^22 on: the other way
         {-0x1.8p40f, -0x1.8p40},
         {0x1.fffffep79f, 0x1.fffffep79},  // the largest kept
     };

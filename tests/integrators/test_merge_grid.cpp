@@ -57,7 +57,8 @@ TEST(MergeGrid, FindsWhatBruteForceFinds) {
                 const int32_t set = q % int32_t(radius.size());
                 // (half the queries at a point's own position, half anywhere)
                 const Photon& near = points[size_t(rng() % points.size())];
-                float x[3] = {offset + u(rng), planar ? offset - 1.0f : offset + u(rng), offset + u(rng)};
+                float x[3] = {offset + u(rng), planar ? offset - 1.0f : offset + u(rng),
+                              offset + u(rng)};
                 if (q % 2) x[0] = near.p[0], x[1] = near.p[1], x[2] = near.p[2];
                 const std::multiset<const Photon*> f = found(g, x, set, radius[size_t(set)]);
                 // Brute force, by the points' own tags
@@ -89,8 +90,8 @@ TEST(MergeGrid, NothingNotFiniteIsFoundOrAsked) {
     MergeGrid::Range cells[8];
     EXPECT_EQ(g.cells(nan, 0.0f, 0.0f, 0, cells), 0);
     EXPECT_EQ(g.cells(0.0f, inf, 0.0f, 0, cells), 0);
-    EXPECT_EQ(g.cells(0.0f, 0.0f, 0.0f, 1, cells), 0);   // (a set of radius 0)
-    EXPECT_EQ(g.cells(0.0f, 0.0f, 0.0f, 7, cells), 0);   // (a set the grid does not have)
+    EXPECT_EQ(g.cells(0.0f, 0.0f, 0.0f, 1, cells), 0);  // (a set of radius 0)
+    EXPECT_EQ(g.cells(0.0f, 0.0f, 0.0f, 7, cells), 0);  // (a set the grid does not have)
     EXPECT_EQ(g.cells(0.0f, 0.0f, 0.0f, -1, cells), 0);
 }
 

@@ -3,7 +3,8 @@
 //   - the images of lengths 1..2, 3 and 4.. add up, pixel by pixel, to the whole image (the
 //     same paths with the same numbers: equal but for the rounding of the film's sums), with
 //     every estimator and with the independent and sobol samplers;
-//   - analytic answers by length (within 4σ): a point light at the centre of a closed diffuse sphere
+//   - analytic answers by length (within 4σ): a point light at the centre of a closed diffuse
+//   sphere
 //     gives ρI/(πR²)·ρ^(n-2) at length n; a diffuse ball inside an emitting sphere gives all
 //     of its 0.8 at length 2 and exactly nothing at lengths 1 and 3..;
 //   - the scene keys, and their refusal of a maximum below the minimum.
@@ -97,8 +98,8 @@ TEST(PathLengths, AnalyticAnswersByLength) {
                 }
             }
             if (e == Estimator::kLt) continue;  // (the ball: camera paths' answer)
-            for (const auto& [lo, hi, expected] :
-                 {std::tuple{1, 1, 0.0}, std::tuple{2, 2, 0.8}, std::tuple{3, kNoLengthLimit, 0.0}}) {
+            for (const auto& [lo, hi, expected] : {std::tuple{1, 1, 0.0}, std::tuple{2, 2, 0.8},
+                                                   std::tuple{3, kNoLengthLimit, 0.0}}) {
                 const RenderResult r = run(limited(test::kBall, e, lo, hi, spp), v);
                 for (int c = 0; c < 3; ++c) {
                     const ImageMean m = image_mean(r.film, c);

@@ -28,11 +28,11 @@ namespace cierzo {
 namespace {
 
 using test::image_mean;
+using test::ImageMean;
 using test::kBall;
 using test::kLobes;
 using test::kRoom;
 using test::kRoomL;
-using test::ImageMean;
 using test::pixels_agreeing;
 using test::run;
 using test::Variant;
@@ -117,8 +117,8 @@ TEST(ThroughputRoulette, EveryPathEndsInABoxOfPerfectMirrors) {
     for (const Variant& v : variants()) {
         SCOPED_TRACE(v.integrator + " " + v.isa);
         for (int depth : {0, 1024}) {
-            const RenderResult r = run(with_roulette(json, Estimator::kMis, Roulette::kThroughput,
-                                                     depth, 16), v);
+            const RenderResult r =
+                run(with_roulette(json, Estimator::kMis, Roulette::kThroughput, depth, 16), v);
             EXPECT_EQ(r.stats.nonfinite_samples, 0u);
             bool finite = true;
             for (int c = 0; c < 3; ++c) {
@@ -156,11 +156,11 @@ TEST(ThroughputRoulette, RefusedWhereTheEstimatorKeepsTheLobeRoulette) {
         head + R"("estimator": "mis", "roulette": "throughput", "roulette_depth": 5}})", "r.json");
     EXPECT_EQ(ok.settings.estimator.roulette, Roulette::kThroughput);
     EXPECT_EQ(ok.settings.estimator.roulette_depth, 5);
-    EXPECT_EQ(parse_scene(head + "}}", "r.json").settings.estimator.roulette,
-              Roulette::kThroughput)
+    EXPECT_EQ(parse_scene(head + "}}", "r.json").settings.estimator.roulette, Roulette::kThroughput)
         << "a scene that names no estimator takes mis's roulette";
-    EXPECT_EQ(parse_scene(head + R"("estimator": "report"}})", "r.json").settings.estimator.roulette,
-              Roulette::kLobe);
+    EXPECT_EQ(
+        parse_scene(head + R"("estimator": "report"}})", "r.json").settings.estimator.roulette,
+        Roulette::kLobe);
 }
 
 }  // namespace

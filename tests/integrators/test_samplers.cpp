@@ -57,8 +57,8 @@ TEST(Samplers, AnalyticAnswersWithEveryEstimator) {
     for (const Variant& v : variants()) {
         SCOPED_TRACE(v.integrator + " " + v.isa);
         for (Sampler s : kLowDiscrepancy) {
-            for (Estimator e : {Estimator::kReport, Estimator::kNee, Estimator::kMis,
-                                Estimator::kLt}) {
+            for (Estimator e :
+                 {Estimator::kReport, Estimator::kNee, Estimator::kMis, Estimator::kLt}) {
                 SCOPED_TRACE(std::string(sampler_name(s)) + " " + estimator_name(e));
                 test::expect_answer(run(with_sampler(test::kRoom, e, s, spp(256, 32)), v),
                                     test::kRoomL, sigma_bound());
@@ -89,8 +89,8 @@ TEST(Samplers, AgreeWithTheIndependentSamplerPerPixel) {
                 const RenderResult r = run(scene, v);
                 const double share = pixels_agreeing(r.film, base.film);
                 std::printf("%s vs independent, %s, %s %s: %.2f%% of pixels agree\n",
-                            sampler_name(s), estimator_name(e), v.integrator.c_str(),
-                            v.isa.c_str(), 100 * share);
+                            sampler_name(s), estimator_name(e), v.integrator.c_str(), v.isa.c_str(),
+                            100 * share);
                 EXPECT_GE(share, 0.99);
                 for (int c = 0; c < 3 && e == Estimator::kMis; ++c) {
                     const ImageMean a = image_mean(r.film, c), b = image_mean(base.film, c);
@@ -148,10 +148,15 @@ TEST(Samplers, TheSceneKeyAndItsErrors) {
     EXPECT_EQ(parse_scene(base + R"("pmj02"}})", "s.json").settings.estimator.sampler,
               Sampler::kPmj02);
     EXPECT_EQ(parse_scene(R"({"camera": {"position": [0, 0, -2], "look_at": [0, 0, 0]},
-        "objects": []})", "s.json").settings.estimator.sampler, Sampler::kSobol)
+        "objects": []})",
+                          "s.json")
+                  .settings.estimator.sampler,
+              Sampler::kSobol)
         << "a scene that names no estimator takes mis's sampler";
     EXPECT_EQ(parse_scene(R"({"camera": {"position": [0, 0, -2], "look_at": [0, 0, 0]},
-        "objects": [], "render": {"estimator": "report"}})", "s.json").settings.estimator.sampler,
+        "objects": [], "render": {"estimator": "report"}})",
+                          "s.json")
+                  .settings.estimator.sampler,
               Sampler::kIndependent);
     try {
         parse_scene(base + R"("halton"}})", "s.json");

@@ -86,8 +86,10 @@ TEST_F(ShadingNormals, SceneNormalsComeFromTheFileThroughTheTransformOrAreAreaWe
             SCOPED_TRACE(std::string(file) + " instance " + instance);
             const Scene s = scene(
                 R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0]}, "objects": [
-                   {"type": "mesh", "file": ")" + std::string(file) + R"(", "smooth": true,
-                    "scale": [1, -2, 0.5], "instance": )" + instance + R"(, "material": {"kd": 0.5}}]})");
+                   {"type": "mesh", "file": ")" +
+                std::string(file) + R"(", "smooth": true,
+                    "scale": [1, -2, 0.5], "instance": )" +
+                instance + R"(, "material": {"kd": 0.5}}]})");
             ASSERT_EQ(s.meshes.size(), 1u);
             EXPECT_TRUE(s.smooth_shading);
             const Mesh& object = s.meshes[0];
@@ -169,7 +171,8 @@ TEST_F(ShadingNormals, WavefrontAgreesWithScalarOnEveryLobeAndEstimator) {
             ASSERT_TRUE(all_finite(img));
             for (int c = 0; c < 3; ++c) {
                 double mw = 0, ms = 0;
-                for (size_t i = size_t(c); i < img.rgb.size(); i += 3) mw += img.rgb[i], ms += ref.rgb[i];
+                for (size_t i = size_t(c); i < img.rgb.size(); i += 3)
+                    mw += img.rgb[i], ms += ref.rgb[i];
                 EXPECT_LT(std::abs(mw - ms) / ms, 0.003) << "channel " << c;
                 const double mean = ms / double(img.rgb.size() / 3);
                 size_t off = 0;
@@ -192,12 +195,16 @@ TEST_F(ShadingNormals, SmoothShadingConvergesTowardsTheAnalyticSurface) {
     for (const test::Variant& v : test::variants()) {
         SCOPED_TRACE(v.integrator + " " + v.isa);
         const Image exact = test::run(scene(head + R"({"type": "sphere", "center": [0, 0, 0],
-            "radius": 1, )" + material + "]}"), v).film.mean();
+            "radius": 1, )" + material + "]}"),
+                                      v)
+                                .film.mean();
         double error[2] = {0, 0};
         for (int smooth = 0; smooth < 2; ++smooth) {
             const Image img = test::run(scene(head + R"({"type": "mesh", "file": "coarse.obj",
-                "smooth": )" + std::string(smooth ? "true" : "false") + ", " + material + "]}"),
-                v).film.mean();
+                "smooth": )" + std::string(smooth ? "true" : "false") +
+                                              ", " + material + "]}"),
+                                        v)
+                                  .film.mean();
             for (size_t i = 0; i < img.rgb.size(); ++i)
                 error[smooth] += std::abs(double(img.rgb[i]) - double(exact.rgb[i]));
         }
@@ -212,13 +219,16 @@ TEST_F(ShadingNormals, SmoothShadingConvergesTowardsTheAnalyticSurface) {
 TEST_F(ShadingNormals, NoLightComesThroughTheGeometricSurface) {
     {
         std::ofstream out(dir / "leaning.obj");
-        const float s = std::sin(80.0f * 3.14159265f / 180.0f), c = std::cos(80.0f * 3.14159265f / 180.0f);
+        const float s = std::sin(80.0f * 3.14159265f / 180.0f),
+                    c = std::cos(80.0f * 3.14159265f / 180.0f);
         out << "v -1 0 -1\nv 1 0 -1\nv 0 0 1.5\n";
-        out << "vn " << s << " " << c << " 0\nvn " << -s << " " << c << " 0\nvn 0 " << c << " " << s << "\n";
+        out << "vn " << s << " " << c << " 0\nvn " << -s << " " << c << " 0\nvn 0 " << c << " " << s
+            << "\n";
         out << "f 1//1 3//3 2//2\n";
     }
-    for (const char* material : {R"({"kd": 0.9})", R"({"kr": 0.9})", R"({"ks": 0.9, "shininess": 5})",
-                                 R"({"kd": 0.3, "ks": 0.3, "kr": 0.3, "shininess": 2})"}) {
+    for (const char* material :
+         {R"({"kd": 0.9})", R"({"kr": 0.9})", R"({"ks": 0.9, "shininess": 5})",
+          R"({"kd": 0.3, "ks": 0.3, "kr": 0.3, "shininess": 2})"}) {
         Scene s = scene(R"({"render": {"width": 24, "height": 24, "spp": 32},
             "camera": {"position": [0, 3, 0], "look_at": [0, 0, 0], "up": [0, 0, 1], "vfov": 30},
             "objects": [
@@ -236,7 +246,8 @@ TEST_F(ShadingNormals, NoLightComesThroughTheGeometricSurface) {
                 double centre = 0.0;
                 for (int y = 8; y < 16; ++y)
                     for (int x = 8; x < 16; ++x)
-                        for (int k = 0; k < 3; ++k) centre += img.rgb[(size_t(y) * 24 + size_t(x)) * 3 + size_t(k)];
+                        for (int k = 0; k < 3; ++k)
+                            centre += img.rgb[(size_t(y) * 24 + size_t(x)) * 3 + size_t(k)];
                 EXPECT_EQ(centre, 0.0);
             }
         }
@@ -252,7 +263,8 @@ TEST_F(ShadingNormals, ExtremesStayFiniteAndGainNoEnergy) {
         std::ofstream out(dir / "wild.obj");
         out << "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n";
         out << "vn 1 0 0\nvn 1 0 0\nvn 0 -1 0\nvn 0 0 0\nvn 1e30 1e30 0\nvn -1 -1 -1\n";
-        for (const char* f : {"1 3 5", "3 2 5", "2 4 5", "4 1 5", "3 1 6", "2 3 6", "4 2 6", "1 4 6"}) {
+        for (const char* f :
+             {"1 3 5", "3 2 5", "2 4 5", "4 1 5", "3 1 6", "2 3 6", "4 2 6", "1 4 6"}) {
             out << "f";
             for (const char* p = f; *p; ++p)
                 if (*p != ' ') out << " " << *p << "//" << *p;
@@ -260,7 +272,8 @@ TEST_F(ShadingNormals, ExtremesStayFiniteAndGainNoEnergy) {
         }
     }
     sphere_obj("ball.obj", 10, 20, true);
-    const std::string camera = R"("camera": {"position": [0, 0.05, -3], "look_at": [0, 0, 0], "vfov": 50})";
+    const std::string camera =
+        R"("camera": {"position": [0, 0.05, -3], "look_at": [0, 0, 0], "vfov": 50})";
     Scene wild = scene(R"({"render": {"width": 32, "height": 32, "spp": 16}, )" + camera + R"(,
         "objects": [
           {"type": "mesh", "file": "wild.obj", "smooth": true,
@@ -297,23 +310,34 @@ TEST_F(ShadingNormals, ExtremesStayFiniteAndGainNoEnergy) {
     }
     // Scales: the unit scene, then tiny and huge far from the origin
     double means[3];
-    const char* transforms[3] = {R"("scale": 1)", R"("scale": 1e-4, "translate": [0.01, -0.01, 0.01])",
+    const char* transforms[3] = {R"("scale": 1)",
+                                 R"("scale": 1e-4, "translate": [0.01, -0.01, 0.01])",
                                  R"("scale": 1e4, "translate": [1e5, 1e5, -1e5])"};
     for (int k = 0; k < 3; ++k) {
         const double scale = k == 0 ? 1.0 : k == 1 ? 1e-4 : 1e4;
-        const double tx = k == 0 ? 0 : k == 1 ? 0.01 : 1e5, ty = k == 0 ? 0 : k == 1 ? -0.01 : 1e5,
-                     tz = k == 0 ? 0 : k == 1 ? 0.01 : -1e5;
+        const double tx = k == 0   ? 0
+                          : k == 1 ? 0.01
+                                   : 1e5,
+                     ty = k == 0   ? 0
+                          : k == 1 ? -0.01
+                                   : 1e5,
+                     tz = k == 0   ? 0
+                          : k == 1 ? 0.01
+                                   : -1e5;
         char cam[512];
-        std::snprintf(cam, sizeof cam,
-                      R"("camera": {"position": [%.9g, %.9g, %.9g], "look_at": [%.9g, %.9g, %.9g], "vfov": 40})",
-                      tx, ty + 0.5 * scale, tz - 3 * scale, tx, ty, tz);
+        std::snprintf(
+            cam, sizeof cam,
+            R"("camera": {"position": [%.9g, %.9g, %.9g], "look_at": [%.9g, %.9g, %.9g], "vfov": 40})",
+            tx, ty + 0.5 * scale, tz - 3 * scale, tx, ty, tz);
         char light[256];
-        std::snprintf(light, sizeof light, R"("lights": [{"position": [%.9g, %.9g, %.9g], "intensity": %.9g}])",
+        std::snprintf(light, sizeof light,
+                      R"("lights": [{"position": [%.9g, %.9g, %.9g], "intensity": %.9g}])",
                       tx - 2 * scale, ty + 2 * scale, tz - 2 * scale, 10 * scale * scale);
-        const Scene sc = scene(R"({"render": {"width": 32, "height": 32, "spp": 8}, )" + std::string(cam) +
-                               R"(, "objects": [{"type": "mesh", "file": "ball.obj", "smooth": true, )" +
-                               transforms[k] + R"(, "material": {"kd": 0.5, "ks": 0.4, "shininess": 30}}], )" +
-                               light + "}");
+        const Scene sc =
+            scene(R"({"render": {"width": 32, "height": 32, "spp": 8}, )" + std::string(cam) +
+                  R"(, "objects": [{"type": "mesh", "file": "ball.obj", "smooth": true, )" +
+                  transforms[k] + R"(, "material": {"kd": 0.5, "ks": 0.4, "shininess": 30}}], )" +
+                  light + "}");
         const Image img = test::run(sc, {"scalar", "auto"}).film.mean();
         ASSERT_TRUE(all_finite(img));
         means[k] = image_mean(img);

@@ -111,11 +111,24 @@ std::string float_bytes(float v, bool big_endian) {
 }
 
 Image special_values_image() {
-    const std::vector<float> values = {
-        0.0f, -0.0f, 1.0f, 1e30f, -1e30f, 1e-30f,
-        std::numeric_limits<float>::denorm_min(), 1e-40f, -3e-42f,
-        std::numeric_limits<float>::max(), std::numeric_limits<float>::min(), 3.14159265f,
-        0.1f, 65504.0f, 65520.0f, 1.0f / 3.0f, 123456.789f, -7.5f};
+    const std::vector<float> values = {0.0f,
+                                       -0.0f,
+                                       1.0f,
+                                       1e30f,
+                                       -1e30f,
+                                       1e-30f,
+                                       std::numeric_limits<float>::denorm_min(),
+                                       1e-40f,
+                                       -3e-42f,
+                                       std::numeric_limits<float>::max(),
+                                       std::numeric_limits<float>::min(),
+                                       3.14159265f,
+                                       0.1f,
+                                       65504.0f,
+                                       65520.0f,
+                                       1.0f / 3.0f,
+                                       123456.789f,
+                                       -7.5f};
     Image image(3, 2);
     image.rgb = values;
     return image;
@@ -158,9 +171,8 @@ TEST_F(ImageIoTest, ExrKeepsRowsAndChannelsInPlace) {
 }
 
 TEST_F(ImageIoTest, ExrMetadataRoundTrip) {
-    const ImageMetadata metadata = {{"cierzo:spp", "64"},
-                                    {"cierzo:scene", "cornell box, ñ and spaces"},
-                                    {"cierzo:empty", ""}};
+    const ImageMetadata metadata = {
+        {"cierzo:spp", "64"}, {"cierzo:scene", "cornell box, ñ and spaces"}, {"cierzo:empty", ""}};
     write_exr(path("a.exr"), numbered_image(2, 2), metadata);
     ImageMetadata back = {{"stale", "entry"}};
     read_exr(path("a.exr"), &back);
@@ -168,10 +180,16 @@ TEST_F(ImageIoTest, ExrMetadataRoundTrip) {
 }
 
 TEST_F(ImageIoTest, ExrRefusesReservedOrEmptyMetadataKeys) {
-    expect_input_error([&] { write_exr(path("a.exr"), numbered_image(2, 2), {{"channels", "x"}}); },
-                       {path("a.exr").string(), "channels"});
-    expect_input_error([&] { write_exr(path("a.exr"), numbered_image(2, 2), {{"", "x"}}); },
-                       {path("a.exr").string()});
+    expect_input_error(
+        [&] {
+            write_exr(path("a.exr"), numbered_image(2, 2), {{"channels", "x"}});
+        },
+        {path("a.exr").string(), "channels"});
+    expect_input_error(
+        [&] {
+            write_exr(path("a.exr"), numbered_image(2, 2), {{"", "x"}});
+        },
+        {path("a.exr").string()});
     EXPECT_FALSE(fs::exists(path("a.exr")));
 }
 
@@ -202,10 +220,14 @@ TEST_F(ImageIoTest, ExrExtraLayersRoundTrip) {
 
 TEST_F(ImageIoTest, ExrRefusesBadLayers) {
     expect_input_error(
-        [&] { write_exr(path("a.exr"), numbered_image(2, 2), {}, {{"depth", {1.0f, 2.0f}}}); },
+        [&] {
+            write_exr(path("a.exr"), numbered_image(2, 2), {}, {{"depth", {1.0f, 2.0f}}});
+        },
         {path("a.exr").string(), "depth"});
     expect_input_error(
-        [&] { write_exr(path("a.exr"), numbered_image(2, 2), {}, {{"G", std::vector<float>(4)}}); },
+        [&] {
+            write_exr(path("a.exr"), numbered_image(2, 2), {}, {{"G", std::vector<float>(4)}});
+        },
         {path("a.exr").string(), "'G'"});
 }
 
@@ -243,8 +265,8 @@ TEST_F(ImageIoTest, ExrWithoutRgbChannelsIsRejected) {
     {
         Imf::OutputFile file(path("grey.exr").c_str(), header);
         Imf::FrameBuffer frame;
-        frame.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(y.data()),
-                                     sizeof(float), 2 * sizeof(float)));
+        frame.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(y.data()), sizeof(float),
+                                     2 * sizeof(float)));
         file.setFrameBuffer(frame);
         file.writePixels(2);
     }
@@ -290,8 +312,7 @@ TEST_F(ImageIoTest, GarbageAndMissingFilesAreRejectedWithTheirName) {
                        {path("garbage.pfm").string(), "not a PFM file"});
     write_pfm(path("real.pfm"), numbered_image(2, 2));
     fs::copy_file(path("real.pfm"), path("pfm_named.exr"));
-    expect_input_error([&] { read_exr(path("pfm_named.exr")); },
-                       {path("pfm_named.exr").string()});
+    expect_input_error([&] { read_exr(path("pfm_named.exr")); }, {path("pfm_named.exr").string()});
 }
 
 // ---- PFM ----------------------------------------------------------------------------------
@@ -356,8 +377,8 @@ TEST_F(ImageIoTest, GreyscalePfmIsReplicatedToRgb) {
     const Image image = read_pfm(path("grey.pfm"));
     ASSERT_EQ(image.width, 3);
     ASSERT_EQ(image.height, 1);
-    EXPECT_EQ(image.rgb, (std::vector<float>{0.5f, 0.5f, 0.5f, 2.0f, 2.0f, 2.0f, -4.0f, -4.0f,
-                                             -4.0f}));
+    EXPECT_EQ(image.rgb,
+              (std::vector<float>{0.5f, 0.5f, 0.5f, 2.0f, 2.0f, 2.0f, -4.0f, -4.0f, -4.0f}));
 }
 
 TEST_F(ImageIoTest, PfmScaleMagnitudeMultipliesAndCommentsAndCrLfAreAccepted) {
@@ -392,8 +413,7 @@ TEST_F(ImageIoTest, BadPfmFilesAreRejectedWithTheirName) {
     for (const auto& [bytes, reason] : cases) {
         SCOPED_TRACE(reason);
         write_bytes(path("bad.pfm"), bytes);
-        expect_input_error([&] { read_pfm(path("bad.pfm")); },
-                           {path("bad.pfm").string(), reason});
+        expect_input_error([&] { read_pfm(path("bad.pfm")); }, {path("bad.pfm").string(), reason});
     }
 }
 
@@ -413,9 +433,9 @@ TEST_F(ImageIoTest, HdrFormatFollowsTheExtension) {
 // ---- LDR ----------------------------------------------------------------------------------
 
 // Values and their expected bytes: clamp to [0, 1], then round(v * 255); NaN gives 0.
-const std::vector<float> kLdrValues = {0.0f,          1.0f,          0.5f,  -0.3f, 2.0f,
-                                       100.4f / 255,  100.6f / 255,  0.2f,  std::nanf(""),
-                                       1.0f / 255,    0.4f / 255,    0.999f};
+const std::vector<float> kLdrValues = {0.0f,          1.0f,         0.5f,         -0.3f,
+                                       2.0f,          100.4f / 255, 100.6f / 255, 0.2f,
+                                       std::nanf(""), 1.0f / 255,   0.4f / 255,   0.999f};
 const std::vector<uint8_t> kLdrBytes = {0, 255, 128, 0, 255, 100, 101, 51, 0, 1, 0, 255};
 
 Image ldr_test_image() {
@@ -452,8 +472,7 @@ void expect_decodes_to(const fs::path& path, int width, int height,
     int h = 0;
     int channels = 0;
     const auto* encoded = reinterpret_cast<const unsigned char*>(bytes.data());
-    unsigned char* data =
-        stbi_load_from_memory(encoded, int(bytes.size()), &w, &h, &channels, 3);
+    unsigned char* data = stbi_load_from_memory(encoded, int(bytes.size()), &w, &h, &channels, 3);
     ASSERT_NE(data, nullptr) << path;
     EXPECT_EQ(w, width);
     EXPECT_EQ(h, height);
@@ -587,14 +606,16 @@ TEST_F(ImageIoTest, FailingWriterLeavesTheExistingFileByteIdentical) {
     expect_input_error(
         [&] {
             write_output(path("keep.exr"),
-                             [](const fs::path&) { throw InputError("writer's own message"); });
+                         [](const fs::path&) { throw InputError("writer's own message"); });
         },
         {"writer's own message"});
     EXPECT_EQ(read_bytes(path("keep.exr")), before);
 
     // A write refused by the image writer itself does not touch the file either.
     expect_input_error(
-        [&] { write_exr(path("keep.exr"), numbered_image(3, 3), {}, {{"bad", {1.0f}}}); },
+        [&] {
+            write_exr(path("keep.exr"), numbered_image(3, 3), {}, {{"bad", {1.0f}}});
+        },
         {path("keep.exr").string()});
     EXPECT_EQ(read_bytes(path("keep.exr")), before);
     EXPECT_EQ(directory_entries(), std::vector<std::string>{"keep.exr"});

@@ -138,8 +138,8 @@ TEST(Obj, NumberFormsReadAsTheirValues) {
         "v 1e-3 1E+3 +2\n"
         "v -1.25e2 3.0000001 0.1\n"
         "f 1 2 3\n");
-    const std::vector<float> expected = {0.5f, 5.0f, -0.0f, 1e-3f, 1e3f, 2.0f,
-                                         -125.0f, 3.0000001f, 0.1f};
+    const std::vector<float> expected = {0.5f, 5.0f,    -0.0f,      1e-3f, 1e3f,
+                                         2.0f, -125.0f, 3.0000001f, 0.1f};
     ASSERT_EQ(m.positions.size(), expected.size());
     for (size_t i = 0; i < expected.size(); ++i)
         EXPECT_EQ(m.positions[i], expected[i]) << "value " << i;
@@ -177,9 +177,10 @@ TEST(Obj, FacesOfAnyNumberOfCornersAreFanTriangulated) {
     }
     // Relative indices (the first corner repeated in every piece stays the same vertex)
     const size_t n = 1000;
-    EXPECT_EQ(parse(polygon(n, [&](size_t i) { return std::to_string(int64_t(i) - int64_t(n) - 1); }))
-                  .indices,
-              fan(n));
+    EXPECT_EQ(
+        parse(polygon(n, [&](size_t i) { return std::to_string(int64_t(i) - int64_t(n) - 1); }))
+            .indices,
+        fan(n));
     // Corner normals and texture coordinates (vertices split by the corners' combinations)
     const MeshData split = parse("vn 0 0 1\nvt 0.5 0.5\n" +
                                  polygon(300, [](size_t i) { return std::to_string(i) + "/1/1"; }));
@@ -245,7 +246,8 @@ TEST(Obj, RefusalsNameTheFileTheLineAndTheProblem) {
     const Case cases[] = {
         {"v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n", "test.obj: line 2: 'x' is not a number"},
         {"v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n", "line 2: 'nan' is not a number"},
-        {"v 0 0 0\nv 1 1e39 0\nv 0 1 0\nf 1 2 3\n", "line 2: '1e39' is not a number in float range"},
+        {"v 0 0 0\nv 1 1e39 0\nv 0 1 0\nf 1 2 3\n",
+         "line 2: '1e39' is not a number in float range"},
         {"v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", "line 2: a vertex 'v' needs 3 numbers"},
         {"v 0 0 0 1 1\nf 1 1 1\n", "line 1: a vertex 'v' needs 3 numbers"},
         {"v 0 0 0 2\nf 1 1 1\n", "line 1: a vertex with a weight w other than 1"},
@@ -254,17 +256,21 @@ TEST(Obj, RefusalsNameTheFileTheLineAndTheProblem) {
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", "line 4: bad face corner '0'"},
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "line 4: bad face corner 'x'"},
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/2/3/4 2 3\n", "line 4: bad face corner '1/2/3/4'"},
-        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "line 4: face refers to vertex 4, but the file has 3"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+         "line 4: face refers to vertex 4, but the file has 3"},
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999\n", "line 4: bad face corner"},
-        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 2 3\n", "line 4: face corner '-4' refers to vertex -4 before the first"},
-        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n", "line 5: face refers to normal 2, but the file has 1"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 2 3\n",
+         "line 4: face corner '-4' refers to vertex -4 before the first"},
+        {"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n",
+         "line 5: face refers to normal 2, but the file has 1"},
         {"v 0 0 0\nv 1 0 0\nv 0 1 0\n", "test.obj: has no faces"},
         {"", "test.obj: has no faces"},
     };
     for (const Case& c : cases) {
         const std::string message = refusal(c.text);
         EXPECT_NE(message.find(c.needle), std::string::npos)
-            << "input:\n" << c.text << "\nmessage: " << message << "\nexpected: " << c.needle;
+            << "input:\n"
+            << c.text << "\nmessage: " << message << "\nexpected: " << c.needle;
     }
     using namespace std::string_literals;
     EXPECT_NE(refusal("v 0 0 0\nv 1 0\0 0\n"s).find("test.obj: line 2: has a NUL byte"),
@@ -279,8 +285,7 @@ TEST(Obj, RefusalsNameTheFileTheLineAndTheProblem) {
 }
 
 TEST(Obj, TruncatedFilesAreRefusedOrReadAsWhatTheyHold) {
-    const std::string full =
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
+    const std::string full = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
     // Every prefix is either refused with an InputError or read as a valid mesh
     for (size_t n = 0; n <= full.size(); ++n) {
         try {
@@ -344,11 +349,12 @@ TEST(PlyNormals, VertexNormalsAreReadWhenAllThreeArePresent) {
     const std::string header =
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
         "property float z\n";
-    const std::string faces = "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
-    const MeshData m = cierzo::parse_ply(
-        header + "property float nx\nproperty float ny\nproperty float nz\n" + faces +
-            "0 0 0 0 0 1\n1 0 0 0 1 0\n0 1 0 1 0 0\n3 0 1 2\n",
-        "n.ply");
+    const std::string faces =
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    const MeshData m =
+        cierzo::parse_ply(header + "property float nx\nproperty float ny\nproperty float nz\n" +
+                              faces + "0 0 0 0 0 1\n1 0 0 0 1 0\n0 1 0 1 0 0\n3 0 1 2\n",
+                          "n.ply");
     const std::vector<float> expected = {0, 0, 1, 0, 1, 0, 1, 0, 0};
     EXPECT_EQ(m.normals, expected);
     const MeshData partial = cierzo::parse_ply(

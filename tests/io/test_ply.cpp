@@ -68,15 +68,24 @@ public:
             line_start_ = false;
             return;
         }
-        if (type == "char" || type == "int8") put(int8_t(v));
-        else if (type == "uchar" || type == "uint8") put(uint8_t(v));
-        else if (type == "short" || type == "int16") put(int16_t(v));
-        else if (type == "ushort" || type == "uint16") put(uint16_t(v));
-        else if (type == "int" || type == "int32") put(int32_t(v));
-        else if (type == "uint" || type == "uint32") put(uint32_t(v));
-        else if (type == "float" || type == "float32") put(float(v));
-        else if (type == "double" || type == "float64") put(v);
-        else ADD_FAILURE() << "test bug: unknown type " << type;
+        if (type == "char" || type == "int8")
+            put(int8_t(v));
+        else if (type == "uchar" || type == "uint8")
+            put(uint8_t(v));
+        else if (type == "short" || type == "int16")
+            put(int16_t(v));
+        else if (type == "ushort" || type == "uint16")
+            put(uint16_t(v));
+        else if (type == "int" || type == "int32")
+            put(int32_t(v));
+        else if (type == "uint" || type == "uint32")
+            put(uint32_t(v));
+        else if (type == "float" || type == "float32")
+            put(float(v));
+        else if (type == "double" || type == "float64")
+            put(v);
+        else
+            ADD_FAILURE() << "test bug: unknown type " << type;
     }
     void end_element() {
         if (format_ == Fmt::Ascii) bytes_ += '\n';
@@ -117,20 +126,20 @@ std::string ply_file(Fmt format, std::string_view header_body, const Body& body)
 
 // ---- The reference mesh: a triangle, a quad and a pentagon over six vertices ---------
 
-const std::vector<std::array<double, 3>> float_positions = {
-    {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {1.0, 1.0, 0.0},
-    {0.0, 1.0, 0.0}, {0.5, 2.0, -1.0}, {-1.25, 0.5, 3.0}};
+const std::vector<std::array<double, 3>> float_positions = {{0.0, 0.0, 0.0},  {1.0, 0.0, 0.0},
+                                                            {1.0, 1.0, 0.0},  {0.0, 1.0, 0.0},
+                                                            {0.5, 2.0, -1.0}, {-1.25, 0.5, 3.0}};
 // The same shape with small non-negative integers, for integer coordinate types.
-const std::vector<std::array<double, 3>> integer_positions = {
-    {0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {2, 2, 1}, {3, 1, 2}};
+const std::vector<std::array<double, 3>> integer_positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0},
+                                                              {0, 1, 0}, {2, 2, 1}, {3, 1, 2}};
 const std::vector<std::vector<int>> reference_faces = {{0, 1, 2}, {0, 2, 3, 5}, {1, 4, 5, 3, 2}};
 // Fans: (0 1 2); (0 2 3)(0 3 5); (1 4 5)(1 5 3)(1 3 2).
 const std::vector<uint32_t> reference_indices = {0, 1, 2, 0, 2, 3, 0, 3, 5,
                                                  1, 4, 5, 1, 5, 3, 1, 3, 2};
 // Colour as a fraction of full scale per vertex and channel.
-const std::vector<std::array<double, 3>> color_fractions = {
-    {1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0},
-    {0.2, 0.4, 0.6}, {0.0, 0.0, 0.0}, {1.0, 1.0, 1.0}};
+const std::vector<std::array<double, 3>> color_fractions = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0},
+                                                            {0.0, 0.0, 1.0}, {0.2, 0.4, 0.6},
+                                                            {0.0, 0.0, 0.0}, {1.0, 1.0, 1.0}};
 
 double full_scale(std::string_view type) {
     if (type == "char") return 127;
@@ -164,8 +173,7 @@ struct Layout {
 // Writes the reference mesh; with extras, unknown elements (with lists) come before, between
 // and after the vertex and face elements, and both carry unknown scalar and list properties.
 std::string reference_ply(Fmt format, const Layout& layout) {
-    const auto& positions = is_float_type(layout.coord_type) ? float_positions
-                                                             : integer_positions;
+    const auto& positions = is_float_type(layout.coord_type) ? float_positions : integer_positions;
     const bool colors = !layout.color_type.empty();
     std::string header;
     Body body(format);
@@ -187,8 +195,9 @@ std::string reference_ply(Fmt format, const Layout& layout) {
     }
     if (layout.extras) {
         header += "property double u\nproperty uchar alpha\n";
-        header += "comment between elements\nelement edge 2\nproperty int vertex1\n"
-                  "property int vertex2\nproperty uchar red\n";
+        header +=
+            "comment between elements\nelement edge 2\nproperty int vertex1\n"
+            "property int vertex2\nproperty uchar red\n";
     }
     header += "element face 3\n";
     if (layout.extras) header += "property uchar flags\n";
@@ -263,9 +272,8 @@ protected:
     void SetUp() override {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
         std::random_device random;
-        dir_ = fs::temp_directory_path() /
-               ("cierzo-test-ply-" + std::string(info->name()) + "-" +
-                std::to_string(random()) + std::to_string(random()));
+        dir_ = fs::temp_directory_path() / ("cierzo-test-ply-" + std::string(info->name()) + "-" +
+                                            std::to_string(random()) + std::to_string(random()));
         fs::create_directories(dir_);
     }
     void TearDown() override {
@@ -288,8 +296,7 @@ protected:
 void expect_input_error(const fs::path& path, std::string_view phrase) {
     try {
         read_ply(path);
-        ADD_FAILURE() << "no exception for " << path.filename() << " (expected '" << phrase
-                      << "')";
+        ADD_FAILURE() << "no exception for " << path.filename() << " (expected '" << phrase << "')";
     } catch (const InputError& error) {
         std::string message = error.what();
         EXPECT_TRUE(message.starts_with(path.string())) << "message: " << message;
@@ -365,8 +372,8 @@ TEST_F(PlyTest, LittleEndianBytesLabelledBigEndianAreNotReadAsTheSameMesh) {
 }
 
 TEST_F(PlyTest, EveryScalarTypeInEveryFormat) {
-    const std::vector<std::string> coord_types = {"char",  "uchar", "short", "ushort", "int",
-                                                  "uint",  "float", "double", "int8", "float64"};
+    const std::vector<std::string> coord_types = {"char", "uchar", "short",  "ushort", "int",
+                                                  "uint", "float", "double", "int8",   "float64"};
     const std::vector<std::string> color_types = {"uchar", "char", "ushort", "short",
                                                   "uint",  "int",  "float",  "double"};
     const std::vector<std::string> count_types = {"uchar", "char", "ushort", "short",
@@ -385,8 +392,8 @@ TEST_F(PlyTest, EveryScalarTypeInEveryFormat) {
                          " colour " + layout.color_type + " count " + layout.count_type +
                          " index " + layout.index_type);
             MeshData mesh = read_ply(write("types.ply", reference_ply(format, layout)));
-            expect_positions(mesh, is_float_type(layout.coord_type) ? float_positions
-                                                                    : integer_positions);
+            expect_positions(
+                mesh, is_float_type(layout.coord_type) ? float_positions : integer_positions);
             expect_colors(mesh, layout.color_type);
             EXPECT_EQ(mesh.indices, reference_indices);
         }
@@ -395,8 +402,9 @@ TEST_F(PlyTest, EveryScalarTypeInEveryFormat) {
 
 TEST_F(PlyTest, ColorScaling) {
     // uchar 51/255 = 0.2, ushort 65535 = 1, char 127 = 1, float kept as is, none = empty.
-    const char* header_start = "element vertex 1\nproperty float x\nproperty float y\n"
-                               "property float z\n";
+    const char* header_start =
+        "element vertex 1\nproperty float x\nproperty float y\n"
+        "property float z\n";
     const char* face = "element face 1\nproperty list uchar int vertex_indices\n";
     struct Case {
         const char* type;
@@ -433,8 +441,9 @@ TEST_F(PlyTest, ColorScaling) {
 }
 
 TEST_F(PlyTest, HexagonFanAndVertexIndexName) {
-    std::string header = "element vertex 7\nproperty float x\nproperty float y\nproperty float z\n"
-                         "element face 2\nproperty list uchar uint vertex_index\n";
+    std::string header =
+        "element vertex 7\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 2\nproperty list uchar uint vertex_index\n";
     for (Fmt format : all_formats) {
         Body body(format);
         for (int v = 0; v < 7; ++v) {
@@ -455,11 +464,12 @@ TEST_F(PlyTest, HexagonFanAndVertexIndexName) {
 }
 
 TEST_F(PlyTest, CrLfLineEndingsCommentsAndTrailingGarbage) {
-    std::string ascii = "ply\r\nformat ascii 1.0\r\ncomment hello\r\nelement vertex 3\r\n"
-                        "property float x\r\nproperty float y\r\nproperty float z\r\n"
-                        "element face 1\r\nproperty list uchar int vertex_indices\r\n"
-                        "end_header\r\n1 2 3\r\n\r\n4 5 6\r\n7 8 9\r\n3 2 1 0\r\n"
-                        "this is trailing junk\r\n";
+    std::string ascii =
+        "ply\r\nformat ascii 1.0\r\ncomment hello\r\nelement vertex 3\r\n"
+        "property float x\r\nproperty float y\r\nproperty float z\r\n"
+        "element face 1\r\nproperty list uchar int vertex_indices\r\n"
+        "end_header\r\n1 2 3\r\n\r\n4 5 6\r\n7 8 9\r\n3 2 1 0\r\n"
+        "this is trailing junk\r\n";
     MeshData mesh = read_ply(write("crlf.ply", ascii));
     EXPECT_EQ(mesh.positions, (std::vector<float>{1, 2, 3, 4, 5, 6, 7, 8, 9}));
     EXPECT_EQ(mesh.indices, (std::vector<uint32_t>{2, 1, 0}));
@@ -473,24 +483,27 @@ TEST_F(PlyTest, CrLfLineEndingsCommentsAndTrailingGarbage) {
 // (assimp's test model Wuson.ply): before the first element such a line is a comment, with a
 // warning naming the file and line.
 TEST_F(PlyTest, AnUnknownLineBeforeTheFirstElementIsACommentWithAWarning) {
-    const std::string text = "ply\nformat ascii 1.0\nCreated by Blender3D 247 - www.blender.org\n"
-                             "element vertex 3\nproperty float x\nproperty float y\n"
-                             "property float z\nelement face 1\n"
-                             "property list uchar int vertex_indices\nend_header\n"
-                             "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    const std::string text =
+        "ply\nformat ascii 1.0\nCreated by Blender3D 247 - www.blender.org\n"
+        "element vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n"
+        "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
     const MeshData mesh = read_ply(write("blender247.ply", text));
     EXPECT_EQ(mesh.indices, (std::vector<uint32_t>{0, 1, 2}));
     ASSERT_EQ(mesh.warnings.size(), 1u);
-    EXPECT_NE(mesh.warnings[0].find("blender247.ply: line 3: 'Created' is not a PLY header keyword"),
-              std::string::npos)
+    EXPECT_NE(
+        mesh.warnings[0].find("blender247.ply: line 3: 'Created' is not a PLY header keyword"),
+        std::string::npos)
         << mesh.warnings[0];
     // A file without such a line has no warnings
     EXPECT_TRUE(read_ply(write("plain.ply", reference_ply(Fmt::Ascii, Layout{}))).warnings.empty());
 }
 
 TEST_F(PlyTest, EmptyMeshIsAllowed) {
-    std::string header = "element vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
-                         "element face 0\nproperty list uchar int vertex_indices\n";
+    std::string header =
+        "element vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 0\nproperty list uchar int vertex_indices\n";
     for (Fmt format : all_formats) {
         MeshData mesh = read_ply(write("empty.ply", ply_file(format, header, Body(format))));
         EXPECT_TRUE(mesh.positions.empty());
@@ -502,7 +515,8 @@ TEST_F(PlyTest, HundredThousandTrianglesLoadQuickly) {
     constexpr int n = 225;  // 225 x 225 vertices, 224 x 224 quads = 100352 triangles
     std::string header = "element vertex " + std::to_string(n * n) +
                          "\nproperty float x\nproperty float y\nproperty float z\n"
-                         "element face " + std::to_string((n - 1) * (n - 1)) +
+                         "element face " +
+                         std::to_string((n - 1) * (n - 1)) +
                          "\nproperty list uchar int vertex_indices\n";
     for (Fmt format : all_formats) {
         Body body(format);
@@ -524,8 +538,8 @@ TEST_F(PlyTest, HundredThousandTrianglesLoadQuickly) {
         fs::path path = write("grid.ply", ply_file(format, header, body));
         auto start = std::chrono::steady_clock::now();
         MeshData mesh = read_ply(path);
-        double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-                             .count();
+        double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         EXPECT_LT(seconds, 1.0) << format_label(format);
         ASSERT_EQ(mesh.indices.size(), size_t(3 * 2 * (n - 1) * (n - 1)));
         ASSERT_EQ(mesh.positions.size(), size_t(3 * n * n));
@@ -538,9 +552,10 @@ TEST_F(PlyTest, HundredThousandTrianglesLoadQuickly) {
 
 // ---- Bad files ----------------------------------------------------------------------
 
-const char* const plain_header = "element vertex 6\nproperty float x\nproperty float y\n"
-                                 "property float z\nelement face 3\n"
-                                 "property list uchar int vertex_indices\n";
+const char* const plain_header =
+    "element vertex 6\nproperty float x\nproperty float y\n"
+    "property float z\nelement face 3\n"
+    "property list uchar int vertex_indices\n";
 
 // The reference mesh without colours, as a body to tamper with.
 Body plain_body(Fmt format, const std::vector<std::vector<int>>& faces = reference_faces) {
@@ -568,14 +583,14 @@ TEST_F(PlyTest, HeaderErrors) {
         std::string file;
         std::string phrase;
     };
-    const std::string vertex = "element vertex 1\nproperty float x\nproperty float y\n"
-                               "property float z\n";
+    const std::string vertex =
+        "element vertex 1\nproperty float x\nproperty float y\n"
+        "property float z\n";
     const std::string face = "element face 1\nproperty list uchar int vertex_indices\n";
     const std::string ok_body = "0 0 0\n3 0 0 0\n";
     const std::vector<Case> cases = {
         {"", "file is empty"},
-        {"plx\nformat ascii 1.0\n" + vertex + face + "end_header\n" + ok_body,
-         "not a PLY file"},
+        {"plx\nformat ascii 1.0\n" + vertex + face + "end_header\n" + ok_body, "not a PLY file"},
         {std::string("\x89PNG\r\n\x1a\n", 8) + "binary junk", "not a PLY file"},
         {"ply\nformat binary_middle_endian 1.0\n" + vertex + face + "end_header\n",
          "unknown format 'binary_middle_endian'"},
@@ -583,8 +598,7 @@ TEST_F(PlyTest, HeaderErrors) {
          "unsupported format version '2.0'"},
         {"ply\n" + vertex + face + "end_header\n" + ok_body, "no 'format' line"},
         {"ply\nformat ascii 1.0\n" + vertex + face, "no 'end_header' line"},
-        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\n" + face +
-             "end_header\n",
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\n" + face + "end_header\n",
          "unsupported property type 'float128'"},
         {"ply\nformat ascii 1.0\n" + vertex +
              "element face 1\nproperty list float int vertex_indices\nend_header\n" + ok_body,
@@ -597,10 +611,13 @@ TEST_F(PlyTest, HeaderErrors) {
              "end_header\n0 0\n3 0 0 0\n",
          "no 'y' property"},
         {"ply\nformat ascii 1.0\n" + vertex + "end_header\n0 0 0\n", "no 'face' element"},
-        {"ply\nformat ascii 1.0\n" + vertex + "element face 1\nproperty list uchar int corners\n"
-             "end_header\n" + ok_body,
+        {"ply\nformat ascii 1.0\n" + vertex +
+             "element face 1\nproperty list uchar int corners\n"
+             "end_header\n" +
+             ok_body,
          "no 'vertex_indices' list property"},
-        {"ply\nformat ascii 1.0\n" + vertex + "element face 1\nproperty int vertex_indices\n"
+        {"ply\nformat ascii 1.0\n" + vertex +
+             "element face 1\nproperty int vertex_indices\n"
              "end_header\n0 0 0\n0\n",
          "'vertex_indices' is not a list"},
         {"ply\nformat ascii 1.0\nelement vertex x12\n", "bad element line"},
@@ -609,7 +626,8 @@ TEST_F(PlyTest, HeaderErrors) {
          "line 7: unknown header keyword 'frobnicate'"},
         // (before the first element a line is a comment, so a misspelt first 'element'
         // leaves its properties without one)
-        {"ply\nformat ascii 1.0\nelment vertex 1\nproperty float x\n", "property before any element"},
+        {"ply\nformat ascii 1.0\nelment vertex 1\nproperty float x\n",
+         "property before any element"},
     };
     for (size_t i = 0; i < cases.size(); ++i) {
         SCOPED_TRACE("case " + std::to_string(i));
@@ -621,8 +639,8 @@ TEST_F(PlyTest, HeaderErrors) {
 TEST_F(PlyTest, TruncatedAscii) {
     // Long numbers, so that the cut files still pass the size check on the header's counts.
     // The header takes lines 1-9, vertices lines 10-15, faces lines 16-18.
-    std::string full = "ply\n" + std::string(format_line(Fmt::Ascii)) + plain_header +
-                       "end_header\n";
+    std::string full =
+        "ply\n" + std::string(format_line(Fmt::Ascii)) + plain_header + "end_header\n";
     for (int v = 0; v < 6; ++v) {
         full += "0.100000000000 0.200000000000 0." + std::to_string(v) + "00000000000\n";
     }
@@ -679,23 +697,23 @@ TEST_F(PlyTest, LyingCounts) {
         // One more vertex than present: the first face is taken as a vertex; in ascii the
         // faces then run out, in binary the faces are read one byte off.
         std::string more_vertices = with_counts(good, "element vertex 7", "element face 3");
-        expect_input_error(write("more_vertices.ply", more_vertices),
-                           format == Fmt::Ascii ? "ascii data ends after 2 of 3 faces"
-                                                : "face 0 has ");
+        expect_input_error(
+            write("more_vertices.ply", more_vertices),
+            format == Fmt::Ascii ? "ascii data ends after 2 of 3 faces" : "face 0 has ");
         // One vertex fewer: the last vertex is read as a face. Its first byte, the list
         // length, is 0x00 of -1.25f = bf a0 00 00 little-endian, 0xbf = 191 big-endian.
         std::string fewer_vertices = with_counts(good, "element vertex 5", "element face 3");
         const char* fewer_phrase[] = {"line 15: face 0: '-1.25' is not a valid uchar",
                                       "face 0 has 0 vertices, at least 3 needed",
                                       "binary data ends after 0 of 3 faces"};
-        expect_input_error(write("fewer_vertices.ply", fewer_vertices),
-                           fewer_phrase[int(format)]);
+        expect_input_error(write("fewer_vertices.ply", fewer_vertices), fewer_phrase[int(format)]);
     }
 }
 
 TEST_F(PlyTest, UnknownElementTruncated) {
-    std::string header = std::string(plain_header) + "element edge 2\nproperty int a\n"
-                                                     "property list uchar int more\n";
+    std::string header = std::string(plain_header) +
+                         "element edge 2\nproperty int a\n"
+                         "property list uchar int more\n";
     Body body = plain_body(Fmt::Ascii);
     body.value("int", 5);
     body.value("uchar", 0);
@@ -718,26 +736,27 @@ TEST_F(PlyTest, IndexOutOfRangeAndNegative) {
         SCOPED_TRACE(format_label(format));
         auto faces = reference_faces;
         faces[1][2] = 6;
-        expect_input_error(write("index6.ply", ply_file(format, plain_header,
-                                                        plain_body(format, faces))),
-                           "face 1 has vertex index 6 out of range (the file has 6 vertices)");
+        expect_input_error(
+            write("index6.ply", ply_file(format, plain_header, plain_body(format, faces))),
+            "face 1 has vertex index 6 out of range (the file has 6 vertices)");
         faces = reference_faces;
         faces[2][4] = -1;
-        expect_input_error(write("index_neg.ply", ply_file(format, plain_header,
-                                                           plain_body(format, faces))),
-                           "face 2 has vertex index -1 out of range");
+        expect_input_error(
+            write("index_neg.ply", ply_file(format, plain_header, plain_body(format, faces))),
+            "face 2 has vertex index -1 out of range");
         faces = reference_faces;
         faces[1] = {0, 1};
-        expect_input_error(write("two.ply", ply_file(format, plain_header,
-                                                     plain_body(format, faces))),
-                           "face 1 has 2 vertices, at least 3 needed");
+        expect_input_error(
+            write("two.ply", ply_file(format, plain_header, plain_body(format, faces))),
+            "face 1 has 2 vertices, at least 3 needed");
     }
 }
 
 TEST_F(PlyTest, NonFiniteCoordinates) {
-    const std::string header = "element vertex 3\nproperty float x\nproperty double y\n"
-                               "property float z\nelement face 1\n"
-                               "property list uchar int vertex_indices\n";
+    const std::string header =
+        "element vertex 3\nproperty float x\nproperty double y\n"
+        "property float z\nelement face 1\n"
+        "property list uchar int vertex_indices\n";
     struct Case {
         double y;
         size_t vertex;
@@ -782,8 +801,9 @@ TEST_F(PlyTest, BadAsciiValues) {
 }
 
 TEST_F(PlyTest, AbsurdSizesFailFastWithoutAllocating) {
-    const std::string tail = "property float x\nproperty float y\nproperty float z\n"
-                             "element face 1\nproperty list uchar int vertex_indices\n";
+    const std::string tail =
+        "property float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\n";
     struct Case {
         Fmt format;
         std::string counts;
@@ -808,8 +828,8 @@ TEST_F(PlyTest, AbsurdSizesFailFastWithoutAllocating) {
         fs::path path = write("absurd.ply", ply_file(c.format, c.counts + tail, body));
         auto start = std::chrono::steady_clock::now();
         expect_input_error(path, c.phrase);
-        double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-                             .count();
+        double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         EXPECT_LT(seconds, 0.1);
     }
     // A face count beyond the cap, and a huge unknown element, in binary.
@@ -817,8 +837,8 @@ TEST_F(PlyTest, AbsurdSizesFailFastWithoutAllocating) {
     faces.replace(faces.find("element face 1"), 14, "element face 3000000000");
     expect_input_error(write("faces.ply", ply_file(Fmt::Le, faces, Body(Fmt::Le))),
                        "header claims 3000000000 faces, more than the limit of 2^31");
-    std::string unknown = "element blob 900000000000000\nproperty double d\nelement vertex 1\n" +
-                          tail;
+    std::string unknown =
+        "element blob 900000000000000\nproperty double d\nelement vertex 1\n" + tail;
     expect_input_error(write("blob.ply", ply_file(Fmt::Le, unknown, Body(Fmt::Le))),
                        "header claims 900000000000000 'blob' elements");
 }

@@ -58,7 +58,8 @@ TEST(Textures, PngTexelsDecodeFromSrgbOrAsData) {
     Image img(3, 2);
     const float values[6] = {0.0f, 0.25f, 0.5f, 0.75f, 1.0f, 0.1f};
     for (int i = 0; i < 6; ++i)
-        for (int c = 0; c < 3; ++c) img.rgb[size_t(3 * i + c)] = c == 1 ? values[i] : 1.0f - values[i];
+        for (int c = 0; c < 3; ++c)
+            img.rgb[size_t(3 * i + c)] = c == 1 ? values[i] : 1.0f - values[i];
     const fs::path png = scratch() / "six.png";
     write_ldr(png, img);
     for (const bool srgb : {true, false}) {
@@ -90,7 +91,8 @@ struct FloatImage {
                 float* p = img.pixel(x, y);
                 p[0] = float(x + 10 * y), p[1] = 1.0f, p[2] = 0.0f;
             }
-        const fs::path exr = scratch() / ("grid" + std::to_string(w) + "x" + std::to_string(h) + ".exr");
+        const fs::path exr =
+            scratch() / ("grid" + std::to_string(w) + "x" + std::to_string(h) + ".exr");
         write_exr(exr, img);
         id = scene.add_image(std::make_shared<const TextureImage>(read_texture_image(exr, true)));
     }
@@ -167,8 +169,9 @@ TEST(Textures, TextureCoordinatesOfSpheresAndPlanes) {
 TEST(Textures, BadImagesAreRefusedNamingTheFile) {
     const fs::path dir = scratch();
     // Missing, a folder, not an image
-    EXPECT_NE(refusal_of([&] { read_texture_image(dir / "missing.png", true); }).find("missing.png"),
-              std::string::npos);
+    EXPECT_NE(
+        refusal_of([&] { read_texture_image(dir / "missing.png", true); }).find("missing.png"),
+        std::string::npos);
     EXPECT_NE(refusal_of([&] { read_texture_image(dir, true); }).find("directory"),
               std::string::npos);
     write_text(dir / "text.png", "this is not a PNG file at all");
@@ -244,7 +247,8 @@ TEST(Mtl, EveryKeyIsReadAndBadValuesNameTheLine) {
     EXPECT_FLOAT_EQ(g.d, 0.75f);
     // One warning per unmodelled key, naming the file and line
     ASSERT_EQ(lib.warnings.size(), 2u);
-    EXPECT_NE(lib.warnings[0].find("lib.mtl: line 8: 'bump'"), std::string::npos) << lib.warnings[0];
+    EXPECT_NE(lib.warnings[0].find("lib.mtl: line 8: 'bump'"), std::string::npos)
+        << lib.warnings[0];
     EXPECT_NE(lib.warnings[1].find("line 15: 'map_bump'"), std::string::npos) << lib.warnings[1];
 
     const auto refused = [](const std::string& text) {
@@ -393,9 +397,10 @@ TEST(Mtl, GlassTexturesAndOverrides) {
 // tinyobjloader's -colorspace: how a map's 8-bit values are encoded, over the map's own
 // default (sRGB for colours)
 TEST(Mtl, ColorspaceOptionChoosesTheDecoding) {
-    const MtlLibrary lib = parse_mtl("newmtl a\nmap_Kd -colorspace linear -s 2 2 x.png\n"
-                                     "map_Ks -colorspace SRGB y.png\nmap_Ke z.png\n",
-                                     "lib.mtl");
+    const MtlLibrary lib = parse_mtl(
+        "newmtl a\nmap_Kd -colorspace linear -s 2 2 x.png\n"
+        "map_Ks -colorspace SRGB y.png\nmap_Ke z.png\n",
+        "lib.mtl");
     ASSERT_TRUE(lib.materials[0].map_kd && lib.materials[0].map_ks && lib.materials[0].map_ke);
     EXPECT_EQ(lib.materials[0].map_kd->srgb, 0);
     EXPECT_EQ(lib.materials[0].map_kd->file, "x.png");
@@ -490,8 +495,7 @@ TEST(Mtl, TexturesLibrariesMeshesAndEnvironmentsThatAreNotFilesAreRefusedAtOnce)
     const ObjFolder l("fifo-library", "");
     const fs::path library = test::make_fifo(l.dir / "model.mtl");
     m = test::refusal_without_opening(library, [&] { l.load(); });
-    EXPECT_NE(m.find("material library (mtllib): " + library.string() + fifo_is),
-              std::string::npos)
+    EXPECT_NE(m.find("material library (mtllib): " + library.string() + fifo_is), std::string::npos)
         << m;
 
     const fs::path mesh = test::make_fifo(f.dir / "pipe.ply");
@@ -541,10 +545,10 @@ TEST(TexturedRenders, ImageMeanFollowsTheTexturesMeanAlbedo) {
                     "file": "checker.png", "scale": 40, "factor": 0.9}}},
                     "objects": [{"type": "plane", "normal": [0, 1, 0], "distance": 0,
                                  "material": "t"}]})");
-    write_text(dir / "solid.json",
-               "{" + common + R"(, "materials": {"s": {"kd": [)" +
-                   std::to_string(0.9 * t.mean_rgb[0]) + "," + std::to_string(0.9 * t.mean_rgb[1]) +
-                   "," + std::to_string(0.9 * t.mean_rgb[2]) + R"(]}},
+    write_text(dir / "solid.json", "{" + common + R"(, "materials": {"s": {"kd": [)" +
+                                       std::to_string(0.9 * t.mean_rgb[0]) + "," +
+                                       std::to_string(0.9 * t.mean_rgb[1]) + "," +
+                                       std::to_string(0.9 * t.mean_rgb[2]) + R"(]}},
                     "objects": [{"type": "plane", "normal": [0, 1, 0], "distance": 0,
                                  "material": "s"}]})");
     const Scene textured = load_scene(dir / "textured.json");
@@ -552,7 +556,8 @@ TEST(TexturedRenders, ImageMeanFollowsTheTexturesMeanAlbedo) {
     for (const test::Variant& v : test::variants()) {
         const RenderResult a = test::run(textured, v), b = test::run(solid, v);
         for (int c = 0; c < 3; ++c) {
-            const test::ImageMean ma = test::image_mean(a.film, c), mb = test::image_mean(b.film, c);
+            const test::ImageMean ma = test::image_mean(a.film, c),
+                                  mb = test::image_mean(b.film, c);
             // (the solid plane has no variance across pixels' samples but the light's: the
             // texture adds its own; 2% covers the texture's aliasing over 576 pixels)
             EXPECT_NEAR(ma.mean, mb.mean, 0.02 * mb.mean + 5 * ma.sigma)
@@ -571,7 +576,8 @@ TEST(TexturedRenders, WavefrontAgreesWithTheScalarReference) {
     for (int y = 0; y < 8; ++y)
         for (int x = 0; x < 16; ++x) {
             float* p = img.pixel(x, y);
-            p[0] = float(x) / 15.0f, p[1] = float(y) / 7.0f, p[2] = (x / 4 + y / 4) % 2 ? 0.9f : 0.1f;
+            p[0] = float(x) / 15.0f, p[1] = float(y) / 7.0f,
+            p[2] = (x / 4 + y / 4) % 2 ? 0.9f : 0.1f;
         }
     write_ldr(dir / "ramp.png", img);
     write_text(dir / "quad.obj",
@@ -653,7 +659,8 @@ TEST(RealFiles, EveryAssimpTestModelObjRendersOrIsRefusedCleanly) {
             if (entry.path().filename() == "spider.obj") {
                 EXPECT_GE(scene->images.size(), 3u);
                 size_t textured = 0;
-                for (const Material& m : scene->materials) textured += m.kd.kind == TextureKind::kImage;
+                for (const Material& m : scene->materials)
+                    textured += m.kd.kind == TextureKind::kImage;
                 EXPECT_GE(textured, 3u);
             }
         }

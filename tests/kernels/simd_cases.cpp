@@ -19,8 +19,8 @@ void run(KernelCase c, const CaseInputs& in, float* const* out) {
 
 uint32_t dead_batch(const CaseInputs& in) {
     uint32_t holds = 0;
-    const Bsdf<B> black{Vec3<B>(B(0.0f)), Vec3<B>(B(0.0f)), Vec3<B>(B(0.0f)), Vec3<B>(B(0.0f)),
-                        B(0.0f), B(1.0f)};
+    const Bsdf<B> black{Vec3<B>(B(0.0f)), Vec3<B>(B(0.0f)), Vec3<B>(B(0.0f)),
+                        Vec3<B>(B(0.0f)), B(0.0f),          B(1.0f)};
     B p;
     const BI lobe = choose_lobe(black, B::load_unaligned(in.u[0]), 0.9f, p);
     if (xsimd::all(lobe == BI(kLobeAbsorbed))) holds |= kDeadAbsorbed;
@@ -29,8 +29,8 @@ uint32_t dead_batch(const CaseInputs& in) {
     if (!xsimd::any(intersect_sphere(away, Vec3<B>(B(0.0f)), B(1.0f), B(kRayFar), t)))
         holds |= kDeadMissSphere;
     const Ray<B> zero{Vec3<B>(B(0.0f)), Vec3<B>(B(0.0f))};
-    if (!xsimd::any(intersect_plane(zero, Vec3<B>(B(0.0f), B(1.0f), B(0.0f)), B(1.0f),
-                                    B(kRayFar), t)))
+    if (!xsimd::any(
+            intersect_plane(zero, Vec3<B>(B(0.0f), B(1.0f), B(0.0f)), B(1.0f), B(kRayFar), t)))
         holds |= kDeadZeroRays;
     return holds;
 }

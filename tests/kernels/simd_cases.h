@@ -29,13 +29,13 @@ struct CaseInputs {
 };
 
 enum class KernelCase : int32_t {
-    kIntersections,   // t of a sphere, a plane and a bounded quadric (-1 on a miss)
-    kLobeDiffuse,     // roulette lobe and probability; sampled direction and weight
+    kIntersections,  // t of a sphere, a plane and a bounded quadric (-1 on a miss)
+    kLobeDiffuse,    // roulette lobe and probability; sampled direction and weight
     kLobeSpecular,
     kLobeMirror,
     kLobeRefraction,
-    kPhongRngCamera,  // Phong f·cos, a uniform number, a camera ray's direction
-    kLightPosition,   // a point on an emitter: id, point, normal, pdf_A, its density function
+    kPhongRngCamera,   // Phong f·cos, a uniform number, a camera ray's direction
+    kLightPosition,    // a point on an emitter: id, point, normal, pdf_A, its density function
     kLightDirections,  // an emitted direction, its pdf and density function; a point light's
 };
 inline constexpr int kCaseCount = 8;
@@ -102,13 +102,15 @@ U32<T> index_lanes(size_t i) {
 inline constexpr float kCaseEmitterQ[4] = {0.4f, 0.8f, 1.0f, 0.8f};
 inline constexpr int32_t kCaseEmitterAlias[4] = {3, 3, 2, 2};
 inline constexpr float kCaseEmitterPmf[4] = {0.1f, 0.2f, 0.3f, 0.4f};
-inline constexpr int32_t kCaseEmitterKind[4] = {kEmitterSphere, kEmitterSphere,
-                                                kEmitterTriangle, kEmitterTriangle};
+inline constexpr int32_t kCaseEmitterKind[4] = {kEmitterSphere, kEmitterSphere, kEmitterTriangle,
+                                                kEmitterTriangle};
 inline constexpr float kCaseEmitterData[4 * kEmitterStride] = {
-    0.5f, -0.3f, 1.0f, 0.7f, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 1, 0.5f,
-    1, 2, 3, 1e-4f, 0, 0, 0, 0, 0, 0, 0, 0, 0, 7, 7, 7,
-    -1, 0.5f, 2, 2.1213203f, 2, 0, 0, 0, 1.5f, 1.5f, 0, -0.70710677f, 0.70710677f, 1, 2, 3,
-    0, 0, 1, 0.15f, 3, 0, 0, 0, 0.1f, 0, 0, 0, 1, 2, 2, 2};
+    0.5f,        -0.3f, 1.0f,       0.7f, 0,    0, 0, 0,     0,     0, 0,
+    0,           0,     2,          1,    0.5f, 1, 2, 3,     1e-4f, 0, 0,
+    0,           0,     0,          0,    0,    0, 0, 7,     7,     7, -1,
+    0.5f,        2,     2.1213203f, 2,    0,    0, 0, 1.5f,  1.5f,  0, -0.70710677f,
+    0.70710677f, 1,     2,          3,    0,    0, 1, 0.15f, 3,     0, 0,
+    0,           0.1f,  0,          0,    0,    1, 2, 2,     2};
 
 // u, with the lanes below 0.03 and above 0.97 moved to the ends 0 and 1 - 2^-24.
 template <class T>
@@ -119,20 +121,21 @@ T with_extremes(const T& u) {
 // Case c on inputs i, i + 1, … (as many as T has lanes); output k goes to out[k] + i.
 template <class T>
 void run_kernel_case(KernelCase c, const CaseInputs& in, size_t i, float* const* out) {
-    const Ray<T> r{{load_lanes<T>(in.o[0] + i), load_lanes<T>(in.o[1] + i), load_lanes<T>(in.o[2] + i)},
-                   {load_lanes<T>(in.d[0] + i), load_lanes<T>(in.d[1] + i), load_lanes<T>(in.d[2] + i)}};
+    const Ray<T> r{
+        {load_lanes<T>(in.o[0] + i), load_lanes<T>(in.o[1] + i), load_lanes<T>(in.o[2] + i)},
+        {load_lanes<T>(in.d[0] + i), load_lanes<T>(in.d[1] + i), load_lanes<T>(in.d[2] + i)}};
     const T u0 = load_lanes<T>(in.u[0] + i), u1 = load_lanes<T>(in.u[1] + i),
             u2 = load_lanes<T>(in.u[2] + i);
     switch (c) {
         case KernelCase::kIntersections: {
-            const QuadricCoefficients<T> q{T(1.0f), T(0.5f), T(1.0f), T(0.1f), T(0.0f),
+            const QuadricCoefficients<T> q{T(1.0f), T(0.5f), T(1.0f),  T(0.1f), T(0.0f),
                                            T(0.0f), T(0.0f), T(-0.2f), T(0.0f), T(-1.0f)};
             T t[3];
             const auto m0 = intersect_sphere(r, Vec3<T>(T(0.3f)), T(1.1f), T(kRayFar), t[0]);
-            const auto m1 = intersect_plane(r, Vec3<T>(T(0.0f), T(1.0f), T(0.0f)), T(0.5f),
-                                            T(kRayFar), t[1]);
-            const auto m2 = intersect_quadric(r, q, Vec3<T>(T(-1.5f)), Vec3<T>(T(1.5f)),
-                                              T(kRayFar), t[2]);
+            const auto m1 =
+                intersect_plane(r, Vec3<T>(T(0.0f), T(1.0f), T(0.0f)), T(0.5f), T(kRayFar), t[1]);
+            const auto m2 =
+                intersect_quadric(r, q, Vec3<T>(T(-1.5f)), Vec3<T>(T(1.5f)), T(kRayFar), t[2]);
             store_lanes(select(m0, t[0], T(-1.0f)), out[0] + i);
             store_lanes(select(m1, t[1], T(-1.0f)), out[1] + i);
             store_lanes(select(m2, t[2], T(-1.0f)), out[2] + i);
@@ -142,9 +145,12 @@ void run_kernel_case(KernelCase c, const CaseInputs& in, size_t i, float* const*
         case KernelCase::kLobeSpecular:
         case KernelCase::kLobeMirror:
         case KernelCase::kLobeRefraction: {
-            const Bsdf<T> m{Vec3<T>(T(0.3f), T(0.2f), T(0.1f)), Vec3<T>(T(0.2f), T(0.25f), T(0.1f)),
-                            Vec3<T>(T(0.1f), T(0.1f), T(0.2f)), Vec3<T>(T(0.15f), T(0.1f), T(0.1f)),
-                            T(30.0f), T(1.4f)};
+            const Bsdf<T> m{Vec3<T>(T(0.3f), T(0.2f), T(0.1f)),
+                            Vec3<T>(T(0.2f), T(0.25f), T(0.1f)),
+                            Vec3<T>(T(0.1f), T(0.1f), T(0.2f)),
+                            Vec3<T>(T(0.15f), T(0.1f), T(0.1f)),
+                            T(30.0f),
+                            T(1.4f)};
             const Vec3f n = normalize(Vec3f{0.2f, 1.0f, -0.3f});
             const Vec3<T> nb(T(n.x), T(n.y), T(n.z)), nf = facing_normal(nb, r.d);
             T p;
@@ -153,7 +159,8 @@ void run_kernel_case(KernelCase c, const CaseInputs& in, size_t i, float* const*
             if (c == KernelCase::kLobeDiffuse) s = sample_diffuse(m, nf, u1, u2, T(0.3f), false);
             if (c == KernelCase::kLobeSpecular) s = sample_specular(m, r.d, nf, u1, u2, T(0.25f));
             if (c == KernelCase::kLobeMirror) s = sample_mirror(m, r.d, nf, T(0.2f));
-            if (c == KernelCase::kLobeRefraction) s = sample_refraction(m, r.d, nb, nb, T(1.0f), T(0.15f));
+            if (c == KernelCase::kLobeRefraction)
+                s = sample_refraction(m, r.d, nb, nb, T(1.0f), T(0.15f));
             store_lanes(to_float(chosen), out[0] + i);
             store_lanes(p, out[1] + i);
             store_lanes(s.dir.x, out[2] + i), store_lanes(s.dir.y, out[3] + i);
@@ -162,26 +169,35 @@ void run_kernel_case(KernelCase c, const CaseInputs& in, size_t i, float* const*
             return;
         }
         case KernelCase::kPhongRngCamera: {
-            const Bsdf<T> m{Vec3<T>(T(0.5f), T(0.4f), T(0.3f)), Vec3<T>(T(0.3f)), Vec3<T>(T(0.0f)),
-                            Vec3<T>(T(0.0f)), T(12.0f), T(1.0f)};
+            const Bsdf<T> m{Vec3<T>(T(0.5f), T(0.4f), T(0.3f)),
+                            Vec3<T>(T(0.3f)),
+                            Vec3<T>(T(0.0f)),
+                            Vec3<T>(T(0.0f)),
+                            T(12.0f),
+                            T(1.0f)};
             const Vec3<T> wi = normalize(Vec3<T>(u0, u1, u2 - T(0.3f)));
             const Vec3<T> fc = phong_f_cos(m, r.d, Vec3<T>(T(0.0f), T(0.0f), T(1.0f)), wi);
             store_lanes(fc.x, out[0] + i), store_lanes(fc.z, out[1] + i);
             const U32<T> key = path_key(5u, index_lanes<T>(i), U32<T>(3u));
             store_lanes(uniform<T>(key, U32<T>(2u), Purpose::kLobe), out[2] + i);
-            const Ray<T> cam = pinhole_ray<T>(Vec3f{0, 0, -3}, Vec3f{0, 0, 2}, Vec3f{-1, 0, 0},
-                                              Vec3f{0, 1, 0}, u0 * T(64.0f), u1 * T(48.0f),
-                                              1.0f / 64.0f, 1.0f / 48.0f);
+            const Ray<T> cam =
+                pinhole_ray<T>(Vec3f{0, 0, -3}, Vec3f{0, 0, 2}, Vec3f{-1, 0, 0}, Vec3f{0, 1, 0},
+                               u0 * T(64.0f), u1 * T(48.0f), 1.0f / 64.0f, 1.0f / 48.0f);
             store_lanes(cam.d.x, out[3] + i), store_lanes(cam.d.y, out[4] + i);
             return;
         }
         case KernelCase::kLightPosition: {
-            const EmitterTable e{4, kCaseEmitterQ, kCaseEmitterAlias, kCaseEmitterPmf,
-                                 kCaseEmitterKind, kCaseEmitterData, {}};
+            const EmitterTable e{4,
+                                 kCaseEmitterQ,
+                                 kCaseEmitterAlias,
+                                 kCaseEmitterPmf,
+                                 kCaseEmitterKind,
+                                 kCaseEmitterData,
+                                 {}};
             // (a fourth number from the ray's origin, in [0, 1))
             const T u3 = min(abs(r.o.x) * T(0.25f), T(1.0f - 0x1.0p-24f));
-            const EmitterPosition<T> s = sample_emitter_position(e, u0, u1, with_extremes(u2),
-                                                                 with_extremes(u3));
+            const EmitterPosition<T> s =
+                sample_emitter_position(e, u0, u1, with_extremes(u2), with_extremes(u3));
             store_lanes(to_float(s.id), out[0] + i);
             store_lanes(s.p.x, out[1] + i), store_lanes(s.p.y, out[2] + i);
             store_lanes(s.p.z, out[3] + i);

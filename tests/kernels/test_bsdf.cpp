@@ -56,7 +56,8 @@ void expect_matches(const Vec3f& axis, const Sample& sample, const Pdf& pdf, con
         }
         edges[size_t(b)] = b == 0 ? cos_min : (b == kBands ? 1.0 : 0.5 * (lo + hi));
     }
-    const Vec3f t = normalize(std::abs(axis.x) < 0.9f ? cross(axis, Vec3f(1, 0, 0)) : cross(axis, Vec3f(0, 1, 0)));
+    const Vec3f t = normalize(std::abs(axis.x) < 0.9f ? cross(axis, Vec3f(1, 0, 0))
+                                                      : cross(axis, Vec3f(0, 1, 0)));
     const Vec3f b2 = cross(axis, t);
     const auto bin_of = [&](const Vec3f& d) {
         const double c = std::clamp(double(dot(d, axis)), -1.0, 1.0);
@@ -115,8 +116,7 @@ TEST(Bsdf, DiffuseSamplingMatchesItsDensity) {
         const Bsdf<float> m = material(Vec3f(0.6f), Vec3f(0.0f), 0.0f);
         // The diffuse lobe alone: P(lobe) = 0.6, the density over it is pdf / 0.6
         expect_matches(
-            n,
-            [&] { return sample_diffuse(m, n, u(), u(), 1.0f, cosine).dir; },
+            n, [&] { return sample_diffuse(m, n, u(), u(), 1.0f, cosine).dir; },
             [&](const Vec3f& wi) { return bsdf_eval(m, wo, n, wi, 0.9f, cosine).pdf / 0.6f; },
             [&](double c) { return cosine ? c * c : c; }, 0.0);
     }
@@ -131,8 +131,7 @@ TEST(Bsdf, PhongSamplingMatchesItsDensity) {
         SCOPED_TRACE(s);
         const Bsdf<float> m = material(Vec3f(0.0f), Vec3f(0.5f), s);
         expect_matches(
-            r,
-            [&] { return sample_specular(m, -wo, n, u(), u(), 1.0f).dir; },
+            r, [&] { return sample_specular(m, -wo, n, u(), u(), 1.0f).dir; },
             [&](const Vec3f& wi) { return bsdf_eval(m, wo, n, wi, 0.9f, false).pdf / 0.5f; },
             [&](double c) { return std::pow(c, double(s) + 1.0); }, 0.0);
     }
@@ -227,7 +226,8 @@ TEST(Bsdf, WhiteFurnacePerLobe) {
     for (bool cosine : {false, true}) {
         test::MeanEstimate albedo;
         const Bsdf<float> m = material(Vec3f(1.0f), Vec3f(0.0f), 0.0f);
-        for (int k = 0; k < count; ++k) albedo.add(sample_diffuse(m, n, u(), u(), 1.0f, cosine).weight.x);
+        for (int k = 0; k < count; ++k)
+            albedo.add(sample_diffuse(m, n, u(), u(), 1.0f, cosine).weight.x);
         EXPECT_NEAR(albedo.mean(), 1.0, 4 * albedo.standard_error() + 1e-6);
     }
     // Phong: ∫ f cos dω = 1 at normal incidence, ≤ 1 elsewhere (what falls below the

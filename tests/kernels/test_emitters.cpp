@@ -59,8 +59,7 @@ TEST(EmitterSampling, SphereConeIsUniformInSolidAngleAndHitsTheSphere) {
 }
 
 TEST(EmitterSampling, FromInsideASphereEveryDirectionIsEquallyLikely) {
-    const Scene scene =
-        test::emitter_scene(R"({"type": "sphere", "center": [0, 0, 0], "radius": 10,
+    const Scene scene = test::emitter_scene(R"({"type": "sphere", "center": [0, 0, 0], "radius": 10,
                                 "material": "L"})");
     const EmitterTable e = scene.emitters.table();
     const Vec3f x{2.0f, -3.0f, 1.0f};
@@ -192,8 +191,8 @@ struct TiltedRectangle {
                    std::to_string(c.z) + "]";
         };
         return R"({"type": "triangle", "material": "L", "vertices": [)" + v(0) + ", " + v(1) +
-               ", " + v(2) + R"(]}, {"type": "triangle", "material": "L", "vertices": [)" +
-               v(0) + ", " + v(2) + ", " + v(3) + "]}";
+               ", " + v(2) + R"(]}, {"type": "triangle", "material": "L", "vertices": [)" + v(0) +
+               ", " + v(2) + ", " + v(3) + "]}";
     }
     static double triangle_omega(const double a[3], const double b[3], const double c[3]) {
         const auto unit = [](const double v[3], double o[3]) {
@@ -221,7 +220,8 @@ struct TiltedRectangle {
             for (int i = 0; i < n; ++i) {
                 double a[3], b[3], c[3], d[3];
                 at(double(i) / n, double(j) / n, a), at(double(i + 1) / n, double(j) / n, b);
-                at(double(i + 1) / n, double(j + 1) / n, c), at(double(i) / n, double(j + 1) / n, d);
+                at(double(i + 1) / n, double(j + 1) / n, c),
+                    at(double(i) / n, double(j + 1) / n, d);
                 out.push_back(triangle_omega(a, b, c) + triangle_omega(a, c, d));
             }
         return out;
@@ -248,9 +248,9 @@ TEST(EmitterSampling, RectangleOfTwoTrianglesIsOneEmitterUniformInSolidAngle) {
     EXPECT_EQ(e.pmf[0], e.pmf[1]);  // a hit on either half has the rectangle's density
     EXPECT_NEAR(double(e.data[3]), double(length(cross(r.e1, r.e2))), 1e-5);
     constexpr int n = 8;
-    for (const Vec3f x : {Vec3f{0.1f, 0.0f, -1.0f}, Vec3f{0.3f, 0.2f, 0.9f},
-                          Vec3f{-0.45f, -0.25f, 1.1f}, Vec3f{2.5f, 0.4f, 1.3f},
-                          Vec3f{0.1f, 0.1f, 4.0f}}) {
+    for (const Vec3f x :
+         {Vec3f{0.1f, 0.0f, -1.0f}, Vec3f{0.3f, 0.2f, 0.9f}, Vec3f{-0.45f, -0.25f, 1.1f},
+          Vec3f{2.5f, 0.4f, 1.3f}, Vec3f{0.1f, 0.1f, 4.0f}}) {
         SCOPED_TRACE(::testing::Message() << x.x << " " << x.y << " " << x.z);
         std::vector<double> p = r.cell_solid_angles(x, n);
         double omega = 0.0;
@@ -296,9 +296,9 @@ TEST(EmitterSampling, RectangleOfTwoTrianglesIsOneEmitterUniformInSolidAngle) {
         ASSERT_NEAR(double(s.pdf) * double(e.data[3]) * cos_l / (double(s.t) * s.t), 1.0, 1e-3);
         ASSERT_GE(r.cell(far + s.wi * s.t, n, 3e-3f), 0);  // (3000 away: float's 1e-7 × 3000)
     }
-    for (const Vec3f x : {r.p + r.e1 * 2.0f, r.p, centre, centre + normal * 1e-6f,
-                          centre + normal * 1e6f, centre - normal * 0.01f,
-                          r.p - normal * 1e-3f + r.e1 * 0.001f}) {
+    for (const Vec3f x :
+         {r.p + r.e1 * 2.0f, r.p, centre, centre + normal * 1e-6f, centre + normal * 1e6f,
+          centre - normal * 0.01f, r.p - normal * 1e-3f + r.e1 * 0.001f}) {
         SCOPED_TRACE(::testing::Message() << x.x << " " << x.y << " " << x.z);
         for (int k = 0; k < 2000; ++k) {
             const EmitterSample<float> s = sample_emitter(e, x, u(), u(), u(), u(), true);
@@ -427,8 +427,12 @@ TEST(Mis, TheTwoWeightsOfADirectionSumToOne) {
         const Vec3f d = normalize(Vec3f{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f});
         if (dot(d, nf) >= 0) continue;
         const float shininess = std::array<float, 4>{0.0f, 1.0f, 20.0f, 1e4f}[k % 4];
-        const Bsdf<float> m{Vec3f(0.6f * u(rng)), Vec3f(0.4f * u(rng)), Vec3f(0.1f * u(rng)),
-                            Vec3f(0.0f), shininess, 1.0f};
+        const Bsdf<float> m{Vec3f(0.6f * u(rng)),
+                            Vec3f(0.4f * u(rng)),
+                            Vec3f(0.1f * u(rng)),
+                            Vec3f(0.0f),
+                            shininess,
+                            1.0f};
         const bool cosine = k % 2 == 0;
         const EmitterSample<float> s = sample_emitter(e, x, u(rng), u(rng), u(rng), u(rng));
         // (a direction below the surface is one no lobe samples: its light weight is 1)
@@ -442,15 +446,14 @@ TEST(Mis, TheTwoWeightsOfADirectionSumToOne) {
         const int32_t id = scene.emitter_id(hit);
         ASSERT_GE(id, 0);
         if (std::abs(hit.t - s.t) > 1e-3f * s.t) continue;  // something else in front
-        const float lobe_pdf[2] = {
-            sampled_lobe_pdf<kLobeDiffuse>(m, d, nf, s.wi, pd, cosine),
-            sampled_lobe_pdf<kLobeSpecular>(m, d, nf, s.wi, ps, false)};
+        const float lobe_pdf[2] = {sampled_lobe_pdf<kLobeDiffuse>(m, d, nf, s.wi, pd, cosine),
+                                   sampled_lobe_pdf<kLobeSpecular>(m, d, nf, s.wi, ps, false)};
         const float light_side[2] = {power_heuristic(s.pdf, pd * f.pdf_diffuse),
                                      power_heuristic(s.pdf, ps * f.pdf_specular)};
         for (int lobe = 0; lobe < 2; ++lobe) {
             if (!(lobe_pdf[lobe] > 0.0f)) continue;
-            const float hit_side = emitter_hit_weight<float>(e, Estimator::kMis, id,
-                                                             lobe_pdf[lobe], x, s.wi, hit.t);
+            const float hit_side =
+                emitter_hit_weight<float>(e, Estimator::kMis, id, lobe_pdf[lobe], x, s.wi, hit.t);
             ASSERT_NEAR(light_side[lobe] + hit_side, 1.0f, 2e-4f)
                 << "lobe " << lobe << " s " << shininess << " pdfs " << s.pdf << " "
                 << lobe_pdf[lobe];

@@ -19,8 +19,8 @@ Bsdf<float> make(Vec3f kd, Vec3f ks, float s, Vec3f kr, Vec3f kt, float ior = 1.
 }
 
 TEST(Roulette, FrequenciesMatchMaxRgbProbabilities) {
-    const Bsdf<float> m = make({0.1f, 0.3f, 0.2f}, {0.2f, 0.1f, 0.0f}, 10.0f,
-                               {0.05f, 0.0f, 0.1f}, {0.0f, 0.2f, 0.0f});
+    const Bsdf<float> m = make({0.1f, 0.3f, 0.2f}, {0.2f, 0.1f, 0.0f}, 10.0f, {0.05f, 0.0f, 0.1f},
+                               {0.0f, 0.2f, 0.0f});
     // p = (0.3, 0.2, 0.1, 0.2), sum 0.8 < cap: unscaled, death 0.2
     const double p[5] = {0.3, 0.2, 0.1, 0.2, 0.2};
     std::vector<double> observed(5, 0.0), expected(5);

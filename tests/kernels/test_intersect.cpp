@@ -103,8 +103,8 @@ TEST(Quadric, NearRootOutsideBoundsFallsToFarRoot) {
     // and must hit the far side at z=+1
     const Vec3f lo{-2, -2, 0}, hi{2, 2, 2};
     float t = 0;
-    ASSERT_TRUE(intersect_quadric(ray({0, 0, -5}, {0, 0, 1}), unit_sphere_quadric(), lo, hi,
-                                  kFar, t));
+    ASSERT_TRUE(
+        intersect_quadric(ray({0, 0, -5}, {0, 0, 1}), unit_sphere_quadric(), lo, hi, kFar, t));
     EXPECT_NEAR(t, 6.0f, 1e-5f);
 }
 
@@ -112,8 +112,8 @@ TEST(Quadric, PlaneAsLinearQuadric) {
     // y - 1 = 0: a = b_quadratic = 0, the linear branch
     const QuadricCoefficients<float> q{0, 0, 0, 0, 0, 0, 0, 1, 0, -1};
     float t = 0;
-    ASSERT_TRUE(intersect_quadric(ray({0, -1, 0}, {0, 1, 0}), q, Vec3f(-kFar), Vec3f(kFar),
-                                  kFar, t));
+    ASSERT_TRUE(
+        intersect_quadric(ray({0, -1, 0}, {0, 1, 0}), q, Vec3f(-kFar), Vec3f(kFar), kFar, t));
     EXPECT_NEAR(t, 2.0f, 1e-6f);
     const Vec3f g = quadric_gradient(q, Vec3f{0, 1, 0});
     EXPECT_FLOAT_EQ(g.y, 1.0f);

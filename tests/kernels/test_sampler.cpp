@@ -124,8 +124,8 @@ TEST(Samplers, EveryDecisionPairOfAPixelIsStratified) {
                         std::vector<uint32_t> x, y;
                         pixel_points(kind, 17u, pixel, pixel / 7, bounce, slot, n, x, y);
                         ASSERT_TRUE(stratified(x, y))
-                            << "sampler " << int(kind) << ", " << n << " samples, bounce "
-                            << bounce << ", slot " << slot << ", pixel " << pixel;
+                            << "sampler " << int(kind) << ", " << n << " samples, bounce " << bounce
+                            << ", slot " << slot << ", pixel " << pixel;
                     }
         }
         // A progressive render's prefix: the first 2^k of a pixel's 1024 are stratified too
@@ -184,9 +184,9 @@ double product_mean(Sampler kind, Purpose a, uint32_t bounce_a, Purpose b, uint3
 
 TEST(Samplers, NoTwoDecisionsShareADimension) {
     // Every two decisions of bounces 0..2 (the roulette's draw as "kLobe twice")
-    const Purpose all[] = {Purpose::kPixelX, Purpose::kPixelY,      Purpose::kLobe,
+    const Purpose all[] = {Purpose::kPixelX,     Purpose::kPixelY,     Purpose::kLobe,
                            Purpose::kDirection1, Purpose::kDirection2, Purpose::kEmitterPick,
-                           Purpose::kEmitter1, Purpose::kEmitter2};
+                           Purpose::kEmitter1,   Purpose::kEmitter2};
     // σ of the mean of 4096 products of independent uniforms: ≈ 0.0034
     for (Sampler kind : {Sampler::kIndependent, Sampler::kSobol, Sampler::kZSobol, Sampler::kPmj02})
         for (uint32_t ba = 0; ba < 3; ++ba)
@@ -227,7 +227,8 @@ TEST(Samplers, EveryUniformIsUniform) {
 TEST(Samplers, TheLobesPairIsTheLobeChoiceAndTheRoulettesDraw) {
     // lobe_uniforms draws slot 1 once: the same two numbers as uniform(kLobe) and
     // second_uniform(kLobe), with every sampler, at every bounce
-    for (Sampler kind : {Sampler::kIndependent, Sampler::kSobol, Sampler::kZSobol, Sampler::kPmj02}) {
+    for (Sampler kind :
+         {Sampler::kIndependent, Sampler::kSobol, Sampler::kZSobol, Sampler::kPmj02}) {
         const SamplerSetup setup = setup_of(kind, 3);
         for (uint32_t pixel = 0; pixel < 64; ++pixel)
             for (uint32_t bounce : {0u, 1u, 9u}) {
@@ -245,7 +246,8 @@ TEST(Samplers, LanesDrawTheScalarNumbers) {
     using F = xsimd::batch<float>;
     using U = xsimd::batch<uint32_t>;
     constexpr size_t K = F::size;
-    for (Sampler kind : {Sampler::kIndependent, Sampler::kSobol, Sampler::kZSobol, Sampler::kPmj02}) {
+    for (Sampler kind :
+         {Sampler::kIndependent, Sampler::kSobol, Sampler::kZSobol, Sampler::kPmj02}) {
         const SamplerSetup setup = setup_of(kind, 5);
         alignas(64) uint32_t px[K], py[K], pixel[K], sample[K];
         for (size_t l = 0; l < K; ++l)

@@ -92,8 +92,8 @@ TEST(Sampling, ExtremeExponentsStayFiniteAndInTheLobe) {
 
 TEST(Sampling, SinCos2PiMatchesTheLibraryEverywhere) {
     // Every quadrant boundary, both ends, and a dense sweep of [0, 1)
-    std::vector<float> us = {0.0f, 0.125f, 0.25f, 0.375f, 0.5f, 0.625f, 0.75f, 0.875f,
-                             0.99999994f, 1e-8f, 0.2499999f, 0.2500001f};
+    std::vector<float> us = {0.0f,  0.125f, 0.25f,       0.375f, 0.5f,       0.625f,
+                             0.75f, 0.875f, 0.99999994f, 1e-8f,  0.2499999f, 0.2500001f};
     for (int i = 0; i < 100000; ++i) us.push_back(float(i) / 100000.0f);
     for (float u : us) {
         float s, c;
@@ -107,8 +107,8 @@ TEST(Sampling, SinCos2PiMatchesTheLibraryEverywhere) {
 TEST(Frame, OrthonormalForEveryNormalIncludingPoles) {
     std::mt19937 rng(3);
     std::normal_distribution<float> g;
-    std::vector<Vec3f> normals = {{0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {0, -1, 0},
-                                  normalize(Vec3f{0, 1e-7f, -1})};
+    std::vector<Vec3f> normals = {
+        {0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {0, -1, 0}, normalize(Vec3f{0, 1e-7f, -1})};
     for (int i = 0; i < 1000; ++i) normals.push_back(normalize(Vec3f{g(rng), g(rng), g(rng)}));
     for (const Vec3f& n : normals) {
         Vec3f t, b;
@@ -185,7 +185,8 @@ TEST(Rng, SimdLanesDrawTheSameNumbersAsScalar) {
     using B = xsimd::batch<float>;
     using U = xsimd::batch<uint32_t>;
     alignas(64) uint32_t pixels[U::size], samples[U::size];
-    for (size_t i = 0; i < U::size; ++i) pixels[i] = 1000u + 37u * uint32_t(i), samples[i] = uint32_t(i) * 3u;
+    for (size_t i = 0; i < U::size; ++i)
+        pixels[i] = 1000u + 37u * uint32_t(i), samples[i] = uint32_t(i) * 3u;
     const U key = path_key(9u, U::load_aligned(pixels), U::load_aligned(samples));
     const B u = uniform<B>(key, U(3u), Purpose::kDirection2);
     alignas(64) float out[B::size];

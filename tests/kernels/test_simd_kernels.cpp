@@ -49,7 +49,8 @@ std::vector<IsaCases> isa_cases() {
 #define CIERZO_CASES_NEON nullptr
 #endif
 #if defined(__x86_64__) || defined(__i386__)
-    return {{Isa::kAvx512, CIERZO_CASES_AVX512}, {Isa::kAvx2, CIERZO_CASES_AVX2},
+    return {{Isa::kAvx512, CIERZO_CASES_AVX512},
+            {Isa::kAvx2, CIERZO_CASES_AVX2},
             {Isa::kSse42, CIERZO_CASES_SSE42}};
 #else
     return {{Isa::kNeon, CIERZO_CASES_NEON}};
@@ -73,7 +74,8 @@ struct Inputs {
     Inputs() {
         std::mt19937 rng(99);
         std::uniform_real_distribution<float> s(-2.0f, 2.0f), v(0.0f, 1.0f);
-        for (int c = 0; c < 3; ++c) o[c].resize(kPadded), d[c].resize(kPadded), u[c].resize(kPadded);
+        for (int c = 0; c < 3; ++c)
+            o[c].resize(kPadded), d[c].resize(kPadded), u[c].resize(kPadded);
         for (size_t i = 0; i < kPadded; ++i) {
             // Padding lanes past kInputs: inert zero rays (d = 0) that must not disturb anything
             const bool pad = i >= kInputs;
@@ -120,7 +122,9 @@ protected:
     SimdCases cases{};
 };
 
-TEST_P(SimdKernels, Intersections) { compare(KernelCase::kIntersections, 64.0f, 1e-6f, "intersection t"); }
+TEST_P(SimdKernels, Intersections) {
+    compare(KernelCase::kIntersections, 64.0f, 1e-6f, "intersection t");
+}
 
 TEST_P(SimdKernels, RouletteAndLobes) {
     compare(KernelCase::kLobeDiffuse, 64.0f, 1.0f, "diffuse lobe");

@@ -44,7 +44,8 @@ TEST(Transport, ConnectCameraInvertsRayGeneration) {
         EXPECT_NEAR(c.dist, t, 1e-4f * t);
         EXPECT_NEAR(dot(c.wc, r.d), -1.0f, 1e-5f);
         const double cos_c = dot(r.d, scene.camera.film_normal());
-        const double expected = 1.0 / (double(scene.camera.film_area()) * cos_c * cos_c * cos_c * t * t);
+        const double expected =
+            1.0 / (double(scene.camera.film_area()) * cos_c * cos_c * cos_c * t * t);
         EXPECT_NEAR(c.factor, expected, 1e-3 * expected);
     }
     // Behind the camera, and beside the film
@@ -70,7 +71,8 @@ TEST(Transport, PinholeImportanceIntegratesToOne) {
     for (int k = 0; k < 400000; ++k) {
         Vec3f d{float(g(rng)), float(g(rng)), float(g(rng))};
         d = normalize(d);
-        const CameraConnection<float> c = connect_camera(frame, -d);  // the point at -d sees the pinhole along d
+        const CameraConnection<float> c =
+            connect_camera(frame, -d);  // the point at -d sees the pinhole along d
         integral.add(c.ok ? double(c.factor) * 4.0 * M_PI : 0.0);
     }
     EXPECT_NEAR(integral.mean(), 1.0, 4 * integral.standard_error());
@@ -80,12 +82,13 @@ TEST(Transport, PinholeImportanceIntegratesToOne) {
 TEST(Transport, LightStartsFollowPower) {
     // Two emitting spheres (power 2π·A·max Le: radius 0.5 with Le max 2, radius 0.25 with
     // Le 7) and two point lights (power 4π·max I: I 1 and 3)
-    Scene scene = parse_scene(R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0], "vfov": 40},
+    Scene scene =
+        parse_scene(R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0], "vfov": 40},
         "materials": {"L": {"emission": [2, 1, 0.5]}, "M": {"emission": 7}},
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "L"},
                     {"type": "sphere", "center": [2, 0, 0], "radius": 0.25, "material": "M"}],
         "lights": [{"position": [0, 3, 0], "intensity": 1}, {"position": [0, -3, 0], "intensity": [3, 1, 0]}]})",
-                                "/tmp/lights.json");
+                    "/tmp/lights.json");
     const double power[4] = {2 * M_PI * (4 * M_PI * 0.25) * 2, 2 * M_PI * (4 * M_PI * 0.0625) * 7,
                              4 * M_PI * 1, 4 * M_PI * 3};
     const double total = power[0] + power[1] + power[2] + power[3];
@@ -105,7 +108,9 @@ TEST(Transport, LightStartsFollowPower) {
             const double le = which == 0 ? 2.0 : 7.0;
             EXPECT_NEAR(s.le.x, le * area * total / power[which], 1e-3 * s.le.x);
             EXPECT_NEAR(s.beta.x, 2 * M_PI * s.le.x, 1e-4 * s.beta.x);
-            EXPECT_NEAR(std::abs(dot(s.n, normalize(s.p - (which == 0 ? Vec3f(0.0f) : Vec3f(2, 0, 0))))), 1.0f, 1e-4f);
+            EXPECT_NEAR(
+                std::abs(dot(s.n, normalize(s.p - (which == 0 ? Vec3f(0.0f) : Vec3f(2, 0, 0))))),
+                1.0f, 1e-4f);
         } else {
             which = s.p.y > 0 ? 2 : 3;
             // 4π·I / P
@@ -133,8 +138,10 @@ TEST(Transport, ImportanceRefractionCarriesEtaSquared) {
         const float r = std::sqrt(1 - z * z);
         for (float side : {-1.0f, 1.0f}) {
             const Vec3f d{r * std::cos(phi), r * std::sin(phi), side * z};
-            const Scatter<float> a = sample_refraction<Transport::kRadiance>(m, d, n, n, 1.0f, 0.5f);
-            const Scatter<float> b = sample_refraction<Transport::kImportance>(m, d, n, n, 1.0f, 0.5f);
+            const Scatter<float> a =
+                sample_refraction<Transport::kRadiance>(m, d, n, n, 1.0f, 0.5f);
+            const Scatter<float> b =
+                sample_refraction<Transport::kImportance>(m, d, n, n, 1.0f, 0.5f);
             ASSERT_EQ(a.dir.x, b.dir.x);
             ASSERT_EQ(a.dir.z, b.dir.z);
             const bool entering = side < 0;

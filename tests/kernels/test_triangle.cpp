@@ -162,10 +162,9 @@ std::array<int, kLanes> count_hits_batch(const Mesh& mesh, const Ray<Batch>& ray
     const RayShear<Batch> shear = make_ray_shear(ray.d);
     for (const auto& t : mesh.triangles) {
         Batch th, b1, b2;
-        const auto m = intersect_triangle(ray, shear, Vec3<Batch>(mesh.positions[t[0]]),
-                                          Vec3<Batch>(mesh.positions[t[1]]),
-                                          Vec3<Batch>(mesh.positions[t[2]]), Batch(1e30f), th,
-                                          b1, b2);
+        const auto m = intersect_triangle(
+            ray, shear, Vec3<Batch>(mesh.positions[t[0]]), Vec3<Batch>(mesh.positions[t[1]]),
+            Vec3<Batch>(mesh.positions[t[2]]), Batch(1e30f), th, b1, b2);
         alignas(64) float lane[kLanes];
         select(m, Batch(1.0f), Batch(0.0f)).store_aligned(lane);
         for (int i = 0; i < kLanes; ++i) {
@@ -207,25 +206,23 @@ void expect_no_leaks(const Mesh& mesh, float inner_radius, int rays, uint32_t se
         // A target on a vertex or an edge
         Vec3f target;
         switch (r % 4) {
-        case 0:
-            target = mesh.positions[pick_vertex(rng)];
-            break;
-        case 1: {
-            const auto& e = mesh.edges[pick_edge(rng)];
-            target = (mesh.positions[e[0]] + mesh.positions[e[1]]) * 0.5f;
-            break;
-        }
-        case 2: {
-            const auto& e = mesh.edges[pick_edge(rng)];
-            const Vec3f a = mesh.positions[e[0]], b = mesh.positions[e[1]];
-            target = fma(b - a, frac(rng), a);
-            break;
-        }
-        default: {
-            const Vec3f p = mesh.positions[pick_vertex(rng)];
-            target = p + Vec3f(unit(rng), unit(rng), unit(rng)) * 1e-6f;
-            break;
-        }
+            case 0: target = mesh.positions[pick_vertex(rng)]; break;
+            case 1: {
+                const auto& e = mesh.edges[pick_edge(rng)];
+                target = (mesh.positions[e[0]] + mesh.positions[e[1]]) * 0.5f;
+                break;
+            }
+            case 2: {
+                const auto& e = mesh.edges[pick_edge(rng)];
+                const Vec3f a = mesh.positions[e[0]], b = mesh.positions[e[1]];
+                target = fma(b - a, frac(rng), a);
+                break;
+            }
+            default: {
+                const Vec3f p = mesh.positions[pick_vertex(rng)];
+                target = p + Vec3f(unit(rng), unit(rng), unit(rng)) * 1e-6f;
+                break;
+            }
         }
         origins.push_back(o);
         directions.push_back(target - o);
@@ -275,8 +272,8 @@ TEST(Triangle, SameAnswerForEveryDominantAxisAndSign) {
         for (float sign : {1.0f, -1.0f}) {
             // Mirror along the ray axis and rotate the whole configuration
             const auto place = [&](Vec3f p) { return cycle(Vec3f(p.x, p.y, sign * p.z), axes); };
-            const Hit h = shoot(place({0, 0, 0}), place({0.25f, 0.5f, 1.0f}), place(v0),
-                                place(v1), place(v2));
+            const Hit h = shoot(place({0, 0, 0}), place({0.25f, 0.5f, 1.0f}), place(v0), place(v1),
+                                place(v2));
             ASSERT_TRUE(h.hit) << "axes " << axes << " sign " << sign;
             EXPECT_FLOAT_EQ(h.t, 2.0f);
             EXPECT_FLOAT_EQ(h.b1, 0.375f);
@@ -331,8 +328,8 @@ TEST(Triangle, TrianglesWithCoincidentVerticesAreNeverHit) {
                                  (tri[1] + tri[2]) * 0.5f};
         for (int r = 0; r < 2000; ++r) {
             const Vec3f o(unit(rng), unit(rng), unit(rng) - 2.0f);
-            const Vec3f target = targets[r % 5] + Vec3f(unit(rng), unit(rng), unit(rng)) *
-                                                      (r % 2 ? 1e-3f : 0.0f);
+            const Vec3f target =
+                targets[r % 5] + Vec3f(unit(rng), unit(rng), unit(rng)) * (r % 2 ? 1e-3f : 0.0f);
             ASSERT_FALSE(shoot(o, target - o, tri[0], tri[1], tri[2]).hit)
                 << "triangle " << (&tri - degenerate.data()) << " ray " << r;
         }
@@ -449,7 +446,7 @@ TEST(TriangleBatch, ZeroDirectionComponentsAndTiesOfTheDominantAxis) {
     const Vec3f v0(-1, -1, 2), v1(3, -1, 2), v2(-1, 3, 2);
     std::vector<Vec3f> o, d;
     const Vec3f dirs[] = {{0, 0, 1}, {1, 1, 1}, {0.25f, 0.5f, 1}, {-1, 1, 1},
-                          {1, 0, 0}, {0, 1, 0}, {0, -1, -1}, {0.5f, -0.5f, 1}};
+                          {1, 0, 0}, {0, 1, 0}, {0, -1, -1},      {0.5f, -0.5f, 1}};
     for (int r = 0; r < 64; ++r) {
         const Vec3f dir = cycle(dirs[r % 8], (r / 8) % 3);
         o.push_back(Vec3f(0.5f, 0.25f, 2.0f) - dir * 1.5f);
@@ -458,9 +455,9 @@ TEST(TriangleBatch, ZeroDirectionComponentsAndTiesOfTheDominantAxis) {
     for (size_t first = 0; first + kLanes <= o.size(); first += kLanes) {
         const Ray<Batch> ray = gather_rays(o, d, first);
         Batch t, b1, b2;
-        const auto mask = intersect_triangle(ray, make_ray_shear(ray.d), Vec3<Batch>(v0),
-                                             Vec3<Batch>(v1), Vec3<Batch>(v2), Batch(1e30f), t,
-                                             b1, b2);
+        const auto mask =
+            intersect_triangle(ray, make_ray_shear(ray.d), Vec3<Batch>(v0), Vec3<Batch>(v1),
+                               Vec3<Batch>(v2), Batch(1e30f), t, b1, b2);
         alignas(64) float m[kLanes], tl[kLanes];
         select(mask, Batch(1.0f), Batch(0.0f)).store_aligned(m);
         t.store_aligned(tl);

@@ -69,7 +69,8 @@ std::string sphere_ply(int rings, int segments) {
 
 Vec3f to_world(const Mesh& m, const Vec3f& p) {
     const float* a = m.to_world;
-    return {a[0] * p.x + a[1] * p.y + a[2] * p.z + a[3], a[4] * p.x + a[5] * p.y + a[6] * p.z + a[7],
+    return {a[0] * p.x + a[1] * p.y + a[2] * p.z + a[3],
+            a[4] * p.x + a[5] * p.y + a[6] * p.z + a[7],
             a[8] * p.x + a[9] * p.y + a[10] * p.z + a[11]};
 }
 
@@ -145,7 +146,8 @@ int expect_matches_brute_force(const Scene& s, float extent, float tolerance, in
     const float tie = std::max(tolerance, 1e-6f) * 4.0f;
     int hits = 0, disagreements = 0;
     for (int r = 0; r < rays; ++r) {
-        const Ray<float> ray{Vec3f(unit(rng), unit(rng), unit(rng)) * extent, random_direction(rng)};
+        const Ray<float> ray{Vec3f(unit(rng), unit(rng), unit(rng)) * extent,
+                             random_direction(rng)};
         const float tmax = r % 4 == 0 ? frac(rng) * extent : kRayFar;
         const Brute want = brute_force(s, ray, tmax, tie);
         Hit got;
@@ -184,10 +186,12 @@ std::string mixture_objects(uint32_t seed, int spheres, int triangles, int quadr
     int material = 0;
     const auto mat = [&] { return "{\"kd\": " + std::to_string(0.01 * (++material % 97)) + "}"; };
     const auto v3 = [](const Vec3f& v) {
-        return "[" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) + "]";
+        return "[" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " + std::to_string(v.z) +
+               "]";
     };
     for (int i = 0; i < spheres; ++i)
-        o += "{\"type\": \"sphere\", \"center\": " + v3(Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f) +
+        o += "{\"type\": \"sphere\", \"center\": " +
+             v3(Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f) +
              ", \"radius\": " + std::to_string(size(rng)) + ", \"material\": " + mat() + "},\n";
     for (int i = 0; i < triangles; ++i) {
         const Vec3f c = Vec3f(unit(rng), unit(rng), unit(rng)) * 10.0f;
@@ -195,35 +199,41 @@ std::string mixture_objects(uint32_t seed, int spheres, int triangles, int quadr
         o += "{\"type\": \"triangle\", \"vertices\": [" +
              v3(c + Vec3f(unit(rng), unit(rng), unit(rng)) * s) + ", " +
              v3(c + Vec3f(unit(rng), unit(rng), unit(rng)) * s) + ", " +
-             v3(c + Vec3f(unit(rng), unit(rng), unit(rng)) * s) + "], \"material\": " + mat() + "},\n";
+             v3(c + Vec3f(unit(rng), unit(rng), unit(rng)) * s) + "], \"material\": " + mat() +
+             "},\n";
     }
     for (int i = 0; i < quadrics; ++i) {
         // (x - c)²/a² + ... = 1, clipped to its box (half of it for the odd ones)
         const Vec3f c = Vec3f(unit(rng), unit(rng), unit(rng)) * 8.0f;
         const Vec3f a(1.0f + frac_of(rng), 0.5f + frac_of(rng), 1.0f + frac_of(rng));
         const float A = 1 / (a.x * a.x), B = 1 / (a.y * a.y), C = 1 / (a.z * a.z);
-        const std::string k = "[" + std::to_string(A) + ", " + std::to_string(B) + ", " +
-                              std::to_string(C) + ", 0, 0, 0, " + std::to_string(-2 * A * c.x) +
-                              ", " + std::to_string(-2 * B * c.y) + ", " +
-                              std::to_string(-2 * C * c.z) + ", " +
-                              std::to_string(A * c.x * c.x + B * c.y * c.y + C * c.z * c.z - 1) + "]";
+        const std::string k =
+            "[" + std::to_string(A) + ", " + std::to_string(B) + ", " + std::to_string(C) +
+            ", 0, 0, 0, " + std::to_string(-2 * A * c.x) + ", " + std::to_string(-2 * B * c.y) +
+            ", " + std::to_string(-2 * C * c.z) + ", " +
+            std::to_string(A * c.x * c.x + B * c.y * c.y + C * c.z * c.z - 1) + "]";
         const Vec3f hi = c + a * (i % 2 ? 1.01f : 0.0f) + Vec3f(i % 2 ? 0.0f : 1e-3f);
-        o += "{\"type\": \"quadric\", \"coefficients\": " + k + ", \"bounds\": {\"min\": " +
-             v3(c - a * 1.01f) + ", \"max\": " + v3(vmax(hi, c + Vec3f(1e-3f))) +
-             "}, \"material\": " + mat() + "},\n";
+        o += "{\"type\": \"quadric\", \"coefficients\": " + k +
+             ", \"bounds\": {\"min\": " + v3(c - a * 1.01f) +
+             ", \"max\": " + v3(vmax(hi, c + Vec3f(1e-3f))) + "}, \"material\": " + mat() + "},\n";
     }
     // An unbounded cylinder x² + z² = 0.25 and two planes
     o += "{\"type\": \"quadric\", \"coefficients\": [1, 0, 1, 0, 0, 0, 0, 0, 0, -0.25], "
-         "\"material\": " + mat() + "},\n";
-    o += "{\"type\": \"plane\", \"normal\": [0, 1, 0], \"distance\": 9.5, \"material\": " + mat() + "},\n";
-    o += "{\"type\": \"plane\", \"normal\": [1, 1, 0], \"distance\": -13, \"material\": " + mat() + "}";
+         "\"material\": " +
+         mat() + "},\n";
+    o += "{\"type\": \"plane\", \"normal\": [0, 1, 0], \"distance\": 9.5, \"material\": " + mat() +
+         "},\n";
+    o += "{\"type\": \"plane\", \"normal\": [1, 1, 0], \"distance\": -13, \"material\": " + mat() +
+         "}";
     return o;
 }
 
 Scene scene_of(const std::string& objects, const fs::path& file) {
-    return parse_scene("{\"camera\": {\"position\": [0, 0, -3], \"look_at\": [0, 0, 0]},\n"
-                       "\"objects\": [" + objects + "]}",
-                       file);
+    return parse_scene(
+        "{\"camera\": {\"position\": [0, 0, -3], \"look_at\": [0, 0, 0]},\n"
+        "\"objects\": [" +
+            objects + "]}",
+        file);
 }
 
 TEST(Accel, ClosestAndAnyHitMatchBruteForceOnAMixtureOfEveryKind) {
@@ -243,7 +253,8 @@ TEST(Accel, InstancesThatRotateScaleAndMirrorMatchBruteForce) {
     std::string objects = mixture_objects(3, 150, 150) + ",\n";
     std::mt19937 rng(4);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
-    const char* scales[] = {"0.7", "[1, 0.4, 2]", "[-1, 1, 1]", "[-0.5, -1.5, 0.8]", "[2, 2, -0.3]"};
+    const char* scales[] = {"0.7", "[1, 0.4, 2]", "[-1, 1, 1]", "[-0.5, -1.5, 0.8]",
+                            "[2, 2, -0.3]"};
     for (int i = 0; i < 40; ++i) {
         const Vec3f t = Vec3f(unit(rng), unit(rng), unit(rng)) * 9.0f;
         const Vec3f r = Vec3f(unit(rng), unit(rng), unit(rng)) * 180.0f;
@@ -338,7 +349,8 @@ TEST(Accel, SimdNodeLanesMatchTheScalarTraversal) {
             float t_scalar = kRayFar, t_simd = kRayFar;
             BvhHit a{}, b{};
             const bool ha = traverse<false, float>(s.bvh.view(), r, t_scalar, a);
-            const bool hb = traverse<false, NodeLanes<TestArch>>(s.bvh.view(), wide.lane(l), t_simd, b);
+            const bool hb =
+                traverse<false, NodeLanes<TestArch>>(s.bvh.view(), wide.lane(l), t_simd, b);
             ASSERT_EQ(ha, hb) << "ray " << i + size_t(l);
             float any_a = kRayFar, any_b = kRayFar;
             const bool any_scalar = traverse<true, float>(s.bvh.view(), r, any_a, a);
@@ -353,7 +365,8 @@ TEST(Accel, SimdNodeLanesMatchTheScalarTraversal) {
             if (a.kind == kLeafTriangles) {
                 EXPECT_EQ(t_scalar, t_simd) << "ray " << i + size_t(l);
             } else {
-                EXPECT_NEAR(t_scalar, t_simd, 4e-6f * (t_scalar + 14.0f)) << "ray " << i + size_t(l);
+                EXPECT_NEAR(t_scalar, t_simd, 4e-6f * (t_scalar + 14.0f))
+                    << "ray " << i + size_t(l);
             }
         }
     }
@@ -365,7 +378,8 @@ TEST(Accel, PacketsOverAOneNodeTreeMatchSingleRays) {
     const TempDir dir;
     for (uint32_t seed = 10; seed < 16; ++seed) {
         const int spheres = int(seed % 3) * 3, triangles = 6 - spheres;
-        const Scene s = scene_of(mixture_objects(seed, spheres, triangles, 2), dir.path / "small.json");
+        const Scene s =
+            scene_of(mixture_objects(seed, spheres, triangles, 2), dir.path / "small.json");
         ASSERT_TRUE(packet_tree(s.bvh.view())) << "seed " << seed;
         const std::vector<Ray<float>> rays = random_rays(4000, 14.0f, seed);
         for (size_t i = 0; i < rays.size(); i += K) {
@@ -373,13 +387,13 @@ TEST(Accel, PacketsOverAOneNodeTreeMatchSingleRays) {
             const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
             F t(kRayFar);
             Wave<TestArch>::I kind(0), lane(0), instance(-1);
-            const uint32_t hits = mask_bits(packet_traverse<false>(
-                s.bvh.view(), ray, inv, make_ray_shear(ray.d), F(0.0f) == F(0.0f), t, kind, lane,
-                instance));
+            const uint32_t hits =
+                mask_bits(packet_traverse<false>(s.bvh.view(), ray, inv, make_ray_shear(ray.d),
+                                                 F(0.0f) == F(0.0f), t, kind, lane, instance));
             F t_any(kRayFar);
-            const uint32_t any = mask_bits(packet_traverse<true>(
-                s.bvh.view(), ray, inv, make_ray_shear(ray.d), F(0.0f) == F(0.0f), t_any, kind,
-                lane, instance));
+            const uint32_t any =
+                mask_bits(packet_traverse<true>(s.bvh.view(), ray, inv, make_ray_shear(ray.d),
+                                                F(0.0f) == F(0.0f), t_any, kind, lane, instance));
             alignas(64) float ts[K];
             t.store_aligned(ts);
             for (int l = 0; l < K && i + size_t(l) < rays.size(); ++l) {
@@ -391,8 +405,10 @@ TEST(Accel, PacketsOverAOneNodeTreeMatchSingleRays) {
                 BvhHit h;
                 const bool single = traverse<false, NodeLanes<TestArch>>(
                     s.bvh.view(), WideRays<TestArch>(ray).lane(l), want, h);
-                EXPECT_EQ(bool((hits >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
-                EXPECT_EQ(bool((any >> l) & 1u), single) << "seed " << seed << " ray " << i + size_t(l);
+                EXPECT_EQ(bool((hits >> l) & 1u), single)
+                    << "seed " << seed << " ray " << i + size_t(l);
+                EXPECT_EQ(bool((any >> l) & 1u), single)
+                    << "seed " << seed << " ray " << i + size_t(l);
                 if (single && h.kind == kLeafTriangles) {
                     EXPECT_EQ(ts[l], want);
                 } else if (single) {
@@ -425,16 +441,16 @@ TEST(Accel, PacketsOfCameraRaysMatchSingleRaysThroughInstances) {
         const Vec3f look = random_direction(rng);
         std::vector<Ray<float>> rays;
         for (int l = 0; l < K; ++l)
-            rays.push_back({eye, normalize(look + Vec3f(0.002f * float(l), 0.001f * float(l % 3), 0.0f))});
+            rays.push_back(
+                {eye, normalize(look + Vec3f(0.002f * float(l), 0.001f * float(l % 3), 0.0f))});
         const Ray<F> ray = batch_of(rays, 0);
         ASSERT_TRUE(coherent(ray));
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
         F t(kRayFar);
         Wave<TestArch>::I kind(0), lane(0), instance(-1);
-        const uint32_t got = mask_bits(packet_traverse<false>(s.bvh.view(), ray, inv,
-                                                               make_ray_shear(ray.d),
-                                                               F(0.0f) == F(0.0f), t, kind, lane,
-                                                               instance));
+        const uint32_t got =
+            mask_bits(packet_traverse<false>(s.bvh.view(), ray, inv, make_ray_shear(ray.d),
+                                             F(0.0f) == F(0.0f), t, kind, lane, instance));
         alignas(64) float ts[K];
         alignas(64) int32_t kinds[K], lanes[K], instances[K];
         t.store_aligned(ts), kind.store_aligned(kinds), lane.store_aligned(lanes);
@@ -443,7 +459,8 @@ TEST(Accel, PacketsOfCameraRaysMatchSingleRaysThroughInstances) {
         for (int l = 0; l < K; ++l) {
             float want = kRayFar;
             BvhHit h;
-            const bool single = traverse<false, NodeLanes<TestArch>>(s.bvh.view(), wide.lane(l), want, h);
+            const bool single =
+                traverse<false, NodeLanes<TestArch>>(s.bvh.view(), wide.lane(l), want, h);
             if (bool((got >> l) & 1u) != single) {
                 ++disagreements;
                 continue;
@@ -496,7 +513,8 @@ TEST(Accel, RayStreamsFindWhatSingleRaysFind) {
     std::vector<uint8_t> want_found(rays.size());
     int hits = 0;
     for (int r = 0; r < n; ++r) {
-        want_found[size_t(r)] = traverse<false, N>(bvh, setup[size_t(r)], want_t[size_t(r)], want[size_t(r)]);
+        want_found[size_t(r)] =
+            traverse<false, N>(bvh, setup[size_t(r)], want_t[size_t(r)], want[size_t(r)]);
         hits += want_found[size_t(r)];
     }
     ASSERT_GT(hits, 1000);
@@ -521,8 +539,8 @@ TEST(Accel, RayStreamsFindWhatSingleRaysFind) {
             const Vec3f v0{v[0][l], v[1][l], v[2][l]}, v1{v[3][l], v[4][l], v[5][l]},
                 v2{v[6][l], v[7][l], v[8][l]};
             float th, b1, b2;
-            ASSERT_TRUE(intersect_triangle(rays[r], make_ray_shear(rays[r].d), v0, v1, v2,
-                                           kRayFar, th, b1, b2))
+            ASSERT_TRUE(intersect_triangle(rays[r], make_ray_shear(rays[r].d), v0, v1, v2, kRayFar,
+                                           th, b1, b2))
                 << "ray " << r;
             EXPECT_EQ(th, t[r]) << "ray " << r;
         }
@@ -572,15 +590,17 @@ void expect_groups_match_single_rays(const BvhView& bvh, const std::vector<Ray<f
     for (const int group : {1, 2, 3, 7, 16, kMaxTraversalGroup}) {
         SCOPED_TRACE("group of " + std::to_string(group));
         std::vector<float> t = tmax, any_t = tmax;
-        std::vector<BvhHit> hit(rays.size(), BvhHit{7, 7, 7}), any_hit(rays.size(), BvhHit{7, 7, 7});
+        std::vector<BvhHit> hit(rays.size(), BvhHit{7, 7, 7}),
+            any_hit(rays.size(), BvhHit{7, 7, 7});
         std::vector<uint8_t> found(rays.size(), 9), blocked(rays.size(), 9);
         traverse_group<false, N>(bvh, setup.data(), n, t.data(), hit.data(), found.data(), group,
                                  *scratch, alpha);
-        traverse_group<true, N>(bvh, setup.data(), n, any_t.data(), any_hit.data(),
-                                blocked.data(), group, *scratch, alpha);
+        traverse_group<true, N>(bvh, setup.data(), n, any_t.data(), any_hit.data(), blocked.data(),
+                                group, *scratch, alpha);
         for (size_t r = 0; r < rays.size(); ++r) {
             ASSERT_EQ(found[r], want.found[r]) << "ray " << r;
-            ASSERT_EQ(std::bit_cast<uint32_t>(t[r]), std::bit_cast<uint32_t>(want.t[r])) << "ray " << r;
+            ASSERT_EQ(std::bit_cast<uint32_t>(t[r]), std::bit_cast<uint32_t>(want.t[r]))
+                << "ray " << r;
             ASSERT_EQ(blocked[r], want.blocked[r]) << "ray " << r;
             // (any hit leaves t and the hit as they were)
             ASSERT_EQ(any_t[r], tmax[r]) << "ray " << r;
@@ -612,11 +632,11 @@ TEST(Accel, GroupsOfRaysInFlightFindWhatSingleRaysFind) {
     const char* scales[] = {"0.7", "[1, 0.4, 2]", "[-1, 1, 1]", "[-0.5, -1.5, 0.8]"};
     for (int i = 0; i < 12; ++i) {
         const Vec3f t = Vec3f(unit(rng), unit(rng), unit(rng)) * 8.0f;
-        objects += ",\n{\"type\": \"mesh\", \"file\": \"ball.ply\", \"instance\": true, \"scale\": " +
-                   std::string(scales[i % 4]) + ", \"rotate\": [" + std::to_string(30 * i) +
-                   ", 20, 10], \"translate\": [" + std::to_string(t.x) + ", " +
-                   std::to_string(t.y) + ", " + std::to_string(t.z) +
-                   "], \"material\": {\"kd\": 0.3}}";
+        objects +=
+            ",\n{\"type\": \"mesh\", \"file\": \"ball.ply\", \"instance\": true, \"scale\": " +
+            std::string(scales[i % 4]) + ", \"rotate\": [" + std::to_string(30 * i) +
+            ", 20, 10], \"translate\": [" + std::to_string(t.x) + ", " + std::to_string(t.y) +
+            ", " + std::to_string(t.z) + "], \"material\": {\"kd\": 0.3}}";
     }
     const Scene s = scene_of(objects, dir.path / "group.json");
     const BvhView bvh = s.bvh.view();
@@ -638,8 +658,9 @@ TEST(Accel, GroupsOfRaysInFlightOnDegenerateTrees) {
     const TempDir dir;
     using N = NodeLanes<TestArch>;
     const std::vector<Ray<float>> rays = random_rays(800, 6.0f, 41);
-    const Scene one = scene_of(R"({"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": {"kd": 0.5}})",
-                               dir.path / "one.json");
+    const Scene one =
+        scene_of(R"({"type": "sphere", "center": [0, 0, 0], "radius": 2, "material": {"kd": 0.5}})",
+                 dir.path / "one.json");
     ASSERT_EQ(one.bvh.view().node_count, 1);
     int hits = 0;
     expect_groups_match_single_rays<N>(one.bvh.view(), rays, 42, hits);
@@ -668,43 +689,52 @@ TEST(Accel, GroupsOfRaysInFlightOnDegenerateTrees) {
     std::vector<BvhHit> hit(10);
     std::vector<uint8_t> found(10, 1);
     auto scratch = std::make_unique<TraversalGroupScratch>();
-    traverse_group<false, N>(empty, setup.data(), 10, t.data(), hit.data(), found.data(), 4, *scratch);
+    traverse_group<false, N>(empty, setup.data(), 10, t.data(), hit.data(), found.data(), 4,
+                             *scratch);
     EXPECT_EQ(std::count(found.begin(), found.end(), 0), 10);
 }
 
 // The wavefront with many rays in flight (a tree over kPrefetchAbove nodes) renders the same
-// image, bit for bit, as with one ray at a time, with groups of 16 and 5, on every ISA: closest hits of every path (report), queued shadow rays (point
-// lights and emitter samples, with a second lobe kind; and a scene of one lobe kind, whose
-// emitter samples one ray at a time trace during shading), light paths and bdpt.
+// image, bit for bit, as with one ray at a time, with groups of 16 and 5, on every ISA: closest
+// hits of every path (report), queued shadow rays (point lights and emitter samples, with a second
+// lobe kind; and a scene of one lobe kind, whose emitter samples one ray at a time trace during
+// shading), light paths and bdpt.
 TEST(Accel, GroupedWavefrontStagesRenderTheSameImage) {
     const TempDir dir;
     dir.write("ball.ply", sphere_ply(80, 120));
     const auto scene_with = [&](bool lights) {
-        return parse_scene(R"({
+        return parse_scene(
+            R"({
             "camera": {"position": [0, 1, -6], "look_at": [0, 0, 0], "vfov": 60},
             "render": {"width": 20, "height": 16, "spp": 4, "seed": 3},
             "materials": {"floor": {"kd": 0.6}, "lamp": {"emission": 4},
-                          "shiny": )" + std::string(lights ? R"({"kd": 0.3, "ks": 0.4, "shininess": 30})"
-                                                           : R"({"kd": 0.3})") + R"(},
-            "objects": [)" + mixture_objects(51, 300, 600, 4) + R"(,
+                          "shiny": )" +
+                std::string(lights ? R"({"kd": 0.3, "ks": 0.4, "shininess": 30})"
+                                   : R"({"kd": 0.3})") +
+                R"(},
+            "objects": [)" +
+                mixture_objects(51, 300, 600, 4) + R"(,
                 {"type": "mesh", "file": "ball.ply", "scale": 1.5, "material": "shiny"},
                 {"type": "mesh", "file": "ball.ply", "instance": true, "scale": 0.8,
                  "translate": [2.5, 0, 1], "material": "floor"},
                 {"type": "sphere", "center": [0, 6, 0], "radius": 1, "material": "lamp"}],
-            "lights": )" + std::string(lights ? R"([{"position": [-2, 5, -3], "intensity": 30}])" : "[]") + R"(
-        })", dir.path / "grouped.json");
+            "lights": )" +
+                std::string(lights ? R"([{"position": [-2, 5, -3], "intensity": 30}])" : "[]") + R"(
+        })",
+            dir.path / "grouped.json");
     };
     const Scene with_lights = scene_with(true), plain = scene_with(false);
     ASSERT_GT(plain.bvh.view().node_count, int32_t(kPrefetchAbove)) << "a tree that is prefetched";
     const std::pair<const Scene*, const char*> cases[] = {
-        {&with_lights, "report"}, {&with_lights, "nee"}, {&with_lights, "mis"},
+        {&with_lights, "report"}, {&with_lights, "nee"},  {&with_lights, "mis"},
         {&with_lights, "lt"},     {&with_lights, "bdpt"}, {&plain, "mis"}};
     for (const auto& [s, estimator] : cases) {
         Scene scene = *s;
         use_estimator(scene.settings.estimator, *parse_estimator(estimator));
         for (Isa isa : compiled_isas()) {
             if (!isa_supported(isa)) continue;
-            SCOPED_TRACE(std::string(estimator) + (s == &plain ? " (one lobe kind) " : " ") + isa_name(isa));
+            SCOPED_TRACE(std::string(estimator) + (s == &plain ? " (one lobe kind) " : " ") +
+                         isa_name(isa));
             std::vector<std::vector<float>> images;
             for (const int group : {1, 16, 5}) {
                 RenderOptions o;
@@ -764,8 +794,10 @@ TEST(Accel, TinyAndHugeSpheresTogether) {
         o += "{\"type\": \"sphere\", \"center\": [" + std::to_string(unit(rng)) + ", " +
              std::to_string(unit(rng)) + ", " + std::to_string(unit(rng)) +
              "], \"radius\": 1e-6, \"material\": {\"kd\": 0.5}},\n";
-    o += "{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1e6, \"material\": {\"kd\": 0.5}},\n";
-    o += "{\"type\": \"sphere\", \"center\": [3e6, 0, 0], \"radius\": 1e6, \"material\": {\"kd\": 0.5}}";
+    o += "{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1e6, \"material\": {\"kd\": "
+         "0.5}},\n";
+    o += "{\"type\": \"sphere\", \"center\": [3e6, 0, 0], \"radius\": 1e6, \"material\": {\"kd\": "
+         "0.5}}";
     const Scene s = scene_of(o, dir.path / "scales.json");
     expect_sane(s, 2.0f, 22);
     // A ray aimed at a tiny sphere hits it, not the huge one around it

@@ -81,8 +81,8 @@ bool brute_force(const Mesh& mesh, const Ray<float>& ray, float tmax, TriangleHi
     bool found = false;
     for (size_t i = 0; i < mesh.size(); ++i) {
         float t, b1, b2;
-        if (intersect_triangle(ray, shear, mesh.vertex(i, 0), mesh.vertex(i, 1),
-                               mesh.vertex(i, 2), tmax, t, b1, b2)) {
+        if (intersect_triangle(ray, shear, mesh.vertex(i, 0), mesh.vertex(i, 1), mesh.vertex(i, 2),
+                               tmax, t, b1, b2)) {
             tmax = t;
             hit = {t, b1, b2, uint32_t(i)};
             found = true;
@@ -145,8 +145,8 @@ TEST(Bvh, ClosestHitMatchesBruteForceOnASphere) {
     for (int r = 0; r < 3000; ++r) {
         // From inside (always a hit), then from outside towards a random point of the ball
         const bool inside = r % 2 == 0;
-        const Vec3f o = inside ? Vec3f(unit(rng), unit(rng), unit(rng)) * 0.5f
-                               : random_direction(rng) * 3.0f;
+        const Vec3f o =
+            inside ? Vec3f(unit(rng), unit(rng), unit(rng)) * 0.5f : random_direction(rng) * 3.0f;
         const Vec3f target = Vec3f(unit(rng), unit(rng), unit(rng)) * 1.1f;
         const Ray<float> ray{o, inside ? random_direction(rng) : normalize(target - o)};
         expect_same_closest_hit(mesh, bvh, ray, 1e30f, r);
@@ -219,9 +219,9 @@ TEST(Bvh, DegenerateTrianglesAreKeptButNeverHit) {
                                                  {0.0f, 0.0f, 2.0f},
                                                  {1.0f, 1.0f, 2.0f},
                                                  {2.0f, 2.0f, 2.0f}});
-    mesh.indices.insert(mesh.indices.end(), {base, base, base + 1, base + 1, base + 1, base + 1,
-                                             base, base + 1, base + 2, base + 3, base + 4, base + 5,
-                                             base + 5, base + 3, base + 4});
+    mesh.indices.insert(mesh.indices.end(),
+                        {base, base, base + 1, base + 1, base + 1, base + 1, base, base + 1,
+                         base + 2, base + 3, base + 4, base + 5, base + 5, base + 3, base + 4});
     const Bvh bvh = build(mesh);
     EXPECT_EQ(bvh.stats().primitives, good);
     // Rays straight down through points of the degenerate triangles hit the grid below
@@ -332,7 +332,8 @@ TEST(Bvh, BadIndicesAreInputErrors) {
     std::vector<Vec3f> grid;
     std::vector<uint32_t> tris;
     for (uint32_t i = 0; i < 20000; ++i) {
-        grid.push_back({float(i), 0, 0}), grid.push_back({float(i), 1, 0}), grid.push_back({float(i), 0, 1});
+        grid.push_back({float(i), 0, 0}), grid.push_back({float(i), 1, 0}),
+            grid.push_back({float(i), 0, 1});
         tris.insert(tris.end(), {3 * i, 3 * i + 1, 3 * i + 2});
     }
     tris[3 * 15000 + 1] = 70000, tris[3 * 17000] = 90000, tris[3 * 19000 + 2] = 60001;
@@ -340,8 +341,10 @@ TEST(Bvh, BadIndicesAreInputErrors) {
         bvh.build(grid, tris);
         FAIL() << "a vertex past the end was accepted";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("triangle 15000 uses vertex 70000 but there are only 60000"),
-                  std::string::npos) << e.what();
+        EXPECT_NE(
+            std::string(e.what()).find("triangle 15000 uses vertex 70000 but there are only 60000"),
+            std::string::npos)
+            << e.what();
     }
 }
 
@@ -350,7 +353,6 @@ TEST(Bvh, BadIndicesAreInputErrors) {
 // built for (SSE2: children and triangles tested 4 + 4; the renders run the same template on
 // AVX2 and AVX-512 in test_agreement), against the binary tree's scalar traversal.
 using TestArch = xsimd::default_arch;
-
 
 struct WideHit {
     bool hit;
@@ -389,7 +391,8 @@ std::vector<WideHit> trace_wide(const Bvh& bvh, const std::vector<Ray<float>>& r
 // t and triangle, or on a tie (a ray through a shared edge) another triangle that the kernel
 // hits at the same t. Returns the number of hits.
 int expect_wide_matches_binary(const Mesh& mesh, const Bvh& bvh,
-                               const std::vector<Ray<float>>& rays, const std::vector<float>& tmax) {
+                               const std::vector<Ray<float>>& rays,
+                               const std::vector<float>& tmax) {
     const std::vector<WideHit> closest = trace_wide<false>(bvh, rays, tmax);
     const std::vector<WideHit> any = trace_wide<true>(bvh, rays, tmax);
     int hits = 0;
@@ -439,8 +442,8 @@ TEST(WideBvh, MatchesTheBinaryTreeOnAClosedMesh) {
     std::vector<float> tmax;
     for (int r = 0; r < 6000; ++r) {
         const bool inside = r % 2 == 0;
-        const Vec3f o = inside ? Vec3f(unit(rng), unit(rng), unit(rng)) * 0.5f
-                               : random_direction(rng) * 3.0f;
+        const Vec3f o =
+            inside ? Vec3f(unit(rng), unit(rng), unit(rng)) * 0.5f : random_direction(rng) * 3.0f;
         const Vec3f target = Vec3f(unit(rng), unit(rng), unit(rng)) * 1.1f;
         rays.push_back({o, inside ? random_direction(rng) : normalize(target - o)});
         tmax.push_back(r % 3 == 0 ? 3.0f * frac(rng) : 1e30f);
@@ -568,15 +571,17 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
         for (int u = 0; u <= kSteps; ++u) {
             for (int v = 0; u + v <= kSteps; ++v) {
                 const float bu = float(u) / kSteps, bv = float(v) / kSteps;
-                const Vec3f p = u == kSteps ? mesh.vertex(t, 1)
-                              : v == kSteps ? mesh.vertex(t, 2)
-                              : mesh.vertex(t, 0) * (1.0f - bu - bv) + mesh.vertex(t, 1) * bu +
-                                    mesh.vertex(t, 2) * bv;
-                const float tol = 0x1p-22f * std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
-                const bool covered = std::any_of(boxes[t].begin(), boxes[t].end(), [&](const auto& b) {
-                    return p.x >= b[0] - tol && p.y >= b[1] - tol && p.z >= b[2] - tol &&
-                           p.x <= b[3] + tol && p.y <= b[4] + tol && p.z <= b[5] + tol;
-                });
+                const Vec3f p = u == kSteps   ? mesh.vertex(t, 1)
+                                : v == kSteps ? mesh.vertex(t, 2)
+                                              : mesh.vertex(t, 0) * (1.0f - bu - bv) +
+                                                    mesh.vertex(t, 1) * bu + mesh.vertex(t, 2) * bv;
+                const float tol =
+                    0x1p-22f * std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+                const bool covered =
+                    std::any_of(boxes[t].begin(), boxes[t].end(), [&](const auto& b) {
+                        return p.x >= b[0] - tol && p.y >= b[1] - tol && p.z >= b[2] - tol &&
+                               p.x <= b[3] + tol && p.y <= b[4] + tol && p.z <= b[5] + tol;
+                    });
                 EXPECT_TRUE(covered) << "triangle " << t << ", point " << u << "," << v
                                      << " in none of its " << boxes[t].size() << " leaves";
             }
@@ -711,8 +716,8 @@ TEST(SpatialSplits, WatertightAcrossCutReferences) {
     // at points of the big triangle (cut many times) must hit it or something in front
     Mesh mesh = uv_sphere(200, 6);
     const uint32_t base = uint32_t(mesh.positions.size());
-    mesh.positions.insert(mesh.positions.end(), {{-50.0f, -50.0f, -3.0f}, {50.0f, -50.0f, -3.0f},
-                                                 {0.0f, 60.0f, -3.0f}});
+    mesh.positions.insert(mesh.positions.end(),
+                          {{-50.0f, -50.0f, -3.0f}, {50.0f, -50.0f, -3.0f}, {0.0f, 60.0f, -3.0f}});
     mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
     const Bvh bvh = build(mesh, 1.0f);
     ASSERT_GT(bvh.stats().references, bvh.stats().primitives);
@@ -729,7 +734,8 @@ TEST(SpatialSplits, WatertightAcrossCutReferences) {
         // (points inside the big triangle, from in front of it)
         const float u = std::fabs(unit(rng)), v = std::fabs(unit(rng)) * (1.0f - u);
         const Vec3f target = mesh.vertex(mesh.size() - 1, 0) * (1.0f - u - v) +
-                             mesh.vertex(mesh.size() - 1, 1) * u + mesh.vertex(mesh.size() - 1, 2) * v;
+                             mesh.vertex(mesh.size() - 1, 1) * u +
+                             mesh.vertex(mesh.size() - 1, 2) * v;
         const Vec3f o(unit(rng) * 40.0f, unit(rng) * 40.0f, 20.0f);
         const Ray<float> ray{o, normalize(target - o)};
         TriangleHit hit;
@@ -755,16 +761,17 @@ TEST(SpatialSplits, SurviveDegenerateInput) {
         mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
     }
     const uint32_t base = uint32_t(mesh.positions.size());
-    mesh.positions.insert(mesh.positions.end(), {{-30.0f, -30.0f, -5.0f}, {30.0f, -30.0f, 5.0f},
-                                                 {0.0f, 40.0f, 0.0f}});
+    mesh.positions.insert(mesh.positions.end(),
+                          {{-30.0f, -30.0f, -5.0f}, {30.0f, -30.0f, 5.0f}, {0.0f, 40.0f, 0.0f}});
     mesh.indices.insert(mesh.indices.end(), {base, base + 1, base + 2});
     for (const float budget : {0.25f, 4.0f}) {
         const Bvh bvh = build(mesh, budget);
         EXPECT_LE(bvh.stats().depth, kBvhMaxDepth);
         expect_valid_wide_layout(mesh, bvh, mesh.size());
         for (int r = 0; r < 3000; ++r) {
-            const Ray<float> ray{Vec3f(unit(rng) * 12.0f, unit(rng) * 12.0f, r % 2 ? 6.0f : -6.0f),
-                                 normalize(Vec3f(unit(rng) * 0.3f, unit(rng) * 0.3f, r % 2 ? -1.0f : 1.0f))};
+            const Ray<float> ray{
+                Vec3f(unit(rng) * 12.0f, unit(rng) * 12.0f, r % 2 ? 6.0f : -6.0f),
+                normalize(Vec3f(unit(rng) * 0.3f, unit(rng) * 0.3f, r % 2 ? -1.0f : 1.0f))};
             // (coplanar triangles overlap: on a tie the tree may name another one at the same
             // distance, to rounding)
             TriangleHit want{}, got{};
@@ -786,7 +793,8 @@ TEST(SpatialSplits, ParallelBuildsGiveTheSameTreeByteForByte) {
     // must not depend on which task came first
     Mesh mesh = slivers_in_a_soup(35);
     const Mesh more = random_soup(20000, 36);
-    for (const uint32_t i : more.indices) mesh.indices.push_back(i + uint32_t(mesh.positions.size()));
+    for (const uint32_t i : more.indices)
+        mesh.indices.push_back(i + uint32_t(mesh.positions.size()));
     mesh.positions.insert(mesh.positions.end(), more.positions.begin(), more.positions.end());
     const Bvh a = build(mesh, 1.0f), b = build(mesh, 1.0f);
     ASSERT_GT(a.stats().references, a.stats().primitives);
@@ -794,11 +802,14 @@ TEST(SpatialSplits, ParallelBuildsGiveTheSameTreeByteForByte) {
     EXPECT_EQ(a.stats().references, b.stats().references);
     EXPECT_EQ(a.stats().triangle_blocks, b.stats().triangle_blocks);
     EXPECT_EQ(std::memcmp(a.view().nodes, b.view().nodes,
-                          size_t(a.view().node_count) * sizeof(WideBvhNode)), 0);
+                          size_t(a.view().node_count) * sizeof(WideBvhNode)),
+              0);
     EXPECT_EQ(std::memcmp(a.view().triangles, b.view().triangles,
-                          a.stats().triangle_blocks * sizeof(TriangleBlock)), 0);
+                          a.stats().triangle_blocks * sizeof(TriangleBlock)),
+              0);
     EXPECT_EQ(std::memcmp(a.view().triangle_index, b.view().triangle_index,
-                          a.stats().triangle_blocks * kWideBvhWidth * sizeof(uint32_t)), 0);
+                          a.stats().triangle_blocks * kWideBvhWidth * sizeof(uint32_t)),
+              0);
 }
 
 }  // namespace

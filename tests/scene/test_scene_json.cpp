@@ -79,8 +79,8 @@ class TempDir {
 public:
     TempDir() {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = fs::temp_directory_path() / ("cierzo_test_scene_json_" +
-                                             std::to_string(getpid()) + "_" + info->name());
+        path_ = fs::temp_directory_path() /
+                ("cierzo_test_scene_json_" + std::to_string(getpid()) + "_" + info->name());
         fs::remove_all(path_);
         fs::create_directories(path_);
     }
@@ -368,7 +368,9 @@ void expect_same(const Vec3f& a, const Vec3f& b) {
 // and a render shows an emitter at +x on the left instead of the right.
 TEST(scene_json_values, RightHandedCameraMirrorsTheImage) {
     json j = base_scene();
-    j["camera"] = {{"position", {0.3, -0.2, -3}}, {"look_at", {0.1, 0.4, 5}}, {"up", {0.1, 1, 0}},
+    j["camera"] = {{"position", {0.3, -0.2, -3}},
+                   {"look_at", {0.1, 0.4, 5}},
+                   {"up", {0.1, 1, 0}},
                    {"vfov", 50}};
     const Scene left = parse(j);
     j["camera"]["handedness"] = "right";
@@ -401,7 +403,8 @@ TEST(scene_json_values, RightHandedCameraMirrorsTheImage) {
         const Image image = render(parse(scene), o).film.mean();
         double halves[2] = {0, 0};
         for (int y = 0; y < image.height; ++y)
-            for (int x = 0; x < image.width; ++x) halves[x * 2 / image.width] += image.pixel(x, y)[0];
+            for (int x = 0; x < image.width; ++x)
+                halves[x * 2 / image.width] += image.pixel(x, y)[0];
         const int lit = std::string(hand) == "left" ? 1 : 0;
         EXPECT_GT(halves[lit], 0.0);
         EXPECT_EQ(halves[1 - lit], 0.0);
@@ -412,8 +415,11 @@ TEST(scene_json_values, HandednessIsCheckedAndBelongsToLookAt) {
     json j = base_scene();
     j["camera"]["handedness"] = "up";
     EXPECT_TRUE(fails_with(j, "camera: 'handedness' must be \"left\""));
-    j["camera"] = {{"position", {0, 0, -3}}, {"forward", {0, 0, 1}}, {"left", {-1, 0, 0}},
-                   {"up", {0, 1, 0}}, {"handedness", "right"}};
+    j["camera"] = {{"position", {0, 0, -3}},
+                   {"forward", {0, 0, 1}},
+                   {"left", {-1, 0, 0}},
+                   {"up", {0, 1, 0}},
+                   {"handedness", "right"}};
     EXPECT_TRUE(fails_with(j, "'handedness' belongs to the 'look_at' form"));
 }
 
@@ -426,8 +432,11 @@ TEST(camera_projection, ProjectInvertsGenerate) {
     for (const char* hand : {"left", "right"})
         for (const auto& [w, h] : {std::pair{64, 48}, std::pair{40, 90}}) {
             j["render"] = {{"width", w}, {"height", h}};
-            j["camera"] = {{"position", {0.3, -1, -3}}, {"look_at", {0.1, 0.4, 5}},
-                           {"up", {0.2, 1, 0}}, {"vfov", 70}, {"handedness", hand}};
+            j["camera"] = {{"position", {0.3, -1, -3}},
+                           {"look_at", {0.1, 0.4, 5}},
+                           {"up", {0.2, 1, 0}},
+                           {"vfov", 70},
+                           {"handedness", hand}};
             cameras.push_back({parse(j).camera, {w, h}});
         }
     Camera skewed;
@@ -481,8 +490,8 @@ TEST(camera_projection, PointsOffTheFilmAndNonFinitePointsAreRefused) {
 TEST(camera_projection, ImportanceIntegratesToOneOverTheFilm) {
     json j = base_scene();
     j["render"] = {{"width", 80}, {"height", 60}};
-    j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0.3, 0.2, 1}}, {"up", {0.1, 1, 0}},
-                   {"vfov", 60}};
+    j["camera"] = {
+        {"position", {0, 0, 0}}, {"look_at", {0.3, 0.2, 1}}, {"up", {0.1, 1, 0}}, {"vfov", 60}};
     for (bool skew : {false, true}) {
         Camera c = parse(j).camera;
         if (skew) c.left = c.left + c.up * 0.3f;  // a non-orthogonal frame
@@ -522,8 +531,8 @@ TEST(scene_json_values, LookAtCameraDefaults) {
 TEST(scene_json_values, LookAtCameraWithAnotherUp) {
     // Looking down -y with up = +z: the image's right is up × forward = +x
     json j = base_scene();
-    j["camera"] = {{"position", {0, 5, 0}}, {"look_at", {0, 0, 0}}, {"up", {0, 0, 1}},
-                   {"vfov", 90}};
+    j["camera"] = {
+        {"position", {0, 5, 0}}, {"look_at", {0, 0, 0}}, {"up", {0, 0, 1}}, {"vfov", 90}};
     const Scene s = parse(j);
     expect_vec(s.camera.forward, 0, -1, 0, 1e-6f);
     expect_vec(s.camera.up, 0, 0, 1, 1e-6f);
@@ -533,7 +542,9 @@ TEST(scene_json_values, LookAtCameraWithAnotherUp) {
 
 TEST(scene_json_values, ExplicitCameraFrameIsKeptAsGiven) {
     json j = base_scene();
-    j["camera"] = {{"position", {0, 0, -3.5}}, {"forward", {0, 0, 3}}, {"left", {-1, 0, 0}},
+    j["camera"] = {{"position", {0, 0, -3.5}},
+                   {"forward", {0, 0, 3}},
+                   {"left", {-1, 0, 0}},
                    {"up", {0, 1, 0}}};
     const Scene s = parse(j);
     expect_vec(s.camera.origin, 0, 0, -3.5f);
@@ -574,9 +585,14 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
     EXPECT_EQ(d.settings.output, fs::path("/nonexistent-cierzo-folder/x/test.exr"));
 
     json j = base_scene();
-    j["render"] = {{"width", 640},         {"height", 480},   {"spp", 4294967295LL},
-                   {"seed", 4294967295LL}, {"survival_cap", 0.5}, {"diffuse_sampling", "cosine"},
-                   {"triangle_sampling", "solid-angle"}, {"output", "out/img.pfm"}};
+    j["render"] = {{"width", 640},
+                   {"height", 480},
+                   {"spp", 4294967295LL},
+                   {"seed", 4294967295LL},
+                   {"survival_cap", 0.5},
+                   {"diffuse_sampling", "cosine"},
+                   {"triangle_sampling", "solid-angle"},
+                   {"output", "out/img.pfm"}};
     j["scene_ior"] = 1.25;
     const Scene s = parse(j);
     EXPECT_EQ(s.settings.width, 640);
@@ -589,11 +605,12 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
     EXPECT_EQ(s.scene_ior, 1.25f);
     // Output relative to the scene's folder, not the working directory
     EXPECT_EQ(s.settings.output, fs::path("/nonexistent-cierzo-folder/x/out/img.pfm"));
-    j["render"] = {{"output", "/abs/elsewhere.exr"}, {"diffuse_sampling", "uniform"},
+    j["render"] = {{"output", "/abs/elsewhere.exr"},
+                   {"diffuse_sampling", "uniform"},
                    {"width", 1.0e1}};  // an integral float counts as an integer
     const Scene a = parse(j);
     EXPECT_EQ(a.settings.output, fs::path("/abs/elsewhere.exr"));
-    EXPECT_FALSE(a.settings.estimator.cosine_diffuse);  // chosen, over mis's default
+    EXPECT_FALSE(a.settings.estimator.cosine_diffuse);       // chosen, over mis's default
     EXPECT_TRUE(a.settings.estimator.triangle_solid_angle);  // mis's default
     EXPECT_EQ(a.settings.width, 10);
 }
@@ -647,8 +664,9 @@ TEST(scene_json_values, ALongArrayOfObjectsLoadsInOrder) {
     EXPECT_EQ(s.spheres.cx[size_t(n - 1)], -1.0f);
     EXPECT_EQ(s.spheres.radius[size_t(n - 1)], 2.0f);
     EXPECT_EQ(error_of(scene(R"({"type": "sphere", "radius": 1, "radius": 2})", "]}")),
-              std::string(kFake) + ": objects[19999]: duplicate key 'radius' (each key may "
-                                   "be given once)");
+              std::string(kFake) +
+                  ": objects[19999]: duplicate key 'radius' (each key may "
+                  "be given once)");
     EXPECT_TRUE(text_fails_with(scene(last, "\n]]"), "line 20003, column 2"));
 }
 
@@ -841,7 +859,7 @@ TEST(scene_json_values, DocumentedExamplesLoad) {
     EXPECT_EQ(full.planes.size(), 5u);
     EXPECT_EQ(full.spheres.size(), 3u);
     EXPECT_EQ(full.quadrics.size(), 1u);
-    ASSERT_EQ(full.meshes.size(), 2u);  // the loose triangle and the PLY
+    ASSERT_EQ(full.meshes.size(), 2u);               // the loose triangle and the PLY
     EXPECT_EQ(full.meshes[0].triangle_count(), 2u);  // the quad, fan-triangulated
     EXPECT_EQ(full.lights.size(), 1u);
     EXPECT_EQ(full.settings.output, dir.path() / "renders" / "full.exr");
@@ -879,25 +897,24 @@ TEST(scene_json_errors, ADuplicateKeyIsRefusedWhereverItIs) {
     // The given case: spp twice renders neither silently
     EXPECT_TRUE(text_fails_with(scene(R"("render": {"spp": 64, "spp": 2}, )", materials, objects),
                                 "render: duplicate key 'spp'"));
-    EXPECT_TRUE(text_fails_with(
-        scene("", R"("materials": {"w": {"kd": 0.5, "kd": 0.1}})", objects),
-        "materials.w: duplicate key 'kd'"));
-    EXPECT_TRUE(text_fails_with(
-        scene("", R"("materials": {"w": {"kd": 0.5}, "w": {"kd": 0.1}})", objects),
-        "materials: duplicate key 'w'"));
+    EXPECT_TRUE(text_fails_with(scene("", R"("materials": {"w": {"kd": 0.5, "kd": 0.1}})", objects),
+                                "materials.w: duplicate key 'kd'"));
+    EXPECT_TRUE(
+        text_fails_with(scene("", R"("materials": {"w": {"kd": 0.5}, "w": {"kd": 0.1}})", objects),
+                        "materials: duplicate key 'w'"));
     EXPECT_TRUE(text_fails_with(
         scene("", materials,
               R"("objects": [{"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "w"},
                              {"type": "sphere", "radius": 1, "center": [0, 0, 0], "radius": 2,
                               "material": "w"}])"),
         "objects[1]: duplicate key 'radius'"));
-    EXPECT_TRUE(text_fails_with(scene(R"("render": {"width": 8}, "render": {"width": 9}, )",
-                                      materials, objects),
-                                "scene: duplicate key 'render'"));
+    EXPECT_TRUE(text_fails_with(
+        scene(R"("render": {"width": 8}, "render": {"width": 9}, )", materials, objects),
+        "scene: duplicate key 'render'"));
     // The same key in different objects is no duplicate
-    EXPECT_NO_THROW(parse_text(scene(R"("render": {"width": 8, "height": 8}, )",
-                                     R"("materials": {"w": {"kd": 0.5}, "v": {"kd": 0.5}})",
-                                     objects)));
+    EXPECT_NO_THROW(
+        parse_text(scene(R"("render": {"width": 8, "height": 8}, )",
+                         R"("materials": {"w": {"kd": 0.5}, "v": {"kd": 0.5}})", objects)));
 }
 TEST(scene_json_errors, ADuplicateKeyDeepInsideIsNamedByItsPath) {
     const std::string cam = R"("camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]})";
@@ -933,8 +950,8 @@ TEST(scene_json_errors, ADuplicateKeyDeepInsideIsNamedByItsPath) {
     // Found while reading: before a syntax error further on, after one before it
     EXPECT_EQ(error_of("{" + cam + R"(, "objects": [{"r": 1, "r": 1}, ,]})"),
               file + "objects[0]: duplicate key 'r'" + once);
-    EXPECT_TRUE(text_fails_with("{" + cam + R"(, "objects": [, {"r": 1, "r": 1}]})",
-                                "syntax error"));
+    EXPECT_TRUE(
+        text_fails_with("{" + cam + R"(, "objects": [, {"r": 1, "r": 1}]})", "syntax error"));
 }
 
 // A scene as text with "materials" before "objects" (whose objects the reader takes while it
@@ -978,8 +995,10 @@ TEST(scene_json_values, MaterialsBeforeOrAfterTheObjectsGiveTheSameScene) {
 
 TEST(scene_json_errors, MaterialsBeforeOrAfterTheObjectsGiveTheSameError) {
     const std::string w = R"({"w": {"kd": 0.5}})";
-    const std::string good = R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"})";
-    const std::string bad = R"({"type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "w"})";
+    const std::string good =
+        R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "w"})";
+    const std::string bad =
+        R"({"type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "w"})";
     const auto objects = [&](const std::string& second, const std::string& fourth) {
         return "[" + good + ", " + second + ", " + good + ", " + fourth + "]";
     };
@@ -1001,8 +1020,8 @@ TEST(scene_json_errors, MaterialsBeforeOrAfterTheObjectsGiveTheSameError) {
         {w, objects(bad, good), R"(, "lights": [{"position": 1}], "extra": 1)", radius},
         {w, objects(good, good), R"(, "lights": [{"position": 1}], "extra": 1)",
          "lights[0]: 'position' must be an array of 3 numbers"},
-        {w, objects(R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "x"})",
-                    good),
+        {w,
+         objects(R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "x"})", good),
          R"(, "extra": 1)", "objects[1] (sphere): unknown material 'x'"},
         // Errors of the JSON itself come first, wherever they are
         {w, objects(bad, R"({"type": "sphere", "radius": 1, "radius": 1})"), "",
@@ -1027,11 +1046,10 @@ TEST(scene_json_errors, NestingDeeperThan64LevelsIsRefused) {
         const int inner = levels - 4;
         return R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
             "objects": [{"type": "sphere", "radius": 1, "material": {"kd": 1}, "center": [)" +
-               std::string(size_t(inner), '[') + "0" + std::string(size_t(inner), ']') +
-               "]}]}";
+               std::string(size_t(inner), '[') + "0" + std::string(size_t(inner), ']') + "]}]}";
     };
-    const std::string deep = std::string(kFake) +
-                             ": invalid JSON: arrays and objects nested deeper than 64 levels";
+    const std::string deep =
+        std::string(kFake) + ": invalid JSON: arrays and objects nested deeper than 64 levels";
     EXPECT_TRUE(text_fails_with(scene(64), "objects[0] (sphere): 'center' must be an array"));
     EXPECT_EQ(error_of(scene(65)), deep);
     EXPECT_EQ(error_of(scene(1000)), deep);
@@ -1112,8 +1130,8 @@ TEST(scene_json_errors, SphereRadius) {
 
 TEST(scene_json_errors, ZeroPlaneNormal) {
     json j = base_scene();
-    j["objects"][0] = {{"type", "plane"}, {"normal", {0, 0, 0}}, {"distance", 1},
-                       {"material", "white"}};
+    j["objects"][0] = {
+        {"type", "plane"}, {"normal", {0, 0, 0}}, {"distance", 1}, {"material", "white"}};
     EXPECT_TRUE(fails_with(j, "'normal' must not be the zero vector"));
     j["objects"][0]["normal"] = {0, 1};
     EXPECT_TRUE(fails_with(j, "'normal' must be an array of 3 numbers"));
@@ -1156,8 +1174,7 @@ TEST(scene_json_errors, OverflowingNumbersAreRefused) {
     // 1e400 overflows a double: the JSON reader refuses it. 1e39 is a finite double but
     // overflows the float every value is stored in: it must not become an infinite float.
     const std::string cam = R"("camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]})";
-    auto sphere = [&](const std::string& centre, const std::string& radius,
-                      const std::string& kd) {
+    auto sphere = [&](const std::string& centre, const std::string& radius, const std::string& kd) {
         return "{" + cam + R"(, "objects": [{"type": "sphere", "center": )" + centre +
                R"(, "radius": )" + radius + R"(, "material": {"kd": )" + kd + "}}]}";
     };
@@ -1179,7 +1196,8 @@ TEST(scene_json_errors, OverflowingNumbersAreRefused) {
         "material": {"kd": 1}, "coefficients": [1, 1, 1, 0, 0, 0, 0, 0, 0, -1e39]}]})",
                                 "10 finite numbers"));
     EXPECT_TRUE(text_fails_with("{" + cam + R"(, "materials": {"m": {"ior": 1e39}},
-        "objects": []})", "'ior' must be finite"));
+        "objects": []})",
+                                "'ior' must be finite"));
     EXPECT_TRUE(text_fails_with("{" + cam + R"(, "render": {"spp": 1e39}, "objects": []})",
                                 "'spp' must be in"));
 }
@@ -1213,10 +1231,12 @@ TEST(scene_json, SpatialSplitsReachTheSceneTree) {
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
     for (int i = 0; i < 400; ++i) {
-        const float a[3] = {unit(rng), unit(rng), unit(rng)}, b[3] = {unit(rng), unit(rng), unit(rng)};
-        j["objects"].push_back({{"type", "triangle"}, {"material", {{"kd", 0.5}}},
-                                {"vertices", {{a[0], a[1], a[2]}, {b[0], b[1], b[2]},
-                                              {a[0] + 0.01f, a[1], a[2]}}}});
+        const float a[3] = {unit(rng), unit(rng), unit(rng)},
+                    b[3] = {unit(rng), unit(rng), unit(rng)};
+        j["objects"].push_back(
+            {{"type", "triangle"},
+             {"material", {{"kd", 0.5}}},
+             {"vertices", {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {a[0] + 0.01f, a[1], a[2]}}}});
     }
     const Scene none = parse(j);
     EXPECT_EQ(none.settings.spatial_splits, 0.0f);
@@ -1319,8 +1339,8 @@ TEST(scene_json_errors, CameraProblems) {
     EXPECT_TRUE(fails_with(j, "'look_at' equals 'position'"));
     j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"vfov", 180}};
     EXPECT_TRUE(fails_with(j, "'vfov' must be in (0, 180)"));
-    j["camera"] = {{"position", {0, 0, 0}}, {"forward", {0, 0, 1}}, {"left", {0, 0, 0}},
-                   {"up", {0, 1, 0}}};
+    j["camera"] = {
+        {"position", {0, 0, 0}}, {"forward", {0, 0, 1}}, {"left", {0, 0, 0}}, {"up", {0, 1, 0}}};
     EXPECT_TRUE(fails_with(j, "must be non-zero"));
 }
 
@@ -1329,8 +1349,11 @@ TEST(scene_json_errors, CameraFormsDoNotMix) {
     json j = base_scene();
     j["camera"] = {{"position", {0, 0, 0}}, {"look_at", {0, 0, 1}}, {"forward", {0, 0, 1}}};
     EXPECT_TRUE(fails_with(j, "cannot be combined with 'look_at'"));
-    j["camera"] = {{"position", {0, 0, 0}}, {"forward", {0, 0, 1}}, {"left", {-1, 0, 0}},
-                   {"up", {0, 1, 0}}, {"vfov", 60}};
+    j["camera"] = {{"position", {0, 0, 0}},
+                   {"forward", {0, 0, 1}},
+                   {"left", {-1, 0, 0}},
+                   {"up", {0, 1, 0}},
+                   {"vfov", 60}};
     EXPECT_TRUE(fails_with(j, "'vfov' belongs to the 'look_at' form"));
 }
 
@@ -1339,8 +1362,8 @@ TEST(scene_json_errors, WrongShapes) {
     j["objects"] = json::object();
     EXPECT_TRUE(fails_with(j, "'objects' must be an array"));
     j = base_scene();
-    j["objects"][0] = {{"type", "triangle"}, {"vertices", {{0, 0, 0}, {1, 0, 0}}},
-                       {"material", "white"}};
+    j["objects"][0] = {
+        {"type", "triangle"}, {"vertices", {{0, 0, 0}, {1, 0, 0}}}, {"material", "white"}};
     EXPECT_TRUE(fails_with(j, "'vertices' must be 3 points"));
     j["objects"][0]["vertices"] = {{0, 0, 0}, {1, 0, 0}, {0, "y", 0}};
     EXPECT_TRUE(fails_with(j, "must be an array of 3 numbers"));

@@ -11,8 +11,9 @@ inline const std::filesystem::path kAssimpModels = "/usr/share/assimp/models";
 
 // Why a test of these files is skipped where they are missing
 inline std::string assimp_models_missing() {
-    return kAssimpModels.string() + " is missing (Debian package assimp-testmodels, which "
-                                    "scripts/install_deps.sh installs for the tests)";
+    return kAssimpModels.string() +
+           " is missing (Debian package assimp-testmodels, which "
+           "scripts/install_deps.sh installs for the tests)";
 }
 
 }  // namespace cierzo::test

@@ -22,7 +22,8 @@ namespace cierzo::test {
 inline Scene emitter_scene(const std::string& objects) {
     return parse_scene(R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0], "vfov": 40},
         "materials": {"L": {"emission": [2, 1, 0.5]}, "M": {"emission": 7}, "w": {"kd": 0.5}},
-        "objects": [)" + objects + "]}",
+        "objects": [)" + objects +
+                           "]}",
                        "/tmp/emitters.json");
 }
 
@@ -98,15 +99,15 @@ struct TriangleHistogram {
     // The triangle as a scene object of `material`
     static std::string object(const std::string& material) {
         return R"({"type": "triangle", "vertices": [[-1, 0.5, 2], [1.5, 0.2, 2.5], [0, 2, 1]],
-                   "material": ")" + material + R"("})";
+                   "material": ")" +
+               material + R"("})";
     }
     double area() const { return 0.5 * double(length(cross(v1 - v0, v2 - v0))); }
     Vec3f normal() const { return normalize(cross(v1 - v0, v2 - v0)); }
     // Counts p; false where p is not on the triangle
     bool add(const Vec3f& p) {
         const Barycentrics b = barycentrics_of(p, v0, v1, v2);
-        if (!(b.beta >= -1e-5 && b.gamma >= -1e-5 && b.beta + b.gamma <= 1.0 + 1e-5))
-            return false;
+        if (!(b.beta >= -1e-5 && b.gamma >= -1e-5 && b.beta + b.gamma <= 1.0 + 1e-5)) return false;
         observed[size_t(triangle_cell(b, k))] += 1.0;
         return true;
     }
@@ -139,10 +140,12 @@ struct TriangleHistogram {
             return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
         };
         const auto omega = [&](double b0, double g0, double b1, double g1, double b2, double g2) {
-            const auto a = point(b0 / k, g0 / k), b = point(b1 / k, g1 / k), c = point(b2 / k, g2 / k);
+            const auto a = point(b0 / k, g0 / k), b = point(b1 / k, g1 / k),
+                       c = point(b2 / k, g2 / k);
             const std::array<double, 3> bc{b[1] * c[2] - b[2] * c[1], b[2] * c[0] - b[0] * c[2],
                                            b[0] * c[1] - b[1] * c[0]};
-            return 2.0 * std::atan2(std::abs(dotd(a, bc)), 1.0 + dotd(a, b) + dotd(b, c) + dotd(c, a));
+            return 2.0 *
+                   std::atan2(std::abs(dotd(a, bc)), 1.0 + dotd(a, b) + dotd(b, c) + dotd(c, a));
         };
         std::vector<double> out;
         for (int i = 0; i < k; ++i)

@@ -6,9 +6,9 @@
 #include "integrators/wavefront/isa.h"
 
 // In a test body: skip unless this CPU runs `isa` (a cierzo::Isa).
-#define CIERZO_REQUIRE_ISA(isa)                                                         \
-    do {                                                                                \
-        if (!::cierzo::isa_supported(isa))                                              \
-            GTEST_SKIP() << ::cierzo::isa_name(isa) << " not tested: "                  \
-                         << ::cierzo::isa_unsupported_reason(isa);                      \
+#define CIERZO_REQUIRE_ISA(isa)                                                       \
+    do {                                                                              \
+        if (!::cierzo::isa_supported(isa))                                            \
+            GTEST_SKIP() << ::cierzo::isa_name(isa)                                   \
+                         << " not tested: " << ::cierzo::isa_unsupported_reason(isa); \
     } while (0)

@@ -80,8 +80,7 @@ protected:
         const auto start = std::chrono::steady_clock::now();
         const int status = std::system(cmd.c_str());
         Outcome r;
-        r.seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
         r.err = read_file(err);
         r.out = read_file(out);

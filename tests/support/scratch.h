@@ -58,8 +58,10 @@ inline std::string refusal_of(const std::function<void()>& f) {
 // FIFO)" is returned then.
 inline std::string refusal_without_opening(const std::filesystem::path& fifo,
                                            const std::function<void()>& f) {
-    std::future<std::string> refusal = std::async(std::launch::async, [&] { return refusal_of(f); });
-    if (refusal.wait_for(std::chrono::seconds(10)) == std::future_status::ready) return refusal.get();
+    std::future<std::string> refusal =
+        std::async(std::launch::async, [&] { return refusal_of(f); });
+    if (refusal.wait_for(std::chrono::seconds(10)) == std::future_status::ready)
+        return refusal.get();
     while (refusal.wait_for(std::chrono::milliseconds(100)) != std::future_status::ready) {
         const int writer = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK | O_CLOEXEC);
         if (writer >= 0) ::close(writer);

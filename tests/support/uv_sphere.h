@@ -23,7 +23,8 @@ inline TriangleMesh uv_sphere(int rings, int segments,
     const auto point = [&](float theta, float phi) {
         const float r = radius ? radius(theta, phi) : 1.0f;
         return Vec3f(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
-                     std::cos(theta)) * r;
+                     std::cos(theta)) *
+               r;
     };
     TriangleMesh mesh;
     // Vertices: the poles and the rings between them
@@ -43,8 +44,10 @@ inline TriangleMesh uv_sphere(int rings, int segments,
     }
     for (int r = 1; r + 1 < rings; ++r) {
         for (int s = 0; s < segments; ++s) {
-            mesh.indices.insert(mesh.indices.end(), {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
-            mesh.indices.insert(mesh.indices.end(), {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
+            mesh.indices.insert(mesh.indices.end(),
+                                {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
+            mesh.indices.insert(mesh.indices.end(),
+                                {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
         }
     }
     return mesh;

@@ -86,8 +86,7 @@ TEST(Tonemap, EqualizeDividesByTheLargestComponent) {
 }
 
 TEST(Tonemap, EqualizeClampUsesTheClampValue) {
-    expect_near_all(map_values({2.0f, 8.0f, 4.0f}, op("equalize-clamp", 4.0f)),
-                    {0.5f, 1.0f, 1.0f});
+    expect_near_all(map_values({2.0f, 8.0f, 4.0f}, op("equalize-clamp", 4.0f)), {0.5f, 1.0f, 1.0f});
     expect_near_all(map_values({0.75f, 8.0f, 1.0f}, op("equalize-clamp")), {0.75f, 1.0f, 1.0f});
 }
 
@@ -128,9 +127,8 @@ TEST(Tonemap, NonFiniteAndNegativeValuesBecomeZeroAndAreCounted) {
     for (const std::string& name : tonemap_operator_names()) {
         SCOPED_TRACE(name);
         TonemapStats stats;
-        const auto out =
-            map_values({nan, kInf, -kInf, -1.0f, 0.5f, -0.0f, 1.0f, -1e30f, 0.25f},
-                       op(name), &stats);
+        const auto out = map_values({nan, kInf, -kInf, -1.0f, 0.5f, -0.0f, 1.0f, -1e30f, 0.25f},
+                                    op(name), &stats);
         EXPECT_EQ(stats.non_finite, 3u);
         EXPECT_EQ(stats.negative, 2u);
         for (size_t i : {0u, 1u, 2u, 3u, 5u, 7u}) {
@@ -256,11 +254,9 @@ TEST_F(TonemapProgram, ConvertsAnExrWithTheChosenOperator) {
     Image image(2, 1);
     image.rgb = {1.0f, 3.0f, 0.5f, 0.0f, 2.0f, 0.2f};
     write_exr(dir_ / "in.exr", image);
-    ASSERT_EQ(run(quoted("in.exr") + " " + quoted("out.ppm") + " --op clamp --clamp 2"), 0)
-        << err_;
+    ASSERT_EQ(run(quoted("in.exr") + " " + quoted("out.ppm") + " --op clamp --clamp 2"), 0) << err_;
     // min(v, 2) / 2 -> 0.5, 1, 0.25, 0, 1, 0.1 -> bytes 128, 255, 64, 0, 255, 26
-    EXPECT_EQ(ppm_pixels("out.ppm", "P6\n2 1\n255\n"),
-              std::string("\x80\xff\x40\x00\xff\x1a", 6));
+    EXPECT_EQ(ppm_pixels("out.ppm", "P6\n2 1\n255\n"), std::string("\x80\xff\x40\x00\xff\x1a", 6));
     EXPECT_TRUE(err_.empty()) << err_;
 }
 

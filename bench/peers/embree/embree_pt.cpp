@@ -47,8 +47,8 @@ namespace {
 // object-to-world transform or shared vertices) is adapted here alone.
 struct Triangles {
     std::vector<Vec3f> positions;
-    std::vector<uint32_t> indices;   // 3 per triangle, into positions
-    std::vector<int32_t> material;   // 1 per triangle, into Scene::materials
+    std::vector<uint32_t> indices;  // 3 per triangle, into positions
+    std::vector<int32_t> material;  // 1 per triangle, into Scene::materials
 };
 
 Triangles collect_triangles(const Scene& scene) {
@@ -151,7 +151,7 @@ RTCScene build_scene(RTCDevice device, const Triangles& t, RTCBuildQuality quali
 // One rtcIntersect1 call for the ray o + t·d, 0 < t < tmax (tnear 0: origins are offset
 // off the surface instead, as cierzo does). True if it hit; rh then holds the hit.
 inline bool intersect1(RTCScene scene, const float o[3], const float d[3], float tmax,
-                      RTCRayHit& rh) {
+                       RTCRayHit& rh) {
     rh.ray = {o[0], o[1], o[2], 0.0f, d[0], d[1], d[2], 0.0f, tmax, ~0u, 0u, 0u};
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     RTCIntersectContext context;
@@ -316,7 +316,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 // ---- The three modes ------------------------------------------------------------------
 // --quality's values, parsed and printed by the same names.
 constexpr std::pair<const char*, RTCBuildQuality> kQualities[] = {
-    {"low", RTC_BUILD_QUALITY_LOW}, {"medium", RTC_BUILD_QUALITY_MEDIUM},
+    {"low", RTC_BUILD_QUALITY_LOW},
+    {"medium", RTC_BUILD_QUALITY_MEDIUM},
     {"high", RTC_BUILD_QUALITY_HIGH}};
 
 struct Options {
@@ -330,14 +331,17 @@ void run_render(Tracer& tracer, const Scene& scene, const Triangles& tris, const
     const auto t0 = std::chrono::steady_clock::now();
     const RenderResult r = render(tracer, scene, tris);
     const double seconds = seconds_since(t0);
-    std::printf("width: %d\nheight: %d\nspp: %lld\nrender_seconds: %.6f\nrays: %llu\n"
-                "camera_rays: %llu\nrays_per_second: %.0f\n", rs.width, rs.height,
-                (long long)rs.spp, seconds, (unsigned long long)tracer.rays,
-                (unsigned long long)(rs.spp * int64_t(rs.width) * rs.height),
-                double(tracer.rays) / seconds);
-    std::printf("mean_rgb: %.9g %.9g %.9g\nmean_stderr_rgb: %.9g %.9g %.9g\n"
-                "nonfinite_samples: %llu\n", r.mean[0], r.mean[1], r.mean[2], r.std_error[0],
-                r.std_error[1], r.std_error[2], (unsigned long long)r.nonfinite);
+    std::printf(
+        "width: %d\nheight: %d\nspp: %lld\nrender_seconds: %.6f\nrays: %llu\n"
+        "camera_rays: %llu\nrays_per_second: %.0f\n",
+        rs.width, rs.height, (long long)rs.spp, seconds, (unsigned long long)tracer.rays,
+        (unsigned long long)(rs.spp * int64_t(rs.width) * rs.height),
+        double(tracer.rays) / seconds);
+    std::printf(
+        "mean_rgb: %.9g %.9g %.9g\nmean_stderr_rgb: %.9g %.9g %.9g\n"
+        "nonfinite_samples: %llu\n",
+        r.mean[0], r.mean[1], r.mean[2], r.std_error[0], r.std_error[1], r.std_error[2],
+        (unsigned long long)r.nonfinite);
     if (!o.out.empty()) write_pfm(o.out, r.image);
 }
 
@@ -375,8 +379,8 @@ void intersect1m(RTCScene scene, const RayRecord* rays, int count, std::vector<R
                  uint64_t& hits, double& sum_t) {
     for (int k = 0; k < count; ++k) {
         const RayRecord& r = rays[k];
-        rh[size_t(k)].ray = {r.o[0], r.o[1], r.o[2], 0.0f, r.d[0], r.d[1], r.d[2], 0.0f,
-                             r.tmax, ~0u, unsigned(k), 0u};
+        rh[size_t(k)].ray = {r.o[0], r.o[1], r.o[2], 0.0f, r.d[0],      r.d[1],
+                             r.d[2], 0.0f,   r.tmax, ~0u,  unsigned(k), 0u};
         rh[size_t(k)].hit.geomID = RTC_INVALID_GEOMETRY_ID;
     }
     RTCIntersectContext context;
@@ -384,7 +388,8 @@ void intersect1m(RTCScene scene, const RayRecord* rays, int count, std::vector<R
     context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     rtcIntersect1M(scene, &context, rh.data(), unsigned(count), sizeof(RTCRayHit));
     for (int k = 0; k < count; ++k)
-        if (rh[size_t(k)].hit.geomID != RTC_INVALID_GEOMETRY_ID) ++hits, sum_t += rh[size_t(k)].ray.tfar;
+        if (rh[size_t(k)].hit.geomID != RTC_INVALID_GEOMETRY_ID)
+            ++hits, sum_t += rh[size_t(k)].ray.tfar;
 }
 
 // Embree alone over a ray file through the API asked for: one untimed warm-up pass, then
@@ -414,47 +419,63 @@ void run_trace(RTCScene scene, const Options& o) {
         }
         if (pass > 0) seconds += seconds_since(t0);
     }
-    std::printf("api: rtcIntersect%s\nrays: %zu\nrepeat: %lld\ntrace_seconds: %.6f\n"
-                "rays_per_second: %.0f\nhits: %llu\nsum_t: %.17g\n", o.api.c_str(), rays.size(),
-                o.repeat, seconds, double(rays.size()) * double(o.repeat) / seconds,
-                (unsigned long long)hits, sum_t);
+    std::printf(
+        "api: rtcIntersect%s\nrays: %zu\nrepeat: %lld\ntrace_seconds: %.6f\n"
+        "rays_per_second: %.0f\nhits: %llu\nsum_t: %.17g\n",
+        o.api.c_str(), rays.size(), o.repeat, seconds,
+        double(rays.size()) * double(o.repeat) / seconds, (unsigned long long)hits, sum_t);
 }
 
 Options parse_options(int argc, char** argv) {
     Options o;
     if (argc < 2 || argv[1][0] == '-')
-        throw InputError("usage: embree_pt SCENE.json [--spp N] [--width W] [--height H] "
-                         "[--out image.pfm] [--dump-rays FILE [--count N]] "
-                         "[--trace-rays FILE [--repeat R] [--api 1|16|1M]] "
-                         "[--quality low|medium|high] [--embree-config STRING]");
+        throw InputError(
+            "usage: embree_pt SCENE.json [--spp N] [--width W] [--height H] "
+            "[--out image.pfm] [--dump-rays FILE [--count N]] "
+            "[--trace-rays FILE [--repeat R] [--api 1|16|1M]] "
+            "[--quality low|medium|high] [--embree-config STRING]");
     o.scene = argv[1];
     for (int i = 2; i < argc; i += 2) {  // every option takes one value
         const std::string key = argv[i];
         if (i + 1 >= argc) throw InputError(key + ": needs a value");
         const std::string value = argv[i + 1];
-        long long* number = key == "--spp" ? &o.spp : key == "--width" ? &o.width
-                          : key == "--height" ? &o.height : key == "--count" ? &o.count
-                          : key == "--repeat" ? &o.repeat : nullptr;
+        long long* number = key == "--spp"      ? &o.spp
+                            : key == "--width"  ? &o.width
+                            : key == "--height" ? &o.height
+                            : key == "--count"  ? &o.count
+                            : key == "--repeat" ? &o.repeat
+                                                : nullptr;
         if (number) {
             const long long limit = key == "--width" || key == "--height" ? 65536 : (1ll << 32) - 1;
             size_t end = 0;
-            try { *number = std::stoll(value, &end); } catch (const std::exception&) {}
+            try {
+                *number = std::stoll(value, &end);
+            } catch (const std::exception&) {
+            }
             if (end != value.size() || *number < 1 || *number > limit)
                 throw InputError(key + ": expected an integer in [1, " + std::to_string(limit) +
                                  "], got '" + value + "'");
-        } else if (key == "--out" && value.ends_with(".pfm")) o.out = value;
-        else if (key == "--out") throw InputError("--out: writes PFM only, give a .pfm name");
-        else if (key == "--dump-rays") o.dump_file = value;
-        else if (key == "--trace-rays") o.trace_file = value;
-        else if (key == "--embree-config") o.config += "," + value;
-        else if (key == "--api" && (value == "1" || value == "16" || value == "1M")) o.api = value;
-        else if (key == "--api") throw InputError("--api: expected 1, 16 or 1M, got '" + value + "'");
+        } else if (key == "--out" && value.ends_with(".pfm"))
+            o.out = value;
+        else if (key == "--out")
+            throw InputError("--out: writes PFM only, give a .pfm name");
+        else if (key == "--dump-rays")
+            o.dump_file = value;
+        else if (key == "--trace-rays")
+            o.trace_file = value;
+        else if (key == "--embree-config")
+            o.config += "," + value;
+        else if (key == "--api" && (value == "1" || value == "16" || value == "1M"))
+            o.api = value;
+        else if (key == "--api")
+            throw InputError("--api: expected 1, 16 or 1M, got '" + value + "'");
         else if (key == "--quality" && std::any_of(std::begin(kQualities), std::end(kQualities),
                                                    [&](const auto& q) { return value == q.first; }))
             o.quality = value;
         else if (key == "--quality")
             throw InputError("--quality: expected low, medium or high, got '" + value + "'");
-        else throw InputError("unknown option '" + key + "'");
+        else
+            throw InputError("unknown option '" + key + "'");
     }
     return o;
 }
@@ -478,22 +499,30 @@ int main(int argc, char** argv) try {
 #endif
     RTCDevice device = rtcNewDevice(o.config.c_str());
     if (!device) throw InputError("rtcNewDevice(\"" + o.config + "\") failed");
-    rtcSetDeviceErrorFunction(device, [](void*, RTCError, const char* what) {
-        std::fprintf(stderr, "embree_pt: Embree error: %s\n", what);
-        std::exit(1);
-    }, nullptr);
+    rtcSetDeviceErrorFunction(
+        device,
+        [](void*, RTCError, const char* what) {
+            std::fprintf(stderr, "embree_pt: Embree error: %s\n", what);
+            std::exit(1);
+        },
+        nullptr);
 
     const Triangles tris = collect_triangles(scene);
     const auto t0 = std::chrono::steady_clock::now();
     const auto quality = std::find_if(std::begin(kQualities), std::end(kQualities),
                                       [&](const auto& q) { return o.quality == q.first; });
     Tracer tracer{build_scene(device, tris, quality->second)};
-    std::printf("embree_version: %d.%d.%d\ntriangles: %zu\nbuild_quality: %s\n"
-                "build_seconds: %.6f\n", RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH,
-                tris.material.size(), quality->first, seconds_since(t0));
-    if (!o.dump_file.empty()) run_dump(tracer, scene, tris, o);
-    else if (!o.trace_file.empty()) run_trace(tracer.scene, o);
-    else run_render(tracer, scene, tris, o);
+    std::printf(
+        "embree_version: %d.%d.%d\ntriangles: %zu\nbuild_quality: %s\n"
+        "build_seconds: %.6f\n",
+        RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH, tris.material.size(),
+        quality->first, seconds_since(t0));
+    if (!o.dump_file.empty())
+        run_dump(tracer, scene, tris, o);
+    else if (!o.trace_file.empty())
+        run_trace(tracer.scene, o);
+    else
+        run_render(tracer, scene, tris, o);
     rtcReleaseScene(tracer.scene);
     rtcReleaseDevice(device);
     return 0;

@@ -15,8 +15,8 @@ struct TileCursor {
     int64_t next = 0;
     int64_t total = 0;
     int32_t tile_width = 0, tile_pixels = 0;
-    int32_t x = 0, y = 0;    // pixel of path `next`, in the tile
-    uint32_t sample = 0;     // sample index of path `next`
+    int32_t x = 0, y = 0;  // pixel of path `next`, in the tile
+    uint32_t sample = 0;   // sample index of path `next`
 };
 
 // A cursor at the start of a job: its first sample of its first pixel.

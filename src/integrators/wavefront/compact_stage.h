@@ -36,12 +36,18 @@ const xsimd::batch<float, A>& held_field(const HeldState<A>& held) {
     const auto of = [](const Vec3<F>* v, int32_t c) -> const F& {
         return c == 0 ? v->x : c == 1 ? v->y : v->z;
     };
-    if constexpr (kField <= kFieldOz) return of(held.o, kField - kFieldOx);
-    else if constexpr (kField <= kFieldDz) return of(held.d, kField - kFieldDx);
-    else if constexpr (kField <= kFieldBetaB) return of(held.beta, kField - kFieldBetaR);
-    else if constexpr (kField <= kFieldRadB) return of(held.rad, kField - kFieldRadR);
-    else if constexpr (kField == kFieldLobePdf) return *held.lobe_pdf;
-    else return *held.mis[kField - kFieldMisVcm];
+    if constexpr (kField <= kFieldOz)
+        return of(held.o, kField - kFieldOx);
+    else if constexpr (kField <= kFieldDz)
+        return of(held.d, kField - kFieldDx);
+    else if constexpr (kField <= kFieldBetaB)
+        return of(held.beta, kField - kFieldBetaR);
+    else if constexpr (kField <= kFieldRadB)
+        return of(held.rad, kField - kFieldRadR);
+    else if constexpr (kField == kFieldLobePdf)
+        return *held.lobe_pdf;
+    else
+        return *held.mis[kField - kFieldMisVcm];
 }
 
 // Moves the lanes in `bits` of batch i to [kept, kept + popcount(bits)) of the pool, in

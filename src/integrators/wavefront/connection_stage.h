@@ -145,9 +145,10 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     if (s.features.emitters) {
         const auto em = mask_f32(lookup<A>(s.emitter, s.material_count, mat) != I(0)) & alive;
         if (any(em)) {
-            const Vec3<F> le = hit_color<A>(s, kColEmission, mat, evaluated) *
-                               emitter_hit_mis<F>(c, lights, mis, select(mask_i32(em), sf.emitter, I(-1)),
-                                                  ray.o, d, t, cos_in, bounce + U(2u));
+            const Vec3<F> le =
+                hit_color<A>(s, kColEmission, mat, evaluated) *
+                emitter_hit_mis<F>(c, lights, mis, select(mask_i32(em), sf.emitter, I(-1)), ray.o,
+                                   d, t, cos_in, bounce + U(2u));
             rad = select(length_counts<F>(est, bounce + U(1u), em), rad + beta * le, rad);
             alive = alive & !em;
         }
@@ -167,8 +168,9 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
     const PhongVertex<F> pv = phong_vertex(m, est.survival_cap);
     const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     if (any(phong)) {
-        const CameraVertex<F> cv{sf.pos, v.nf, v.nsf, -d, shadow_origin(v, sf.pos, sf.magnitude),
-                                 pv,     mis,  bounce + U(2u)};
+        const CameraVertex<F> cv{
+            sf.pos, v.nf, v.nsf,         -d, shadow_origin(v, sf.pos, sf.magnitude),
+            pv,     mis,  bounce + U(2u)};
         // s = 1: the lights sampled from here
         const bool connecting = connects(est.kind);
         const auto direct = length_counts<F>(est, bounce + U(2u), phong);
@@ -188,7 +190,8 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
             draw_connections(w, i, cv, beta, mw, phong, bounce, queued);
         } else if (connecting) {
             const LightVertexStore& st = *p.light_store;
-            const I id = select(mask_i32(phong), xsimd::bitwise_cast<I>(U::load_aligned(p.path_id + i)), I(0));
+            const I id = select(mask_i32(phong),
+                                xsimd::bitwise_cast<I>(U::load_aligned(p.path_id + i)), I(0));
             const I lo = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id));
             const I hi = xsimd::bitwise_cast<I>(gather_lanes<A>(st.begin, id + I(1)));
             const I n = select(mask_i32(phong), hi - lo, I(0));
@@ -206,7 +209,8 @@ void camera_subpath_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>&
             }
         }
         // vcm, bpm, ppm: the stored vertices near it
-        if (merges(est.kind)) merge_lanes<A>(w, i, cv, beta, mw, phong & camera_vertex_merges<F>(est, cv));
+        if (merges(est.kind))
+            merge_lanes<A>(w, i, cv, beta, mw, phong & camera_vertex_merges<F>(est, cv));
     }
 
     Vec3<F> dir, weight;

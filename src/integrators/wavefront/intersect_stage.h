@@ -56,8 +56,7 @@ using WideArch =
 // axes kx, ky, kz and sx, sy, sz), each ray then traversed on its own.
 template <class A>
 struct WideRays {
-    alignas(64) float o[3][Wave<A>::K], d[3][Wave<A>::K], inv[3][Wave<A>::K],
-        shear[3][Wave<A>::K];
+    alignas(64) float o[3][Wave<A>::K], d[3][Wave<A>::K], inv[3][Wave<A>::K], shear[3][Wave<A>::K];
     alignas(64) int32_t axis[3][Wave<A>::K];
 
     explicit WideRays(const Ray<typename Wave<A>::F>& ray) {
@@ -137,8 +136,8 @@ void closest_in_tree(const BvhView& bvh, const AlphaTable* alpha, bool packet,
         F tt = F::load_aligned(t);
         I kind(0), lane(0), instance(-1);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
-        uint32_t hits = mask_bits(packet_traverse<false>(
-            bvh, ray, inv, make_ray_shear(ray.d), live, tt, kind, lane, instance, alpha));
+        uint32_t hits = mask_bits(packet_traverse<false>(bvh, ray, inv, make_ray_shear(ray.d), live,
+                                                         tt, kind, lane, instance, alpha));
         if (!hits) return;
         tt.store_aligned(t);
         alignas(64) int32_t kinds[Wave<A>::K], lanes[Wave<A>::K], instances[Wave<A>::K];
@@ -181,8 +180,11 @@ struct GroupArrays {
 inline GroupArrays group_arrays(const PathPool& p) {
     static_assert(sizeof(TraversalRay) <= 16 * sizeof(float) && sizeof(BvhHit) == 12 &&
                   sizeof(TraversalGroupScratch) <= kTraversalGroupBytes);
-    return {reinterpret_cast<TraversalRay*>(p.group_rays), p.group_ids, p.group_t,
-            reinterpret_cast<BvhHit*>(p.group_hits), p.group_found,
+    return {reinterpret_cast<TraversalRay*>(p.group_rays),
+            p.group_ids,
+            p.group_t,
+            reinterpret_cast<BvhHit*>(p.group_hits),
+            p.group_found,
             static_cast<TraversalGroupScratch*>(p.group_scratch)};
 }
 
@@ -323,7 +325,8 @@ void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
         for (int o = 0; o < 8; ++o) {
             const int rays_in = first[o + 1] - first[o];
             if (rays_in == 0) continue;
-            for (int j = first[o]; j < first[o + 1]; ++j) ids[size_t(j - first[o])] = order[size_t(j)];
+            for (int j = first[o]; j < first[o + 1]; ++j)
+                ids[size_t(j - first[o])] = order[size_t(j)];
             stream_closest<NodeLanes<A>>(*s.bvh, setup.data(), rays_in, t.data(), hit.data(),
                                          found.data(), ids.data(), masks.data(),
                                          options.single_below);
@@ -352,8 +355,8 @@ void trace_rays_grouped(const FlatScene& s, const float* rays, size_t count, Tra
     IsaVector<BvhHit> hit(kChunk);
     IsaVector<uint8_t> found(kChunk), hits(kChunk);
     IsaVector<TraversalGroupScratch> scratch(1);
-    const GroupArrays g{setup.data(), ids.data(), tg.data(), hit.data(), found.data(),
-                        scratch.data()};
+    const GroupArrays g{setup.data(), ids.data(),   tg.data(),
+                        hit.data(),   found.data(), scratch.data()};
     for (size_t c0 = 0; c0 < count; c0 += kChunk) {
         const int m = int(std::min(kChunk, count - c0));
         int32_t n = 0;
@@ -430,8 +433,8 @@ void trace_rays_isa(const FlatScene& s, const float* rays, size_t count,
 // registers, and in p.t and p.prim when the scene has a BVH (its traversal goes through the
 // pool one ray at a time).
 template <class A>
-void closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
-                 typename Wave<A>::F& t, typename Wave<A>::I& prim) {
+void closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, typename Wave<A>::F& t,
+                 typename Wave<A>::I& prim) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
@@ -481,8 +484,7 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         typename Wave<A>::I kind(0), lane(0), instance(-1);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
         return blocked | packet_traverse<true>(*s.bvh, ray, inv, make_ray_shear(ray.d),
-                                               live & !blocked, t, kind, lane, instance,
-                                               s.alpha);
+                                               live & !blocked, t, kind, lane, instance, s.alpha);
     }
     if (s.features.bvh && !all(blocked)) {
         // The open rays that enter the tree's box through it, one by one

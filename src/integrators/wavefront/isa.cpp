@@ -12,8 +12,8 @@ namespace cierzo {
 namespace {
 
 // (CIERZO_BUILT_<ISA> and CIERZO_BUILT_ISAS come from CMake's CIERZO_ISAS)
-#if !defined(CIERZO_BUILT_AVX512) || !defined(CIERZO_BUILT_AVX2) || !defined(CIERZO_BUILT_SSE42) || \
-    !defined(CIERZO_BUILT_NEON) || !defined(CIERZO_BUILT_ISAS)
+#if !defined(CIERZO_BUILT_AVX512) || !defined(CIERZO_BUILT_AVX2) || \
+    !defined(CIERZO_BUILT_SSE42) || !defined(CIERZO_BUILT_NEON) || !defined(CIERZO_BUILT_ISAS)
 #error "CIERZO_BUILT_<ISA> and CIERZO_BUILT_ISAS must be defined (CMakeLists.txt sets them)"
 #endif
 #if defined(__x86_64__) || defined(__i386__)
@@ -99,7 +99,8 @@ std::string isa_unsupported_reason(Isa isa) {
                " instruction set and this is " + kBuild;
     }
     if (!compiled(isa))
-        return isa_name(isa) + " kernels are not in this build (it was configured with "
+        return isa_name(isa) +
+               " kernels are not in this build (it was configured with "
                "CIERZO_ISAS for " CIERZO_BUILT_ISAS " only)";
     const std::vector<const char*> missing = missing_features(isa);
     if (missing.empty()) return "";
@@ -143,8 +144,8 @@ Isa parse_isa(const std::string& name) {
 void require_isa(Isa isa, const std::string& what) {
     const std::string why = isa_unsupported_reason(isa);
     if (!why.empty())
-        throw InputError(what + " " + isa_name(isa) + ": " + why + " (valid here: " +
-                         usable_isa_names() + ")");
+        throw InputError(what + " " + isa_name(isa) + ": " + why +
+                         " (valid here: " + usable_isa_names() + ")");
 }
 
 int isa_width(Isa isa) {

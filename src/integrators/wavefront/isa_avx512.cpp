@@ -6,7 +6,7 @@
 namespace cierzo {
 
 void render_tile_avx512(const FlatScene& scene, PathPool& pool, const TileJob& job,
-                      WavefrontCounters& counters) {
+                        WavefrontCounters& counters) {
     render_tile_isa<xsimd::avx512bw>(scene, pool, job, counters);
 }
 

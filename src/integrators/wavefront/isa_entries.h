@@ -12,8 +12,7 @@
 
 namespace cierzo {
 
-using RenderTileEntry = void (*)(const FlatScene&, PathPool&, const TileJob&,
-                                 WavefrontCounters&);
+using RenderTileEntry = void (*)(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
 
 // Closest hits of ray records (7 floats: origin, direction, tmax) through the scene: the
 // traversal alone (`cierzo trace`).

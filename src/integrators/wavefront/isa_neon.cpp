@@ -11,7 +11,7 @@ void render_tile_neon(const FlatScene& scene, PathPool& pool, const TileJob& job
 }
 
 void trace_rays_neon(const FlatScene& scene, const float* rays, size_t count,
-                       const TraceOptions& options, TraceTotals& totals) {
+                     const TraceOptions& options, TraceTotals& totals) {
     trace_rays_isa<xsimd::neon64>(scene, rays, count, options, totals);
 }
 

@@ -6,12 +6,12 @@
 namespace cierzo {
 
 void render_tile_sse42(const FlatScene& scene, PathPool& pool, const TileJob& job,
-                      WavefrontCounters& counters) {
+                       WavefrontCounters& counters) {
     render_tile_isa<xsimd::sse4_2>(scene, pool, job, counters);
 }
 
 void trace_rays_sse42(const FlatScene& scene, const float* rays, size_t count,
-                       const TraceOptions& options, TraceTotals& totals) {
+                      const TraceOptions& options, TraceTotals& totals) {
     trace_rays_isa<xsimd::sse4_2>(scene, rays, count, options, totals);
 }
 

@@ -19,11 +19,11 @@ struct TileJob {
     // order. The film has counted every path of the job before it starts (so paths whose
     // radiance is zero need not be handed over at all), and takes a non-finite radiance
     // back out of that count.
-    void (*finish)(void* film, int32_t count, const uint32_t* pixel, const float* r,
-                   const float* g, const float* b);
+    void (*finish)(void* film, int32_t count, const uint32_t* pixel, const float* r, const float* g,
+                   const float* b);
     // Light tracing: adds `count` splats (pixel index anywhere in the image, value), in order.
-    void (*splat)(void* film, int32_t count, const uint32_t* pixel, const float* r,
-                  const float* g, const float* b);
+    void (*splat)(void* film, int32_t count, const uint32_t* pixel, const float* r, const float* g,
+                  const float* b);
 };
 
 // How `cierzo trace` takes the rays through the tree: K at a time, each alone (the
@@ -44,9 +44,9 @@ struct TraceTotals {
 // Counters a tile returns.
 struct WavefrontCounters {
     uint64_t camera = 0, extension = 0, shadow = 0;
-    uint64_t light = 0;  // light paths started (lt)
-    uint64_t lanes_active = 0, lanes_total = 0;  // shading lane utilisation
-    uint64_t isect_active = 0, isect_total = 0;  // intersection lane utilisation
+    uint64_t light = 0;                            // light paths started (lt)
+    uint64_t lanes_active = 0, lanes_total = 0;    // shading lane utilisation
+    uint64_t isect_active = 0, isect_total = 0;    // intersection lane utilisation
     uint64_t shadow_active = 0, shadow_total = 0;  // shadow-ray lane utilisation
 };
 

@@ -126,13 +126,34 @@ void append_light_vertices(LightVertexStore& st, uint32_t bits,
     constexpr int32_t K = Wave<A>::K;
     if (!bits) return;
     if (st.count + K > st.capacity) st.grow(st, st.count + K);
-    const F* v[kLightVertexFloats] = {
-        &l.p.x,         &l.p.y,         &l.p.z,         &l.nf.x,           &l.nf.y,
-        &l.nf.z,        &l.nsf.x,       &l.nsf.y,       &l.nsf.z,          &l.wl.x,
-        &l.wl.y,        &l.wl.z,        &l.beta.x,      &l.beta.y,         &l.beta.z,
-        &l.phong.kd.x,  &l.phong.kd.y,  &l.phong.kd.z,  &l.phong.ks.x,     &l.phong.ks.y,
-        &l.phong.ks.z,  &l.phong.shininess, &l.phong.p_diffuse, &l.phong.p_specular,
-        &l.mis.vcm,     &l.mis.vc,      &l.mis.vm,      &l.magnitude};
+    const F* v[kLightVertexFloats] = {&l.p.x,
+                                      &l.p.y,
+                                      &l.p.z,
+                                      &l.nf.x,
+                                      &l.nf.y,
+                                      &l.nf.z,
+                                      &l.nsf.x,
+                                      &l.nsf.y,
+                                      &l.nsf.z,
+                                      &l.wl.x,
+                                      &l.wl.y,
+                                      &l.wl.z,
+                                      &l.beta.x,
+                                      &l.beta.y,
+                                      &l.beta.z,
+                                      &l.phong.kd.x,
+                                      &l.phong.kd.y,
+                                      &l.phong.kd.z,
+                                      &l.phong.ks.x,
+                                      &l.phong.ks.y,
+                                      &l.phong.ks.z,
+                                      &l.phong.shininess,
+                                      &l.phong.p_diffuse,
+                                      &l.phong.p_specular,
+                                      &l.mis.vcm,
+                                      &l.mis.vc,
+                                      &l.mis.vm,
+                                      &l.magnitude};
     // (the lanes' fields side by side, then each kept lane's column into its record)
     alignas(64) float lanes[kLightVertexFloats][K];
     for (int k = 0; k < kLightVertexFloats; ++k) v[k]->store_aligned(lanes[k]);
@@ -192,9 +213,8 @@ CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
         const LightStart<F> ls = sample_light_start<F>(s.path.emitters, s.light_starts, rng);
         if constexpr (!kBidirectional) {
             // The emitter's point itself, seen by the pinhole
-            const auto surface = !length_counts<float>(est, 1u)
-                                     ? fresh & !fresh
-                                     : fresh & ls.ok & ls.on_surface;
+            const auto surface =
+                !length_counts<float>(est, 1u) ? fresh & !fresh : fresh & ls.ok & ls.on_surface;
             if (any(surface)) {
                 const CameraConnection<F> c = connect_camera(s.pinhole, ls.p);
                 const F cos_l = dot(c.wc, ls.n);
@@ -204,10 +224,11 @@ CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
                                   connections);
             }
         }
-        const Vec3<F> o = select(
-            ls.on_surface,
-            offset_ray_origin(ls.p, select(dot(ls.dir, ls.n) > F(0.0f), ls.n, -ls.n), max_abs(ls.p)),
-            ls.p);
+        const Vec3<F> o =
+            select(ls.on_surface,
+                   offset_ray_origin(ls.p, select(dot(ls.dir, ls.n) > F(0.0f), ls.n, -ls.n),
+                                     max_abs(ls.p)),
+                   ls.p);
         const auto starts = extends ? ls.ok : (ls.ok & !ls.ok);
         const Vec3<F> beta = select(starts, ls.beta, Vec3<F>(F(0.0f)));
         const auto keep = [&](const F& v, float* a) {
@@ -236,18 +257,17 @@ template <Transport kMode, class A, bool kMis = true>
 void bdpt_scatter(const FlatScene& s, const Bsdf<typename Wave<A>::F>& m,
                   const PhongVertex<typename Wave<A>::F>& pv,
                   const VertexFrame<typename Wave<A>::F>& v, const Surfaces<A>& sf,
-                  const Vec3<typename Wave<A>::F>& d,
-                  const SampleStream<typename Wave<A>::F>& rng, const typename Wave<A>::U& bounce,
-                  const MergeWeights<typename Wave<A>::F>& mw, typename Wave<A>::M& alive,
-                  SubpathMis<typename Wave<A>::F>& mis, Vec3<typename Wave<A>::F>& dir,
-                  Vec3<typename Wave<A>::F>& weight) {
+                  const Vec3<typename Wave<A>::F>& d, const SampleStream<typename Wave<A>::F>& rng,
+                  const typename Wave<A>::U& bounce, const MergeWeights<typename Wave<A>::F>& mw,
+                  typename Wave<A>::M& alive, SubpathMis<typename Wave<A>::F>& mis,
+                  Vec3<typename Wave<A>::F>& dir, Vec3<typename Wave<A>::F>& weight) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     const FlatFeatures& f = s.features;
     const EstimatorSettings& est = s.path.estimator;
     F probability;
-    const I lobe = choose_lobe(m, uniform<F>(rng, bounce, Purpose::kLobe), est.survival_cap,
-                               probability);
+    const I lobe =
+        choose_lobe(m, uniform<F>(rng, bounce, Purpose::kLobe), est.survival_cap, probability);
     alive = alive & mask_f32(lobe != I(kLobeAbsorbed));
     if constexpr (kMode == Transport::kRadiance)
         alive = alive & !camera_lobe_ends_path<F>(s.path, lobe);

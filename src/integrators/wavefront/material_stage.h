@@ -141,9 +141,8 @@ Vec3<typename Wave<A>::F> vertex_colors(const Wave<A>& w, const ColorSource& cs,
 // them: spheres and planes from their normals, each mesh's lanes in turn from its vertices'
 // (u, v) (0 on a mesh without them and on quadrics).
 template <class A>
-void hit_uvs(const Wave<A>& w, const typename Wave<A>::I& j,
-             const Vec3<typename Wave<A>::F>& pos, typename Wave<A>::F& u,
-             typename Wave<A>::F& v) {
+void hit_uvs(const Wave<A>& w, const typename Wave<A>::I& j, const Vec3<typename Wave<A>::F>& pos,
+             typename Wave<A>::F& u, typename Wave<A>::F& v) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     const PathPool& p = w.pool;
@@ -229,8 +228,8 @@ CIERZO_STAGE_LOOP void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
                 Vec3<F> col;
                 if (cs.kind == TextureKind::kImage) {
                     if (!have_uv) hit_uvs(w, j, pos, u, v), have_uv = true;
-                    col = sample_image(image_view(s.images[cs.image]), cs, u, v).rgb *
-                          Vec3<F>(cs.a);
+                    col =
+                        sample_image(image_view(s.images[cs.image]), cs, u, v).rgb * Vec3<F>(cs.a);
                 } else {
                     col = cs.is_vertex() ? vertex_colors(w, cs, j, pos) : eval_pattern(cs, pos);
                 }

@@ -39,8 +39,8 @@ MergeWeights<typename Wave<A>::F> lane_merge_weights(const Wave<A>& w, int32_t i
 // the lanes' radiance in the pool.
 template <class A>
 void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
-                 const Vec3<typename Wave<A>::F>& beta,
-                 const MergeWeights<typename Wave<A>::F>& mw, const typename Wave<A>::M& want) {
+                 const Vec3<typename Wave<A>::F>& beta, const MergeWeights<typename Wave<A>::F>& mw,
+                 const typename Wave<A>::M& want) {
     using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
@@ -49,13 +49,36 @@ void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>&
     uint32_t bits = mask_bits(want);
     if (!bits) return;
     constexpr int kFields = 31;
-    const F* src[kFields] = {&cv.p.x,      &cv.p.y,      &cv.p.z,      &cv.nf.x,     &cv.nf.y,
-                             &cv.nf.z,     &cv.nsf.x,    &cv.nsf.y,    &cv.nsf.z,    &cv.wo.x,
-                             &cv.wo.y,     &cv.wo.z,     &cv.phong.kd.x, &cv.phong.kd.y,
-                             &cv.phong.kd.z, &cv.phong.ks.x, &cv.phong.ks.y, &cv.phong.ks.z,
-                             &cv.phong.shininess, &cv.phong.p_diffuse, &cv.phong.p_specular,
-                             &cv.mis.vcm,  &cv.mis.vc,   &cv.mis.vm,   &beta.x,      &beta.y,
-                             &beta.z,      &mw.vm_weight, &mw.vc_weight, &mw.normalization,
+    const F* src[kFields] = {&cv.p.x,
+                             &cv.p.y,
+                             &cv.p.z,
+                             &cv.nf.x,
+                             &cv.nf.y,
+                             &cv.nf.z,
+                             &cv.nsf.x,
+                             &cv.nsf.y,
+                             &cv.nsf.z,
+                             &cv.wo.x,
+                             &cv.wo.y,
+                             &cv.wo.z,
+                             &cv.phong.kd.x,
+                             &cv.phong.kd.y,
+                             &cv.phong.kd.z,
+                             &cv.phong.ks.x,
+                             &cv.phong.ks.y,
+                             &cv.phong.ks.z,
+                             &cv.phong.shininess,
+                             &cv.phong.p_diffuse,
+                             &cv.phong.p_specular,
+                             &cv.mis.vcm,
+                             &cv.mis.vc,
+                             &cv.mis.vm,
+                             &beta.x,
+                             &beta.y,
+                             &beta.z,
+                             &mw.vm_weight,
+                             &mw.vc_weight,
+                             &mw.normalization,
                              &mw.radius2};
     alignas(64) float lanes[kFields][K];
     for (int k = 0; k < kFields; ++k) src[k]->store_aligned(lanes[k]);
@@ -109,8 +132,8 @@ inline void merging_table(MergeTable& t, const PathContext& c, const TileJob& jo
     for (size_t j = 0; j < size_t(t.samples); ++j) {
         const MergeWeights<float> m =
             merge_weights(c.estimator.merge_radius, c.estimator.merge_alpha,
-                          job.sample_begin + int64_t(j), has_lights ? pixels : 0,
-                          kMergeTilePaths, connects(c.estimator.kind), c.connection_count);
+                          job.sample_begin + int64_t(j), has_lights ? pixels : 0, kMergeTilePaths,
+                          connects(c.estimator.kind), c.connection_count);
         t.vm_weight[j] = m.vm_weight, t.vc_weight[j] = m.vc_weight;
         t.normalization[j] = m.normalization, t.radius2[j] = m.radius2;
         t.radius[j] = std::sqrt(m.radius2);

@@ -26,19 +26,28 @@ private:
 };
 
 PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, bool group,
-              size_t* bytes) {
+               size_t* bytes) {
     Carver c(base);
     PathPool p;
     p.capacity = capacity;
     const size_t n = size_t(capacity);
-    for (float** a : {&p.ox, &p.oy, &p.oz, &p.dx, &p.dy, &p.dz, &p.beta_r, &p.beta_g, &p.beta_b,
-                      &p.rad_r, &p.rad_g, &p.rad_b, &p.t, &p.mesh_nx, &p.mesh_ny, &p.mesh_nz,
-                      &p.px, &p.py, &p.pz, &p.nx, &p.ny, &p.nz, &p.snx, &p.sny, &p.snz, &p.probability, &p.roulette_draw, &p.lobe_pdf, &p.mis_vcm, &p.mis_vc, &p.mis_vm, &p.start_cos, &p.done_r,
-                      &p.done_g, &p.done_b})
+    for (float** a : {&p.ox,       &p.oy,          &p.oz,
+                      &p.dx,       &p.dy,          &p.dz,
+                      &p.beta_r,   &p.beta_g,      &p.beta_b,
+                      &p.rad_r,    &p.rad_g,       &p.rad_b,
+                      &p.t,        &p.mesh_nx,     &p.mesh_ny,
+                      &p.mesh_nz,  &p.px,          &p.py,
+                      &p.pz,       &p.nx,          &p.ny,
+                      &p.nz,       &p.snx,         &p.sny,
+                      &p.snz,      &p.probability, &p.roulette_draw,
+                      &p.lobe_pdf, &p.mis_vcm,     &p.mis_vc,
+                      &p.mis_vm,   &p.start_cos,   &p.done_r,
+                      &p.done_g,   &p.done_b})
         *a = c.take<float>(n);
     for (auto& channel : p.col)
         for (float*& a : channel) a = c.take<float>(n);
-    for (uint32_t** a : {&p.key, &p.pixel, &p.bounce, &p.index, &p.mesh_tri, &p.done_pixel, &p.path_id})
+    for (uint32_t** a :
+         {&p.key, &p.pixel, &p.bounce, &p.index, &p.mesh_tri, &p.done_pixel, &p.path_id})
         *a = c.take<uint32_t>(n);
     for (int32_t** a : {&p.prim, &p.mesh_id, &p.material, &p.emitter, &p.alive, &p.lobe, &p.order,
                         &p.start_emitter})
@@ -48,8 +57,8 @@ PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, 
     // Shadow queue: one ray per path and light (or emitter sample) at most
     p.shadow_capacity = capacity * std::max(lights, 1);
     const size_t s = size_t(p.shadow_capacity) + 16;
-    for (float** a : {&p.sox, &p.soy, &p.soz, &p.sdx, &p.sdy, &p.sdz, &p.stmax, &p.sc_r, &p.sc_g,
-                      &p.sc_b})
+    for (float** a :
+         {&p.sox, &p.soy, &p.soz, &p.sdx, &p.sdy, &p.sdz, &p.stmax, &p.sc_r, &p.sc_g, &p.sc_b})
         *a = c.take<float>(s);
     p.sowner = c.take<int32_t>(s);
     if (group) {

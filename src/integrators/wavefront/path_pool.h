@@ -17,15 +17,33 @@ inline constexpr int kMaxLanes = 16;
 // The fields of a stored light-subpath vertex (bdpt: kernels/bidirectional.h, LightVertex),
 // in its record of kLightVertexStride floats.
 enum LightVertexField : int32_t {
-    kLvPx, kLvPy, kLvPz,     // position
-    kLvNx, kLvNy, kLvNz,     // geometric normal on the arriving side
-    kLvSx, kLvSy, kLvSz,     // shading normal on that side
-    kLvWx, kLvWy, kLvWz,     // towards the previous vertex
-    kLvBr, kLvBg, kLvBb,     // throughput arriving
-    kLvKdR, kLvKdG, kLvKdB,  // Phong lobes
-    kLvKsR, kLvKsG, kLvKsB,
-    kLvShininess, kLvPd, kLvPs,
-    kLvVcm, kLvVc, kLvVm,    // the subpath's MIS quantities
+    kLvPx,
+    kLvPy,
+    kLvPz,  // position
+    kLvNx,
+    kLvNy,
+    kLvNz,  // geometric normal on the arriving side
+    kLvSx,
+    kLvSy,
+    kLvSz,  // shading normal on that side
+    kLvWx,
+    kLvWy,
+    kLvWz,  // towards the previous vertex
+    kLvBr,
+    kLvBg,
+    kLvBb,  // throughput arriving
+    kLvKdR,
+    kLvKdG,
+    kLvKdB,  // Phong lobes
+    kLvKsR,
+    kLvKsG,
+    kLvKsB,
+    kLvShininess,
+    kLvPd,
+    kLvPs,
+    kLvVcm,
+    kLvVc,
+    kLvVm,  // the subpath's MIS quantities
     kLvMagnitude,
     kLightVertexFloats
 };
@@ -44,12 +62,12 @@ static_assert(kLightVertexFloats <= kLightVertexStride);
 // vertices, keeping those stored; the memory is the thread's and is kept between jobs.
 struct LightVertexStore {
     int32_t count = 0, capacity = 0;
-    float* records = nullptr;    // kLightVertexStride floats a vertex, 64-byte aligned
+    float* records = nullptr;  // kLightVertexStride floats a vertex, 64-byte aligned
     float* record(int32_t v) const { return records + size_t(v) * kLightVertexStride; }
     uint32_t* length = nullptr;  // segments from the light
     uint32_t* path = nullptr;    // the path's index in its job
     int32_t* order = nullptr;
-    uint32_t* begin = nullptr;   // the job's paths + 1 entries
+    uint32_t* begin = nullptr;  // the job's paths + 1 entries
     // The job's light subpaths per sample index (its pixels) and its sample indices: path k
     // is of sample k / paths_per_sample (the light vertex cache's sets)
     int32_t paths_per_sample = 1, samples = 1;
@@ -66,10 +84,27 @@ inline constexpr size_t kLightVertexBytes = (kLightVertexStride + 3) * 4;
 // The fields of a path's state that survive from bounce to bounce (PathPool::for_each_state),
 // and sets of them: a bit per field.
 enum PathField : int32_t {
-    kFieldOx, kFieldOy, kFieldOz, kFieldDx, kFieldDy, kFieldDz,
-    kFieldBetaR, kFieldBetaG, kFieldBetaB, kFieldRadR, kFieldRadG, kFieldRadB,
-    kFieldLobePdf, kFieldMisVcm, kFieldMisVc, kFieldMisVm,
-    kFieldKey, kFieldPixel, kFieldIndex, kFieldPathId, kFieldBounce
+    kFieldOx,
+    kFieldOy,
+    kFieldOz,
+    kFieldDx,
+    kFieldDy,
+    kFieldDz,
+    kFieldBetaR,
+    kFieldBetaG,
+    kFieldBetaB,
+    kFieldRadR,
+    kFieldRadG,
+    kFieldRadB,
+    kFieldLobePdf,
+    kFieldMisVcm,
+    kFieldMisVc,
+    kFieldMisVm,
+    kFieldKey,
+    kFieldPixel,
+    kFieldIndex,
+    kFieldPathId,
+    kFieldBounce
 };
 template <int32_t kField>
 using Field = std::integral_constant<int32_t, kField>;
@@ -130,7 +165,7 @@ struct PathPool {
     int32_t* lobe;
     float* probability;
     float* roulette_draw;  // the throughput roulette's number, drawn with the lobe's
-    int32_t* bucket[4];  // one per lobe (kLobeCount)
+    int32_t* bucket[4];    // one per lobe (kLobeCount)
     int32_t bucket_size[4];
     int32_t* order;            // material-sorted indices
     int32_t* material_starts;  // material_count + 1 group starts

@@ -1,8 +1,8 @@
 // Wavefront stage 5, shading, with the estimator of kernels/estimator.h: emitters end their
 // paths; Phong vertices queue one shadow ray per point light and, with nee or mis, one
-// emitter sample; the roulette picks each path's lobe. A scene with one lobe kind runs that lobe on the same batch in registers; otherwise
-// hits are bucketed by lobe and each lobe's kernel runs on full batches of its own lanes
-// (gathered by index).
+// emitter sample; the roulette picks each path's lobe. A scene with one lobe kind runs that lobe on
+// the same batch in registers; otherwise hits are bucketed by lobe and each lobe's kernel runs on
+// full batches of its own lanes (gathered by index).
 #pragma once
 
 #include "integrators/wavefront/compact_stage.h"
@@ -26,7 +26,8 @@ struct LobeStep {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     Vec3<F> o, d, beta;
-    F pdf = F(0.0f);  // nee/mis: the density the lobe sampled d with, P(lobe) included (0: a delta lobe)
+    F pdf = F(
+        0.0f);  // nee/mis: the density the lobe sampled d with, P(lobe) included (0: a delta lobe)
     typename Wave<A>::M alive;
 
     // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset; n the
@@ -63,8 +64,8 @@ struct Compaction {
 // the batch's registers, so a one-lobe scene without point lights keeps this single pass;
 // radiance is then carried, and every path that ends goes to the film's queue.
 template <int kFused, bool kCompact = false, bool kInlineNee = false, class A>
-void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
-                 const Surfaces<A>& sf, int32_t& queued, Compaction* compaction = nullptr) {
+void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, const Surfaces<A>& sf,
+                 int32_t& queued, Compaction* compaction = nullptr) {
     static_assert(!kCompact || kFused != kLobeCount, "compaction in shading needs one lobe");
     static_assert(!kInlineNee || kCompact, "inline shadow rays are for the compacting pass");
     constexpr bool kCarried = !kCompact || kInlineNee;  // radiance is kept in the pool
@@ -109,8 +110,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
                                             c.estimator.triangle_solid_angle);
         } else if (c.lt && any(em)) {
             le = le * emitter_hit_weight<F>(c.emitters, c.estimator.kind,
-                                            select(mask_i32(em), sf.emitter, I(-1)), F(0.0f),
-                                            ray.o, d, length(pos - ray.o));
+                                            select(mask_i32(em), sf.emitter, I(-1)), F(0.0f), ray.o,
+                                            d, length(pos - ray.o));
         }
         rad = select(length_counts<F>(c.estimator, bounce + U(1u), em), rad + beta * le, rad);
         alive = alive & !em;
@@ -124,8 +125,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
         if (any(missed)) {
             const F lobe_pdf = c.nee ? F::load_aligned(p.lobe_pdf + i) : F(0.0f);
             const Vec3<F> le = escaped_radiance<F>(c, d, lobe_pdf);
-            rad = select(length_counts<F>(c.estimator, bounce + U(1u), missed), rad + beta * le,
-                         rad);
+            rad =
+                select(length_counts<F>(c.estimator, bounce + U(1u), missed), rad + beta * le, rad);
         }
     }
     // (a scene with one lobe kind has that lobe's parameters only: kFused)
@@ -134,11 +135,12 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     // Queues the shadow rays of the lanes in `bits`: origin, direction, tmax, contribution
     // and owner, each compressed in its register and stored whole at the queue's end (the
     // queue has K entries of slack; the lanes past the new end are overwritten next)
-    const auto queue = [&](uint32_t bits, const Vec3<F>& origin, const Vec3<F>& wi,
-                           const F& tmax, const Vec3<F>& value) {
+    const auto queue = [&](uint32_t bits, const Vec3<F>& origin, const Vec3<F>& wi, const F& tmax,
+                           const Vec3<F>& value) {
         const F* src[10] = {&origin.x, &origin.y, &origin.z, &wi.x,    &wi.y,
                             &wi.z,     &tmax,     &value.x,  &value.y, &value.z};
-        float* dst[10] = {p.sox, p.soy, p.soz, p.sdx, p.sdy, p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
+        float* dst[10] = {p.sox, p.soy,   p.soz,  p.sdx,  p.sdy,
+                          p.sdz, p.stmax, p.sc_r, p.sc_g, p.sc_b};
         for (int k = 0; k < 10; ++k) compress<A>(*src[k], bits).store_unaligned(dst[k] + queued);
         compress<A>(Wave<A>::lane_ids(i), bits).store_unaligned(p.sowner + queued);
         queued += std::popcount(bits);
@@ -185,8 +187,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     // (the roulette's draw with the lobe's: one 2D point, kept for the lobe buckets)
     F u_lobe, u_roulette;
     lobe_uniforms<F>(rng, bounce, normalised_lobes(c.estimator), u_lobe, u_roulette);
-    I lobe = choose_lobe<kFused>(m, u_lobe,
-                                 c.estimator.survival_cap, probability,
+    I lobe = choose_lobe<kFused>(m, u_lobe, c.estimator.survival_cap, probability,
                                  normalised_lobes(c.estimator));
     alive = may_extend<F>(c.estimator, bounce, alive);
     lobe = select(mask_i32(alive), lobe, I(kLobeAbsorbed));
@@ -198,8 +199,8 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray,
     } else {
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
-        const LobeStep<kFused, A> step(c, m, sf.magnitude, d, pos, n, sf.ns, beta, probability,
-                                       rng, u_roulette, bounce);
+        const LobeStep<kFused, A> step(c, m, sf.magnitude, d, pos, n, sf.ns, beta, probability, rng,
+                                       u_roulette, bounce);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
         if constexpr (kCompact) {
@@ -278,12 +279,11 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         const F u_roulette = normalised_lobes(w.scene.path.estimator)
                                  ? gather_lanes<A>(p.roulette_draw, j)
                                  : F(0.0f);
-        const LobeStep<kLobe, A> step(
-            w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
-            w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
-            gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
-            gather_lanes<A>(p.probability, j),
-            rng, u_roulette, bounce);
+        const LobeStep<kLobe, A> step(w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j),
+                                      pos, n,
+                                      w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
+                                      gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
+                                      gather_lanes<A>(p.probability, j), rng, u_roulette, bounce);
         scatter3(step.o, p.ox, p.oy, p.oz, j);
         scatter3(step.d, p.dx, p.dy, p.dz, j);
         scatter3(step.beta, p.beta_r, p.beta_g, p.beta_b, j);

@@ -94,7 +94,8 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
                         lookup<A>(s.sphere_cz, count, j)};
         n = select(mask_f32(m), normalize(pos - c), n);
         material = select(m, lookup<A>(s.sphere_material, count, j), material);
-        if (weighs_emitter_hits(s.path)) emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
+        if (weighs_emitter_hits(s.path))
+            emitter = select(m, lookup<A>(s.sphere_emitter, count, j), emitter);
     }
     if (f.planes) {
         const auto m = kind == I(kPrimPlane);
@@ -128,14 +129,17 @@ Surfaces<A> resolve_surfaces(const Wave<A>& w, int32_t i, const Ray<typename Wav
         if (s.path.smooth) ns = smooth_normals(w, i, mesh, mask_f32(m) & w.live_mask(i), pos, n);
         if (weighs_emitter_hits(s.path)) {
             const I first = lookup<A>(s.mesh_emitter, s.mesh_count, mesh);
-            const I tri = xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
+            const I tri =
+                xsimd::bitwise_cast<I>(xsimd::batch<uint32_t, A>::load_aligned(p.mesh_tri + i));
             emitter = select(m & (first >= I(0)), first + tri, emitter);
         }
     }
     const auto hit = w.live_mask(i) & (to_float(prim) >= F(0.0f));
     if (!(s.path.smooth && f.meshes)) ns = n;
-    return {pos, n, ns, select(mask_i32(hit), material, I(0)), hit,
-            max(max_abs(pos), max_abs(ray.o)), emitter};
+    return {pos,    n,
+            ns,     select(mask_i32(hit), material, I(0)),
+            hit,    max(max_abs(pos), max_abs(ray.o)),
+            emitter};
 }
 
 // The surfaces store_surfaces kept of batch `i` (rays `ray`), read back.

@@ -190,10 +190,10 @@ xsimd::batch<T, A> compress(const xsimd::batch<T, A>& v, uint32_t bits) {
 #endif
 #if defined(__AVX2__)
     if constexpr (std::is_base_of_v<xsimd::avx2, A> && !std::is_base_of_v<xsimd::avx512f, A>) {
-        const __m256i idx = _mm256_and_si256(
-            _mm256_srlv_epi32(_mm256_set1_epi32(int(kCompressNibbles[bits])),
-                              _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28)),
-            _mm256_set1_epi32(7));
+        const __m256i idx =
+            _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(int(kCompressNibbles[bits])),
+                                               _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28)),
+                             _mm256_set1_epi32(7));
         if constexpr (std::is_same_v<T, float>)
             return B(_mm256_permutevar8x32_ps(v.data, idx));
         else

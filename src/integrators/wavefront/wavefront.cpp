@@ -22,15 +22,15 @@ namespace cierzo {
 
 namespace {
 
-void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float* r,
-                  const float* g, const float* b) {
+void finish_paths(void* film, int32_t count, const uint32_t* pixel, const float* r, const float* g,
+                  const float* b) {
     // Pixel indices are y * width + x in the whole image (one division per radiant path)
     FilmTile& f = *static_cast<FilmTile*>(film);
     for (int32_t i = 0; i < count; ++i) f.at_index(pixel[i]).add_counted({r[i], g[i], b[i]});
 }
 
-void splat_paths(void* film, int32_t count, const uint32_t* pixel, const float* r,
-                 const float* g, const float* b) {
+void splat_paths(void* film, int32_t count, const uint32_t* pixel, const float* r, const float* g,
+                 const float* b) {
     FilmTile& f = *static_cast<FilmTile*>(film);
     for (int32_t i = 0; i < count; ++i) f.splat(pixel[i], {r[i], g[i], b[i]});
 }
@@ -74,7 +74,8 @@ struct LightStoreMemory {
         records.reset(fresh);
         record_floats = floats;
         store.records = records.get();
-        length.resize(size_t(capacity)), path.resize(size_t(capacity)), order.resize(size_t(capacity));
+        length.resize(size_t(capacity)), path.resize(size_t(capacity)),
+            order.resize(size_t(capacity));
         store.length = length.data(), store.path = path.data(), store.order = order.data();
         store.capacity = capacity;
     }
@@ -188,8 +189,7 @@ static int32_t shadow_rays_per_vertex(const Scene& scene) {
 }
 
 WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_size,
-                                     bool specialise, size_t light_store_limit,
-                                     int32_t ray_group)
+                                     bool specialise, size_t light_store_limit, int32_t ray_group)
     : isa_(isa == Isa::kAuto ? best_isa() : isa),
       pool_size_(pool_size > 0 ? pool_size : kDefaultPoolSize) {
     require_isa(isa_, "--isa");
@@ -203,8 +203,8 @@ WavefrontRenderer::WavefrontRenderer(const Scene& scene, Isa isa, int32_t pool_s
     FlatFeatures& f = data_->view.scene.features;
     if (!specialise) {
         // Every stage and lobe on: the general kernel a renderer without a feature set runs
-        f = {true, true, true, f.meshes, f.bvh, f.packet, true, true, true,
-             true, true, true, true, 4,  f.texture_channels};
+        f = {true, true, true, f.meshes, f.bvh, f.packet,          true, true, true,
+             true, true, true, true,     4,     f.texture_channels};
     }
     // Light tracing: camera paths shoot no shadow rays (the light paths bring every light)
     if (data_->view.scene.path.lt) f.lights = false;
@@ -241,8 +241,8 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
                                           size_t(tile.s1 - tile.s0));
         pool.light_store = &memory.light_store->store;
     }
-    const TileJob job{tile.x0, tile.y0,    tile.x1,     tile.y1, tile.s0,
-                      tile.s1, tile.light, &film, finish_paths, splat_paths};
+    const TileJob job{tile.x0, tile.y0,    tile.x1, tile.y1,      tile.s0,
+                      tile.s1, tile.light, &film,   finish_paths, splat_paths};
     WavefrontCounters c;
     // Every camera path of the job is counted now; the kernels hand over only the radiant ones
     if (!tile.light) film.count_paths(uint64_t(tile.s1 - tile.s0));

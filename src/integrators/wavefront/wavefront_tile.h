@@ -127,11 +127,16 @@ void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
         return;
     }
     if (!scene.camera_paths) return;
-    if (f.lobe_kinds != 1) run(std::integral_constant<int, kLobeCount>{});
-    else if (f.diffuse) run(std::integral_constant<int, kLobeDiffuse>{});
-    else if (f.specular) run(std::integral_constant<int, kLobeSpecular>{});
-    else if (f.mirror) run(std::integral_constant<int, kLobeMirror>{});
-    else run(std::integral_constant<int, kLobeRefract>{});
+    if (f.lobe_kinds != 1)
+        run(std::integral_constant<int, kLobeCount>{});
+    else if (f.diffuse)
+        run(std::integral_constant<int, kLobeDiffuse>{});
+    else if (f.specular)
+        run(std::integral_constant<int, kLobeSpecular>{});
+    else if (f.mirror)
+        run(std::integral_constant<int, kLobeMirror>{});
+    else
+        run(std::integral_constant<int, kLobeRefract>{});
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE
