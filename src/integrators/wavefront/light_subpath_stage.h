@@ -126,34 +126,15 @@ void append_light_vertices(LightVertexStore& st, uint32_t bits,
     constexpr int32_t K = Wave<A>::K;
     if (!bits) return;
     if (st.count + K > st.capacity) st.grow(st, st.count + K);
-    const F* v[kLightVertexFloats] = {&l.p.x,
-                                      &l.p.y,
-                                      &l.p.z,
-                                      &l.nf.x,
-                                      &l.nf.y,
-                                      &l.nf.z,
-                                      &l.nsf.x,
-                                      &l.nsf.y,
-                                      &l.nsf.z,
-                                      &l.wl.x,
-                                      &l.wl.y,
-                                      &l.wl.z,
-                                      &l.beta.x,
-                                      &l.beta.y,
-                                      &l.beta.z,
-                                      &l.phong.kd.x,
-                                      &l.phong.kd.y,
-                                      &l.phong.kd.z,
-                                      &l.phong.ks.x,
-                                      &l.phong.ks.y,
-                                      &l.phong.ks.z,
-                                      &l.phong.shininess,
-                                      &l.phong.p_diffuse,
-                                      &l.phong.p_specular,
-                                      &l.mis.vcm,
-                                      &l.mis.vc,
-                                      &l.mis.vm,
-                                      &l.magnitude};
+    // clang-format off
+    const F* v[kLightVertexFloats] = {
+        &l.p.x,         &l.p.y,         &l.p.z,         &l.nf.x,           &l.nf.y,
+        &l.nf.z,        &l.nsf.x,       &l.nsf.y,       &l.nsf.z,          &l.wl.x,
+        &l.wl.y,        &l.wl.z,        &l.beta.x,      &l.beta.y,         &l.beta.z,
+        &l.phong.kd.x,  &l.phong.kd.y,  &l.phong.kd.z,  &l.phong.ks.x,     &l.phong.ks.y,
+        &l.phong.ks.z,  &l.phong.shininess, &l.phong.p_diffuse, &l.phong.p_specular,
+        &l.mis.vcm,     &l.mis.vc,      &l.mis.vm,      &l.magnitude};
+    // clang-format on
     // (the lanes' fields side by side, then each kept lane's column into its record)
     alignas(64) float lanes[kLightVertexFloats][K];
     for (int k = 0; k < kLightVertexFloats; ++k) v[k]->store_aligned(lanes[k]);

@@ -49,37 +49,16 @@ void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>&
     uint32_t bits = mask_bits(want);
     if (!bits) return;
     constexpr int kFields = 31;
-    const F* src[kFields] = {&cv.p.x,
-                             &cv.p.y,
-                             &cv.p.z,
-                             &cv.nf.x,
-                             &cv.nf.y,
-                             &cv.nf.z,
-                             &cv.nsf.x,
-                             &cv.nsf.y,
-                             &cv.nsf.z,
-                             &cv.wo.x,
-                             &cv.wo.y,
-                             &cv.wo.z,
-                             &cv.phong.kd.x,
-                             &cv.phong.kd.y,
-                             &cv.phong.kd.z,
-                             &cv.phong.ks.x,
-                             &cv.phong.ks.y,
-                             &cv.phong.ks.z,
-                             &cv.phong.shininess,
-                             &cv.phong.p_diffuse,
-                             &cv.phong.p_specular,
-                             &cv.mis.vcm,
-                             &cv.mis.vc,
-                             &cv.mis.vm,
-                             &beta.x,
-                             &beta.y,
-                             &beta.z,
-                             &mw.vm_weight,
-                             &mw.vc_weight,
-                             &mw.normalization,
+    // clang-format off
+    const F* src[kFields] = {&cv.p.x,      &cv.p.y,      &cv.p.z,      &cv.nf.x,     &cv.nf.y,
+                             &cv.nf.z,     &cv.nsf.x,    &cv.nsf.y,    &cv.nsf.z,    &cv.wo.x,
+                             &cv.wo.y,     &cv.wo.z,     &cv.phong.kd.x, &cv.phong.kd.y,
+                             &cv.phong.kd.z, &cv.phong.ks.x, &cv.phong.ks.y, &cv.phong.ks.z,
+                             &cv.phong.shininess, &cv.phong.p_diffuse, &cv.phong.p_specular,
+                             &cv.mis.vcm,  &cv.mis.vc,   &cv.mis.vm,   &beta.x,      &beta.y,
+                             &beta.z,      &mw.vm_weight, &mw.vc_weight, &mw.normalization,
                              &mw.radius2};
+    // clang-format on
     alignas(64) float lanes[kFields][K];
     for (int k = 0; k < kFields; ++k) src[k]->store_aligned(lanes[k]);
     alignas(64) uint32_t vertices[K];
