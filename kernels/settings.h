@@ -3,7 +3,6 @@
 // the per-ISA objects share no code through it).
 #pragma once
 
-#include <cstddef>
 #include <cstdint>
 
 namespace cierzo {
@@ -23,7 +22,7 @@ enum class Estimator : int32_t {
 };
 
 // What each estimator is, as the drivers, the scheduler and the options ask it: one row per
-// estimator (in the order of Estimator), so that the code outside its kernel asks these
+// estimator (traits(), below), so that the code outside its kernel asks these
 // questions and never names the estimator. docs/architecture.md lists what a new estimator
 // touches.
 struct EstimatorTraits {
@@ -53,30 +52,25 @@ struct EstimatorTraits {
     bool strategy_images = false;
 };
 
-inline constexpr EstimatorTraits kEstimatorTraits[] = {
-    /* report */ {},
-    /* nee */ {.samples_emitters = true, .draws_emitters = true},
-    /* mis */ {.samples_emitters = true, .draws_emitters = true},
-    /* lt */ {.draws_emitters = true, .light_batches = true, .splats = true},
-    /* bdpt */
-    {.draws_emitters = true,
-     .splats = true,
-     .bidirectional = true,
-     .connects = true,
-     .strategy_images = true},
-    /* vcm */
-    {.draws_emitters = true,
-     .splats = true,
-     .bidirectional = true,
-     .merges = true,
-     .connects = true},
-    /* bpm */ {.draws_emitters = true, .bidirectional = true, .merges = true},
-    /* ppm */ {.draws_emitters = true, .bidirectional = true, .merges = true},
-};
-static_assert(sizeof(kEstimatorTraits) / sizeof(kEstimatorTraits[0]) == size_t(Estimator::kPpm) + 1,
-              "one row of kEstimatorTraits per estimator");
-
-inline constexpr const EstimatorTraits& traits(Estimator e) { return kEstimatorTraits[size_t(e)]; }
+// Each estimator's row. (A switch, not a table: a table would be one symbol that every
+// instruction set's objects share; -Wswitch names an estimator without its row.)
+inline constexpr EstimatorTraits traits(Estimator e) {
+    // clang-format off
+    switch (e) {
+        case Estimator::kReport: return {};
+        case Estimator::kNee: return {.samples_emitters = true, .draws_emitters = true};
+        case Estimator::kMis: return {.samples_emitters = true, .draws_emitters = true};
+        case Estimator::kLt: return {.draws_emitters = true, .light_batches = true, .splats = true};
+        case Estimator::kBdpt: return {.draws_emitters = true, .splats = true, .bidirectional = true,
+                                       .connects = true, .strategy_images = true};
+        case Estimator::kVcm: return {.draws_emitters = true, .splats = true, .bidirectional = true,
+                                      .merges = true, .connects = true};
+        case Estimator::kBpm: return {.draws_emitters = true, .bidirectional = true, .merges = true};
+        case Estimator::kPpm: return {.draws_emitters = true, .bidirectional = true, .merges = true};
+    }
+    // clang-format on
+    return {};
+}
 
 // The questions asked most, by name.
 inline constexpr bool splats(Estimator e) { return traits(e).splats; }
