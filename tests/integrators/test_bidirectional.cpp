@@ -464,7 +464,7 @@ TEST(Bidirectional, BpmWeightsOfEveryMergeOfAPathSumToOne) {
 // `e` at n paths per pixel against mis at 4n on every scene of scenes/, per pixel and in
 // mean (within 4σ, plus `bias` of the mean: vcm's blur).
 void expect_agreement_with_mis_on_every_scene(Estimator e, int n, uint32_t seed, double bias) {
-    for (const auto& path : test::all_scenes()) {
+    for (const auto& path : test::scenes_to_render()) {
         Scene scene = load_scene(path);
         SCOPED_TRACE(path.filename().string());
         scene.settings.width = 24, scene.settings.height = 20;
@@ -508,7 +508,7 @@ TEST(Bidirectional, VcmAgreesWithMisOnEveryScene) {
 // of the mean for the blur.
 TEST(Bidirectional, BpmAndPpmAgreeWithMisInMeanOnEveryScene) {
     const int n = spp(256, 64);
-    for (const auto& path : test::all_scenes()) {
+    for (const auto& path : test::scenes_to_render()) {
         Scene scene = load_scene(path);
         SCOPED_TRACE(path.filename().string());
         scene.settings.width = 24, scene.settings.height = 20;
