@@ -52,9 +52,10 @@ struct EstimatorTraits {
     bool strategy_images = false;
 };
 
-// Each estimator's row. (A switch, not a table: a table would be one symbol that every
-// instruction set's objects share; -Wswitch names an estimator without its row.)
-inline constexpr EstimatorTraits traits(Estimator e) {
+// Each estimator's row. (A switch, not a table, and always inlined: a table, or a copy of
+// this function that a build does not inline, would be one symbol that every instruction
+// set's objects share; -Wswitch names an estimator without its row.)
+[[gnu::always_inline]] inline constexpr EstimatorTraits traits(Estimator e) {
     // clang-format off
     switch (e) {
         case Estimator::kReport: return {};
