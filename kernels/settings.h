@@ -1,6 +1,7 @@
 // The estimator's plain settings, outside the per-ISA namespaces: one type that the scene,
-// the scalar reference and every ISA's kernels share (no kernel types, no functions, so
-// the per-ISA objects share no code through it).
+// the scalar reference and every ISA's kernels share (no kernel types, and only small
+// constexpr functions that are always inlined, so the per-ISA objects share no code through
+// it: isa_objects_share_no_inline_code checks).
 #pragma once
 
 #include <cstdint>
