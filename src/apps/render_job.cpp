@@ -414,14 +414,22 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
                              {"threads", r.threads},
                              {"units", r.units},
                              {"rays", r.rays},
+                             {"bytes_sent", r.bytes_sent},
                              {"seconds", r.seconds},
                              {"rays_per_second", r.rays_per_second()}});
             rays += r.rays, threads += r.threads;
         }
+        uint64_t sent = 0;
+        for (const RankStats& r : st.ranks) sent += r.bytes_sent;
+        const double units = double(std::max<uint64_t>(st.units_handed_out, 1));
         j["mpi"] = {{"ranks", st.ranks.size()},
-                    {"service_seconds", st.service_seconds},
-                    {"units_received", st.units_received},
-                    {"bytes_received", st.bytes_received},
+                    {"units", st.units_handed_out},
+                    {"rank0_cpu_seconds", st.rank0_cpu_seconds},
+                    {"rank0_cpu_seconds_per_unit", st.rank0_cpu_seconds / units},
+                    {"rank0_gather_cpu_seconds", st.rank0_gather_cpu_seconds},
+                    {"rank0_bytes_received", st.bytes_received},
+                    {"bytes_sent", sent},
+                    {"bytes_sent_per_unit", double(sent) / units},
                     {"threads", threads},
                     {"rays_traced", rays},
                     {"rays_traced_per_second", st.seconds > 0 ? double(rays) / st.seconds : 0.0},

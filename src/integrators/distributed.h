@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,6 +49,12 @@ std::optional<Message> try_receive(int tag, int source = -1);
 // Hands a received message's buffer back for later receives (large buffers would otherwise
 // be fresh pages, faulted in one by one, for every message).
 void recycle(std::vector<char>&& bytes);
+// Receives and drops every message still on its way to this rank (a collective call, once
+// no rank sends any more: every rank learns how many messages each other sent it), and
+// finishes this rank's sends; so no rank waits at the end on a message nobody reads.
+void drain();
+// Bytes this rank has sent to other ranks.
+uint64_t bytes_sent();
 // Rank 0 receives every rank's `bytes` (the same size on every rank), in rank order;
 // the other ranks receive nothing.
 std::vector<std::vector<char>> gather(const void* data, size_t bytes);

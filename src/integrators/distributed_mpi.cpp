@@ -4,6 +4,7 @@
 // (MPI_THREAD_FUNNELED): the render threads never do.
 #include "integrators/distributed.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
@@ -83,11 +84,21 @@ struct Transfer {
 };
 std::deque<Transfer> g_sends, g_receives;  // in the order started
 std::vector<std::vector<char>> g_buffers;  // recycled receive buffers
+// Messages sent to and received from each rank (drain)
+std::vector<uint64_t> g_sent, g_received;
+uint64_t g_bytes_sent = 0;
+
+void tally(std::vector<uint64_t>& counts, int rank) {
+    if (counts.size() < size_t(g_world.size)) counts.resize(size_t(g_world.size));
+    ++counts[size_t(rank)];
+}
 
 }  // namespace
 
 void send(int dest, int tag, std::vector<char> bytes) {
     if (bytes.size() > size_t(INT32_MAX)) throw std::length_error("MPI message of more than 2 GiB");
+    tally(g_sent, dest);
+    g_bytes_sent += bytes.size();
     Transfer& t = g_sends.emplace_back();
     t.tag = tag;
     t.message.bytes = std::move(bytes);
@@ -120,6 +131,7 @@ std::optional<Message> try_receive(int tag, int source) {
         if (!flag) break;
         int count = 0;
         MPI_Get_count(&status, MPI_BYTE, &count);
+        tally(g_received, status.MPI_SOURCE);
         Transfer& t = g_receives.emplace_back();
         t.tag = tag;
         t.message.source = status.MPI_SOURCE;
@@ -154,6 +166,36 @@ std::optional<Message> try_receive(int tag, int source) {
 
 void recycle(std::vector<char>&& bytes) {
     if (g_buffers.size() < 16) g_buffers.push_back(std::move(bytes));
+}
+
+uint64_t bytes_sent() { return g_bytes_sent; }
+
+void drain() {
+    if (!g_started) return;
+    g_sent.resize(size_t(g_world.size)), g_received.resize(size_t(g_world.size));
+    std::vector<uint64_t> coming(size_t(g_world.size));
+    check(MPI_Alltoall(g_sent.data(), 1, MPI_UINT64_T, coming.data(), 1, MPI_UINT64_T,
+                       MPI_COMM_WORLD),
+          "MPI_Alltoall");
+    // The receives started and not taken, then every message not yet started
+    for (Transfer& t : g_receives) check(MPI_Wait(&t.request, MPI_STATUS_IGNORE), "MPI_Wait");
+    g_receives.clear();
+    std::vector<char> scratch;
+    for (int r = 0; r < g_world.size; ++r)
+        while (g_received[size_t(r)] < coming[size_t(r)]) {
+            MPI_Message handle;
+            MPI_Status status;
+            check(MPI_Mprobe(r, MPI_ANY_TAG, MPI_COMM_WORLD, &handle, &status), "MPI_Mprobe");
+            int n = 0;
+            MPI_Get_count(&status, MPI_BYTE, &n);
+            scratch.resize(size_t(std::max(n, 1)));
+            check(MPI_Mrecv(scratch.data(), n, MPI_BYTE, &handle, MPI_STATUS_IGNORE), "MPI_Mrecv");
+            ++g_received[size_t(r)];
+        }
+    while (!progress()) {
+    }
+    std::fill(g_sent.begin(), g_sent.end(), 0);
+    std::fill(g_received.begin(), g_received.end(), 0);
 }
 
 std::vector<std::vector<char>> gather(const void* data, size_t bytes) {

@@ -72,35 +72,38 @@ void SplatSums::add(const std::vector<Splat>& splats) {
 void Film::merge_batch(const FilmTile& tile, const SplatSums& splats) {
     for (int y = tile.y0(); y < tile.y1(); ++y) {
         for (int x = tile.x0(); x < tile.x1(); ++x) {
-            const PixelSums& camera = tile.at(x, y);
-            PixelSums& p = at(x, y);
             const size_t i = size_t(y) * size_t(width_) + size_t(x);
-            const double n = double(std::max<uint64_t>(camera.count, 1));
-            for (int c = 0; c < 3; ++c) {
-                const double total = camera.sum[c] + splats.at(i, c);
-                p.sum[c] += total;
-                p.sum_sq[c] += total * total / n;
-            }
-            p.count += camera.count;
-            p.nonfinite += camera.nonfinite;
+            const double splat[3] = {splats.at(i, 0), splats.at(i, 1), splats.at(i, 2)};
+            add_batch(at(x, y), tile.at(x, y), splat);
         }
     }
 }
 
-[[gnu::always_inline]] inline bool Film::estimable(const PixelSums& p) const {
-    return batches_ > 0 ? batches_ >= 2 && p.count > 0 : p.count >= 2;
+namespace {
+
+[[gnu::always_inline]] inline bool estimable(const PixelSums& p, int64_t batches) {
+    return batches > 0 ? batches >= 2 && p.count > 0 : p.count >= 2;
 }
 
-[[gnu::always_inline]] inline double Film::variance_of_mean(const PixelSums& p, int c) const {
+[[gnu::always_inline]] inline double variance_of_mean(const PixelSums& p, int c,
+                                                      int64_t batches) {
     const double n = double(p.count);
-    if (batches_ > 0) {
+    if (batches > 0) {
         // Σ n_k (m_k - m)² over the passes k, over (passes - 1), per path
         const double spread = std::max(0.0, p.sum_sq[c] - p.sum[c] * p.sum[c] / n);
-        return spread / (double(batches_ - 1) * n);
+        return spread / (double(batches - 1) * n);
     }
     const double m = p.sum[c] / n;
     const double var = std::max(0.0, (p.sum_sq[c] / n - m * m) * n / (n - 1.0));
     return var / n;
+}
+
+}  // namespace
+
+bool Film::estimable(const PixelSums& p) const { return cierzo::estimable(p, batches_); }
+
+double Film::variance_of_mean(const PixelSums& p, int c) const {
+    return cierzo::variance_of_mean(p, c, batches_);
 }
 
 Image Film::mean() const {
@@ -123,12 +126,12 @@ Image Film::variance_of_mean() const {
     return img;
 }
 
-std::optional<double> Film::mean_relative_error() const {
-    // Per pixel: the mean over its non-black channels of standard error / |mean|
-    double total = 0.0;
-    size_t used = 0, estimated = 0;
-    for (const PixelSums& p : pixels_) {
-        if (!estimable(p)) continue;
+void ErrorSum::add(std::span<const PixelSums> pixels, int64_t batches) {
+    // Per pixel: the mean over its non-black channels of standard error / |mean|, rounded
+    // to a multiple of 2^-40 (a term of 2^70 or more, or not finite, counts as 2^70)
+    constexpr double kScale = 0x1.0p40, kMost = 0x1.0p70;
+    for (const PixelSums& p : pixels) {
+        if (!cierzo::estimable(p, batches)) continue;
         ++estimated;
         const double n = double(p.count);
         double rel = 0.0;
@@ -136,15 +139,26 @@ std::optional<double> Film::mean_relative_error() const {
         for (int c = 0; c < 3; ++c) {
             const double m = p.sum[c] / n;
             if (std::abs(m) < 1e-12) continue;
-            rel += std::sqrt(variance_of_mean(p, c)) / std::abs(m);
+            rel += std::sqrt(cierzo::variance_of_mean(p, c, batches)) / std::abs(m);
             ++channels;
         }
         if (channels == 0) continue;
-        total += rel / channels;
+        double term = rel / channels;
+        if (!(term < kMost)) term = kMost;  // (NaN too)
+        total += SplatSums::Fixed(std::nearbyint(term * kScale));
         ++used;
     }
+}
+
+std::optional<double> ErrorSum::value() const {
     if (estimated == 0) return std::nullopt;
-    return used ? total / double(used) : 0.0;
+    return used ? double(total) / 0x1.0p40 / double(used) : 0.0;
+}
+
+std::optional<double> Film::mean_relative_error() const {
+    ErrorSum e;
+    e.add({pixels_.data(), pixels_.size()}, batches_);
+    return e.value();
 }
 
 uint64_t Film::nonfinite_samples() const {

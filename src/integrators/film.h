@@ -90,6 +90,36 @@ private:
     uint64_t nonfinite_ = 0;
 };
 
+// Adds one pass of a pixel as one batch (estimators that splat, Film::merge_batch): the
+// pass's total, its camera paths' sum plus its splats' (`splat`), and that total squared
+// over the pass's paths. The one rule, for a film and for a rank's own tiles.
+[[gnu::always_inline]] inline void add_batch(PixelSums& p, const PixelSums& camera,
+                                             const double splat[3]) {
+    const double n = double(std::max<uint64_t>(camera.count, 1));
+    for (int c = 0; c < 3; ++c) {
+        const double total = camera.sum[c] + splat[c];
+        p.sum[c] += total;
+        p.sum_sq[c] += total * total / n;
+    }
+    p.count += camera.count;
+    p.nonfinite += camera.nonfinite;
+}
+
+// The mean relative error's sum over pixels (Film::mean_relative_error), added exactly: each
+// pixel's term is rounded once to a multiple of 2^-40 and summed as a 128-bit integer, so
+// the pixels split over any number of processes add up to the same bits, and a target
+// error stops a render at the same pass however it is split.
+struct ErrorSum {
+    SplatSums::Fixed total = 0;  // the terms, in units of 2^-40
+    uint64_t used = 0;           // pixels with a term (a mean not ~0 in some channel)
+    uint64_t estimated = 0;      // pixels whose variance can be estimated
+    // Adds pixels' terms; `batches` as Film::batches()
+    void add(std::span<const PixelSums> pixels, int64_t batches);
+    void merge(const ErrorSum& o) { total += o.total, used += o.used, estimated += o.estimated; }
+    // The mean relative error; nothing when no pixel's variance can be estimated
+    std::optional<double> value() const;
+};
+
 // The sums of one tile of pixels [x0, x1) × [y0, y1) over one pass, starting from zero: what
 // a thread (or another process) renders, merged into the film with Film::merge once the
 // whole pass is done. Each pixel's image is therefore the sum, in pass order, of per-pass

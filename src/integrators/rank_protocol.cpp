@@ -1,4 +1,4 @@
-// Messages between ranks and the worker rank's loop (see rank_protocol.h).
+// The messages between ranks and every rank's loop (see rank_protocol.h).
 #include "integrators/rank_protocol.h"
 
 #include <algorithm>
@@ -6,15 +6,16 @@
 #include <condition_variable>
 #include <cstring>
 #include <deque>
+#include <map>
 #include <mutex>
 #include <optional>
-#include <stdexcept>
 #include <thread>
 #include <utility>
 
 #include <time.h>
 
 #include "integrators/distributed.h"
+#include "integrators/unit_dealer.h"
 
 namespace cierzo {
 
@@ -27,326 +28,895 @@ double thread_seconds() {
     return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
-// Messages between ranks: a worker rank sends its finished units, how many units it holds
-// and how many more it wants (kTagRequest); rank 0 answers every request (kTagGrant) with
-// units, with none, or with "over". One request is in flight per rank at a time, so the
-// messages of a rank are strictly ordered and none is left unread at the end. Rank 0 waits
-// before answering only a rank that holds no unit (so no result can be stuck behind it);
-// a rank that holds some and got none asks again when it has results.
-constexpr int kTagRequest = 17, kTagGrant = 18;
-
-struct RequestHeader {
-    int32_t want = 0;
-    int32_t results = 0;
-    int32_t holding = 0;  // units queued or being rendered at the rank
-};
-struct ResultHeader {
-    int32_t tile, pass;
-    int64_t s0, s1;
-    uint64_t rays[4];
-    LaneStats lanes;
-    uint64_t splats;  // after the tile's PixelSums
-};
-struct GrantHeader {
-    int32_t over = 0;
-    int32_t units = 0;
-};
-// A rank's figures at the end, gathered on rank 0.
-struct RankRecord {
-    double seconds = 0.0;
-    uint64_t rays = 0, units = 0;
-    int32_t threads = 0;
-    char host[64] = {};
-    char isa[16] = {};
-};
-
 template <typename T>
 void append(std::vector<char>& buf, const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
     const char* p = reinterpret_cast<const char*>(&v);
     buf.insert(buf.end(), p, p + sizeof(T));
 }
+
 template <typename T>
-T read(const std::vector<char>& buf, size_t& at) {
-    if (at + sizeof(T) > buf.size()) throw std::runtime_error("truncated message between ranks");
-    T v;
-    std::memcpy(&v, buf.data() + at, sizeof(T));
-    at += sizeof(T);
-    return v;
+void append_array(std::vector<char>& buf, const T* data, size_t n) {
+    if (n == 0) return;  // (memcpy and insert may not be given a null pointer)
+    const char* p = reinterpret_cast<const char*>(data);
+    buf.insert(buf.end(), p, p + n * sizeof(T));
 }
 
-// ---- The one codec of a unit's result ----------------------------------------------------
-// A header (the unit, its rays by kind, its lane counts) and the tile's PixelSums as they are
-// in memory: ranks run the same build, so the bits go across unchanged.
-
-size_t encoded_size(const UnitResult& r) {
-    return sizeof(ResultHeader) + r.sums.pixels().size() * sizeof(PixelSums) +
-           r.sums.splats.size() * sizeof(Splat);
-}
-
-void encode_result(std::vector<char>& msg, const UnitResult& r) {
-    append(msg, ResultHeader{r.unit.tile,
-                             r.unit.pass,
-                             r.unit.s0,
-                             r.unit.s1,
-                             {r.rays.camera, r.rays.extension, r.rays.shadow, r.rays.light},
-                             r.lanes,
-                             r.sums.splats.size()});
-    const std::span<const PixelSums> px = std::as_const(r.sums).pixels();
-    const char* p = reinterpret_cast<const char*>(px.data());
-    msg.insert(msg.end(), p, p + px.size() * sizeof(PixelSums));
-    if (!r.sums.splats.empty()) {
-        const char* s = reinterpret_cast<const char*>(r.sums.splats.data());
-        msg.insert(msg.end(), s, s + r.sums.splats.size() * sizeof(Splat));
+// Reads a message's fields in order; any read past its end is a MessageError naming the
+// sender and the message.
+class Reader {
+public:
+    Reader(const std::vector<char>& m, const std::string& from, const char* what)
+        : m_(m), from_(from), what_(what) {}
+    template <typename T>
+    T get() {
+        T v;
+        need(sizeof(T));
+        std::memcpy(&v, m_.data() + at_, sizeof(T));
+        at_ += sizeof(T);
+        return v;
     }
-}
-
-UnitResult decode_result(const std::vector<char>& msg, size_t& at, const std::vector<Tile>& tiles,
-                         TilePool& pool) {
-    const ResultHeader rh = read<ResultHeader>(msg, at);
-    if (rh.tile < 0 || size_t(rh.tile) >= tiles.size())
-        throw std::runtime_error("a rank sent a unit of an unknown tile");
-    UnitResult r{Unit{rh.tile, rh.pass, rh.s0, rh.s1}, pool.make(tiles[size_t(rh.tile)], 0),
-                 RayCounts{rh.rays[0], rh.rays[1], rh.rays[2], rh.rays[3]}, rh.lanes};
-    const std::span<PixelSums> px = r.sums.pixels();
-    const size_t bytes = px.size() * sizeof(PixelSums);
-    if (at + bytes > msg.size()) throw std::runtime_error("truncated unit from a rank");
-    // (a batch of light paths has no pixels: memcpy may not be given an empty vector's null data)
-    if (bytes > 0) std::memcpy(px.data(), msg.data() + at, bytes);
-    at += bytes;
-    if (rh.splats > (msg.size() - at) / sizeof(Splat))
-        throw std::runtime_error("truncated unit from a rank");
-    if (rh.splats > 0) {  // (memcpy may not be given the null data of an empty vector)
-        r.sums.splats.resize(rh.splats);
-        std::memcpy(r.sums.splats.data(), msg.data() + at, rh.splats * sizeof(Splat));
-        at += rh.splats * sizeof(Splat);
+    template <typename T>
+    void get_array(T* out, size_t n) {
+        if (n > (m_.size() - at_) / sizeof(T)) fail("truncated");
+        if (n == 0) return;
+        std::memcpy(out, m_.data() + at_, n * sizeof(T));
+        at_ += n * sizeof(T);
     }
-    return r;
+    void end() const {
+        if (at_ != m_.size()) fail("longer than its contents");
+    }
+    bool at_end() const { return at_ == m_.size(); }
+    [[noreturn]] void fail(const std::string& why) const {
+        throw MessageError(from_ + " sent a malformed " + what_ + " message (" +
+                           std::to_string(m_.size()) + " bytes): " + why);
+    }
+
+private:
+    void need(size_t n) const {
+        if (n > m_.size() - at_) fail("truncated");
+    }
+    const std::vector<char>& m_;
+    const std::string& from_;
+    const char* what_;
+    size_t at_ = 0;
+};
+
+// (each message starts with its kind, so one sent under the wrong tag is refused too)
+enum class Kind : uint32_t {
+    kRequest = 0x52455131,
+    kControl,
+    kReport,
+    kSplats,
+    kState,
+    kResults,
+};
+
+void expect(Reader& r, Kind k) {
+    if (r.get<Kind>() != k) r.fail("not a message of this kind");
 }
 
-// The units a rank has been given, and the results its threads have finished.
+struct RaysWire {
+    uint64_t v[4];
+};
+RaysWire to_wire(const RayCounts& r) { return {{r.camera, r.extension, r.shadow, r.light}}; }
+RayCounts from_wire(const RaysWire& w) { return {w.v[0], w.v[1], w.v[2], w.v[3]}; }
+
+}  // namespace
+
+// ---- The messages ------------------------------------------------------------------------
+
+namespace wire {
+
+std::vector<char> encode(const Request& m) {
+    std::vector<char> b;
+    append(b, Kind::kRequest), append(b, m);
+    return b;
+}
+
+bool is_request(const std::vector<char>& m) {
+    Kind k{};
+    if (m.size() >= sizeof(k)) std::memcpy(&k, m.data(), sizeof(k));
+    return k == Kind::kRequest;
+}
+
+Request decode_request(const std::vector<char>& m, const std::string& from) {
+    Reader r(m, from, "request");
+    expect(r, Kind::kRequest);
+    const Request q = r.get<Request>();
+    r.end();
+    if (q.want < 0 || q.holding < 0) r.fail("a negative count");
+    return q;
+}
+
+namespace {
+struct ControlHead {
+    int32_t answer, frontier, granted_through, over;
+    int64_t checkpoint;
+    uint64_t units;
+};
+}  // namespace
+
+std::vector<char> encode(const Control& m) {
+    std::vector<char> b;
+    append(b, Kind::kControl);
+    append(b, ControlHead{m.answer, m.frontier, m.granted_through, m.over, m.checkpoint,
+                          m.units.size()});
+    append_array(b, m.units.data(), m.units.size());
+    return b;
+}
+
+Control decode_control(const std::vector<char>& m, const std::string& from) {
+    Reader r(m, from, "control");
+    expect(r, Kind::kControl);
+    const ControlHead h = r.get<ControlHead>();
+    if (h.units > m.size() / sizeof(Unit)) r.fail("more units than bytes");
+    Control c{h.answer, h.frontier, h.granted_through, h.over, h.checkpoint, {}};
+    c.units.resize(size_t(h.units));
+    r.get_array(c.units.data(), c.units.size());
+    r.end();
+    if (c.frontier < 0 || c.granted_through < -1 || (c.answer | c.over) & ~1)
+        r.fail("fields out of range");
+    for (const Unit& u : c.units)
+        if (u.tile < 0 || u.pass < 0 || u.s0 < 0 || u.s1 <= u.s0) r.fail("a unit out of range");
+    return c;
+}
+
+namespace {
+struct ReportHead {
+    int32_t pass, pad;
+    uint64_t error_total[2];
+    uint64_t used, estimated;
+    RaysWire rays;
+};
+}  // namespace
+
+std::vector<char> encode(const PassReport& m) {
+    std::vector<char> b;
+    append(b, Kind::kReport);
+    ReportHead h{m.pass, 0, {}, m.error.used, m.error.estimated, to_wire(m.rays)};
+    std::memcpy(h.error_total, &m.error.total, sizeof(h.error_total));
+    append(b, h);
+    return b;
+}
+
+PassReport decode_report(const std::vector<char>& m, const std::string& from) {
+    Reader r(m, from, "report");
+    expect(r, Kind::kReport);
+    const ReportHead h = r.get<ReportHead>();
+    r.end();
+    if (h.pass < 0 || h.used > h.estimated) r.fail("fields out of range");
+    PassReport p;
+    p.pass = h.pass;
+    std::memcpy(&p.error.total, h.error_total, sizeof(h.error_total));
+    if (p.error.total < 0) r.fail("a negative error sum");
+    p.error.used = h.used, p.error.estimated = h.estimated;
+    p.rays = from_wire(h.rays);
+    return p;
+}
+
+namespace {
+struct SplatsHead {
+    int32_t pass, pad;
+    RaysWire light_rays;
+    uint64_t count;
+};
+}  // namespace
+
+std::vector<char> encode(const Splats& m) {
+    std::vector<char> b;
+    b.reserve(sizeof(Kind) + sizeof(SplatsHead) + m.splats.size() * sizeof(Splat));
+    append(b, Kind::kSplats);
+    append(b, SplatsHead{m.pass, 0, to_wire(m.light_rays), m.splats.size()});
+    append_array(b, m.splats.data(), m.splats.size());
+    return b;
+}
+
+Splats decode_splats(const std::vector<char>& m, const std::string& from) {
+    Reader r(m, from, "splats");
+    expect(r, Kind::kSplats);
+    const SplatsHead h = r.get<SplatsHead>();
+    if (h.pass < 0) r.fail("a negative pass");
+    if (h.count > m.size() / sizeof(Splat)) r.fail("more splats than bytes");
+    Splats s{h.pass, from_wire(h.light_rays), {}};
+    s.splats.resize(size_t(h.count));
+    r.get_array(s.splats.data(), s.splats.size());
+    r.end();
+    return s;
+}
+
+namespace {
+struct StateHead {
+    int64_t id;
+    int64_t batches;
+    uint64_t nonfinite_splats;
+    uint64_t slots;    // film pixels (0: a fresh band)
+    uint64_t pending;  // tiles flagged (0: none)
+};
+}  // namespace
+
+std::vector<char> encode(const State& m) {
+    const BandState& s = m.band;
+    std::vector<char> b;
+    b.reserve(sizeof(Kind) + sizeof(StateHead) + (s.film.size() + s.pending.size()) * 64 +
+              s.pending_tiles.size());
+    append(b, Kind::kState);
+    append(b, StateHead{m.id, s.batches, s.nonfinite_splats, s.film.size(),
+                        s.pending_tiles.size()});
+    append_array(b, s.film.data(), s.film.size());
+    if (!s.pending_tiles.empty()) {
+        append_array(b, s.pending_tiles.data(), s.pending_tiles.size());
+        append_array(b, s.pending.data(), s.pending.size());
+    }
+    return b;
+}
+
+State decode_state(const std::vector<char>& m, size_t slots, const std::string& from) {
+    Reader r(m, from, "state");
+    expect(r, Kind::kState);
+    const StateHead h = r.get<StateHead>();
+    if (h.slots != 0 && h.slots != slots) r.fail("a band of another size");
+    if (h.pending != 0 && h.pending * TileBands::kSlots != slots)
+        r.fail("pending tiles of another band");
+    if (h.batches < 0 || (h.id < 0 && h.id != kInitState && h.id != kFinalState))
+        r.fail("fields out of range");
+    State s{h.id, {}};
+    s.band.batches = h.batches, s.band.nonfinite_splats = h.nonfinite_splats;
+    s.band.film.resize(size_t(h.slots));
+    r.get_array(s.band.film.data(), s.band.film.size());
+    if (h.pending) {
+        s.band.pending_tiles.resize(size_t(h.pending));
+        r.get_array(s.band.pending_tiles.data(), s.band.pending_tiles.size());
+        s.band.pending.resize(slots);
+        r.get_array(s.band.pending.data(), s.band.pending.size());
+    }
+    r.end();
+    return s;
+}
+
+namespace {
+struct ResultHead {
+    Unit unit;
+    RaysWire rays;
+    uint64_t pixels;
+};
+}  // namespace
+
+void append_result(std::vector<char>& msg, const UnitResult& r) {
+    if (msg.empty()) append(msg, Kind::kResults);
+    const std::span<const PixelSums> px = r.sums.pixels();
+    append(msg, ResultHead{r.unit, to_wire(r.rays), px.size()});
+    append_array(msg, px.data(), px.size());
+}
+
+std::vector<char> encode(const std::vector<UnitResult>& results) {
+    std::vector<char> b;
+    for (const UnitResult& r : results) append_result(b, r);
+    return b;
+}
+
+std::vector<UnitResult> decode_results(const std::vector<char>& m, const std::vector<Tile>& units,
+                                       TilePool& pool, const std::string& from) {
+    Reader r(m, from, "results");
+    expect(r, Kind::kResults);
+    if (r.at_end()) r.fail("no units");
+    std::vector<UnitResult> out;
+    try {
+        while (!r.at_end()) {
+            const ResultHead h = r.get<ResultHead>();
+            if (h.unit.tile < 0 || size_t(h.unit.tile) >= units.size() ||
+                units[size_t(h.unit.tile)].light || h.unit.pass < 0)
+                r.fail("a unit of no tile");
+            const Tile& g = units[size_t(h.unit.tile)];
+            if (h.pixels != size_t(g.x1 - g.x0) * size_t(g.y1 - g.y0))
+                r.fail("a unit of another size than its tile");
+            UnitResult u{h.unit, pool.make(g, 0), from_wire(h.rays), {}};
+            r.get_array(u.sums.pixels().data(), u.sums.pixels().size());
+            out.push_back(std::move(u));
+        }
+    } catch (...) {
+        for (UnitResult& u : out) pool.give(std::move(u.sums));
+        throw;
+    }
+    return out;
+}
+
+}  // namespace wire
+
+// ---- A rank's loop ----------------------------------------------------------------------
+
+namespace {
+
+constexpr int kTagToRoot = 21, kTagControl = 22, kTagState = 23, kTagResults = 24,
+              kTagSplats = 25;
+
+std::string rank_name(int r) { return "rank " + std::to_string(r); }
+
+// Messages to another rank go through MPI; to itself (rank 0 is its own dealer) through a
+// queue here, in order.
+class Link {
+public:
+    explicit Link(int me) : me_(me) {}
+    void send(int dest, int tag, std::vector<char> bytes) {
+        if (dest == me_)
+            local_[tag].push_back(std::move(bytes));
+        else
+            mpi::send(dest, tag, std::move(bytes));
+    }
+    std::optional<mpi::Message> receive(int tag, int source = -1) {
+        if (source < 0 || source == me_) {
+            auto it = local_.find(tag);
+            if (it != local_.end() && !it->second.empty()) {
+                mpi::Message m{me_, std::move(it->second.front())};
+                it->second.pop_front();
+                return m;
+            }
+            if (source == me_) return std::nullopt;
+        }
+        return mpi::try_receive(tag, source);
+    }
+
+private:
+    int me_;
+    std::map<int, std::deque<std::vector<char>>> local_;
+};
+
+// The units this rank was given and not yet finished, by pass.
 class LocalQueue {
 public:
     void push(const std::vector<Unit>& units) {
         std::lock_guard lock(mutex_);
-        units_.insert(units_.end(), units.begin(), units.end());
+        for (const Unit& u : units) {
+            units_.push_back(u);
+            ++held_[u.pass];
+        }
         cv_.notify_all();
     }
-    // The next unit, or nothing once over and empty.
     std::optional<Unit> pop() {
         std::unique_lock lock(mutex_);
         cv_.wait(lock, [&] { return !units_.empty() || over_; });
         if (over_) return std::nullopt;
         Unit u = units_.front();
         units_.pop_front();
-        ++busy_;
         return u;
     }
-    void finished(UnitResult&& r) {
+    void finished(int32_t pass) {
         std::lock_guard lock(mutex_);
-        --busy_;
-        results_.push_back(std::move(r));
-        if (units_.size() + busy_ < low_ || wake_on_result_) done_cv_.notify_all();
+        if (--held_[pass] == 0) held_.erase(pass);
+        ++finished_;
+        if (size() < low_) done_cv_.notify_all();
     }
-    // Waits until fewer than `low` units are held, or (with `any_result`) until a unit is
-    // finished, or `timeout` passes.
-    void wait(size_t low, bool any_result, std::chrono::microseconds timeout) {
+    // Waits until fewer than `low` units are held or `timeout` passes.
+    void wait(size_t low, std::chrono::microseconds timeout) {
         std::unique_lock lock(mutex_);
-        low_ = low, wake_on_result_ = any_result;
-        done_cv_.wait_for(lock, timeout, [&] {
-            return units_.size() + busy_ < low || (any_result && !results_.empty()) || over_;
-        });
+        low_ = low;
+        done_cv_.wait_for(lock, timeout, [&] { return size() < low || over_; });
     }
     void set_over() {
         std::lock_guard lock(mutex_);
         over_ = true;
         units_.clear();
         cv_.notify_all();
+        done_cv_.notify_all();
     }
-    // Units queued or being rendered, and the results to send (taken out).
     size_t pending() {
         std::lock_guard lock(mutex_);
-        return units_.size() + busy_;
+        return size();
     }
-    bool has_results() {
+    bool holds(int32_t pass) {
         std::lock_guard lock(mutex_);
-        return !results_.empty();
-    }
-    std::vector<UnitResult> take_results() {
-        std::lock_guard lock(mutex_);
-        return std::exchange(results_, {});
+        return held_.count(pass) != 0;
     }
 
 private:
+    size_t size() const {
+        size_t n = 0;
+        for (const auto& [pass, count] : held_) n += size_t(count);
+        return n;
+    }
     std::mutex mutex_;
     std::condition_variable cv_, done_cv_;
     std::deque<Unit> units_;
-    std::vector<UnitResult> results_;
-    size_t busy_ = 0;
+    std::map<int32_t, int64_t> held_;  // queued or being rendered
+    uint64_t finished_ = 0;
     size_t low_ = 0;
-    bool wake_on_result_ = false;
     bool over_ = false;
 };
 
-}  // namespace
+// What the render threads leave for the main thread to send: units of other ranks' tiles,
+// and splats by pass and owner (with the rays of light batches, by pass).
+struct Outbox {
+    std::mutex mutex;
+    std::map<int, std::vector<char>> results;  // by owner: a Results message
+    std::map<int32_t, std::vector<std::vector<Splat>>> splats;
+    std::map<int32_t, RayCounts> light_rays;
+};
 
-// A worker rank keeps enough units queued for its threads to work through a round trip to rank 0:
-// at least two per thread, and at least kQueuedSeconds of work at the units' measured speed.
-// When it holds fewer than half of that it sends its finished units and asks for more; in
-// between its main thread sleeps (it polls MPI only while it waits for an answer).
+// A rank keeps enough units queued for its threads to work through a round trip to rank 0:
+// at least two per thread, and at least kQueuedSeconds of work at the units' measured speed;
+// it asks for more when it holds fewer than half of that.
 constexpr double kQueuedSeconds = 0.01;
 
-void serve_as_worker(const UnitRenderer& renderer, TilePool& pool, int threads, RankStats& mine) {
+// Rank 0's side: requests waiting for units, what each rank was last told, checkpoints and
+// the final bands as they come in.
+struct Dealing {
+    struct Told {
+        int32_t frontier = 0, granted_through = -1, over = 0;
+    };
+    struct Waiting {
+        bool asked = false;
+        int32_t want = 0, holding = 0;
+    };
+    std::vector<Waiting> waiting;
+    std::vector<Told> told;
+    // The checkpoint being gathered (0: none): its pass, rays, bands in
+    int64_t checkpoint = 0, asked_checkpoint = 0;
+    int32_t checkpoint_frontier = 0;
+    RayCounts checkpoint_rays;
+    std::vector<std::optional<BandState>> bands;
+    int bands_in = 0;
+    std::vector<std::optional<BandState>> finals;
+    int finals_in = 0;
+};
+
+// The bands of every rank as one render state at pass `frontier` (film, and the tiles done
+// of the pass in progress).
+RenderState assemble(const TileBands& bands, std::vector<std::optional<BandState>>& parts,
+                     const std::vector<int64_t>& bounds, int32_t frontier) {
+    RenderState s;
+    s.film = Film(bands.width(), bands.height());
+    s.spp_done = bounds[size_t(frontier)];
+    int64_t batches = 0;
+    uint64_t nonfinite = 0;
+    bool pending = false;
+    for (const auto& p : parts) pending |= !p->pending_tiles.empty();
+    if (pending && frontier + 1 < int32_t(bounds.size())) {
+        s.pending_end = bounds[size_t(frontier) + 1];
+        s.pending_tiles.assign(bands.tiles(), 0);
+        s.pending = Film(bands.width(), bands.height());
+    }
+    for (int r = 0; r < bands.ranks(); ++r) {
+        const BandState& b = *parts[size_t(r)];
+        batches = b.batches, nonfinite += b.nonfinite_splats;
+        for (size_t j = 0; j < bands.count(r); ++j) {
+            const size_t k = bands.first(r) + j;
+            const Tile& g = bands.tile(k);
+            const bool done = s.pending_end && !b.pending_tiles.empty() && b.pending_tiles[j];
+            if (done) s.pending_tiles[k] = 1;
+            size_t i = j * TileBands::kSlots;
+            for (int y = g.y0; y < g.y1; ++y)
+                for (int x = g.x0; x < g.x1; ++x, ++i) {
+                    s.film.at(x, y) = b.film.empty() ? PixelSums{} : b.film[i];
+                    if (done) s.pending.at(x, y) = b.pending[i];
+                }
+        }
+    }
+    s.film.set_batches(batches, nonfinite);
+    return s;
+}
+
+// A resumed render's band of rank r: its tiles of the film, and of the first pass's tiles
+// done (when the checkpoint holds that pass's tiles).
+BandState band_of(const TileBands& bands, int r, const RenderState& st, bool with_pending) {
+    BandState b;
+    b.film.resize(bands.count(r) * TileBands::kSlots);
+    b.batches = st.film.batches();
+    b.nonfinite_splats = r == 0 ? st.film.nonfinite_splats() : 0;
+    if (with_pending) {
+        b.pending_tiles.assign(bands.count(r), 0);
+        b.pending.resize(b.film.size());
+    }
+    for (size_t j = 0; j < bands.count(r); ++j) {
+        const size_t k = bands.first(r) + j;
+        const Tile& g = bands.tile(k);
+        const bool done = with_pending && k < st.pending_tiles.size() && st.pending_tiles[k];
+        if (done) b.pending_tiles[j] = 1;
+        size_t i = j * TileBands::kSlots;
+        for (int y = g.y0; y < g.y1; ++y)
+            for (int x = g.x0; x < g.x1; ++x, ++i) {
+                b.film[i] = st.film.at(x, y);
+                if (done) b.pending[i] = st.pending.at(x, y);
+            }
+    }
+    return b;
+}
+
+}  // namespace
+
+DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats& lanes) {
+    const mpi::World& world = mpi::world();
+    const int me = world.rank, ranks = world.size;
+    const bool root = me == 0;
+    const RenderSettings& rs = run.scene.settings;
+    const bool splatting = splats(rs.estimator.kind);
+    const TileBands bands(rs.width, rs.height, ranks);
+    TileOwner owner(bands, me, run.light_units, splatting, run.pool);
+    const size_t slots = bands.count(me) * TileBands::kSlots;
+    Link link(me);
+    std::vector<std::string> names;  // (for messages' errors, made once)
+    for (int r = 0; r < ranks; ++r) names.push_back(rank_name(r));
+    DistributedOutcome outcome;
+    const double cpu_start = thread_seconds();
+
+    // ---- Start: rank 0 hands every rank its band of a resumed checkpoint (or a fresh one)
+    std::optional<UnitDealer> dealer;
+    std::optional<Progress> progress;
+    Dealing dealing;
+    if (root) {
+        const RenderState* resume = run.resume;
+        const bool with_pending = resume && !splatting && run.bounds.size() > 1 &&
+                                  resume->pending_end == run.bounds[1] &&
+                                  !resume->pending_tiles.empty();
+        for (int r = 0; r < ranks; ++r) {
+            wire::State init{wire::kInitState, {}};
+            if (resume) init.band = band_of(bands, r, *resume, with_pending);
+            link.send(r, kTagState, wire::encode(init));
+        }
+        progress.emplace(run.options.progress && isatty(STDERR_FILENO),
+                         run.units.size() * (run.bounds.size() - 1));
+        dealer.emplace(bands, run.light_units, run.bounds, run.options, run.start, *progress,
+                       with_pending ? resume->pending_tiles : std::vector<uint8_t>{});
+        dealing.waiting.resize(size_t(ranks));
+        dealing.told.resize(size_t(ranks));
+        dealing.finals.resize(size_t(ranks));
+    }
+    for (;;) {
+        if (std::optional<mpi::Message> m = link.receive(kTagState, 0)) {
+            wire::State s = wire::decode_state(m->bytes, slots, rank_name(0));
+            if (s.id != wire::kInitState) throw MessageError("rank 0 sent a state before the start");
+            if (!s.band.film.empty()) owner.restore(std::move(s.band));
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+
+    // ---- The render threads
     LocalQueue queue;
+    Outbox outbox;
     std::atomic<uint64_t> rays{0}, units{0}, busy_ns{0};
-    const auto start = Clock::now();
     std::atomic<int64_t> last_ns{0};
-    std::vector<std::thread> workers;
     std::mutex failure_mutex;
     std::exception_ptr failure;
     std::atomic<bool> failed{false};
-    for (int i = 0; i < threads; ++i)
-        workers.emplace_back([&] {
-            try {
-                while (std::optional<Unit> u = queue.pop()) {
-                    const auto t0 = Clock::now();
-                    UnitResult r = renderer.render(*u);
-                    const auto t1 = Clock::now();
-                    rays += r.rays.total(), ++units;
-                    busy_ns += uint64_t(
-                        std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
-                    last_ns =
-                        std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - start).count();
-                    queue.finished(std::move(r));
+    std::mutex lanes_mutex;
+    const auto render_units = [&] {
+        std::vector<std::vector<Splat>> by_owner{size_t(ranks)};
+        try {
+            while (std::optional<Unit> u = queue.pop()) {
+                const auto t0 = Clock::now();
+                UnitResult r = run.renderer.render(*u);
+                const auto t1 = Clock::now();
+                rays += r.rays.total(), ++units;
+                busy_ns += uint64_t(
+                    std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+                last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - run.start)
+                              .count();
+                {
+                    std::lock_guard lock(lanes_mutex);
+                    add(lanes, r.lanes);
                 }
-            } catch (...) {
-                std::lock_guard lock(failure_mutex);
-                if (!failure) failure = std::current_exception();
-                failed = true;
-            }
-        });
-    bool waiting = false, over = false, last_had_units = true;
-    try {
-        while (!over) {
-            if (failed) {
-                // (main() ends every rank: rank 0 would wait for this one's units forever)
-                std::rethrow_exception(failure);
-            }
-            bool acted = false;
-            // How many units to hold: two per thread, or kQueuedSeconds of work if more
-            const uint64_t done = units.load();
-            const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
-            const size_t high = std::min<size_t>(
-                4096, std::max<size_t>(
-                          2 * size_t(threads),
-                          unit_seconds > 0 ? size_t(kQueuedSeconds * threads / unit_seconds) : 0));
-            const size_t low = std::max<size_t>(size_t(threads), high / 2);
-            if (!waiting) {
-                const size_t pending = queue.pending();
-                if (pending == 0 || (pending < low && (last_had_units || queue.has_results()))) {
-                    std::vector<UnitResult> results = queue.take_results();
-                    size_t bytes = sizeof(RequestHeader);
-                    for (const UnitResult& r : results) bytes += encoded_size(r);
-                    std::vector<char> msg;
-                    msg.reserve(bytes);
-                    append(msg, RequestHeader{int32_t(pending < high ? high - pending : 0),
-                                              int32_t(results.size()), int32_t(pending)});
-                    for (const UnitResult& r : results) encode_result(msg, r);
-                    mpi::send(0, kTagRequest, std::move(msg));
-                    for (UnitResult& r : results) pool.give(std::move(r.sums));
-                    waiting = acted = true;
+                const int32_t pass = u->pass;
+                if (!r.sums.splats.empty()) {
+                    // Splats to the owners of their pixels: this band's now, the others'
+                    // with the pass's flush
+                    for (auto& v : by_owner) v.clear();
+                    for (const Splat& s : r.sums.splats)
+                        by_owner[size_t(bands.owner(bands.tile_of(s.pixel)))].push_back(s);
+                    r.sums.splats = {};
+                    if (!by_owner[size_t(me)].empty()) owner.add_splats(pass, by_owner[size_t(me)]);
+                    std::lock_guard lock(outbox.mutex);
+                    auto& out = outbox.splats[pass];
+                    out.resize(size_t(ranks));
+                    for (int o = 0; o < ranks; ++o)
+                        if (o != me)
+                            out[size_t(o)].insert(out[size_t(o)].end(), by_owner[size_t(o)].begin(),
+                                                  by_owner[size_t(o)].end());
                 }
-            } else if (std::optional<mpi::Message> m = mpi::try_receive(kTagGrant, 0)) {
-                size_t at = 0;
-                const GrantHeader h = read<GrantHeader>(m->bytes, at);
-                std::vector<Unit> granted;
-                for (int32_t i = 0; i < h.units; ++i) granted.push_back(read<Unit>(m->bytes, at));
-                if (h.over) {
-                    queue.set_over();
-                    over = true;
+                const Tile& g = run.units[size_t(u->tile)];
+                if (g.light) {
+                    {
+                        std::lock_guard lock(outbox.mutex);
+                        outbox.light_rays[pass] += r.rays;
+                    }
+                    run.pool.give(std::move(r.sums));
+                } else if (bands.owner(size_t(u->tile) - run.light_units) == me) {
+                    owner.complete(std::move(r));
+                } else {
+                    // (encoded here, on a render thread: the main thread only sends)
+                    const int o = bands.owner(size_t(u->tile) - run.light_units);
+                    {
+                        std::lock_guard lock(outbox.mutex);
+                        wire::append_result(outbox.results[o], r);
+                    }
+                    run.pool.give(std::move(r.sums));
                 }
-                queue.push(granted);
-                last_had_units = !granted.empty();
-                waiting = false, acted = true;
+                queue.finished(pass);
             }
-            if (waiting) {
-                if (!acted) std::this_thread::sleep_for(std::chrono::microseconds(100));
-            } else if (!acted) {
-                queue.wait(low, !last_had_units, std::chrono::microseconds(20000));
-            }
+        } catch (...) {
+            std::lock_guard lock(failure_mutex);
+            if (!failure) failure = std::current_exception();
+            failed = true;
         }
-    } catch (...) {
-        // (the render threads are stopped before the error is passed on)
+    };
+    std::vector<std::thread> workers;
+    for (int i = 0; i < run.threads; ++i) workers.emplace_back(render_units);
+    const auto stop_threads = [&] {
         queue.set_over();
         for (std::thread& t : workers)
             if (t.joinable()) t.join();
+    };
+
+    // ---- The main thread's loop
+    bool waiting = false, over = false, final_sent = false, news = true, last_had_units = true;
+    int32_t granted_through = -1, flushed_through = -1;
+    const auto every = std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(run.options.checkpoint_every));
+    auto next_checkpoint = run.start + every;
+    const auto send_news = [&](int r, bool answer, std::vector<Unit> granted, int64_t ckpt) {
+        wire::Control c{answer ? 1 : 0, dealer->frontier(), dealer->granted_through(),
+                        dealer->stopping() ? 1 : 0, ckpt, std::move(granted)};
+        dealing.told[size_t(r)] = {c.frontier, c.granted_through, c.over};
+        link.send(r, kTagControl, wire::encode(c));
+    };
+    try {
+        for (;;) {
+            if (failed) std::rethrow_exception(failure);
+            bool acted = false;
+            // -- Rank 0: requests, reports, checkpoints, news, bands
+            if (root) {
+                if (run.options.cancel && run.options.cancel->load()) dealer->interrupt();
+                while (std::optional<mpi::Message> m = link.receive(kTagToRoot)) {
+                    acted = true;
+                    outcome.bytes_received += m->bytes.size();
+                    const std::string from = names[size_t(m->source)];
+                    if (wire::is_request(m->bytes)) {
+                        const wire::Request q = wire::decode_request(m->bytes, from);
+                        dealing.waiting[size_t(m->source)] = {true, q.want, q.holding};
+                    } else {
+                        dealer->report(m->source, wire::decode_report(m->bytes, from));
+                    }
+                }
+                int64_t ask = 0;
+                if (run.options.checkpoint && run.options.checkpoint_every > 0.0 &&
+                    Clock::now() >= next_checkpoint && !dealer->stopping() &&
+                    dealing.checkpoint == 0) {
+                    ask = dealing.checkpoint = ++dealing.asked_checkpoint;
+                    dealing.checkpoint_frontier = dealer->frontier();
+                    dealing.checkpoint_rays = dealer->rays();
+                    dealing.bands.assign(size_t(ranks), std::nullopt);
+                    dealing.bands_in = 0;
+                    next_checkpoint = Clock::now() + every;
+                }
+                for (int r = 0; r < ranks; ++r) {
+                    Dealing::Waiting& w = dealing.waiting[size_t(r)];
+                    if (w.asked) {
+                        std::vector<Unit> granted =
+                            w.want > 0 ? dealer->grant(r, size_t(w.want)) : std::vector<Unit>{};
+                        if (!granted.empty() || dealer->stopping() || w.holding > 0) {
+                            send_news(r, true, std::move(granted), ask);
+                            w = {};
+                            acted = true;
+                            continue;
+                        }
+                    }
+                    const Dealing::Told& t = dealing.told[size_t(r)];
+                    if (ask || t.frontier != dealer->frontier() ||
+                        t.over != int32_t(dealer->stopping()) ||
+                        (splatting && t.granted_through != dealer->granted_through())) {
+                        send_news(r, false, {}, ask);
+                        acted = true;
+                    }
+                }
+                while (std::optional<mpi::Message> m = link.receive(kTagState)) {
+                    const double gather_start = thread_seconds();
+                    acted = true;
+                    outcome.bytes_received += m->bytes.size();
+                    const int r = m->source;
+                    wire::State s =
+                        wire::decode_state(m->bytes, bands.count(r) * TileBands::kSlots,
+                                           names[size_t(r)]);
+                    mpi::recycle(std::move(m->bytes));
+                    auto& parts = s.id == wire::kFinalState ? dealing.finals : dealing.bands;
+                    int& in = s.id == wire::kFinalState ? dealing.finals_in : dealing.bands_in;
+                    if (s.id != wire::kFinalState && s.id != dealing.checkpoint) continue;
+                    if (parts[size_t(r)]) throw MessageError(rank_name(r) + " sent its band twice");
+                    parts[size_t(r)] = std::move(s.band);
+                    if (++in == ranks && s.id != wire::kFinalState) {
+                        RenderState st = assemble(bands, dealing.bands, run.bounds,
+                                                  dealing.checkpoint_frontier);
+                        st.rays = dealing.checkpoint_rays;
+                        if (run.resume) st.rays += run.resume->rays;
+                        st.seconds = seconds_since(run.start) +
+                                     (run.resume ? run.resume->seconds : 0.0);
+                        dealing.bands.clear();
+                        dealing.checkpoint = 0;
+                        run.checkpoint(std::move(st));
+                    }
+                    outcome.gather_seconds += thread_seconds() - gather_start;
+                }
+                if (dealing.finals_in == ranks) break;
+            }
+            // -- Every rank: what rank 0 says, in order
+            if (!over) {
+                while (std::optional<mpi::Message> m = link.receive(kTagControl, 0)) {
+                    acted = true;
+                    const wire::Control c = wire::decode_control(m->bytes, names[0]);
+                    for (const Unit& u : c.units)
+                        if (size_t(u.tile) >= run.units.size())
+                            throw MessageError("rank 0 granted a unit of no tile");
+                    if (c.over) {
+                        over = true;
+                        stop_threads();
+                        owner.stop(c.frontier);
+                        break;
+                    }
+                    owner.advance(c.frontier);
+                    granted_through = std::max(granted_through, c.granted_through);
+                    if (c.checkpoint > 0)
+                        link.send(0, kTagState, wire::encode(wire::State{c.checkpoint,
+                                                                         owner.snapshot()}));
+                    queue.push(c.units);
+                    if (c.answer) {
+                        waiting = false;
+                        last_had_units = !c.units.empty();
+                    }
+                    news = true;
+                }
+            }
+            // -- Units and splats of this band from other ranks
+            while (std::optional<mpi::Message> m = link.receive(kTagResults)) {
+                acted = true;
+                for (UnitResult& r : wire::decode_results(m->bytes, run.units, run.pool,
+                                                          names[size_t(m->source)]))
+                    owner.complete(std::move(r));
+                mpi::recycle(std::move(m->bytes));
+            }
+            while (std::optional<mpi::Message> m = link.receive(kTagSplats)) {
+                acted = true;
+                const wire::Splats s = wire::decode_splats(m->bytes, names[size_t(m->source)]);
+                owner.add_splats(s.pass, s.splats);
+                owner.flushed(s.pass, s.light_rays);
+                mpi::recycle(std::move(m->bytes));
+            }
+            if (over) {
+                if (!final_sent) {
+                    BandState band = owner.snapshot();
+                    link.send(0, kTagState, wire::encode(wire::State{wire::kFinalState,
+                                                                     std::move(band)}));
+                    final_sent = acted = true;
+                }
+                if (!root) break;
+                if (!acted) std::this_thread::sleep_for(std::chrono::microseconds(200));
+                continue;
+            }
+            // -- Units of other bands to their owners
+            std::map<int, std::vector<char>> results;
+            {
+                std::lock_guard lock(outbox.mutex);
+                results.swap(outbox.results);
+            }
+            for (auto& [o, msg] : results) {
+                link.send(o, kTagResults, std::move(msg));
+                acted = true;
+            }
+            // -- Splats of a pass handed out whole and rendered here, to every owner
+            while (splatting && flushed_through < granted_through &&
+                   !queue.holds(flushed_through + 1)) {
+                acted = true;
+                const int32_t pass = ++flushed_through;
+                std::vector<std::vector<Splat>> out;
+                RayCounts light;
+                {
+                    std::lock_guard lock(outbox.mutex);
+                    if (auto it = outbox.splats.find(pass); it != outbox.splats.end()) {
+                        out = std::move(it->second);
+                        outbox.splats.erase(it);
+                    }
+                    if (auto it = outbox.light_rays.find(pass); it != outbox.light_rays.end()) {
+                        light = it->second;
+                        outbox.light_rays.erase(it);
+                    }
+                }
+                out.resize(size_t(ranks));
+                for (int o = 0; o < ranks; ++o) {
+                    const RayCounts to = o == 0 ? light : RayCounts{};
+                    if (o == me) {
+                        owner.flushed(pass, to);
+                    } else {
+                        link.send(o, kTagSplats,
+                                  wire::encode(wire::Splats{pass, to, std::move(out[size_t(o)])}));
+                    }
+                }
+            }
+            // -- This band's part of the pass in progress, to rank 0
+            if (std::optional<PassReport> rep = owner.take_report()) {
+                link.send(0, kTagToRoot, wire::encode(*rep));
+                acted = true;
+            }
+            // -- More units
+            const uint64_t done = units.load();
+            const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
+            const size_t high = std::min<size_t>(
+                4096, std::max<size_t>(2 * size_t(run.threads),
+                                       unit_seconds > 0
+                                           ? size_t(kQueuedSeconds * run.threads / unit_seconds)
+                                           : 0));
+            const size_t low = std::max<size_t>(size_t(run.threads), high / 2);
+            if (!waiting) {
+                const size_t pending = queue.pending();
+                if (pending == 0 || (pending < low && (last_had_units || news))) {
+                    link.send(0, kTagToRoot,
+                              wire::encode(wire::Request{int32_t(pending < high ? high - pending : 0),
+                                                         int32_t(pending)}));
+                    waiting = acted = true;
+                    news = false;
+                }
+            }
+            if (!acted) {
+                // (rank 0 polls every millisecond: the ranks hold kQueuedSeconds of work, and
+                // a poll is some microseconds of rank 0's CPU)
+                if (root || waiting)
+                    std::this_thread::sleep_for(std::chrono::microseconds(root ? 1000 : 200));
+                else
+                    queue.wait(low, std::chrono::microseconds(1000));
+            }
+        }
+    } catch (...) {
+        stop_threads();
         throw;
     }
-    for (std::thread& t : workers) t.join();
+    stop_threads();
+    if (progress) progress->stop();
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    if (root) {
+        const double gather_start = thread_seconds();
+        outcome.final_state = assemble(bands, dealing.finals, run.bounds, dealer->frontier());
+        outcome.final_state.rays = dealer->rays();
+        if (run.resume) outcome.final_state.rays += run.resume->rays;
+        outcome.final_state.seconds =
+            seconds_since(run.start) + (run.resume ? run.resume->seconds : 0.0);
+        outcome.stopped_by = dealer->stopped_by();
+        outcome.rays = dealer->rays();
+        outcome.units = dealer->units_granted();
+        const double now = thread_seconds();
+        outcome.gather_seconds += now - gather_start;
+        outcome.service_seconds = now - cpu_start - outcome.gather_seconds;
+    }
+    mpi::drain();
+    mine.bytes_sent = mpi::bytes_sent();
     mine.rays = rays, mine.units = units;
     mine.seconds = double(last_ns.load()) * 1e-9;
+    return outcome;
 }
 
-RankService::RankService(Coordinator& coord, const std::vector<Tile>& tiles, int ranks,
-                         TilePool& pool)
-    : coord_(coord),
-      tiles_(tiles),
-      pool_(pool),
-      waiting_(size_t(ranks)),
-      told_over_(size_t(ranks), false) {
-    told_over_[0] = true;
-}
+// ---- Figures of every rank ----------------------------------------------------------------
 
-bool RankService::poll() {
-    bool acted = false;
-    const double cpu_start = thread_seconds();
-    while (std::optional<mpi::Message> m = mpi::try_receive(kTagRequest)) {
-        acted = true;
-        bytes_ += m->bytes.size();
-        size_t at = 0;
-        const RequestHeader h = read<RequestHeader>(m->bytes, at);
-        for (int32_t i = 0; i < h.results; ++i) {
-            coord_.complete(decode_result(m->bytes, at, tiles_, pool_));
-            ++units_;
-        }
-        mpi::recycle(std::move(m->bytes));
-        waiting_[size_t(m->source)] = {true, h.want, h.holding};
-    }
-    // Answer the ranks that wait: with units, with none (a rank that holds units), or
-    // with "over"; a rank that holds nothing waits for work
-    for (size_t r = 1; r < waiting_.size(); ++r) {
-        Waiting& w = waiting_[r];
-        if (!w.asked) continue;
-        const std::vector<Unit> units =
-            w.want > 0 ? coord_.grant(size_t(w.want)) : std::vector<Unit>{};
-        const bool over = coord_.stopping();
-        if (units.empty() && !over && w.holding == 0) continue;  // later
-        std::vector<char> msg;
-        append(msg, GrantHeader{over ? 1 : 0, int32_t(units.size())});
-        for (const Unit& u : units) append(msg, u);
-        mpi::send(int(r), kTagGrant, std::move(msg));
-        w = {};
-        if (over) told_over_[r] = true;
-        acted = true;
-    }
-    if (acted) seconds_ += thread_seconds() - cpu_start;
-    return acted;
-}
+namespace {
+// A rank's figures at the end, gathered on rank 0.
+struct RankRecord {
+    double seconds = 0.0;
+    uint64_t rays = 0, units = 0, bytes_sent = 0;
+    int32_t threads = 0;
+    char host[64] = {};
+    char isa[16] = {};
+    LaneStats lanes;
+};
+}  // namespace
 
-bool RankService::all_told() const {
-    return std::all_of(told_over_.begin(), told_over_.end(), [](bool b) { return b; });
-}
-
-void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStats& st) {
+void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStats& st,
+                       LaneStats& lanes) {
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
-    RankRecord rec{mine.seconds, mine.rays, mine.units, mine.threads, {}, {}};
+    RankRecord rec{mine.seconds, mine.rays, mine.units, mine.bytes_sent, mine.threads, {}, {}, lanes};
     std::strncpy(rec.host, mine.host.c_str(), sizeof(rec.host) - 1);
     std::strncpy(rec.isa, isa.c_str(), sizeof(rec.isa) - 1);
     const std::vector<std::vector<char>> all = mpi::gather(&rec, sizeof(rec));
+    if (!all.empty()) lanes = {};
     for (size_t r = 0; r < all.size(); ++r) {
         RankRecord x;
         std::memcpy(&x, all[r].data(), sizeof(x));
-        st.ranks.push_back({int(r), x.host, x.threads, x.rays, x.units, x.seconds});
+        x.host[sizeof(x.host) - 1] = 0, x.isa[sizeof(x.isa) - 1] = 0;
+        add(lanes, x.lanes);
+        st.ranks.push_back({int(r), x.host, x.threads, x.rays, x.units, x.bytes_sent, x.seconds});
         if (std::string(x.isa) != isa)
             st.warnings.push_back("rank " + std::to_string(r) + " rendered with " + x.isa +
                                   " kernels, rank 0 with " + isa +

@@ -1,50 +1,119 @@
-// A render across MPI ranks (integrators/distributed.h): rank 0's coordinator hands units to
-// the other ranks as they ask and receives their sums; each worker rank renders its units on
-// its threads. The messages and the one codec of a unit's result are in rank_protocol.cpp.
+// A render across MPI ranks (integrators/distributed.h). Every rank renders units on its
+// threads and owns a band of tiles (tile_owner.h), whose passes it adds itself; rank 0 also
+// hands out units and counts passes (unit_dealer.h). The messages:
+//   a rank to rank 0:   Request (how many units it wants and holds), Report (its band has
+//                       the pass in progress added: rays and exact error sum), State (its
+//                       band for a checkpoint, or at the end);
+//   rank 0 to a rank:   Control (units granted, the pass in progress, the last pass handed
+//                       out whole, a checkpoint to take, the end), State (its band of a
+//                       resumed checkpoint, first);
+//   a rank to an owner: Results (the sums of units of the owner's tiles it rendered),
+//                       Splats (estimators that splat: its splats of one pass in the owner's
+//                       band, once it has rendered all it was given of the pass).
+// Rank 0 sends to itself through a local queue, so every rank runs the same loop. A message
+// that is truncated or does not fit the render is refused (MessageError, naming the sender).
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "integrators/scheduler.h"
+#include "integrators/tile_owner.h"
 
 namespace cierzo {
 
-// A worker rank (not 0): asks rank 0 for units, renders them on `threads` threads, sends them
-// back, until rank 0 says the render is over. Fills this rank's rays, units and seconds.
-void serve_as_worker(const UnitRenderer& renderer, TilePool& pool, int threads, RankStats& mine);
-
-// Rank 0's side of a distributed render: answers the other ranks' requests until each has
-// been told the render is over.
-class RankService {
-public:
-    RankService(Coordinator& coord, const std::vector<Tile>& tiles, int ranks, TilePool& pool);
-
-    // Handles what has arrived; returns whether anything happened.
-    bool poll();
-    bool all_told() const;
-
-    double seconds() const { return seconds_; }  // CPU time of poll()
-    uint64_t units() const { return units_; }
-    uint64_t bytes() const { return bytes_; }
-
-private:
-    Coordinator& coord_;
-    const std::vector<Tile>& tiles_;
-    TilePool& pool_;
-    struct Waiting {
-        bool asked = false;
-        int32_t want = 0, holding = 0;
-    };
-    std::vector<Waiting> waiting_;  // each rank's unanswered request
-    std::vector<bool> told_over_;
-    double seconds_ = 0.0;
-    uint64_t units_ = 0, bytes_ = 0;
+struct MessageError : std::runtime_error {
+    using std::runtime_error::runtime_error;
 };
 
+namespace wire {
+
+struct Request {
+    int32_t want = 0, holding = 0;
+};
+struct Control {
+    int32_t answer = 0;  // 1: the answer to the rank's request (0: news alone)
+    int32_t frontier = 0;
+    int32_t granted_through = -1;
+    int32_t over = 0;          // the render ends at pass `frontier`
+    int64_t checkpoint = 0;    // > 0: send your band for checkpoint number `checkpoint`
+    std::vector<Unit> units;
+};
+struct Splats {
+    int32_t pass = 0;
+    RayCounts light_rays;
+    std::vector<Splat> splats;
+};
+inline constexpr int64_t kInitState = -1, kFinalState = -2;
+struct State {
+    int64_t id = 0;  // kInitState, kFinalState or a checkpoint's number
+    BandState band;
+};
+
+std::vector<char> encode(const Request& m);
+std::vector<char> encode(const Control& m);
+std::vector<char> encode(const PassReport& m);
+std::vector<char> encode(const Splats& m);
+std::vector<char> encode(const State& m);
+// Units' results (their sums and rays; not their splats): a message of them, or one more
+// appended to a message (empty: a new one).
+std::vector<char> encode(const std::vector<UnitResult>& results);
+void append_result(std::vector<char>& message, const UnitResult& r);
+
+// Whether a message to rank 0 is a Request (else a Report).
+bool is_request(const std::vector<char>& m);
+// Each throws MessageError naming `from` (e.g. "rank 2") and what is wrong.
+Request decode_request(const std::vector<char>& m, const std::string& from);
+Control decode_control(const std::vector<char>& m, const std::string& from);
+PassReport decode_report(const std::vector<char>& m, const std::string& from);
+Splats decode_splats(const std::vector<char>& m, const std::string& from);
+// `slots`: the band's pixels the state must hold.
+State decode_state(const std::vector<char>& m, size_t slots, const std::string& from);
+// Units of image tiles (indices into `units`), with tile memory from `pool`.
+std::vector<UnitResult> decode_results(const std::vector<char>& m, const std::vector<Tile>& units,
+                                       TilePool& pool, const std::string& from);
+
+}  // namespace wire
+
+// What a render under MPI gives rank 0.
+struct DistributedOutcome {
+    RenderState final_state;  // the film, and the tiles done of the pass in progress
+    std::string stopped_by;
+    RayCounts rays;            // of the passes in the film
+    uint64_t units = 0;        // units handed out
+    // Rank 0's main thread's CPU time: handing out units and all else, and apart from it
+    // gathering the bands (checkpoints and the end)
+    double service_seconds = 0.0, gather_seconds = 0.0;
+    uint64_t bytes_received = 0;   // by rank 0
+};
+
+struct RankRun {
+    const Scene& scene;
+    const RenderOptions& options;
+    const std::vector<Tile>& units;  // work_units
+    size_t light_units;              // batches of light paths at the front of `units`
+    const UnitRenderer& renderer;
+    TilePool& pool;
+    int threads;
+    Clock::time_point start;
+    // Rank 0: the passes, the checkpoint resumed (or null), and where checkpoints go (a
+    // state to write in the background)
+    std::vector<int64_t> bounds;
+    const RenderState* resume = nullptr;
+    std::function<void(RenderState&&)> checkpoint;
+};
+
+// Runs this rank's part of a render under MPI until it ends; rank 0 gets the outcome.
+// Fills this rank's rays, units, seconds and lane counts.
+DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats& lanes);
+
 // Every rank's figures, gathered on rank 0 (a collective call: every rank makes it) into
-// `stats.ranks`, with a warning for a rank whose kernels differ from rank 0's.
-void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStats& stats);
+// `stats.ranks`, with a warning for a rank whose kernels differ from rank 0's; the lane
+// counts of every rank are added into `lanes` on rank 0.
+void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStats& stats,
+                       LaneStats& lanes);
 
 }  // namespace cierzo

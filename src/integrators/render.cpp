@@ -134,6 +134,15 @@ void work(Coordinator& coord, const UnitRenderer& renderer, Clock::time_point st
     }
 }
 
+void set_lane_utilisation(RenderStats& st, const LaneStats& lanes) {
+    st.shade_lane_utilisation =
+        double(lanes.shade_active) / double(std::max<uint64_t>(lanes.shade_total, 1));
+    st.isect_lane_utilisation =
+        double(lanes.isect_active) / double(std::max<uint64_t>(lanes.isect_total, 1));
+    st.shadow_lane_utilisation =
+        double(lanes.shadow_active) / double(std::max<uint64_t>(lanes.shadow_total, 1));
+}
+
 }  // namespace
 
 std::vector<int64_t> pass_bounds(int64_t start, int64_t spp, int64_t pixels) {
@@ -247,8 +256,49 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     RankStats mine{world.rank, mpi::host_name(), threads};
     const auto start = Clock::now();
 
-    if (!root) {
-        serve_as_worker(renderer, pool, threads, mine);
+    if (world.size > 1) {
+        // Under MPI every rank owns a band of the image and adds its passes; rank 0 also
+        // hands out the units (rank_protocol.h)
+        CheckpointWriter checkpoints(options, st);
+        LaneStats lanes;
+        RankRun run{scene, options, tiles,
+                    size_t(std::count_if(tiles.begin(), tiles.end(),
+                                         [](const Tile& t) { return t.light; })),
+                    renderer, pool, threads, start, {}, nullptr, {}};
+        if (root) {
+            const RenderState* resume = options.resume;
+            if (resume) {
+                if (resume->film.width() != rs.width || resume->film.height() != rs.height)
+                    throw std::logic_error("resumed state of another resolution");
+                st.spp_resumed = resume->spp_done;
+            }
+            run.bounds = pass_bounds(resume ? resume->spp_done : 0, rs.spp, pass_pixels(scene));
+            run.resume = resume;
+            run.checkpoint = [&](RenderState&& state) {
+                auto shared = std::make_shared<RenderState>(std::move(state));
+                checkpoints.start([shared] { return std::move(*shared); });
+            };
+        }
+        DistributedOutcome out = render_as_rank(run, mine, lanes);
+        if (root) {
+            checkpoints.join();
+            if (options.checkpoint)
+                st.checkpoint_final_failed = !checkpoints.write(out.final_state);
+            result.film = std::move(out.final_state.film);
+            st.units = mine.units;
+            st.stopped_by = out.stopped_by;
+            st.rays = out.rays;
+            st.rank0_cpu_seconds = out.service_seconds;
+            st.rank0_gather_cpu_seconds = out.gather_seconds;
+            st.units_handed_out = out.units;
+            st.bytes_received = out.bytes_received;
+            if (wavefront) st.light_store_bytes = wavefront->light_store_bytes();
+        }
+        st.seconds = seconds_since(start);
+        // Every rank's figures, on rank 0
+        gather_rank_stats(mine, st.isa, st, lanes);
+        if (!root) return result;
+        set_lane_utilisation(st, lanes);
     } else {
         const RenderState* resume = options.resume;
         if (resume) {
@@ -278,28 +328,11 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                 next_checkpoint = Clock::now() + every;
             }
         };
-        // Alone, the main thread is one of the render threads; with other ranks it serves
-        // them (an error there, e.g. a malformed message, stops the render threads before it
-        // is passed on)
-        std::optional<RankService> service;
-        if (world.size > 1) service.emplace(coord, tiles, world.size, pool);
+        // The main thread is one of the render threads
         std::vector<std::thread> workers;
-        for (int i = service ? 0 : 1; i < threads; ++i)
+        for (int i = 1; i < threads; ++i)
             workers.emplace_back([&] { work(coord, renderer, start, totals, nullptr); });
-        if (!service) {
-            work(coord, renderer, start, totals, &duties);
-        } else {
-            try {
-                while (!coord.stopping() || !service->all_told()) {
-                    duties();
-                    // (the other ranks hold kQueuedSeconds of work: a poll every half
-                    // millisecond keeps them fed)
-                    if (!service->poll()) coord.wait(std::chrono::microseconds(500));
-                }
-            } catch (...) {
-                coord.fail(std::current_exception());
-            }
-        }
+        work(coord, renderer, start, totals, &duties);
         for (std::thread& t : workers) t.join();
         progress.stop();
         checkpoints.join();
@@ -312,27 +345,12 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         st.units = totals.units;
         st.scheduler_seconds = double(totals.scheduler_ns.load()) * 1e-9;
         st.idle_seconds = double(totals.idle_ns.load()) * 1e-9;
-        if (service) {
-            st.service_seconds = service->seconds();
-            st.units_received = service->units();
-            st.bytes_received = service->bytes();
-        }
         st.stopped_by = coord.stopped_by();
         st.rays = coord.rays();
-        const LaneStats lanes = coord.lanes();
-        st.shade_lane_utilisation =
-            double(lanes.shade_active) / double(std::max<uint64_t>(lanes.shade_total, 1));
-        st.isect_lane_utilisation =
-            double(lanes.isect_active) / double(std::max<uint64_t>(lanes.isect_total, 1));
-        st.shadow_lane_utilisation =
-            double(lanes.shadow_active) / double(std::max<uint64_t>(lanes.shadow_total, 1));
+        set_lane_utilisation(st, coord.lanes());
         if (wavefront) st.light_store_bytes = wavefront->light_store_bytes();
+        st.seconds = seconds_since(start);
     }
-    st.seconds = seconds_since(start);
-
-    // Every rank's figures, on rank 0
-    if (world.size > 1) gather_rank_stats(mine, st.isa, st);
-    if (!root) return result;
     st.paths = st.rays.camera + st.rays.light;
     st.nonfinite_samples = result.film.nonfinite_samples();
     st.mean_relative_error = result.film.mean_relative_error();

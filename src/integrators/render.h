@@ -96,6 +96,7 @@ struct RankStats {
     int threads = 1;
     uint64_t rays = 0;     // traced by this rank (passes abandoned at a stop included)
     uint64_t units = 0;    // tile × pass units rendered
+    uint64_t bytes_sent = 0;  // in messages to other ranks
     double seconds = 0.0;  // from the start of the render to its last unit
     double rays_per_second() const { return seconds > 0 ? double(rays) / seconds : 0.0; }
 };
@@ -110,10 +111,12 @@ struct RenderStats {
     uint64_t nonfinite_samples = 0;
     int64_t spp_resumed = 0;       // paths per pixel the resumed checkpoint already had
     std::vector<RankStats> ranks;  // under MPI: one per rank (empty for one process)
-    // Under MPI, rank 0's service of the others: the CPU time its main thread spent
-    // receiving their units, adding them up and answering, how many units and bytes
-    double service_seconds = 0.0;
-    uint64_t units_received = 0, bytes_received = 0;
+    // Under MPI: the CPU time of rank 0's main thread (handing out units, counting passes,
+    // adding the units of its band that other ranks rendered; apart from it, gathering the
+    // bands for checkpoints and the image), the units handed out, and the bytes rank 0
+    // received
+    double rank0_cpu_seconds = 0.0, rank0_gather_cpu_seconds = 0.0;
+    uint64_t units_handed_out = 0, bytes_received = 0;
     // Checkpoints written, and the time of the last write (and of all)
     int checkpoint_writes = 0;
     double checkpoint_last_seconds = 0.0, checkpoint_seconds = 0.0;
