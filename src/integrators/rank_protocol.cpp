@@ -756,11 +756,14 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         link.send(0, kTagState, wire::encode(wire::State{c.checkpoint,
                                                                          owner.snapshot()}));
                     queue.push(c.units);
+                    // (news alone may mean units to ask for; an answer is not news: a rank
+                    // answered with none asks again only when it runs dry or hears news)
                     if (c.answer) {
                         waiting = false;
                         last_had_units = !c.units.empty();
+                    } else {
+                        news = true;
                     }
-                    news = true;
                 }
             }
             // -- Units and splats of this band from other ranks

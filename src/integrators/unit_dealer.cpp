@@ -1,6 +1,7 @@
 // Rank 0's hand-out of units and its count of passes (see unit_dealer.h).
 #include "integrators/unit_dealer.h"
 
+#include <algorithm>
 #include <limits>
 #include <stdexcept>
 
@@ -91,6 +92,10 @@ std::optional<Unit> UnitDealer::take_other(Deal& d) {
 std::vector<Unit> UnitDealer::grant(int rank, size_t n) {
     std::vector<Unit> out;
     if (stopping_) return out;
+    // (at most a rank's share of the two passes that can be handed out: with many ranks,
+    // the first to ask would otherwise take the others' tiles)
+    const size_t units = light_units_ + bands_.tiles();
+    n = std::min(n, std::max<size_t>(1, 2 * units / size_t(bands_.ranks())));
     Deal* now = deal(frontier_);
     Deal* next = deal(frontier_ + 1);
     // Light batches, own tiles, others' tiles; each of the pass in progress, then the next

@@ -142,7 +142,9 @@ std::vector<std::string> render_args(const std::string& scene, const fs::path& o
     return a;
 }
 
-TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
+// Every estimator, 2, 3 and 4 ranks (each rank owns a band of tiles and adds its passes; the
+// splats of lt, bdpt and vcm travel to the owners of their pixels)
+TEST(Mpi, TwoThreeAndFourRanksGiveTheOneProcessImageByteForByte) {
     REQUIRE_MPI();
     struct Case {
         std::string scene, integrator;
@@ -154,6 +156,9 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         {"small_emitter.json",
          "wavefront",
          {"--spp", "24", "--width", "48", "--height", "40", "--estimator", "mis"}},
+        {"caustic.json",
+         "wavefront",
+         {"--spp", "12", "--width", "48", "--height", "40", "--estimator", "nee"}},
         // (light tracing: splats of any unit land anywhere in the image)
         {"emitting_spheres.json",
          "wavefront",
@@ -202,7 +207,7 @@ TEST(Mpi, TwoAndThreeRanksGiveTheOneProcessImageByteForByte) {
         extra.insert(extra.end(), {"--integrator", c.integrator, "--variance"});
         const fs::path one = kDir / ("one" + std::to_string(k) + ".exr");
         ASSERT_EQ(run({render_args(c.scene, one, extra)}, "one"), 0) << text(kDir / "one.stderr");
-        for (int ranks : {2, 3}) {
+        for (int ranks : {2, 3, 4}) {
             const fs::path out =
                 kDir / ("mpi" + std::to_string(k) + "_" + std::to_string(ranks) + ".exr");
             const fs::path js = kDir / ("mpi" + std::to_string(k) + ".json");
@@ -242,23 +247,61 @@ TEST(Mpi, ATimeBudgetStopsEveryRankWithEqualPathsPerPixel) {
     EXPECT_EQ(j["mpi"]["ranks"], 3);
 }
 
-// Rank 0 decides on the film it holds, so a target error stops at the same pass, with the
-// same image, as in one process.
+// Every band reports its exact error sum at each pass's end, so a target error stops at the
+// same pass, with the same image, as in one process (per-path sums, and the batch statistics
+// of the estimators that splat)
 TEST(Mpi, ATargetErrorStopsAtTheSamePassWithTheSameImageAsOneProcess) {
     REQUIRE_MPI();
-    const std::vector<std::string> args = {"--spp",    "100000", "--width",        "48",
-                                           "--height", "40",     "--target-error", "0.08"};
-    std::vector<std::string> one = render_args("cornell.json", kDir / "te1.exr", args);
-    one.insert(one.end(), {"--stats", (kDir / "te1.json").string()});
-    ASSERT_EQ(run({one}, "te1"), 0) << text(kDir / "te1.stderr");
-    std::vector<std::string> three = render_args("cornell.json", kDir / "te3.exr", args);
-    three.insert(three.end(), {"--stats", (kDir / "te3.json").string()});
-    ASSERT_EQ(run({three, 3}, "te3"), 0) << text(kDir / "te3.stderr");
-    const auto a = stats(kDir / "te1.json"), b = stats(kDir / "te3.json");
-    EXPECT_EQ(a["stopped_by"], "target error");
-    EXPECT_EQ(b["stopped_by"], "target error");
-    EXPECT_EQ(a["spp_reached"], b["spp_reached"]);
-    EXPECT_TRUE(same_pixels(kDir / "te1.exr", kDir / "te3.exr"));
+    struct Case {
+        std::string scene, estimator, target;
+    };
+    const std::vector<Case> cases = {{"cornell.json", "report", "0.08"},
+                                     {"emitting_spheres.json", "lt", "0.1"},
+                                     {"caustic.json", "bdpt", "0.1"}};
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.estimator);
+        const std::vector<std::string> args = {"--spp",          "100000",   "--width",
+                                               "48",             "--height", "40",
+                                               "--target-error", c.target,   "--estimator",
+                                               c.estimator};
+        std::vector<std::string> one = render_args(c.scene, kDir / "te1.exr", args);
+        one.insert(one.end(), {"--stats", (kDir / "te1.json").string()});
+        ASSERT_EQ(run({one}, "te1"), 0) << text(kDir / "te1.stderr");
+        const auto a = stats(kDir / "te1.json");
+        EXPECT_EQ(a["stopped_by"], "target error");
+        for (int ranks : {2, 4}) {
+            std::vector<std::string> many = render_args(c.scene, kDir / "ten.exr", args);
+            many.insert(many.end(), {"--stats", (kDir / "ten.json").string()});
+            ASSERT_EQ(run({many, ranks}, "ten"), 0) << text(kDir / "ten.stderr");
+            const auto b = stats(kDir / "ten.json");
+            EXPECT_EQ(b["stopped_by"], "target error") << ranks;
+            EXPECT_EQ(a["spp_reached"], b["spp_reached"]) << ranks;
+            EXPECT_TRUE(same_pixels(kDir / "te1.exr", kDir / "ten.exr")) << ranks;
+        }
+    }
+}
+
+// A time budget stops every rank at one pass's end: the image is, bit for bit, a one-process
+// render of the paths per pixel reached
+TEST(Mpi, ATimeBudgetGivesTheOneProcessImageOfThePathsReached) {
+    REQUIRE_MPI();
+    for (const std::string estimator : {"mis", "bdpt"}) {
+        SCOPED_TRACE(estimator);
+        const fs::path js = kDir / "tbn.json";
+        const std::vector<std::string> size = {"--width", "40", "--height", "32", "--estimator",
+                                               estimator};
+        std::vector<std::string> a = render_args("caustic.json", kDir / "tbn.exr", size);
+        a.insert(a.end(), {"--spp", "1000000", "--time-budget", "0.5", "--stats", js.string()});
+        ASSERT_EQ(run({a, 3}, "tbn"), 0) << text(kDir / "tbn.stderr");
+        const auto j = stats(js);
+        EXPECT_EQ(j["stopped_by"], "time budget");
+        const int64_t spp = j["spp_reached"];
+        ASSERT_GT(spp, 0);
+        std::vector<std::string> one = render_args("caustic.json", kDir / "tb1.exr", size);
+        one.insert(one.end(), {"--spp", std::to_string(spp)});
+        ASSERT_EQ(run({one}, "tb1"), 0) << text(kDir / "tb1.stderr");
+        EXPECT_TRUE(same_pixels(kDir / "tb1.exr", kDir / "tbn.exr")) << spp << " paths";
+    }
 }
 
 TEST(Mpi, SigintToMpirunWritesTheImageOfWholePasses) {
@@ -302,16 +345,24 @@ pid_t find_rank(const std::string& token, int rank) {
 
 TEST(Mpi, AKilledRankEndsTheRunNonZeroInBoundedTime) {
     REQUIRE_MPI();
-    const fs::path out = kDir / "killed_rank.exr";
-    fs::remove(out);
-    const Running r = start({render_args("cornell.json", out, {"--spp", "1000000"}), 3}, "killed");
+    const fs::path out = kDir / "killed_rank.exr", ck = kDir / "killed_rank.ckpt.exr";
+    fs::remove(out), fs::remove(ck);
+    const Running r = start({render_args("cornell.json", out,
+                                         {"--spp", "1000000", "--checkpoint", ck.string(),
+                                          "--checkpoint-every", "0.2"}),
+                             3},
+                            "killed");
     pid_t victim = -1;
     for (int i = 0; i < 300 && victim < 0; ++i) {
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
         victim = find_rank("killed_rank.exr", 2);
     }
     ASSERT_GT(victim, 0) << "rank 2 never started";
-    std::this_thread::sleep_for(std::chrono::seconds(1));
+    // (once a checkpoint is written)
+    for (int i = 0; i < 600 && !fs::exists(ck); ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    ASSERT_TRUE(fs::exists(ck)) << "no checkpoint was written";
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
     kill(victim, SIGKILL);
     const auto killed = Clock::now();
     const int code = finish(r, 60);
@@ -319,15 +370,19 @@ TEST(Mpi, AKilledRankEndsTheRunNonZeroInBoundedTime) {
     EXPECT_NE(code, 0);
     EXPECT_LT(std::chrono::duration<double>(Clock::now() - killed).count(), 60.0);
     EXPECT_FALSE(fs::exists(out)) << "an image was written by a run that lost a rank";
+    // The last checkpoint is whole, and holds finished passes
+    const cierzo::Checkpoint c = cierzo::read_checkpoint(ck);
+    EXPECT_GT(c.state.spp_done, 0);
 }
 
 // A checkpointed render is killed (SIGKILL) once a checkpoint holds part of it; the resume
 // ends in the image of an uninterrupted render, byte for byte. Under MPI too, resumed in one
 // process.
 void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
-                     const std::vector<std::string>& estimator = {}) {
+                     const std::vector<std::string>& estimator = {}, int resume_ranks = 0) {
     // (a file name of its own per case: the cases may run at the same time)
-    std::string tag = ranks ? "mpi" : "one";
+    std::string tag = (ranks ? "mpi" + std::to_string(ranks) : "one") +
+                      (resume_ranks ? "to" + std::to_string(resume_ranks) : "");
     for (const std::string& a : estimator)
         if (a.rfind("--", 0) != 0) tag += "_" + a;
     const fs::path full = kDir / ("full_" + tag + ".exr"), ck = kDir / ("ck_" + tag + ".exr");
@@ -375,7 +430,7 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     EXPECT_FALSE(fs::exists(part));
     std::vector<std::string> more = scene;
     more.insert(more.end(), {"--resume", ck.string(), "--stats", (kDir / "res.json").string()});
-    ASSERT_EQ(run({render_args(scene_file, resumed, more)}, "resume"), 0)
+    ASSERT_EQ(run({render_args(scene_file, resumed, more), resume_ranks}, "resume"), 0)
         << text(kDir / "resume.stderr");
     EXPECT_TRUE(same_pixels(full, resumed)) << "resumed from " << c.state.spp_done;
     EXPECT_EQ(stats(kDir / "res.json")["spp_resumed"].get<int64_t>(), c.state.spp_done);
@@ -388,6 +443,17 @@ TEST(Checkpoints, KilledAndResumedGivesTheUninterruptedImage) { kill_and_resume(
 TEST(Checkpoints, KilledUnderMpiAndResumedInOneProcessGivesTheSameImage) {
     REQUIRE_MPI();
     kill_and_resume(2);
+}
+
+// A checkpoint holds the whole film whatever the bands were: it resumes on any number of ranks
+TEST(Checkpoints, KilledUnderTwoRanksAndResumedUnderThreeGivesTheSameImage) {
+    REQUIRE_MPI();
+    kill_and_resume(2, "cornell.json", {}, 3);
+}
+
+TEST(Checkpoints, LightTracingKilledUnderThreeRanksAndResumedUnderTwoGivesTheSameImage) {
+    REQUIRE_MPI();
+    kill_and_resume(3, "emitting_spheres.json", {"--estimator", "lt"}, 2);
 }
 
 // Light tracing's checkpoints keep whole passes (the splats of a pass in progress are redone)
