@@ -372,6 +372,14 @@ public:
         }
         cv_.notify_all();
     }
+    // A task for the next free render thread, before any unit (pop() gives it as a unit of
+    // tile kTask).
+    static constexpr int32_t kTask = -1;
+    void push_task() {
+        std::lock_guard lock(mutex_);
+        units_.push_front(Unit{kTask, 0, 0, 0});
+        cv_.notify_one();
+    }
     std::optional<Unit> pop() {
         std::unique_lock lock(mutex_);
         cv_.wait(lock, [&] { return !units_.empty() || over_; });
@@ -583,6 +591,10 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         std::vector<std::vector<Splat>> by_owner{size_t(ranks)};
         try {
             while (std::optional<Unit> u = queue.pop()) {
+                if (u->tile == LocalQueue::kTask) {
+                    owner.catch_up();  // (a pass announced)
+                    continue;
+                }
                 const auto t0 = Clock::now();
                 UnitResult r = run.renderer.render(*u);
                 const auto t1 = Clock::now();
@@ -648,7 +660,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
 
     // ---- The main thread's loop
     bool waiting = false, over = false, final_sent = false, news = true, last_had_units = true;
-    int32_t granted_through = -1, flushed_through = -1;
+    int32_t granted_through = -1, flushed_through = -1, announced = 0;
     const auto every = std::chrono::duration_cast<Clock::duration>(
         std::chrono::duration<double>(run.options.checkpoint_every));
     auto next_checkpoint = run.start + every;
@@ -750,7 +762,11 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         owner.stop(c.frontier);
                         break;
                     }
-                    owner.advance(c.frontier);
+                    owner.announce(c.frontier);
+                    if (c.frontier > announced) {
+                        announced = c.frontier;
+                        queue.push_task();
+                    }
                     granted_through = std::max(granted_through, c.granted_through);
                     if (c.checkpoint > 0)
                         link.send(0, kTagState, wire::encode(wire::State{c.checkpoint,

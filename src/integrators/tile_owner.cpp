@@ -111,6 +111,7 @@ void TileOwner::complete(UnitResult&& r) {
         throw std::runtime_error("a unit of pass " + std::to_string(r.unit.pass) +
                                  " came after that pass was added");
     const size_t j = k - first_;
+    catch_up_locked();
     Aside& a = aside(r.unit.pass);
     a.rays += r.rays;
     const bool twice = r.unit.pass == frontier_ && !splats_ ? done_[j] != 0 : a.tiles[j].has_value();
@@ -190,9 +191,18 @@ void TileOwner::check_complete() {
     reported_ = true;
 }
 
-void TileOwner::advance(int32_t pass) {
+void TileOwner::announce(int32_t pass) {
     std::lock_guard lock(mutex_);
-    while (frontier_ < pass) advance_locked(frontier_ + 1);
+    announced_ = std::max(announced_, pass);
+}
+
+void TileOwner::catch_up() {
+    std::lock_guard lock(mutex_);
+    catch_up_locked();
+}
+
+void TileOwner::catch_up_locked() {
+    while (!stopped_ && frontier_ < announced_) advance_locked(frontier_ + 1);
 }
 
 void TileOwner::advance_locked(int32_t pass) {
@@ -231,7 +241,8 @@ void TileOwner::advance_locked(int32_t pass) {
 void TileOwner::stop(int32_t pass) {
     std::lock_guard lock(mutex_);
     if (stopped_) return;
-    while (frontier_ < pass) advance_locked(frontier_ + 1);
+    announced_ = std::max(announced_, pass);
+    catch_up_locked();
     stopped_ = true;
     while (!aside_.empty()) drop(aside_.begin()->first);
 }
@@ -241,8 +252,9 @@ std::optional<PassReport> TileOwner::take_report() {
     return std::exchange(report_, std::nullopt);
 }
 
-BandState TileOwner::snapshot() const {
+BandState TileOwner::snapshot() {
     std::lock_guard lock(mutex_);
+    catch_up_locked();
     BandState s;
     s.film = film_;
     s.batches = batches_;

@@ -93,17 +93,27 @@ public:
     // rendered: counted by the owner of band 0).
     void flushed(int32_t pass, const RayCounts& light_rays);
     // Rank 0 announced that the pass in progress is `pass` (the band had every pass before
-    // it added and reported).
-    void advance(int32_t pass);
+    // it added and reported). The band moves there (swaps its films, adds the units of
+    // `pass` done early) on catch_up(), or at once on anything else that needs it:
+    // announce() is the main thread's, catch_up() a render thread's (each band's work is
+    // its own rank's render threads', so the main thread of rank 0 only deals).
+    void announce(int32_t pass);
+    void catch_up();
+    // Both at once.
+    void advance(int32_t pass) {
+        announce(pass);
+        catch_up();
+    }
     // The render ended at pass `pass`: the band holds the passes before it.
     void stop(int32_t pass);
     // The report of the pass in progress, once, when the band has it all added.
     std::optional<PassReport> take_report();
-    BandState snapshot() const;
+    BandState snapshot();  // (at the pass announced)
     size_t tiles() const { return count_; }
 
 private:
     void advance_locked(int32_t pass);
+    void catch_up_locked();
     // Adds tile j's sums of the pass in progress into next_.
     void add_next(size_t j, const FilmTile& sums);
     void check_complete();
@@ -119,6 +129,7 @@ private:
     std::vector<uint8_t> done_;           // tiles of the pass in progress in next_
     size_t done_count_ = 0;
     int32_t frontier_ = 0;
+    int32_t announced_ = 0;  // the pass in progress as rank 0 announced it
     bool reported_ = false, stopped_ = false;
     std::optional<PassReport> report_;
     int64_t batches_ = 0;
