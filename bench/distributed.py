@@ -1,11 +1,15 @@
 #!/usr/bin/env python3
 """Measures distributed renders on this machine: rays/s with 1, 2 and 4 MPI ranks against
-one process (interleaved rounds, medians), and the costs docs/distributed.md's model is built
-from: the time per tile x pass unit, rank 0's service time per unit received, the bytes per
-unit, and a checkpoint's size and write time.
+one process (interleaved rounds, medians), and the costs docs/distributed.md's model and
+bench/mpi_scaling.py are calibrated by: the time per tile x pass unit, rank 0's main-thread
+CPU per unit handed out (`mpi.rank0_cpu_seconds_per_unit`), the bytes sent between ranks per
+unit, rank 0's CPU to gather the film per megapixel, and a checkpoint's size and write time.
 
     /usr/bin/python3 bench/distributed.py [--build build] [--scene scenes/cornell.json]
-        [--width 960 --height 540 --spp 64] [--rounds 3] [--out bench/results/distributed.json]
+        [--estimator mis] [--width 960 --height 540 --spp 64] [--rounds 3]
+        [--out bench/results/distributed.json] [--calibration FILE]
+
+`--calibration FILE` writes the figures of the 4-rank runs as bench/mpi_scaling.py reads them.
 
 Needs a build with MPI (mpirun on the PATH). As root it sets Open MPI's allow-run-as-root
 variables. On a machine of 2 cores, more than 2 threads in all only share those 2 cores:
@@ -26,6 +30,8 @@ def main():
     ap.add_argument("--height", type=int, default=540)
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--estimator", default="", help="the scene's own when not given")
+    ap.add_argument("--calibration", default="")
     ap.add_argument("--out", default="")
     a = ap.parse_args()
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
@@ -33,6 +39,8 @@ def main():
     tmp = tempfile.mkdtemp(prefix="cierzo_dist_bench_")
     base = [cierzo, "render", a.scene, "--quiet", "--width", str(a.width), "--height", str(a.height),
             "--spp", str(a.spp), "--out", os.path.join(tmp, "img.exr")]
+    if a.estimator:
+        base += ["--estimator", a.estimator]
     # (label, ranks, threads per rank); ranks 0: no mpirun at all
     configs = [("one process, 2 threads", 0, 2), ("1 rank x 2 threads", 1, 2),
                ("2 ranks x 1 thread", 2, 1), ("4 ranks x 1 thread", 4, 1)]
@@ -63,10 +71,11 @@ def main():
             row["units"] = units[0]
             row["unit_seconds_per_thread"] = statistics.median(
                 sum(r["seconds"] * r["threads"] for r in x["per_rank"]) / u for x, u in zip(m, units))
-            row["service_seconds_per_remote_unit"] = statistics.median(
-                x["service_seconds"] / max(1, x["units_received"]) for x in m)
-            row["bytes_per_remote_unit"] = statistics.median(
-                x["bytes_received"] / max(1, x["units_received"]) for x in m)
+            row["rank0_cpu_seconds_per_unit"] = statistics.median(
+                x["rank0_cpu_seconds_per_unit"] for x in m)
+            row["bytes_sent_per_unit"] = statistics.median(x["bytes_sent_per_unit"] for x in m)
+            row["rank0_gather_cpu_seconds_per_megapixel"] = statistics.median(
+                x["rank0_gather_cpu_seconds"] / (a.width * a.height * 1e-6) for x in m)
         table.append(row)
     # A checkpoint of this film: size and write time (the final write of a short render)
     ck = os.path.join(tmp, "ck.exr")
@@ -75,11 +84,21 @@ def main():
          "--spp", "2", "--out", os.path.join(tmp, "c.exr"), "--checkpoint", ck, "--stats", stats], env)
     with open(stats) as f:
         c = json.load(f)["checkpoint"]
-    out = {"scene": a.scene, "width": a.width, "height": a.height, "spp": a.spp, "rounds": a.rounds,
+    out = {"scene": a.scene, "estimator": a.estimator or "the scene's", "width": a.width, "height": a.height, "spp": a.spp, "rounds": a.rounds,
            "cpu": open("/proc/cpuinfo").read().split("model name")[1].split("\n")[0].strip(": \t"),
            "cores": os.cpu_count(), "configs": table, "checkpoint": c}
     text = json.dumps(out, indent=2)
     print(text)
+    if a.calibration:
+        four = next(r for r in table if r["ranks"] == 4)
+        cal = {"t_u_seconds": four["unit_seconds_per_thread"],
+               "rank0_seconds_per_unit": four["rank0_cpu_seconds_per_unit"],
+               "bytes_per_unit": four["bytes_sent_per_unit"],
+               "gather_seconds_per_megapixel": four["rank0_gather_cpu_seconds_per_megapixel"],
+               "source": "bench/distributed.py, 4 ranks x 1 thread, " + out["cpu"]}
+        with open(a.calibration, "w") as f:
+            json.dump(cal, f, indent=2)
+            f.write("\n")
     if a.out:
         os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
         with open(a.out, "w") as f:

@@ -13,7 +13,9 @@ one link of bandwidth B each way (a message holds the sender's and the receiver'
 per message. A rank holding (queued + running) fewer than low = max(C, high/2) units asks rank
 0 for high - held, high = max(2C, 0.010 s x C / t_u), one request out at a time. Rank 0 deals
 only passes f (in progress) and f+1: to rank r its own tiles of f, of f+1, then the last tiles
-of the owner with the most left of f, then of f+1, at s_req + s_unit x units of CPU. Granting
+of the owner with the most left of f, then of f+1 (cierzo takes from the band after the
+last one taken from, round robin: the same while bands run out evenly), at most 2T/N units
+a grant (UnitDealer::grant's cap), at s_req + s_unit x units of CPU. Granting
 nothing, it answers a rank that holds units at once and parks the requests of ranks that hold
 none until the pass advances, as rank_protocol.cpp does; a rank answered empty asks again once
 one of its units is done (--empty park: every such request is parked). A unit rendered off its
@@ -285,6 +287,8 @@ class Sim:
 
     def deal(self, r, want):
         T, out = self.w.tiles, []
+        # (at most a rank's share of the two passes in flight, as UnitDealer::grant caps it)
+        want = min(want, max(1, 2 * T // self.n))
         passes = [p for p in (self.f, self.f + 1) if p < self.P]
         for p in passes:  # r's own tiles, from the front of its range
             lo, k = self.lo[p], min(want, self.hi[p][r] - self.lo[p][r])

@@ -291,8 +291,9 @@ int run_main(int argc, char** argv) {
         "in its metadata; a checkpoint also keeps the tiles done of the\npass in progress) and "
         "exits with status 130; a second one ends it at once.\n\n"
         "Under MPI (mpirun -np N cierzo render ..., or srun) every rank renders with its "
-        "threads, rank 0 hands out the\nwork and writes the outputs; the image is "
-        "bit-identical to a one-process render. See docs/distributed.md.\n\n" +
+        "threads and adds the passes of\nits own band of tiles; rank 0 hands out the work, "
+        "gathers the film and writes the outputs; the image is\nbit-identical to a "
+        "one-process render. See docs/distributed.md.\n\n" +
         std::string(kOutputPolicy));
     CLI::App* converge = add_converge_command(app);
     CLI::App* trace = add_trace_command(app);

@@ -145,7 +145,7 @@ void ErrorSum::add(std::span<const PixelSums> pixels, int64_t batches) {
         if (channels == 0) continue;
         double term = rel / channels;
         if (!(term < kMost)) term = kMost;  // (NaN too)
-        total += SplatSums::Fixed(std::nearbyint(term * kScale));
+        total += round_to_fixed(term * kScale);
         ++used;
     }
 }

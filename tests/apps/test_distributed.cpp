@@ -532,6 +532,8 @@ TEST(Checkpoints, AResumeOfAnotherRenderIsRefusedAndDamagesNothing) {
 }
 
 TEST(Checkpoints, AWriteOverAFileSizeLimitKeepsThePreviousCheckpoint) {
+    // (one process: under mpirun the limit would hold Open MPI's own shared-memory files too;
+    // under MPI rank 0 writes the checkpoints through the same writer)
     const fs::path ck = kDir / "limited.exr";
     ASSERT_EQ(run({render_args("cornell.json", kDir / "l.exr",
                                {"--spp", "2", "--width", "96", "--height", "96", "--checkpoint",
