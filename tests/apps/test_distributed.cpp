@@ -306,14 +306,21 @@ TEST(Mpi, ATimeBudgetGivesTheOneProcessImageOfThePathsReached) {
 
 TEST(Mpi, SigintToMpirunWritesTheImageOfWholePasses) {
     REQUIRE_MPI();
-    const fs::path out = kDir / "int.exr", js = kDir / "int.json";
-    fs::remove(out);
+    const fs::path out = kDir / "int.exr", js = kDir / "int.json", ck = kDir / "int.ckpt.exr";
+    fs::remove(out), fs::remove(ck);
     const Running r = start({render_args("cornell.json", out,
                                          {"--spp", "1000000", "--width", "120", "--height", "100",
-                                          "--stats", js.string()}),
+                                          "--stats", js.string(), "--checkpoint", ck.string(),
+                                          "--checkpoint-every", "0.3"}),
                              3},
                             "int");
-    std::this_thread::sleep_for(std::chrono::seconds(3));
+    // (once the render runs: a signal before cierzo's handlers are in, while MPI starts or
+    // the scene loads on a loaded machine, ends a rank as the signal's default does; and
+    // Open MPI ends the ranks a second after passing the signal on)
+    for (int i = 0; i < 1200 && !fs::exists(ck); ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    ASSERT_TRUE(fs::exists(ck)) << "the render wrote no checkpoint in a minute";
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
     kill(r.pid, SIGINT);
     const int code = finish(r, 60);
     ASSERT_NE(code, -1) << "mpirun did not end within 60 s of SIGINT";
