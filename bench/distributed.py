@@ -74,6 +74,9 @@ def main():
             row["rank0_cpu_seconds_per_unit"] = statistics.median(
                 x["rank0_cpu_seconds_per_unit"] for x in m)
             row["bytes_sent_per_unit"] = statistics.median(x["bytes_sent_per_unit"] for x in m)
+            row["requests"] = statistics.median(x["requests"] for x in m)
+            row["rank0_cpu_seconds_per_request"] = statistics.median(
+                x["rank0_cpu_seconds"] / max(1, x["requests"]) for x in m)
             row["rank0_gather_cpu_seconds_per_megapixel"] = statistics.median(
                 x["rank0_gather_cpu_seconds"] / (a.width * a.height * 1e-6) for x in m)
         table.append(row)

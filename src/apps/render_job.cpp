@@ -416,6 +416,7 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
                              {"rays", r.rays},
                              {"bytes_sent", r.bytes_sent},
                              {"seconds", r.seconds},
+                             {"idle_seconds", r.idle_seconds},
                              {"rays_per_second", r.rays_per_second()}});
             rays += r.rays, threads += r.threads;
         }
@@ -424,6 +425,8 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         const double units = double(std::max<uint64_t>(st.units_handed_out, 1));
         j["mpi"] = {{"ranks", st.ranks.size()},
                     {"units", st.units_handed_out},
+                    {"requests", st.requests},
+                    {"reports", st.reports},
                     {"rank0_cpu_seconds", st.rank0_cpu_seconds},
                     {"rank0_cpu_seconds_per_unit", st.rank0_cpu_seconds / units},
                     {"rank0_gather_cpu_seconds", st.rank0_gather_cpu_seconds},

@@ -394,11 +394,18 @@ public:
         ++finished_;
         if (size() < low_) done_cv_.notify_all();
     }
-    // Waits until fewer than `low` units are held or `timeout` passes.
+    // Waits until fewer than `low` units are held, wake() is called or `timeout` passes.
     void wait(size_t low, std::chrono::microseconds timeout) {
         std::unique_lock lock(mutex_);
         low_ = low;
-        done_cv_.wait_for(lock, timeout, [&] { return size() < low || over_; });
+        done_cv_.wait_for(lock, timeout, [&] { return size() < low || over_ || woken_; });
+        woken_ = false;
+    }
+    // Wakes the main thread's wait (something to send: a band's report, units' sums).
+    void wake() {
+        std::lock_guard lock(mutex_);
+        woken_ = true;
+        done_cv_.notify_all();
     }
     void set_over() {
         std::lock_guard lock(mutex_);
@@ -428,7 +435,7 @@ private:
     std::map<int32_t, int64_t> held_;  // queued or being rendered
     uint64_t finished_ = 0;
     size_t low_ = 0;
-    bool over_ = false;
+    bool over_ = false, woken_ = false;
 };
 
 // What the render threads leave for the main thread to send: units of other ranks' tiles,
@@ -538,7 +545,10 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     const RenderSettings& rs = run.scene.settings;
     const bool splatting = splats(rs.estimator.kind);
     const TileBands bands(rs.width, rs.height, ranks);
-    TileOwner owner(bands, me, run.light_units, splatting, run.pool);
+    TileOwner owner(bands, me, run.light_units, splatting, run.pool,
+                    run.options.target_error > 0.0);
+    LocalQueue queue;
+    owner.on_report([&queue] { queue.wake(); });
     const size_t slots = bands.count(me) * TileBands::kSlots;
     Link link(me);
     std::vector<std::string> names;  // (for messages' errors, made once)
@@ -579,9 +589,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     }
 
     // ---- The render threads
-    LocalQueue queue;
     Outbox outbox;
-    std::atomic<uint64_t> rays{0}, units{0}, busy_ns{0};
+    std::atomic<uint64_t> rays{0}, units{0}, busy_ns{0}, idle_ns{0};
     std::atomic<int64_t> last_ns{0};
     std::mutex failure_mutex;
     std::exception_ptr failure;
@@ -590,7 +599,13 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     const auto render_units = [&] {
         std::vector<std::vector<Splat>> by_owner{size_t(ranks)};
         try {
-            while (std::optional<Unit> u = queue.pop()) {
+            for (;;) {
+                const auto w0 = Clock::now();
+                std::optional<Unit> u = queue.pop();
+                idle_ns += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                        Clock::now() - w0)
+                                        .count());
+                if (!u) break;
                 if (u->tile == LocalQueue::kTask) {
                     owner.catch_up();  // (a pass announced)
                     continue;
@@ -641,6 +656,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         wire::append_result(outbox.results[o], r);
                     }
                     run.pool.give(std::move(r.sums));
+                    queue.wake();
                 }
                 queue.finished(pass);
             }
@@ -660,7 +676,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
 
     // ---- The main thread's loop
     bool waiting = false, over = false, final_sent = false, news = true, last_had_units = true;
-    int32_t granted_through = -1, flushed_through = -1, announced = 0;
+    int32_t granted_through = -1, flushed_through = -1, announced = 0, reported = -1;
     const auto every = std::chrono::duration_cast<Clock::duration>(
         std::chrono::duration<double>(run.options.checkpoint_every));
     auto next_checkpoint = run.start + every;
@@ -686,6 +702,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         dealing.waiting[size_t(m->source)] = {true, q.want, q.holding};
                     } else {
                         dealer->report(m->source, wire::decode_report(m->bytes, from));
+                        ++outcome.reports;
                     }
                 }
                 int64_t ask = 0;
@@ -705,6 +722,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         std::vector<Unit> granted =
                             w.want > 0 ? dealer->grant(r, size_t(w.want)) : std::vector<Unit>{};
                         if (!granted.empty() || dealer->stopping() || w.holding > 0) {
+                            ++outcome.requests;
                             send_news(r, true, std::move(granted), ask);
                             w = {};
                             acted = true;
@@ -850,6 +868,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             // -- This band's part of the pass in progress, to rank 0
             if (std::optional<PassReport> rep = owner.take_report()) {
                 link.send(0, kTagToRoot, wire::encode(*rep));
+                reported = rep->pass;
                 acted = true;
             }
             // -- More units
@@ -872,18 +891,25 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                 }
             }
             if (!acted) {
-                // (rank 0 polls every millisecond: the ranks hold kQueuedSeconds of work, and
-                // a poll is some microseconds of rank 0's CPU)
-                if (root || waiting)
-                    std::this_thread::sleep_for(std::chrono::microseconds(root ? 1000 : 200));
+                // Polls: every millisecond while the ranks hold kQueuedSeconds of work (a poll
+                // is some microseconds of the main thread's CPU), every 100 us at a pass's
+                // end (rank 0: some bands have reported it; a rank: its band's part reported,
+                // the next pass not yet heard of), as the next pass waits on them; a render
+                // thread's report or units' sums to send end the wait at once
+                const bool near_end = root ? dealer->reports_in() > 0 : reported >= announced;
+                if (waiting && !root)
+                    std::this_thread::sleep_for(std::chrono::microseconds(100));
                 else
-                    queue.wait(low, std::chrono::microseconds(1000));
+                    queue.wait(low, std::chrono::microseconds(near_end ? 100 : 1000));
             }
         }
     } catch (...) {
         stop_threads();
         throw;
     }
+    // (rank 0's CPU in the loop: what follows is waiting for the render threads and, in the
+    // drain, for the other ranks)
+    const double loop_seconds = thread_seconds() - cpu_start - outcome.gather_seconds;
     stop_threads();
     if (progress) progress->stop();
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
@@ -897,12 +923,12 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         outcome.stopped_by = dealer->stopped_by();
         outcome.rays = dealer->rays();
         outcome.units = dealer->units_granted();
-        const double now = thread_seconds();
-        outcome.gather_seconds += now - gather_start;
-        outcome.service_seconds = now - cpu_start - outcome.gather_seconds;
+        outcome.gather_seconds += thread_seconds() - gather_start;
+        outcome.service_seconds = loop_seconds;
     }
     mpi::drain();
     mine.bytes_sent = mpi::bytes_sent();
+    mine.idle_seconds = double(idle_ns.load()) * 1e-9;
     mine.rays = rays, mine.units = units;
     mine.seconds = double(last_ns.load()) * 1e-9;
     return outcome;
@@ -915,6 +941,7 @@ namespace {
 struct RankRecord {
     double seconds = 0.0;
     uint64_t rays = 0, units = 0, bytes_sent = 0;
+    double idle_seconds = 0.0;
     int32_t threads = 0;
     char host[64] = {};
     char isa[16] = {};
@@ -925,7 +952,8 @@ struct RankRecord {
 void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStats& st,
                        LaneStats& lanes) {
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
-    RankRecord rec{mine.seconds, mine.rays, mine.units, mine.bytes_sent, mine.threads, {}, {}, lanes};
+    RankRecord rec{mine.seconds, mine.rays,  mine.units, mine.bytes_sent, mine.idle_seconds,
+                   mine.threads, {},         {},         lanes};
     std::strncpy(rec.host, mine.host.c_str(), sizeof(rec.host) - 1);
     std::strncpy(rec.isa, isa.c_str(), sizeof(rec.isa) - 1);
     const std::vector<std::vector<char>> all = mpi::gather(&rec, sizeof(rec));
@@ -935,7 +963,8 @@ void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStat
         std::memcpy(&x, all[r].data(), sizeof(x));
         x.host[sizeof(x.host) - 1] = 0, x.isa[sizeof(x.isa) - 1] = 0;
         add(lanes, x.lanes);
-        st.ranks.push_back({int(r), x.host, x.threads, x.rays, x.units, x.bytes_sent, x.seconds});
+        st.ranks.push_back(
+            {int(r), x.host, x.threads, x.rays, x.units, x.bytes_sent, x.seconds, x.idle_seconds});
         if (std::string(x.isa) != isa)
             st.warnings.push_back("rank " + std::to_string(r) + " rendered with " + x.isa +
                                   " kernels, rank 0 with " + isa +

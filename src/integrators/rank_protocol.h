@@ -88,6 +88,7 @@ struct DistributedOutcome {
     // gathering the bands (checkpoints and the end)
     double service_seconds = 0.0, gather_seconds = 0.0;
     uint64_t bytes_received = 0;   // by rank 0
+    uint64_t requests = 0, reports = 0;  // answered and received by rank 0
 };
 
 struct RankRun {

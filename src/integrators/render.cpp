@@ -291,6 +291,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
             st.rank0_cpu_seconds = out.service_seconds;
             st.rank0_gather_cpu_seconds = out.gather_seconds;
             st.units_handed_out = out.units;
+            st.requests = out.requests, st.reports = out.reports;
             st.bytes_received = out.bytes_received;
             if (wavefront) st.light_store_bytes = wavefront->light_store_bytes();
         }

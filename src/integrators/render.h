@@ -98,6 +98,7 @@ struct RankStats {
     uint64_t units = 0;    // tile × pass units rendered
     uint64_t bytes_sent = 0;  // in messages to other ranks
     double seconds = 0.0;  // from the start of the render to its last unit
+    double idle_seconds = 0.0;  // its render threads' time waiting for a unit, summed
     double rays_per_second() const { return seconds > 0 ? double(rays) / seconds : 0.0; }
 };
 
@@ -117,6 +118,7 @@ struct RenderStats {
     // received
     double rank0_cpu_seconds = 0.0, rank0_gather_cpu_seconds = 0.0;
     uint64_t units_handed_out = 0, bytes_received = 0;
+    uint64_t requests = 0, reports = 0;  // requests for units answered, pass reports received
     // Checkpoints written, and the time of the last write (and of all)
     int checkpoint_writes = 0;
     double checkpoint_last_seconds = 0.0, checkpoint_seconds = 0.0;

@@ -37,14 +37,14 @@ size_t TileBands::slot(uint32_t pixel) const {
 }
 
 TileOwner::TileOwner(const TileBands& bands, int rank, size_t light_units, bool splats,
-                     TilePool& pool)
+                     TilePool& pool, bool error)
     : bands_(bands),
       pool_(pool),
       first_(bands.first(rank)),
       count_(bands.count(rank)),
       light_units_(light_units),
       splats_(splats),
-      band_zero_(rank == 0),
+      error_(error),
       film_(count_ * TileBands::kSlots),
       next_(count_ * TileBands::kSlots),
       done_(count_, 0) {
@@ -186,9 +186,10 @@ void TileOwner::check_complete() {
     PassReport rep;
     rep.pass = frontier_;
     rep.rays = a.rays;
-    rep.error.add({next_.data(), next_.size()}, batches);
+    if (error_) rep.error.add({next_.data(), next_.size()}, batches);
     report_ = rep;
     reported_ = true;
+    if (ready_) ready_();
 }
 
 void TileOwner::announce(int32_t pass) {

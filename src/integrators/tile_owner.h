@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -70,7 +71,7 @@ struct BandState {
 // A band whose pass in progress is all added: its rays, and its pixels' error sum.
 struct PassReport {
     int32_t pass = 0;
-    ErrorSum error;
+    ErrorSum error;  // (when asked for: a target error)
     RayCounts rays;  // of its tiles' units (and at rank 0, of every batch of light paths)
 };
 
@@ -78,8 +79,10 @@ class TileOwner {
 public:
     // `light_units`: the batches of light paths before the tiles in the render's units
     // (work_units); `splats`: the estimator splats (a pass is added as one batch).
-    // Tile memory of units added goes back to `pool`.
-    TileOwner(const TileBands& bands, int rank, size_t light_units, bool splats, TilePool& pool);
+    // Tile memory of units added goes back to `pool`. `error`: the reports carry the band's
+    // error sum (for a target error; it reads every pixel of the band).
+    TileOwner(const TileBands& bands, int rank, size_t light_units, bool splats, TilePool& pool,
+              bool error);
 
     // The band's state from a checkpoint (before anything else), at pass 0 of this run:
     // its pending tiles are the first pass's tiles already done.
@@ -106,8 +109,10 @@ public:
     }
     // The render ended at pass `pass`: the band holds the passes before it.
     void stop(int32_t pass);
-    // The report of the pass in progress, once, when the band has it all added.
+    // The report of the pass in progress, once, when the band has it all added; `ready` is
+    // called (under the owner's lock) when there is one.
     std::optional<PassReport> take_report();
+    void on_report(std::function<void()> ready) { ready_ = std::move(ready); }
     BandState snapshot();  // (at the pass announced)
     size_t tiles() const { return count_; }
 
@@ -123,7 +128,7 @@ private:
     const TileBands& bands_;
     TilePool& pool_;
     const size_t first_, count_, light_units_;
-    const bool splats_, band_zero_;
+    const bool splats_, error_;
     mutable std::mutex mutex_;
     std::vector<PixelSums> film_, next_;  // count_ × kSlots each
     std::vector<uint8_t> done_;           // tiles of the pass in progress in next_
@@ -132,6 +137,7 @@ private:
     int32_t announced_ = 0;  // the pass in progress as rank 0 announced it
     bool reported_ = false, stopped_ = false;
     std::optional<PassReport> report_;
+    std::function<void()> ready_;
     int64_t batches_ = 0;
     uint64_t nonfinite_splats_ = 0;
     // Per pass not yet added: units waiting aside, splats, ranks flushed, rays

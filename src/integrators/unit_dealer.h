@@ -46,6 +46,7 @@ public:
     const std::string& stopped_by() const { return stopped_by_; }
     RayCounts rays() const { return rays_; }  // of the passes added
     uint64_t units_granted() const { return granted_; }
+    int reports_in() const { return reports_; }  // of the pass in progress
 
 private:
     struct Deal {

@@ -35,7 +35,7 @@ TEST(TileBands, EveryPixelHasOneOwnerAndOneSlotInItsBand) {
 TEST(TileOwner, AddsPassesInOrderWhoeverRenderedThem) {
     const TileBands bands(32, 32, 2);  // 4 tiles; rank 1 owns tiles 2 and 3
     TilePool pool;
-    TileOwner owner(bands, 1, 0, false, pool);
+    TileOwner owner(bands, 1, 0, false, pool, true);
     const std::vector<Tile> units = image_tiles(32, 32);
     const auto unit = [&](int tile, int pass, double value) {
         UnitResult r{Unit{tile, pass, pass, pass + 1}, pool.make(units[size_t(tile)], 32), {}, {}};
@@ -70,7 +70,7 @@ TEST(TileOwner, AddsPassesInOrderWhoeverRenderedThem) {
 TEST(TileOwner, RefusesSplatsOutsideItsBand) {
     const TileBands bands(32, 32, 2);
     TilePool pool;
-    TileOwner owner(bands, 0, 1, true, pool);
+    TileOwner owner(bands, 0, 1, true, pool, false);
     EXPECT_THROW(owner.add_splats(0, {{uint32_t(31 * 32 + 31), Vec3f{1, 1, 1}}}),
                  std::runtime_error);
     EXPECT_THROW(owner.add_splats(0, {{uint32_t(32 * 32), Vec3f{1, 1, 1}}}), std::runtime_error);
