@@ -34,6 +34,7 @@ std::string host_name();
 struct Message {
     int source = 0;
     std::vector<char> bytes;
+    int tag = 0;
 };
 
 // Point-to-point messages of bytes with a tag, none of which blocks: a blocked MPI call
@@ -42,9 +43,9 @@ struct Message {
 // and returns whether none is left; call it in every turn of a polling loop.
 void send(int dest, int tag, std::vector<char> bytes);
 bool progress();
-// A message with this tag, from `source` (-1: any rank), once it has fully arrived (the
-// receive is started by an earlier call when needed); messages of one sender and tag come in
-// the order they were sent.
+// A message with this tag (-1: any tag), from `source` (-1: any rank), once it has fully
+// arrived (the receive is started by an earlier call when needed); messages of one sender
+// (and tag) come in the order they were sent.
 std::optional<Message> try_receive(int tag, int source = -1);
 // Hands a received message's buffer back for later receives (large buffers would otherwise
 // be fresh pages, faulted in one by one, for every message).

@@ -125,16 +125,17 @@ std::optional<Message> try_receive(int tag, int source) {
         int flag = 0;
         MPI_Message handle;
         MPI_Status status;
-        check(MPI_Improbe(source < 0 ? MPI_ANY_SOURCE : source, tag, MPI_COMM_WORLD, &flag, &handle,
-                          &status),
+        check(MPI_Improbe(source < 0 ? MPI_ANY_SOURCE : source, tag < 0 ? MPI_ANY_TAG : tag,
+                          MPI_COMM_WORLD, &flag, &handle, &status),
               "MPI_Improbe");
         if (!flag) break;
         int count = 0;
         MPI_Get_count(&status, MPI_BYTE, &count);
         tally(g_received, status.MPI_SOURCE);
         Transfer& t = g_receives.emplace_back();
-        t.tag = tag;
+        t.tag = status.MPI_TAG;
         t.message.source = status.MPI_SOURCE;
+        t.message.tag = status.MPI_TAG;
         if (!g_buffers.empty()) {
             t.message.bytes = std::move(g_buffers.back());
             g_buffers.pop_back();
@@ -145,7 +146,8 @@ std::optional<Message> try_receive(int tag, int source) {
     }
     // The first complete one of this tag and source (earlier ones of a sender first)
     for (auto it = g_receives.begin(); it != g_receives.end(); ++it) {
-        if (it->tag != tag || (source >= 0 && it->message.source != source)) continue;
+        if ((tag >= 0 && it->tag != tag) || (source >= 0 && it->message.source != source))
+            continue;
         int done = 0;
         check(MPI_Test(&it->request, &done, MPI_STATUS_IGNORE), "MPI_Test");
         if (!done) {
@@ -155,7 +157,7 @@ std::optional<Message> try_receive(int tag, int source) {
         }
         bool earlier_pending = false;
         for (auto e = g_receives.begin(); e != it; ++e)
-            earlier_pending |= e->tag == tag && e->message.source == it->message.source;
+            earlier_pending |= (tag < 0 || e->tag == tag) && e->message.source == it->message.source;
         if (earlier_pending) continue;
         Message m = std::move(it->message);
         g_receives.erase(it);

@@ -29,17 +29,17 @@ double thread_seconds() {
 }
 
 template <typename T>
-void append(std::vector<char>& buf, const T& v) {
+void append_array(std::vector<char>& buf, const T* data, size_t n) {
     static_assert(std::is_trivially_copyable_v<T>);
-    const char* p = reinterpret_cast<const char*>(&v);
-    buf.insert(buf.end(), p, p + sizeof(T));
+    if (n == 0) return;  // (memcpy may not be given a null pointer)
+    const size_t at = buf.size();
+    buf.resize(at + n * sizeof(T));
+    std::memcpy(buf.data() + at, data, n * sizeof(T));
 }
 
 template <typename T>
-void append_array(std::vector<char>& buf, const T* data, size_t n) {
-    if (n == 0) return;  // (memcpy and insert may not be given a null pointer)
-    const char* p = reinterpret_cast<const char*>(data);
-    buf.insert(buf.end(), p, p + n * sizeof(T));
+void append(std::vector<char>& buf, const T& v) {
+    append_array(buf, &v, 1);
 }
 
 // Reads a message's fields in order; any read past its end is a MessageError naming the
@@ -333,32 +333,40 @@ constexpr int kTagToRoot = 21, kTagControl = 22, kTagState = 23, kTagResults = 2
 std::string rank_name(int r) { return "rank " + std::to_string(r); }
 
 // Messages to another rank go through MPI; to itself (rank 0 is its own dealer) through a
-// queue here, in order.
+// queue here, in order. Arrived messages are taken in once per turn of a loop (pump: one
+// probe for any tag, however many kinds the loop then reads) into queues by tag.
 class Link {
 public:
     explicit Link(int me) : me_(me) {}
     void send(int dest, int tag, std::vector<char> bytes) {
         if (dest == me_)
-            local_[tag].push_back(std::move(bytes));
+            inbox_[tag].push_back({me_, std::move(bytes), tag});
         else
             mpi::send(dest, tag, std::move(bytes));
     }
-    std::optional<mpi::Message> receive(int tag, int source = -1) {
-        if (source < 0 || source == me_) {
-            auto it = local_.find(tag);
-            if (it != local_.end() && !it->second.empty()) {
-                mpi::Message m{me_, std::move(it->second.front())};
-                it->second.pop_front();
-                return m;
-            }
-            if (source == me_) return std::nullopt;
+    void pump() {
+        while (std::optional<mpi::Message> m = mpi::try_receive(-1)) {
+            const int tag = m->tag;
+            inbox_[tag].push_back(std::move(*m));
         }
-        return mpi::try_receive(tag, source);
+    }
+    // The next message of this tag taken in (from `source`, if not -1; in arrival order).
+    std::optional<mpi::Message> receive(int tag, int source = -1) {
+        auto it = inbox_.find(tag);
+        if (it == inbox_.end()) return std::nullopt;
+        std::deque<mpi::Message>& q = it->second;
+        for (auto m = q.begin(); m != q.end(); ++m) {
+            if (source >= 0 && m->source != source) continue;
+            mpi::Message out = std::move(*m);
+            q.erase(m);
+            return out;
+        }
+        return std::nullopt;
     }
 
 private:
     int me_;
-    std::map<int, std::deque<std::vector<char>>> local_;
+    std::map<int, std::deque<mpi::Message>> inbox_;
 };
 
 // The units this rank was given and not yet finished, by pass.
@@ -372,18 +380,24 @@ public:
         }
         cv_.notify_all();
     }
-    // A task for the next free render thread, before any unit (pop() gives it as a unit of
-    // tile kTask).
+    // Work for the next free render thread, before any unit: a band's work (a pass
+    // announced, units' sums from another rank), so that the main thread only deals with
+    // messages. pop() gives it as a unit of tile kTask, and task() then hands it over.
     static constexpr int32_t kTask = -1;
-    void push_task() {
+    void push_task(std::function<void()> task) {
         std::lock_guard lock(mutex_);
-        units_.push_front(Unit{kTask, 0, 0, 0});
+        tasks_.push_back(std::move(task));
         cv_.notify_one();
     }
-    std::optional<Unit> pop() {
+    std::optional<Unit> pop(std::function<void()>& task) {
         std::unique_lock lock(mutex_);
-        cv_.wait(lock, [&] { return !units_.empty() || over_; });
+        cv_.wait(lock, [&] { return !units_.empty() || !tasks_.empty() || over_; });
         if (over_) return std::nullopt;
+        if (!tasks_.empty()) {
+            task = std::move(tasks_.front());
+            tasks_.pop_front();
+            return Unit{kTask, 0, 0, 0};
+        }
         Unit u = units_.front();
         units_.pop_front();
         return u;
@@ -432,6 +446,7 @@ private:
     std::mutex mutex_;
     std::condition_variable cv_, done_cv_;
     std::deque<Unit> units_;
+    std::deque<std::function<void()>> tasks_;
     std::map<int32_t, int64_t> held_;  // queued or being rendered
     uint64_t finished_ = 0;
     size_t low_ = 0;
@@ -579,6 +594,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         dealing.finals.resize(size_t(ranks));
     }
     for (;;) {
+        link.pump();
         if (std::optional<mpi::Message> m = link.receive(kTagState, 0)) {
             wire::State s = wire::decode_state(m->bytes, slots, rank_name(0));
             if (s.id != wire::kInitState) throw MessageError("rank 0 sent a state before the start");
@@ -601,13 +617,14 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         try {
             for (;;) {
                 const auto w0 = Clock::now();
-                std::optional<Unit> u = queue.pop();
+                std::function<void()> task;
+                std::optional<Unit> u = queue.pop(task);
                 idle_ns += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(
                                         Clock::now() - w0)
                                         .count());
                 if (!u) break;
                 if (u->tile == LocalQueue::kTask) {
-                    owner.catch_up();  // (a pass announced)
+                    task();
                     continue;
                 }
                 const auto t0 = Clock::now();
@@ -690,6 +707,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         for (;;) {
             if (failed) std::rethrow_exception(failure);
             bool acted = false;
+            link.pump();
             // -- Rank 0: requests, reports, checkpoints, news, bands
             if (root) {
                 if (run.options.cancel && run.options.cancel->load()) dealer->interrupt();
@@ -783,7 +801,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                     owner.announce(c.frontier);
                     if (c.frontier > announced) {
                         announced = c.frontier;
-                        queue.push_task();
+                        queue.push_task([&owner] { owner.catch_up(); });
                     }
                     granted_through = std::max(granted_through, c.granted_through);
                     if (c.checkpoint > 0)
@@ -803,10 +821,13 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             // -- Units and splats of this band from other ranks
             while (std::optional<mpi::Message> m = link.receive(kTagResults)) {
                 acted = true;
-                for (UnitResult& r : wire::decode_results(m->bytes, run.units, run.pool,
-                                                          names[size_t(m->source)]))
-                    owner.complete(std::move(r));
-                mpi::recycle(std::move(m->bytes));
+                // (read and added on a render thread)
+                auto bytes = std::make_shared<std::vector<char>>(std::move(m->bytes));
+                queue.push_task([&, bytes, from = m->source] {
+                    for (UnitResult& r :
+                         wire::decode_results(*bytes, run.units, run.pool, names[size_t(from)]))
+                        owner.complete(std::move(r));
+                });
             }
             while (std::optional<mpi::Message> m = link.receive(kTagSplats)) {
                 acted = true;
@@ -892,15 +913,18 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             }
             if (!acted) {
                 // Polls: every millisecond while the ranks hold kQueuedSeconds of work (a poll
-                // is some microseconds of the main thread's CPU), every 100 us at a pass's
-                // end (rank 0: some bands have reported it; a rank: its band's part reported,
-                // the next pass not yet heard of), as the next pass waits on them; a render
-                // thread's report or units' sums to send end the wait at once
-                const bool near_end = root ? dealer->reports_in() > 0 : reported >= announced;
+                // is some microseconds of the main thread's CPU), every 250 us at a pass's
+                // end (rank 0: the pass all handed out and some bands' reports in; a rank: its
+                // band's part reported, the next pass not yet heard of), as the next pass waits
+                // on them; a render thread's report or units' sums to send end the wait at once
+                const bool near_end =
+                    root ? dealer->reports_in() > 0 &&
+                               dealer->granted_through() >= dealer->frontier()
+                         : reported >= announced;
                 if (waiting && !root)
                     std::this_thread::sleep_for(std::chrono::microseconds(100));
                 else
-                    queue.wait(low, std::chrono::microseconds(near_end ? 100 : 1000));
+                    queue.wait(low, std::chrono::microseconds(near_end ? 250 : 1000));
             }
         }
     } catch (...) {
