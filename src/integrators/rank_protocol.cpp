@@ -463,9 +463,12 @@ struct Outbox {
 };
 
 // A rank keeps enough units queued for its threads to work through a round trip to rank 0:
-// at least two per thread, and at least kQueuedSeconds of work at the units' measured speed;
-// it asks for more when it holds fewer than half of that.
-constexpr double kQueuedSeconds = 0.01;
+// at least four per thread, and at least kQueuedSeconds of work at the units' measured speed;
+// it asks for more when it holds half of that. (Each request costs rank 0 some microseconds
+// however many units it carries: more units a request, less of rank 0 per unit; more held,
+// more work dropped at a stop.)
+constexpr double kQueuedSeconds = 0.02;
+constexpr size_t kQueuedPerThread = 4;
 
 // Rank 0's side: requests waiting for units, what each rank was last told, checkpoints and
 // the final bands as they come in.
@@ -896,14 +899,15 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             const uint64_t done = units.load();
             const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
             const size_t high = std::min<size_t>(
-                4096, std::max<size_t>(2 * size_t(run.threads),
+                4096, std::max<size_t>(kQueuedPerThread * size_t(run.threads),
                                        unit_seconds > 0
                                            ? size_t(kQueuedSeconds * run.threads / unit_seconds)
                                            : 0));
-            const size_t low = std::max<size_t>(size_t(run.threads), high / 2);
+            // (asks while its threads still render: with as many units as threads left)
+            const size_t ask_at = std::max<size_t>(size_t(run.threads), high / 2);
             if (!waiting) {
                 const size_t pending = queue.pending();
-                if (pending == 0 || (pending < low && (last_had_units || news))) {
+                if (pending == 0 || (pending <= ask_at && (last_had_units || news))) {
                     link.send(0, kTagToRoot,
                               wire::encode(wire::Request{int32_t(pending < high ? high - pending : 0),
                                                          int32_t(pending)}));
@@ -912,11 +916,13 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                 }
             }
             if (!acted) {
-                // Polls: every millisecond while the ranks hold kQueuedSeconds of work (a poll
-                // is some microseconds of the main thread's CPU), every 250 us at a pass's
-                // end (rank 0: the pass all handed out and some bands' reports in; a rank: its
-                // band's part reported, the next pass not yet heard of), as the next pass waits
-                // on them; a render thread's report or units' sums to send end the wait at once
+                // Polls: rank 0 every 3 ms and a rank every millisecond while the ranks hold
+                // work (a rank asks with at least half of kQueuedSeconds of work left; a poll
+                // is some microseconds of the main thread's CPU, which on rank 0 is a cost per
+                // second, however long a unit), and every 250 us at a pass's end (rank 0: the
+                // pass all handed out and some bands' reports in; a rank: its band's part
+                // reported, the next pass not yet heard of), as the next pass waits on them; a
+                // render thread's report or units' sums to send end the wait at once
                 const bool near_end =
                     root ? dealer->reports_in() > 0 &&
                                dealer->granted_through() >= dealer->frontier()
@@ -924,7 +930,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                 if (waiting && !root)
                     std::this_thread::sleep_for(std::chrono::microseconds(100));
                 else
-                    queue.wait(low, std::chrono::microseconds(near_end ? 250 : 1000));
+                    queue.wait(ask_at + 1,
+                               std::chrono::microseconds(near_end ? 250 : root ? 3000 : 1000));
             }
         }
     } catch (...) {
