@@ -93,12 +93,29 @@ def main():
     text = json.dumps(out, indent=2)
     print(text)
     if a.calibration:
+        # For bench/mpi_scaling.py: a unit of 16 paths per pixel on a core of its own (the
+        # 2-rank runs: one thread a core), rank 0's CPU per request of the 4-rank runs (all
+        # its main thread's CPU, polls included, over the requests it answered: an upper
+        # bound; its part per unit granted is below what these runs separate), a unit's sums
+        # (64 bytes a pixel of a full tile and a header), and the splats a 16-path unit sends
+        two = next(r for r in table if r["ranks"] == 2)
         four = next(r for r in table if r["ranks"] == 4)
-        cal = {"t_u_seconds": four["unit_seconds_per_thread"],
-               "rank0_seconds_per_unit": four["rank0_cpu_seconds_per_unit"],
-               "bytes_per_unit": four["bytes_sent_per_unit"],
+        m2 = [s["mpi"] for s in results[two["config"]]]
+        passes = statistics.median(x["units"] for x in m2) / ((a.width + 15) // 16 * ((a.height + 15) // 16))
+        per16 = 16.0 * passes / a.spp  # units of this run per unit of 16 paths
+        m4 = [s["mpi"] for s in results[four["config"]]]
+        splat = statistics.median(sum(r.get("splat_bytes_sent", 0) for r in x["per_rank"]) / x["units"]
+                                  for x in m4)
+        cal = {"t_u_seconds": two["unit_seconds_per_thread"] * per16,
+               "rank0_seconds_per_request": statistics.median(
+                   x["rank0_cpu_seconds"] / max(1, x["requests"]) for x in m4),
+               "rank0_seconds_per_unit": 0.0,
+               "bytes_per_unit": 16 * 16 * 64 + 96,
                "gather_seconds_per_megapixel": four["rank0_gather_cpu_seconds_per_megapixel"],
-               "source": "bench/distributed.py, 4 ranks x 1 thread, " + out["cpu"]}
+               "source": f"bench/distributed.py --scene {a.scene} --estimator {a.estimator} "
+                         f"--spp {a.spp}: 2 and 4 ranks x 1 thread, " + out["cpu"]}
+        if splat > 0:
+            cal["splat_bytes_per_unit"] = splat * per16
         with open(a.calibration, "w") as f:
             json.dump(cal, f, indent=2)
             f.write("\n")

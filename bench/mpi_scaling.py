@@ -8,10 +8,12 @@ unit (one tile x one pass) costs t_u x paths/16 x its tile's factor (a smooth fi
 N renders the same work. Tiles in row order are cut into N contiguous ranges; rank r owns range
 r and adds its passes. Each rank has C render threads fed from a local queue, one main thread
 (a FIFO server: rank 0's requests, reports and sends; an owner's adds of units others rendered,
---owner-add-seconds each; an owner's own units are added by its render thread, within t_u), and
+--owner-add-seconds each, an upper bound: cierzo adds them on a render thread; an owner's own
+units are added by its render thread, within t_u), and
 one link of bandwidth B each way (a message holds the sender's and the receiver's link) plus L
-per message. A rank holding (queued + running) fewer than low = max(C, high/2) units asks rank
-0 for high - held, high = max(2C, 0.010 s x C / t_u), one request out at a time. Rank 0 deals
+per message. A rank holding (queued + running) at most low = max(C, high/2) units asks rank
+0 for high - held, high = max(4C, 0.020 s x C / t_u), one request out at a time
+(rank_protocol.cpp's kQueuedSeconds and kQueuedPerThread). Rank 0 deals
 only passes f (in progress) and f+1: to rank r its own tiles of f, of f+1, then the last tiles
 of the owner with the most left of f, then of f+1 (cierzo takes from the band after the
 last one taken from, round robin: the same while bands run out evenly), at most 2T/N units
@@ -135,7 +137,7 @@ class Sim:
         self.start = [r * T // n for r in range(n + 1)]
         self.owner = [r for r in range(n) for _ in range(self.start[r], self.start[r + 1])]
         self.speed = speed or [1.0] * n
-        self.high = max(2 * self.c, int(0.010 * self.c / cfg.t_u))
+        self.high = max(4 * self.c, int(0.020 * self.c / cfg.t_u))
         self.low = max(self.c, self.high // 2)
         self.heap, self.seq = [], 0
         self.queue, self.free, self.asking = [deque() for _ in range(n)], [self.c] * n, [False] * n
@@ -203,7 +205,7 @@ class Sim:
     # A rank's render threads
     def ask(self, now, r):
         held = len(self.queue[r]) + self.c - self.free[r]
-        if not self.asking[r] and held < self.low:
+        if not self.asking[r] and held <= self.low:
             self.asking[r], self.done_since_ask[r] = True, 0
             self.at(now + self.lat(r, 0), self.submit, 0, self.grant, r, self.high - held, held)
 

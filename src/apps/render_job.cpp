@@ -415,6 +415,7 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
                              {"units", r.units},
                              {"rays", r.rays},
                              {"bytes_sent", r.bytes_sent},
+                             {"splat_bytes_sent", r.splat_bytes_sent},
                              {"seconds", r.seconds},
                              {"idle_seconds", r.idle_seconds},
                              {"rays_per_second", r.rays_per_second()}});

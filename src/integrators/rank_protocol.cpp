@@ -697,6 +697,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     // ---- The main thread's loop
     bool waiting = false, over = false, final_sent = false, news = true, last_had_units = true;
     int32_t granted_through = -1, flushed_through = -1, announced = 0, reported = -1;
+    uint64_t splat_bytes = 0;  // sent
     const auto every = std::chrono::duration_cast<Clock::duration>(
         std::chrono::duration<double>(run.options.checkpoint_every));
     auto next_checkpoint = run.start + every;
@@ -884,8 +885,10 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                     if (o == me) {
                         owner.flushed(pass, to);
                     } else {
-                        link.send(o, kTagSplats,
-                                  wire::encode(wire::Splats{pass, to, std::move(out[size_t(o)])}));
+                        std::vector<char> msg =
+                            wire::encode(wire::Splats{pass, to, std::move(out[size_t(o)])});
+                        splat_bytes += msg.size();
+                        link.send(o, kTagSplats, std::move(msg));
                     }
                 }
             }
@@ -960,6 +963,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     mpi::drain();
     mine.bytes_sent = mpi::bytes_sent();
     mine.idle_seconds = double(idle_ns.load()) * 1e-9;
+    mine.splat_bytes_sent = splat_bytes;
     mine.rays = rays, mine.units = units;
     mine.seconds = double(last_ns.load()) * 1e-9;
     return outcome;
@@ -971,7 +975,7 @@ namespace {
 // A rank's figures at the end, gathered on rank 0.
 struct RankRecord {
     double seconds = 0.0;
-    uint64_t rays = 0, units = 0, bytes_sent = 0;
+    uint64_t rays = 0, units = 0, bytes_sent = 0, splat_bytes_sent = 0;
     double idle_seconds = 0.0;
     int32_t threads = 0;
     char host[64] = {};
@@ -983,8 +987,8 @@ struct RankRecord {
 void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStats& st,
                        LaneStats& lanes) {
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
-    RankRecord rec{mine.seconds, mine.rays,  mine.units, mine.bytes_sent, mine.idle_seconds,
-                   mine.threads, {},         {},         lanes};
+    RankRecord rec{mine.seconds,      mine.rays,    mine.units, mine.bytes_sent,
+                   mine.splat_bytes_sent, mine.idle_seconds, mine.threads, {}, {}, lanes};
     std::strncpy(rec.host, mine.host.c_str(), sizeof(rec.host) - 1);
     std::strncpy(rec.isa, isa.c_str(), sizeof(rec.isa) - 1);
     const std::vector<std::vector<char>> all = mpi::gather(&rec, sizeof(rec));
@@ -994,8 +998,8 @@ void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStat
         std::memcpy(&x, all[r].data(), sizeof(x));
         x.host[sizeof(x.host) - 1] = 0, x.isa[sizeof(x.isa) - 1] = 0;
         add(lanes, x.lanes);
-        st.ranks.push_back(
-            {int(r), x.host, x.threads, x.rays, x.units, x.bytes_sent, x.seconds, x.idle_seconds});
+        st.ranks.push_back({int(r), x.host, x.threads, x.rays, x.units, x.bytes_sent,
+                            x.seconds, x.idle_seconds, x.splat_bytes_sent});
         if (std::string(x.isa) != isa)
             st.warnings.push_back("rank " + std::to_string(r) + " rendered with " + x.isa +
                                   " kernels, rank 0 with " + isa +
