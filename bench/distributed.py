@@ -77,6 +77,8 @@ def main():
             row["requests"] = statistics.median(x["requests"] for x in m)
             row["rank0_cpu_seconds_per_request"] = statistics.median(
                 x["rank0_cpu_seconds"] / max(1, x["requests"]) for x in m)
+            row["rank0_deal_cpu_seconds_per_request"] = statistics.median(
+                x["rank0_deal_cpu_seconds_per_request"] for x in m)
             row["rank0_gather_cpu_seconds_per_megapixel"] = statistics.median(
                 x["rank0_gather_cpu_seconds"] / (a.width * a.height * 1e-6) for x in m)
         table.append(row)
@@ -94,9 +96,10 @@ def main():
     print(text)
     if a.calibration:
         # For bench/mpi_scaling.py: a unit of 16 paths per pixel on a core of its own (the
-        # 2-rank runs: one thread a core), rank 0's CPU per request of the 4-rank runs (all
-        # its main thread's CPU, polls included, over the requests it answered: an upper
-        # bound; its part per unit granted is below what these runs separate), a unit's sums
+        # 2-rank runs: one thread a core), rank 0's CPU per request of the 4-rank runs (of
+        # the turns of its loop that dealt: requests, reports, answers, news, over the
+        # requests; its polls are a cost per second, and its part per unit granted is below
+        # what these runs separate), a unit's sums
         # (64 bytes a pixel of a full tile and a header), and the splats a 16-path unit sends
         two = next(r for r in table if r["ranks"] == 2)
         four = next(r for r in table if r["ranks"] == 4)
@@ -108,7 +111,7 @@ def main():
                                   for x in m4)
         cal = {"t_u_seconds": two["unit_seconds_per_thread"] * per16,
                "rank0_seconds_per_request": statistics.median(
-                   x["rank0_cpu_seconds"] / max(1, x["requests"]) for x in m4),
+                   x["rank0_deal_cpu_seconds_per_request"] for x in m4),
                "rank0_seconds_per_unit": 0.0,
                "bytes_per_unit": 16 * 16 * 64 + 96,
                "gather_seconds_per_megapixel": four["rank0_gather_cpu_seconds_per_megapixel"],

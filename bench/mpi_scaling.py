@@ -508,8 +508,9 @@ def parse():
     ap.add_argument("--self-test", action="store_true", help="run the internal checks and exit")
     a = ap.parse_args()
     calibration = json.load(open(a.calibration)) if a.calibration else {}
-    if set(calibration) - set(CALIBRATED):
-        ap.error(f"unknown calibration keys: {', '.join(sorted(set(calibration) - set(CALIBRATED)))}")
+    unknown = set(calibration) - set(CALIBRATED) - {"source"}  # ("source": where it was measured)
+    if unknown:
+        ap.error(f"unknown calibration keys: {', '.join(sorted(unknown))}")
     for key, dest in CALIBRATED.items():  # the command line, then the calibration, then DEFAULTS
         if getattr(a, dest) is None:
             setattr(a, dest, calibration.get(key, DEFAULTS[dest]))

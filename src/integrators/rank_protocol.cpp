@@ -351,6 +351,10 @@ public:
         }
     }
     // The next message of this tag taken in (from `source`, if not -1; in arrival order).
+    bool has(int tag) const {
+        auto it = inbox_.find(tag);
+        return it != inbox_.end() && !it->second.empty();
+    }
     std::optional<mpi::Message> receive(int tag, int source = -1) {
         auto it = inbox_.find(tag);
         if (it == inbox_.end()) return std::nullopt;
@@ -481,6 +485,7 @@ struct Dealing {
         int32_t want = 0, holding = 0;
     };
     std::vector<Waiting> waiting;
+    bool any_waiting = false;  // a request not yet answered
     std::vector<Told> told;
     // The checkpoint being gathered (0: none): its pass, rays, bands in
     int64_t checkpoint = 0, asked_checkpoint = 0;
@@ -715,6 +720,9 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             // -- Rank 0: requests, reports, checkpoints, news, bands
             if (root) {
                 if (run.options.cancel && run.options.cancel->load()) dealer->interrupt();
+                // (the dealing's own CPU, apart from the loop's polls: --stats)
+                const bool dealing_now = link.has(kTagToRoot) || dealing.any_waiting;
+                const double deal_start = dealing_now ? thread_seconds() : 0.0;
                 while (std::optional<mpi::Message> m = link.receive(kTagToRoot)) {
                     acted = true;
                     outcome.bytes_received += m->bytes.size();
@@ -759,6 +767,9 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         acted = true;
                     }
                 }
+                dealing.any_waiting = false;
+                for (const Dealing::Waiting& w : dealing.waiting) dealing.any_waiting |= w.asked;
+                if (dealing_now) outcome.deal_seconds += thread_seconds() - deal_start;
                 while (std::optional<mpi::Message> m = link.receive(kTagState)) {
                     const double gather_start = thread_seconds();
                     acted = true;

@@ -290,6 +290,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
             st.rays = out.rays;
             st.rank0_cpu_seconds = out.service_seconds;
             st.rank0_gather_cpu_seconds = out.gather_seconds;
+            st.rank0_deal_cpu_seconds = out.deal_seconds;
             st.units_handed_out = out.units;
             st.requests = out.requests, st.reports = out.reports;
             st.bytes_received = out.bytes_received;

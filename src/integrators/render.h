@@ -118,6 +118,7 @@ struct RenderStats {
     // bands for checkpoints and the image), the units handed out, and the bytes rank 0
     // received
     double rank0_cpu_seconds = 0.0, rank0_gather_cpu_seconds = 0.0;
+    double rank0_deal_cpu_seconds = 0.0;  // of rank0_cpu_seconds: the turns that dealt
     uint64_t units_handed_out = 0, bytes_received = 0;
     uint64_t requests = 0, reports = 0;  // requests for units answered, pass reports received
     // Checkpoints written, and the time of the last write (and of all)
