@@ -12,7 +12,8 @@ r and adds its passes. Each rank has C render threads fed from a local queue, on
 units are added by its render thread, within t_u), and
 one link of bandwidth B each way (a message holds the sender's and the receiver's link) plus L
 per message. A rank holding (queued + running) at most low = max(C, high/2) units asks rank
-0 for high - held, high = max(4C, 0.020 s x C / t_u), one request out at a time
+0 for high - held, high = max(4C, 0.020 s x C / t_u) but at most max(C, T/N), one request
+out at a time
 (rank_protocol.cpp's kQueuedSeconds and kQueuedPerThread). Rank 0 deals
 only passes f (in progress) and f+1: to rank r its own tiles of f, of f+1, then the last tiles
 of the owner with the most left of f, then of f+1 (cierzo takes from the band after the
@@ -137,7 +138,7 @@ class Sim:
         self.start = [r * T // n for r in range(n + 1)]
         self.owner = [r for r in range(n) for _ in range(self.start[r], self.start[r + 1])]
         self.speed = speed or [1.0] * n
-        self.high = max(4 * self.c, int(0.020 * self.c / cfg.t_u))
+        self.high = min(max(4 * self.c, int(0.020 * self.c / cfg.t_u)), max(self.c, T // n))
         self.low = max(self.c, self.high // 2)
         self.heap, self.seq = [], 0
         self.queue, self.free, self.asking = [deque() for _ in range(n)], [self.c] * n, [False] * n

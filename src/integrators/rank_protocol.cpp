@@ -67,6 +67,13 @@ public:
         if (at_ != m_.size()) fail("longer than its contents");
     }
     bool at_end() const { return at_ == m_.size(); }
+    // The next `n` bytes, in place.
+    const char* skip(size_t n) {
+        need(n);
+        const char* p = m_.data() + at_;
+        at_ += n;
+        return p;
+    }
     [[noreturn]] void fail(const std::string& why) const {
         throw MessageError(from_ + " sent a malformed " + what_ + " message (" +
                            std::to_string(m_.size()) + " bytes): " + why);
@@ -251,7 +258,7 @@ std::vector<char> encode(const State& m) {
     return b;
 }
 
-State decode_state(const std::vector<char>& m, size_t slots, const std::string& from) {
+StateView view_state(const std::vector<char>& m, size_t slots, const std::string& from) {
     Reader r(m, from, "state");
     expect(r, Kind::kState);
     const StateHead h = r.get<StateHead>();
@@ -260,17 +267,30 @@ State decode_state(const std::vector<char>& m, size_t slots, const std::string& 
         r.fail("pending tiles of another band");
     if (h.batches < 0 || (h.id < 0 && h.id != kInitState && h.id != kFinalState))
         r.fail("fields out of range");
-    State s{h.id, {}};
-    s.band.batches = h.batches, s.band.nonfinite_splats = h.nonfinite_splats;
-    s.band.film.resize(size_t(h.slots));
-    r.get_array(s.band.film.data(), s.band.film.size());
+    StateView v{h.id, h.batches, h.nonfinite_splats, nullptr, nullptr, nullptr};
+    if (h.slots) v.film = r.skip(size_t(h.slots) * sizeof(PixelSums));
     if (h.pending) {
-        s.band.pending_tiles.resize(size_t(h.pending));
-        r.get_array(s.band.pending_tiles.data(), s.band.pending_tiles.size());
-        s.band.pending.resize(slots);
-        r.get_array(s.band.pending.data(), s.band.pending.size());
+        v.pending_tiles = reinterpret_cast<const uint8_t*>(r.skip(size_t(h.pending)));
+        v.pending = r.skip(slots * sizeof(PixelSums));
     }
     r.end();
+    return v;
+}
+
+State decode_state(const std::vector<char>& m, size_t slots, const std::string& from) {
+    const StateView v = view_state(m, slots, from);
+    State s{v.id, {}};
+    s.band.batches = v.batches, s.band.nonfinite_splats = v.nonfinite_splats;
+    if (v.film) {
+        s.band.film.resize(slots);
+        std::memcpy(s.band.film.data(), v.film, slots * sizeof(PixelSums));
+    }
+    if (v.pending_tiles) {
+        const size_t tiles = slots / TileBands::kSlots;
+        s.band.pending_tiles.assign(v.pending_tiles, v.pending_tiles + tiles);
+        s.band.pending.resize(slots);
+        std::memcpy(s.band.pending.data(), v.pending, slots * sizeof(PixelSums));
+    }
     return s;
 }
 
@@ -474,6 +494,56 @@ struct Outbox {
 constexpr double kQueuedSeconds = 0.02;
 constexpr size_t kQueuedPerThread = 4;
 
+// A render state gathered from every rank's band, at pass `frontier`: the film (and the tiles
+// done of the pass in progress), each band written straight from its message.
+struct Gathering {
+    RenderState state;
+    std::vector<uint8_t> in;  // per rank: its band is in
+    int count = 0;
+    int64_t batches = 0;
+    uint64_t nonfinite = 0;
+
+    // `film`: the film to fill (every pixel is written), or none to make one
+    void start(const TileBands& bands, const std::vector<int64_t>& bounds, int32_t frontier,
+               Film&& film) {
+        state = RenderState{};
+        state.film = film.width() ? std::move(film) : Film(bands.width(), bands.height());
+        state.spp_done = bounds[size_t(frontier)];
+        if (frontier + 1 < int32_t(bounds.size())) state.pending_end = bounds[size_t(frontier) + 1];
+        in.assign(size_t(bands.ranks()), 0);
+        count = 0, batches = 0, nonfinite = 0;
+    }
+    // Rank r's band; returns whether every band is in.
+    bool place(const TileBands& bands, int r, const wire::StateView& v) {
+        if (in[size_t(r)]) throw MessageError("rank " + std::to_string(r) + " sent its band twice");
+        in[size_t(r)] = 1;
+        batches = v.batches, nonfinite += v.nonfinite_splats;
+        for (size_t j = 0; j < bands.count(r); ++j) {
+            const Tile& g = bands.tile(bands.first(r) + j);
+            const size_t w = size_t(g.x1 - g.x0);
+            const bool done = v.pending_tiles && v.pending_tiles[j] && state.pending_end;
+            if (done && state.pending_tiles.empty()) {
+                state.pending_tiles.assign(bands.tiles(), 0);
+                state.pending = Film(bands.width(), bands.height());
+            }
+            if (done) state.pending_tiles[bands.first(r) + j] = 1;
+            for (int y = g.y0; y < g.y1; ++y) {
+                const size_t at = (j * TileBands::kSlots + size_t(y - g.y0) * w) * sizeof(PixelSums);
+                PixelSums* row = &state.film.at(g.x0, y);
+                if (v.film)
+                    std::memcpy(row, v.film + at, w * sizeof(PixelSums));
+                else
+                    std::fill(row, row + w, PixelSums{});
+                if (done) std::memcpy(&state.pending.at(g.x0, y), v.pending + at, w * sizeof(PixelSums));
+            }
+        }
+        if (++count < bands.ranks()) return false;
+        if (state.pending_tiles.empty()) state.pending_end = 0;
+        state.film.set_batches(batches, nonfinite);
+        return true;
+    }
+};
+
 // Rank 0's side: requests waiting for units, what each rank was last told, checkpoints and
 // the final bands as they come in.
 struct Dealing {
@@ -489,49 +559,11 @@ struct Dealing {
     std::vector<Told> told;
     // The checkpoint being gathered (0: none): its pass, rays, bands in
     int64_t checkpoint = 0, asked_checkpoint = 0;
-    int32_t checkpoint_frontier = 0;
     RayCounts checkpoint_rays;
-    std::vector<std::optional<BandState>> bands;
-    int bands_in = 0;
-    std::vector<std::optional<BandState>> finals;
-    int finals_in = 0;
+    Gathering bands;   // the checkpoint's
+    Gathering finals;  // the end's (into a film made at the start: no pages faulted in then)
+    bool finals_done = false;
 };
-
-// The bands of every rank as one render state at pass `frontier` (film, and the tiles done
-// of the pass in progress).
-RenderState assemble(const TileBands& bands, std::vector<std::optional<BandState>>& parts,
-                     const std::vector<int64_t>& bounds, int32_t frontier) {
-    RenderState s;
-    s.film = Film(bands.width(), bands.height());
-    s.spp_done = bounds[size_t(frontier)];
-    int64_t batches = 0;
-    uint64_t nonfinite = 0;
-    bool pending = false;
-    for (const auto& p : parts) pending |= !p->pending_tiles.empty();
-    if (pending && frontier + 1 < int32_t(bounds.size())) {
-        s.pending_end = bounds[size_t(frontier) + 1];
-        s.pending_tiles.assign(bands.tiles(), 0);
-        s.pending = Film(bands.width(), bands.height());
-    }
-    for (int r = 0; r < bands.ranks(); ++r) {
-        const BandState& b = *parts[size_t(r)];
-        batches = b.batches, nonfinite += b.nonfinite_splats;
-        for (size_t j = 0; j < bands.count(r); ++j) {
-            const size_t k = bands.first(r) + j;
-            const Tile& g = bands.tile(k);
-            const bool done = s.pending_end && !b.pending_tiles.empty() && b.pending_tiles[j];
-            if (done) s.pending_tiles[k] = 1;
-            size_t i = j * TileBands::kSlots;
-            for (int y = g.y0; y < g.y1; ++y)
-                for (int x = g.x0; x < g.x1; ++x, ++i) {
-                    s.film.at(x, y) = b.film.empty() ? PixelSums{} : b.film[i];
-                    if (done) s.pending.at(x, y) = b.pending[i];
-                }
-        }
-    }
-    s.film.set_batches(batches, nonfinite);
-    return s;
-}
 
 // A resumed render's band of rank r: its tiles of the film, and of the first pass's tiles
 // done (when the checkpoint holds that pass's tiles).
@@ -599,7 +631,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                        with_pending ? resume->pending_tiles : std::vector<uint8_t>{});
         dealing.waiting.resize(size_t(ranks));
         dealing.told.resize(size_t(ranks));
-        dealing.finals.resize(size_t(ranks));
+        // (the film of the end made now, before the render: its pages are in by then)
+        dealing.finals.start(bands, run.bounds, 0, Film(rs.width, rs.height));
     }
     for (;;) {
         link.pump();
@@ -740,10 +773,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                     Clock::now() >= next_checkpoint && !dealer->stopping() &&
                     dealing.checkpoint == 0) {
                     ask = dealing.checkpoint = ++dealing.asked_checkpoint;
-                    dealing.checkpoint_frontier = dealer->frontier();
                     dealing.checkpoint_rays = dealer->rays();
-                    dealing.bands.assign(size_t(ranks), std::nullopt);
-                    dealing.bands_in = 0;
+                    dealing.bands.start(bands, run.bounds, dealer->frontier(), Film(0, 0));
                     next_checkpoint = Clock::now() + every;
                 }
                 for (int r = 0; r < ranks; ++r) {
@@ -775,29 +806,23 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                     acted = true;
                     outcome.bytes_received += m->bytes.size();
                     const int r = m->source;
-                    wire::State s =
-                        wire::decode_state(m->bytes, bands.count(r) * TileBands::kSlots,
-                                           names[size_t(r)]);
-                    mpi::recycle(std::move(m->bytes));
-                    auto& parts = s.id == wire::kFinalState ? dealing.finals : dealing.bands;
-                    int& in = s.id == wire::kFinalState ? dealing.finals_in : dealing.bands_in;
-                    if (s.id != wire::kFinalState && s.id != dealing.checkpoint) continue;
-                    if (parts[size_t(r)]) throw MessageError(rank_name(r) + " sent its band twice");
-                    parts[size_t(r)] = std::move(s.band);
-                    if (++in == ranks && s.id != wire::kFinalState) {
-                        RenderState st = assemble(bands, dealing.bands, run.bounds,
-                                                  dealing.checkpoint_frontier);
+                    const wire::StateView v = wire::view_state(
+                        m->bytes, bands.count(r) * TileBands::kSlots, names[size_t(r)]);
+                    if (v.id == wire::kFinalState) {
+                        dealing.finals_done = dealing.finals.place(bands, r, v);
+                    } else if (v.id == dealing.checkpoint && dealing.bands.place(bands, r, v)) {
+                        RenderState st = std::move(dealing.bands.state);
                         st.rays = dealing.checkpoint_rays;
                         if (run.resume) st.rays += run.resume->rays;
                         st.seconds = seconds_since(run.start) +
                                      (run.resume ? run.resume->seconds : 0.0);
-                        dealing.bands.clear();
                         dealing.checkpoint = 0;
                         run.checkpoint(std::move(st));
                     }
+                    mpi::recycle(std::move(m->bytes));
                     outcome.gather_seconds += thread_seconds() - gather_start;
                 }
-                if (dealing.finals_in == ranks) break;
+                if (dealing.finals_done) break;
             }
             // -- Every rank: what rank 0 says, in order
             if (!over) {
@@ -809,6 +834,13 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                             throw MessageError("rank 0 granted a unit of no tile");
                     if (c.over) {
                         over = true;
+                        if (root) {  // (the end's pass, before any band of the end comes)
+                            RenderState& f = dealing.finals.state;
+                            f.spp_done = run.bounds[size_t(c.frontier)];
+                            f.pending_end = size_t(c.frontier) + 1 < run.bounds.size()
+                                                ? run.bounds[size_t(c.frontier) + 1]
+                                                : 0;
+                        }
                         stop_threads();
                         owner.stop(c.frontier);
                         break;
@@ -912,11 +944,14 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             // -- More units
             const uint64_t done = units.load();
             const double unit_seconds = done ? double(busy_ns.load()) * 1e-9 / double(done) : 0.0;
+            // (and at most the rank's share of a pass, so that with many ranks those that ask
+            // first do not hold the units the others wait for at a pass's end)
             const size_t high = std::min<size_t>(
-                4096, std::max<size_t>(kQueuedPerThread * size_t(run.threads),
-                                       unit_seconds > 0
-                                           ? size_t(kQueuedSeconds * run.threads / unit_seconds)
-                                           : 0));
+                std::max<size_t>(size_t(run.threads), run.units.size() / size_t(ranks)),
+                std::max<size_t>(kQueuedPerThread * size_t(run.threads),
+                                 unit_seconds > 0
+                                     ? size_t(kQueuedSeconds * run.threads / unit_seconds)
+                                     : 0));
             // (asks while its threads still render: with as many units as threads left)
             const size_t ask_at = std::max<size_t>(size_t(run.threads), high / 2);
             if (!waiting) {
@@ -959,8 +994,7 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     if (progress) progress->stop();
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
     if (root) {
-        const double gather_start = thread_seconds();
-        outcome.final_state = assemble(bands, dealing.finals, run.bounds, dealer->frontier());
+        outcome.final_state = std::move(dealing.finals.state);
         outcome.final_state.rays = dealer->rays();
         if (run.resume) outcome.final_state.rays += run.resume->rays;
         outcome.final_state.seconds =
@@ -968,7 +1002,6 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         outcome.stopped_by = dealer->stopped_by();
         outcome.rays = dealer->rays();
         outcome.units = dealer->units_granted();
-        outcome.gather_seconds += thread_seconds() - gather_start;
         outcome.service_seconds = loop_seconds;
     }
     mpi::drain();

@@ -65,6 +65,16 @@ void append_result(std::vector<char>& message, const UnitResult& r);
 
 // Whether a message to rank 0 is a Request (else a Report).
 bool is_request(const std::vector<char>& m);
+// A state message read in place: its pixels (kSlots a tile, as BandState) stay in the message.
+struct StateView {
+    int64_t id = 0, batches = 0;
+    uint64_t nonfinite_splats = 0;
+    const char* film = nullptr;             // none: a fresh band
+    const uint8_t* pending_tiles = nullptr;  // none: no tile of the pass in progress
+    const char* pending = nullptr;
+};
+StateView view_state(const std::vector<char>& m, size_t slots, const std::string& from);
+
 // Each throws MessageError naming `from` (e.g. "rank 2") and what is wrong.
 Request decode_request(const std::vector<char>& m, const std::string& from);
 Control decode_control(const std::vector<char>& m, const std::string& from);
