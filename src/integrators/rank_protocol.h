@@ -10,8 +10,8 @@
 //   a rank to an owner: Results (the sums of units of the owner's tiles it rendered),
 //                       Splats (estimators that splat: its splats of one pass in the owner's
 //                       band, once it has rendered all it was given of the pass).
-// Rank 0 sends to itself through a local queue, so every rank runs the same loop. A message
-// that is truncated or does not fit the render is refused (MessageError, naming the sender).
+// Rank 0 sends to itself through a local queue, so every rank runs the same loop. The
+// messages and their codec: rank_messages.h.
 #pragma once
 
 #include <cstdint>
@@ -21,72 +21,11 @@
 #include <vector>
 
 #include "integrators/scheduler.h"
+#include "integrators/rank_messages.h"
 #include "integrators/tile_owner.h"
 
 namespace cierzo {
 
-struct MessageError : std::runtime_error {
-    using std::runtime_error::runtime_error;
-};
-
-namespace wire {
-
-struct Request {
-    int32_t want = 0, holding = 0;
-};
-struct Control {
-    int32_t answer = 0;  // 1: the answer to the rank's request (0: news alone)
-    int32_t frontier = 0;
-    int32_t granted_through = -1;
-    int32_t over = 0;          // the render ends at pass `frontier`
-    int64_t checkpoint = 0;    // > 0: send your band for checkpoint number `checkpoint`
-    std::vector<Unit> units;
-};
-struct Splats {
-    int32_t pass = 0;
-    RayCounts light_rays;
-    std::vector<Splat> splats;
-};
-inline constexpr int64_t kInitState = -1, kFinalState = -2;
-struct State {
-    int64_t id = 0;  // kInitState, kFinalState or a checkpoint's number
-    BandState band;
-};
-
-std::vector<char> encode(const Request& m);
-std::vector<char> encode(const Control& m);
-std::vector<char> encode(const PassReport& m);
-std::vector<char> encode(const Splats& m);
-std::vector<char> encode(const State& m);
-// Units' results (their sums and rays; not their splats): a message of them, or one more
-// appended to a message (empty: a new one).
-std::vector<char> encode(const std::vector<UnitResult>& results);
-void append_result(std::vector<char>& message, const UnitResult& r);
-
-// Whether a message to rank 0 is a Request (else a Report).
-bool is_request(const std::vector<char>& m);
-// A state message read in place: its pixels (kSlots a tile, as BandState) stay in the message.
-struct StateView {
-    int64_t id = 0, batches = 0;
-    uint64_t nonfinite_splats = 0;
-    const char* film = nullptr;             // none: a fresh band
-    const uint8_t* pending_tiles = nullptr;  // none: no tile of the pass in progress
-    const char* pending = nullptr;
-};
-StateView view_state(const std::vector<char>& m, size_t slots, const std::string& from);
-
-// Each throws MessageError naming `from` (e.g. "rank 2") and what is wrong.
-Request decode_request(const std::vector<char>& m, const std::string& from);
-Control decode_control(const std::vector<char>& m, const std::string& from);
-PassReport decode_report(const std::vector<char>& m, const std::string& from);
-Splats decode_splats(const std::vector<char>& m, const std::string& from);
-// `slots`: the band's pixels the state must hold.
-State decode_state(const std::vector<char>& m, size_t slots, const std::string& from);
-// Units of image tiles (indices into `units`), with tile memory from `pool`.
-std::vector<UnitResult> decode_results(const std::vector<char>& m, const std::vector<Tile>& units,
-                                       TilePool& pool, const std::string& from);
-
-}  // namespace wire
 
 // What a render under MPI gives rank 0.
 struct DistributedOutcome {
