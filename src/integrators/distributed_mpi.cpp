@@ -146,8 +146,7 @@ std::optional<Message> try_receive(int tag, int source) {
     }
     // The first complete one of this tag and source (earlier ones of a sender first)
     for (auto it = g_receives.begin(); it != g_receives.end(); ++it) {
-        if ((tag >= 0 && it->tag != tag) || (source >= 0 && it->message.source != source))
-            continue;
+        if ((tag >= 0 && it->tag != tag) || (source >= 0 && it->message.source != source)) continue;
         int done = 0;
         check(MPI_Test(&it->request, &done, MPI_STATUS_IGNORE), "MPI_Test");
         if (!done) {
@@ -157,7 +156,8 @@ std::optional<Message> try_receive(int tag, int source) {
         }
         bool earlier_pending = false;
         for (auto e = g_receives.begin(); e != it; ++e)
-            earlier_pending |= (tag < 0 || e->tag == tag) && e->message.source == it->message.source;
+            earlier_pending |=
+                (tag < 0 || e->tag == tag) && e->message.source == it->message.source;
         if (earlier_pending) continue;
         Message m = std::move(it->message);
         g_receives.erase(it);

@@ -85,8 +85,7 @@ namespace {
     return batches > 0 ? batches >= 2 && p.count > 0 : p.count >= 2;
 }
 
-[[gnu::always_inline]] inline double variance_of_mean(const PixelSums& p, int c,
-                                                      int64_t batches) {
+[[gnu::always_inline]] inline double variance_of_mean(const PixelSums& p, int c, int64_t batches) {
     const double n = double(p.count);
     if (batches > 0) {
         // Σ n_k (m_k - m)² over the passes k, over (passes - 1), per path

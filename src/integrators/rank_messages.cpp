@@ -228,8 +228,8 @@ std::vector<char> encode(const State& m) {
     b.reserve(sizeof(Kind) + sizeof(StateHead) + (s.film.size() + s.pending.size()) * 64 +
               s.pending_tiles.size());
     append(b, Kind::kState);
-    append(b, StateHead{m.id, s.batches, s.nonfinite_splats, s.film.size(),
-                        s.pending_tiles.size()});
+    append(b,
+           StateHead{m.id, s.batches, s.nonfinite_splats, s.film.size(), s.pending_tiles.size()});
     append_array(b, s.film.data(), s.film.size());
     if (!s.pending_tiles.empty()) {
         append_array(b, s.pending_tiles.data(), s.pending_tiles.size());

@@ -29,8 +29,8 @@ struct Control {
     int32_t answer = 0;  // 1: the answer to the rank's request (0: news alone)
     int32_t frontier = 0;
     int32_t granted_through = -1;
-    int32_t over = 0;          // the render ends at pass `frontier`
-    int64_t checkpoint = 0;    // > 0: send your band for checkpoint number `checkpoint`
+    int32_t over = 0;        // the render ends at pass `frontier`
+    int64_t checkpoint = 0;  // > 0: send your band for checkpoint number `checkpoint`
     std::vector<Unit> units;
 };
 struct Splats {
@@ -60,7 +60,7 @@ bool is_request(const std::vector<char>& m);
 struct StateView {
     int64_t id = 0, batches = 0;
     uint64_t nonfinite_splats = 0;
-    const char* film = nullptr;             // none: a fresh band
+    const char* film = nullptr;              // none: a fresh band
     const uint8_t* pending_tiles = nullptr;  // none: no tile of the pass in progress
     const char* pending = nullptr;
 };
@@ -114,13 +114,15 @@ struct Gathering {
             }
             if (done) state.pending_tiles[bands.first(r) + j] = 1;
             for (int y = g.y0; y < g.y1; ++y) {
-                const size_t at = (j * TileBands::kSlots + size_t(y - g.y0) * w) * sizeof(PixelSums);
+                const size_t at =
+                    (j * TileBands::kSlots + size_t(y - g.y0) * w) * sizeof(PixelSums);
                 PixelSums* row = &state.film.at(g.x0, y);
                 if (v.film)
                     std::memcpy(row, v.film + at, w * sizeof(PixelSums));
                 else
                     std::fill(row, row + w, PixelSums{});
-                if (done) std::memcpy(&state.pending.at(g.x0, y), v.pending + at, w * sizeof(PixelSums));
+                if (done)
+                    std::memcpy(&state.pending.at(g.x0, y), v.pending + at, w * sizeof(PixelSums));
             }
         }
         if (++count < bands.ranks()) return false;
@@ -129,7 +131,6 @@ struct Gathering {
         return true;
     }
 };
-
 
 // A resumed render's band of rank r (the State rank 0 sends it first): its tiles of the
 // checkpoint's film, and of the first pass's tiles done when `with_pending`.

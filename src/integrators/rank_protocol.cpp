@@ -39,8 +39,7 @@ using rank::Link;
 using rank::LocalQueue;
 using rank::Outbox;
 
-constexpr int kTagToRoot = 21, kTagControl = 22, kTagState = 23, kTagResults = 24,
-              kTagSplats = 25;
+constexpr int kTagToRoot = 21, kTagControl = 22, kTagState = 23, kTagResults = 24, kTagSplats = 25;
 
 std::string rank_name(int r) { return "rank " + std::to_string(r); }
 
@@ -72,7 +71,6 @@ struct Dealing {
     Gathering finals;  // the end's (into a film made at the start: no pages faulted in then)
     bool finals_done = false;
 };
-
 
 }  // namespace
 
@@ -121,7 +119,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         link.pump();
         if (std::optional<mpi::Message> m = link.receive(kTagState, 0)) {
             wire::State s = wire::decode_state(m->bytes, slots, rank_name(0));
-            if (s.id != wire::kInitState) throw MessageError("rank 0 sent a state before the start");
+            if (s.id != wire::kInitState)
+                throw MessageError("rank 0 sent a state before the start");
             if (!s.band.film.empty()) owner.restore(std::move(s.band));
             break;
         }
@@ -143,9 +142,9 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                 const auto w0 = Clock::now();
                 std::function<void()> task;
                 std::optional<Unit> u = queue.pop(task);
-                idle_ns += uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                        Clock::now() - w0)
-                                        .count());
+                idle_ns +=
+                    uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - w0)
+                                 .count());
                 if (!u) break;
                 if (u->tile == LocalQueue::kTask) {
                     task();
@@ -155,10 +154,10 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                 UnitResult r = run.renderer.render(*u);
                 const auto t1 = Clock::now();
                 rays += r.rays.total(), ++units;
-                busy_ns += uint64_t(
-                    std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
-                last_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - run.start)
-                              .count();
+                busy_ns +=
+                    uint64_t(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+                last_ns =
+                    std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - run.start).count();
                 {
                     std::lock_guard lock(lanes_mutex);
                     add(lanes, r.lanes);
@@ -223,8 +222,12 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         std::chrono::duration<double>(run.options.checkpoint_every));
     auto next_checkpoint = run.start + every;
     const auto send_news = [&](int r, bool answer, std::vector<Unit> granted, int64_t ckpt) {
-        wire::Control c{answer ? 1 : 0, dealer->frontier(), dealer->granted_through(),
-                        dealer->stopping() ? 1 : 0, ckpt, std::move(granted)};
+        wire::Control c{answer ? 1 : 0,
+                        dealer->frontier(),
+                        dealer->granted_through(),
+                        dealer->stopping() ? 1 : 0,
+                        ckpt,
+                        std::move(granted)};
         dealing.told[size_t(r)] = {c.frontier, c.granted_through, c.over};
         link.send(r, kTagControl, wire::encode(c));
     };
@@ -297,8 +300,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         RenderState st = std::move(dealing.bands.state);
                         st.rays = dealing.checkpoint_rays;
                         if (run.resume) st.rays += run.resume->rays;
-                        st.seconds = seconds_since(run.start) +
-                                     (run.resume ? run.resume->seconds : 0.0);
+                        st.seconds =
+                            seconds_since(run.start) + (run.resume ? run.resume->seconds : 0.0);
                         dealing.checkpoint = 0;
                         run.checkpoint(std::move(st));
                     }
@@ -335,8 +338,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                     }
                     granted_through = std::max(granted_through, c.granted_through);
                     if (c.checkpoint > 0)
-                        link.send(0, kTagState, wire::encode(wire::State{c.checkpoint,
-                                                                         owner.snapshot()}));
+                        link.send(0, kTagState,
+                                  wire::encode(wire::State{c.checkpoint, owner.snapshot()}));
                     queue.push(c.units);
                     // (news alone may mean units to ask for; an answer is not news: a rank
                     // answered with none asks again only when it runs dry or hears news)
@@ -369,8 +372,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             if (over) {
                 if (!final_sent) {
                     BandState band = owner.snapshot();
-                    link.send(0, kTagState, wire::encode(wire::State{wire::kFinalState,
-                                                                     std::move(band)}));
+                    link.send(0, kTagState,
+                              wire::encode(wire::State{wire::kFinalState, std::move(band)}));
                     final_sent = acted = true;
                 }
                 if (!root) break;
@@ -431,18 +434,17 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
             // first do not hold the units the others wait for at a pass's end)
             const size_t high = std::min<size_t>(
                 std::max<size_t>(size_t(run.threads), run.units.size() / size_t(ranks)),
-                std::max<size_t>(kQueuedPerThread * size_t(run.threads),
-                                 unit_seconds > 0
-                                     ? size_t(kQueuedSeconds * run.threads / unit_seconds)
-                                     : 0));
+                std::max<size_t>(
+                    kQueuedPerThread * size_t(run.threads),
+                    unit_seconds > 0 ? size_t(kQueuedSeconds * run.threads / unit_seconds) : 0));
             // (asks while its threads still render: with as many units as threads left)
             const size_t ask_at = std::max<size_t>(size_t(run.threads), high / 2);
             if (!waiting) {
                 const size_t pending = queue.pending();
                 if (pending == 0 || (pending <= ask_at && (last_had_units || news))) {
                     link.send(0, kTagToRoot,
-                              wire::encode(wire::Request{int32_t(pending < high ? high - pending : 0),
-                                                         int32_t(pending)}));
+                              wire::encode(wire::Request{
+                                  int32_t(pending < high ? high - pending : 0), int32_t(pending)}));
                     waiting = acted = true;
                     news = false;
                 }
@@ -455,15 +457,15 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                 // pass all handed out and some bands' reports in; a rank: its band's part
                 // reported, the next pass not yet heard of), as the next pass waits on them; a
                 // render thread's report or units' sums to send end the wait at once
-                const bool near_end =
-                    root ? dealer->reports_in() > 0 &&
-                               dealer->granted_through() >= dealer->frontier()
-                         : reported >= announced;
+                const bool near_end = root ? dealer->reports_in() > 0 &&
+                                                 dealer->granted_through() >= dealer->frontier()
+                                           : reported >= announced;
                 if (waiting && !root)
                     std::this_thread::sleep_for(std::chrono::microseconds(100));
                 else
-                    queue.wait(ask_at + 1,
-                               std::chrono::microseconds(near_end ? 250 : root ? 3000 : 1000));
+                    queue.wait(ask_at + 1, std::chrono::microseconds(near_end ? 250
+                                                                     : root   ? 3000
+                                                                              : 1000));
             }
         }
     } catch (...) {
@@ -515,8 +517,16 @@ struct RankRecord {
 void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStats& st,
                        LaneStats& lanes) {
     while (!mpi::progress()) std::this_thread::sleep_for(std::chrono::microseconds(100));
-    RankRecord rec{mine.seconds,      mine.rays,    mine.units, mine.bytes_sent,
-                   mine.splat_bytes_sent, mine.idle_seconds, mine.threads, {}, {}, lanes};
+    RankRecord rec{mine.seconds,
+                   mine.rays,
+                   mine.units,
+                   mine.bytes_sent,
+                   mine.splat_bytes_sent,
+                   mine.idle_seconds,
+                   mine.threads,
+                   {},
+                   {},
+                   lanes};
     std::strncpy(rec.host, mine.host.c_str(), sizeof(rec.host) - 1);
     std::strncpy(rec.isa, isa.c_str(), sizeof(rec.isa) - 1);
     const std::vector<std::vector<char>> all = mpi::gather(&rec, sizeof(rec));
@@ -526,8 +536,8 @@ void gather_rank_stats(const RankStats& mine, const std::string& isa, RenderStat
         std::memcpy(&x, all[r].data(), sizeof(x));
         x.host[sizeof(x.host) - 1] = 0, x.isa[sizeof(x.isa) - 1] = 0;
         add(lanes, x.lanes);
-        st.ranks.push_back({int(r), x.host, x.threads, x.rays, x.units, x.bytes_sent,
-                            x.seconds, x.idle_seconds, x.splat_bytes_sent});
+        st.ranks.push_back({int(r), x.host, x.threads, x.rays, x.units, x.bytes_sent, x.seconds,
+                            x.idle_seconds, x.splat_bytes_sent});
         if (std::string(x.isa) != isa)
             st.warnings.push_back("rank " + std::to_string(r) + " rendered with " + x.isa +
                                   " kernels, rank 0 with " + isa +

@@ -26,20 +26,19 @@
 
 namespace cierzo {
 
-
 // What a render under MPI gives rank 0.
 struct DistributedOutcome {
     RenderState final_state;  // the film, and the tiles done of the pass in progress
     std::string stopped_by;
-    RayCounts rays;            // of the passes in the film
-    uint64_t units = 0;        // units handed out
+    RayCounts rays;      // of the passes in the film
+    uint64_t units = 0;  // units handed out
     // Rank 0's main thread's CPU time: handing out units and all else, and apart from it
     // gathering the bands (checkpoints and the end)
     double service_seconds = 0.0, gather_seconds = 0.0;
     // Of service_seconds: the turns that dealt (requests, reports, answers, news), without
     // the polls of the turns that found nothing
     double deal_seconds = 0.0;
-    uint64_t bytes_received = 0;   // by rank 0
+    uint64_t bytes_received = 0;         // by rank 0
     uint64_t requests = 0, reports = 0;  // answered and received by rank 0
 };
 

@@ -261,10 +261,17 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         // hands out the units (rank_protocol.h)
         CheckpointWriter checkpoints(options, st);
         LaneStats lanes;
-        RankRun run{scene, options, tiles,
-                    size_t(std::count_if(tiles.begin(), tiles.end(),
-                                         [](const Tile& t) { return t.light; })),
-                    renderer, pool, threads, start, {}, nullptr, {}};
+        RankRun run{scene,
+                    options,
+                    tiles,
+                    size_t(std::count_if(tiles.begin(), tiles.end(), [](const Tile& t) { return t.light; })),
+                    renderer,
+                    pool,
+                    threads,
+                    start,
+                    {},
+                    nullptr,
+                    {}};
         if (root) {
             const RenderState* resume = options.resume;
             if (resume) {

@@ -94,11 +94,11 @@ struct RankStats {
     int rank = 0;
     std::string host;
     int threads = 1;
-    uint64_t rays = 0;     // traced by this rank (passes abandoned at a stop included)
-    uint64_t units = 0;    // tile × pass units rendered
-    uint64_t bytes_sent = 0;  // in messages to other ranks
-    double seconds = 0.0;  // from the start of the render to its last unit
-    double idle_seconds = 0.0;  // its render threads' time waiting for a unit, summed
+    uint64_t rays = 0;              // traced by this rank (passes abandoned at a stop included)
+    uint64_t units = 0;             // tile × pass units rendered
+    uint64_t bytes_sent = 0;        // in messages to other ranks
+    double seconds = 0.0;           // from the start of the render to its last unit
+    double idle_seconds = 0.0;      // its render threads' time waiting for a unit, summed
     uint64_t splat_bytes_sent = 0;  // of bytes_sent: splats to the owners of their pixels
     double rays_per_second() const { return seconds > 0 ? double(rays) / seconds : 0.0; }
 };

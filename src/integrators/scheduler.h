@@ -1,8 +1,9 @@
-// The work of a render and its one owner. The image is split into tiles and the paths per
-// pixel into passes; a unit is one tile's samples [s0, s1) of one pass, rendered from zero
-// into its own sums by any thread of any process. The coordinator (the only one, on rank 0)
-// adds each pixel's passes to the film in pass order, film + pass 0 + pass 1 + ..., whoever
-// rendered each pass: the image is bit-identical for any number of threads and processes.
+// The work of a render and its one owner in one process. The image is split into tiles and
+// the paths per pixel into passes; a unit is one tile's samples [s0, s1) of one pass,
+// rendered from zero into its own sums by any thread. The coordinator adds each pixel's
+// passes to the film in pass order, film + pass 0 + pass 1 + ..., whoever rendered each pass:
+// the image is bit-identical for any number of threads. (Under MPI each rank owns a band of
+// tiles and adds its passes the same way, and rank 0 only deals: tile_owner.h, unit_dealer.h.)
 // A unit of the pass in progress is added as soon as it comes (its tile memory is then used
 // again at once, while in cache), into a second film (`next_`: the film with the pass in
 // progress added, tile by tile), which becomes the film when the pass is whole (a swap). A
@@ -112,9 +113,10 @@ private:
     const StrategyFilm* strategies_;  // the strategy images recorded, if any
 };
 
-// The one owner of the film (rank 0): hands out units in pass order, keeps the units of the
-// pass in progress (and of the next one, which idle workers may start early) aside, adds a
-// pass to the film once it is whole, and applies the stopping rules at pass ends.
+// The one owner of the film of a render in one process: hands out units in pass order, keeps
+// the units of the pass in progress (and of the next one, which idle threads may start early)
+// aside, adds a pass to the film once it is whole, and applies the stopping rules at pass
+// ends.
 // Thread-safe: every method takes the lock. Waiters (wait()) are woken only when something
 // they wait for happens: a pass is added (units of a new pass can be handed out) or the
 // render stops; a finished unit alone wakes nobody.

@@ -114,7 +114,8 @@ void TileOwner::complete(UnitResult&& r) {
     catch_up_locked();
     Aside& a = aside(r.unit.pass);
     a.rays += r.rays;
-    const bool twice = r.unit.pass == frontier_ && !splats_ ? done_[j] != 0 : a.tiles[j].has_value();
+    const bool twice =
+        r.unit.pass == frontier_ && !splats_ ? done_[j] != 0 : a.tiles[j].has_value();
     if (twice) throw std::runtime_error("a unit was rendered twice");
     if (!splats_ && r.unit.pass == frontier_) {
         add_next(j, r.sums);

@@ -260,10 +260,9 @@ TEST(Mpi, ATargetErrorStopsAtTheSamePassWithTheSameImageAsOneProcess) {
                                      {"caustic.json", "bdpt", "0.1"}};
     for (const Case& c : cases) {
         SCOPED_TRACE(c.estimator);
-        const std::vector<std::string> args = {"--spp",          "100000",   "--width",
-                                               "48",             "--height", "40",
-                                               "--target-error", c.target,   "--estimator",
-                                               c.estimator};
+        const std::vector<std::string> args = {
+            "--spp", "100000",         "--width", "48",          "--height",
+            "40",    "--target-error", c.target,  "--estimator", c.estimator};
         std::vector<std::string> one = render_args(c.scene, kDir / "te1.exr", args);
         one.insert(one.end(), {"--stats", (kDir / "te1.json").string()});
         ASSERT_EQ(run({one}, "te1"), 0) << text(kDir / "te1.stderr");
@@ -288,8 +287,8 @@ TEST(Mpi, ATimeBudgetGivesTheOneProcessImageOfThePathsReached) {
     for (const std::string estimator : {"mis", "bdpt"}) {
         SCOPED_TRACE(estimator);
         const fs::path js = kDir / "tbn.json";
-        const std::vector<std::string> size = {"--width", "40", "--height", "32", "--estimator",
-                                               estimator};
+        const std::vector<std::string> size = {"--width", "40",          "--height",
+                                               "32",      "--estimator", estimator};
         std::vector<std::string> a = render_args("caustic.json", kDir / "tbn.exr", size);
         a.insert(a.end(), {"--spp", "1000000", "--time-budget", "0.5", "--stats", js.string()});
         ASSERT_EQ(run({a, 3}, "tbn"), 0) << text(kDir / "tbn.stderr");
@@ -322,12 +321,12 @@ TEST(Mpi, SigintToMpirunWritesTheImageOfWholePasses) {
     REQUIRE_MPI();
     const fs::path out = kDir / "int.exr", js = kDir / "int.json", ck = kDir / "int.ckpt.exr";
     fs::remove(out), fs::remove(ck);
-    const Running r = start({render_args("cornell.json", out,
-                                         {"--spp", "1000000", "--width", "120", "--height", "100",
-                                          "--stats", js.string(), "--checkpoint", ck.string(),
-                                          "--checkpoint-every", "0.3"}),
-                             3},
-                            "int");
+    const Running r =
+        start({render_args("cornell.json", out,
+                           {"--spp", "1000000", "--width", "120", "--height", "100", "--stats",
+                            js.string(), "--checkpoint", ck.string(), "--checkpoint-every", "0.3"}),
+               3},
+              "int");
     // (once the render has a pass whole: a signal before cierzo's handlers are in, while MPI
     // starts or the scene loads on a loaded machine, ends a rank as the signal's default
     // does, a render stops at a pass's end at the earliest, and Open MPI ends the ranks a

@@ -104,7 +104,8 @@ TEST(RankMessages, RoundTripAndRefuseTruncatedCopies) {
     EXPECT_EQ(q2.want, 7);
     EXPECT_EQ(q2.holding, 3);
     EXPECT_TRUE(wire::is_request(wire::encode(q)));
-    refuses_every_cut(wire::encode(q), [&](const auto& m) { return wire::decode_request(m, from); });
+    refuses_every_cut(wire::encode(q),
+                      [&](const auto& m) { return wire::decode_request(m, from); });
 
     const wire::Control c{1, 4, 3, 0, 2, {Unit{5, 4, 64, 80}, Unit{6, 5, 80, 96}}};
     const wire::Control c2 = wire::decode_control(wire::encode(c), from);
@@ -112,7 +113,8 @@ TEST(RankMessages, RoundTripAndRefuseTruncatedCopies) {
     EXPECT_EQ(c2.checkpoint, 2);
     ASSERT_EQ(c2.units.size(), 2u);
     EXPECT_EQ(c2.units[1].s1, 96);
-    refuses_every_cut(wire::encode(c), [&](const auto& m) { return wire::decode_control(m, from); });
+    refuses_every_cut(wire::encode(c),
+                      [&](const auto& m) { return wire::decode_control(m, from); });
     EXPECT_FALSE(wire::is_request(wire::encode(c)));
     // (a message of one kind is not read as another)
     EXPECT_THROW(wire::decode_report(wire::encode(c), from), MessageError);
@@ -130,7 +132,8 @@ TEST(RankMessages, RoundTripAndRefuseTruncatedCopies) {
     ASSERT_EQ(sp2.splats.size(), 2u);
     EXPECT_EQ(sp2.splats[1].pixel, 10u);
     EXPECT_EQ(sp2.light_rays.light, 4u);
-    refuses_every_cut(wire::encode(sp), [&](const auto& m) { return wire::decode_splats(m, from); });
+    refuses_every_cut(wire::encode(sp),
+                      [&](const auto& m) { return wire::decode_splats(m, from); });
 
     wire::State st{wire::kFinalState, {}};
     st.band.film.resize(2 * TileBands::kSlots);
