@@ -95,7 +95,6 @@ public:
     void finished(int32_t pass) {
         std::lock_guard lock(mutex_);
         if (--held_[pass] == 0) held_.erase(pass);
-        ++finished_;
         if (size() < low_) done_cv_.notify_all();
     }
     // Waits until fewer than `low` units are held, wake() is called or `timeout` passes.
@@ -138,7 +137,6 @@ private:
     std::deque<Unit> units_;
     std::deque<std::function<void()>> tasks_;
     std::map<int32_t, int64_t> held_;  // queued or being rendered
-    uint64_t finished_ = 0;
     size_t low_ = 0;
     bool over_ = false, woken_ = false;
 };

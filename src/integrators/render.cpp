@@ -256,6 +256,16 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     RankStats mine{world.rank, mpi::host_name(), threads};
     const auto start = Clock::now();
 
+    // The state resumed (rank 0 reads it) and the passes from there
+    const RenderState* resume = root ? options.resume : nullptr;
+    if (resume) {
+        if (resume->film.width() != rs.width || resume->film.height() != rs.height)
+            throw std::logic_error("resumed state of another resolution");
+        st.spp_resumed = resume->spp_done;
+    }
+    const std::vector<int64_t> bounds =
+        pass_bounds(resume ? resume->spp_done : 0, rs.spp, pass_pixels(scene));
+
     if (world.size > 1) {
         // Under MPI every rank owns a band of the image and adds its passes; rank 0 also
         // hands out the units (rank_protocol.h)
@@ -273,13 +283,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                     nullptr,
                     {}};
         if (root) {
-            const RenderState* resume = options.resume;
-            if (resume) {
-                if (resume->film.width() != rs.width || resume->film.height() != rs.height)
-                    throw std::logic_error("resumed state of another resolution");
-                st.spp_resumed = resume->spp_done;
-            }
-            run.bounds = pass_bounds(resume ? resume->spp_done : 0, rs.spp, pass_pixels(scene));
+            run.bounds = bounds;
             run.resume = resume;
             run.checkpoint = [&](RenderState&& state) {
                 auto shared = std::make_shared<RenderState>(std::move(state));
@@ -309,15 +313,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         if (!root) return result;
         set_lane_utilisation(st, lanes);
     } else {
-        const RenderState* resume = options.resume;
-        if (resume) {
-            if (resume->film.width() != rs.width || resume->film.height() != rs.height)
-                throw std::logic_error("resumed state of another resolution");
-            result.film = resume->film;
-            st.spp_resumed = resume->spp_done;
-        }
-        std::vector<int64_t> bounds =
-            pass_bounds(resume ? resume->spp_done : 0, rs.spp, pass_pixels(scene));
+        if (resume) result.film = resume->film;
         Progress progress(options.progress && isatty(STDERR_FILENO),
                           tiles.size() * (bounds.size() - 1));
         Coordinator coord(scene, options, tiles, bounds, result.film, start, progress, pool);

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <limits>
 #include <mutex>
 #include <vector>
 
@@ -402,17 +401,8 @@ void Coordinator::commit_passes() {
             stopping_ = true;
             break;
         }
-        const double elapsed = seconds_since(start_);
-        if (options_.cancel && options_.cancel->load()) {
-            stopped_by_ = "interrupted";
-        } else if (options_.time_budget > 0.0 && elapsed >= options_.time_budget) {
-            stopped_by_ = "time budget";
-        } else if (options_.target_error > 0.0 && bounds_[size_t(frontier_)] >= 16 &&
-                   film_.mean_relative_error().value_or(std::numeric_limits<double>::infinity()) <=
-                       options_.target_error) {
-            // (from 16 paths per pixel on: fewer give no trustworthy variance)
-            stopped_by_ = "target error";
-        }
+        stopped_by_ = stop_at_pass_end(options_, start_, bounds_[size_t(frontier_)],
+                                       [&] { return film_.mean_relative_error(); });
         if (!stopped_by_.empty()) {
             stopping_ = true;
             break;

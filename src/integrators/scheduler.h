@@ -23,6 +23,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -41,6 +42,23 @@ using Clock = std::chrono::steady_clock;
 
 inline double seconds_since(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// The stopping rules at a pass's end, the same for one process and for ranks: why the render
+// stops with `spp_done` paths per pixel in every pixel ("interrupted", "time budget",
+// "target error"), or nothing to go on. `error()` gives the film's mean relative error; it is
+// called only for a target error, from 16 paths per pixel on (fewer give no trustworthy
+// variance).
+template <class Error>
+std::string stop_at_pass_end(const RenderOptions& options, Clock::time_point start,
+                             int64_t spp_done, const Error& error) {
+    if (options.cancel && options.cancel->load()) return "interrupted";
+    if (options.time_budget > 0.0 && seconds_since(start) >= options.time_budget)
+        return "time budget";
+    if (options.target_error > 0.0 && spp_done >= 16 &&
+        error().value_or(std::numeric_limits<double>::infinity()) <= options.target_error)
+        return "target error";
+    return {};
 }
 
 // One unit's samples [s0, s1): pass `pass` of unit `tile` (a camera tile or a batch of light

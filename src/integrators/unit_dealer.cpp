@@ -2,7 +2,6 @@
 #include "integrators/unit_dealer.h"
 
 #include <algorithm>
-#include <limits>
 #include <stdexcept>
 
 namespace cierzo {
@@ -148,17 +147,8 @@ void UnitDealer::end_pass() {
         stopping_ = true;
         return;
     }
-    const double elapsed = seconds_since(start_);
-    if (options_.cancel && options_.cancel->load()) {
-        stopped_by_ = "interrupted";
-    } else if (options_.time_budget > 0.0 && elapsed >= options_.time_budget) {
-        stopped_by_ = "time budget";
-    } else if (options_.target_error > 0.0 && bounds_[size_t(frontier_)] >= 16 &&
-               error.value().value_or(std::numeric_limits<double>::infinity()) <=
-                   options_.target_error) {
-        // (from 16 paths per pixel on, as in one process: Coordinator::commit_passes)
-        stopped_by_ = "target error";
-    }
+    stopped_by_ = stop_at_pass_end(options_, start_, bounds_[size_t(frontier_)],
+                                   [&] { return error.value(); });
     if (!stopped_by_.empty()) stopping_ = true;
 }
 
