@@ -85,6 +85,8 @@ struct PinholeFrame {
     float film_normal[3];
 };
 
+struct GuideView;  // kernels/guiding.h
+
 // What a path vertex needs of the scene beyond its hit (kernels/path_vertex.h): the
 // emitters, the estimator, the point lights camera paths shoot shadow rays to, the scene's
 // refractive index, and three switches. Built by Scene::path_context for both integrators.
@@ -109,6 +111,9 @@ struct PathContext {
     // light subpath stores, Scene::light_subpath_vertices); their MIS weights count each
     // connection c times (kernels/bidirectional.h, connection_count2). 1 otherwise.
     float connection_count = 1.0f;
+    // The path guide the camera paths of this pass sample from (nee, mis with
+    // EstimatorSettings::guiding, once a first pass has trained it; kernels/guiding.h)
+    const GuideView* guide = nullptr;
 };
 
 // Whether emitter hits are weighed (so a hit needs its emitter's id): nee and mis (emitters

@@ -82,9 +82,10 @@ template <class T>
 ShadowRequest<T> emitter_request(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d,
                                  const VertexFrame<T>& v, const Vec3<T>& origin,
                                  const Vec3<T>& beta, const Mask<T>& phong,
-                                 const SampleStream<T>& rng, const U32<T>& bounce) {
+                                 const SampleStream<T>& rng, const U32<T>& bounce,
+                                 const GuideAt* guide = nullptr) {
     const EmitterShadow<T> es =
-        emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, rng, bounce);
+        emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, rng, bounce, guide);
     const Vec3<T> value = beta * es.value;
     Mask<T> want = phong & es.ok & (max_component(value) > T(0.0f));
     if (c.smooth) want = want & on_arriving_side(es.wi, v.nf);
@@ -220,6 +221,33 @@ ScalarContinuation continue_path(int32_t lobe, const PathContext& c, const Bsdf<
         case kLobeMirror: return run(std::integral_constant<int, kLobeMirror>{});
         default: return run(std::integral_constant<int, kLobeRefract>{});
     }
+}
+
+// The diffuse lobe's continuation where the path guide is active (scalar paths; `guide`
+// from guide_at, `probability` P_d): a direction from the
+// guide or the lobe (sample_guided_diffuse, kernels/guiding.h), and `pdf` P_d·p (for MIS,
+// where the estimator samples emitters, as continuation_pdf). `density` is the mixture's p
+// alone, which the guide's records divide by, and guide_pdf and lobe_pdf its two parts.
+struct GuidedContinuation {
+    ScalarContinuation next;
+    float density;
+    float guide_pdf, lobe_pdf;
+};
+inline GuidedContinuation continue_guided_diffuse(const PathContext& c, const Bsdf<float>& m,
+                                                  const VertexFrame<float>& v, const Vec3f& pos,
+                                                  const Vec3f& n, float magnitude,
+                                                  float probability, const GuideAt& guide,
+                                                  const SampleStream<float>& rng, uint32_t bounce) {
+    float u1, u2;
+    uniform2<float>(rng, bounce, Purpose::kDirection1, u1, u2);
+    float pdf = 0.0f, guide_pdf = 0.0f, lobe_pdf = 0.0f;
+    Scatter<float> sc = sample_guided_diffuse(m, v.nsf, guide, u1, u2, probability,
+                                              c.estimator.cosine_diffuse, pdf, guide_pdf, lobe_pdf);
+    if (c.smooth && !on_arriving_side(sc.dir, v.nf)) sc.weight = Vec3f(0.0f);
+    return {{leaving_origin(pos, n, sc.dir, magnitude), sc.dir, sc.weight, c.nee ? pdf : 0.0f},
+            pdf / probability,
+            guide_pdf,
+            lobe_pdf};
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

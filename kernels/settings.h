@@ -127,6 +127,12 @@ enum class Sampler : int32_t {
     kPmj02 = 3,        // progressive multi-jittered (0,2) tables, shuffled and scrambled
 };
 
+// Path guiding (render.guiding, --guiding; docs/estimators.md, "Path guiding").
+enum class Guiding : int32_t {
+    kNone = 0,    // directions from the material's lobes alone
+    kSdTree = 1,  // an SD-tree learned between passes (Müller, Gross and Novák 2017)
+};
+
 // pmj02: tables of points made once per process (src/scene/pmj02.cpp), each x | y << 16 in
 // 16-bit fixed point.
 inline constexpr uint32_t kPmj02Tables = 16;
@@ -167,6 +173,13 @@ struct EstimatorSettings {
     // The roulette (kThroughput: nee and mis only), and the vertex it starts at
     Roulette roulette = Roulette::kLobe;
     int32_t roulette_depth = 1;
+    // Path guiding (render.guiding, --guiding): nee's and mis's camera paths draw part of
+    // their diffuse directions from the incident light learned from earlier passes
+    // (kernels/guiding.h, src/integrators/path_guide.h)
+    Guiding guiding = Guiding::kNone;
+    // Always true; the tests clear it to show that a MIS weight without the guide's density
+    // is caught
+    bool guide_in_mis = true;
     // Where the uniform numbers come from (every estimator)
     Sampler sampler = Sampler::kIndependent;
     // Only light carried by paths of min_length..max_length segments counts (the camera

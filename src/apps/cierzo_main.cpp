@@ -180,6 +180,10 @@ int run_main(int argc, char** argv) {
          "Where the random numbers come from: " + describe_samplers() +
              "; every estimator (overrides render.sampler; docs/estimators.md, \"samplers\")")
         ->check(CLI::IsMember(sampler_names()));
+    r->add_option("--guiding", a.job.guiding,
+                  "Path guiding: " + describe_guidings() +
+                      " (overrides render.guiding; docs/estimators.md, \"Path guiding\")")
+        ->check(CLI::IsMember(guiding_names()));
     r->add_option("--min-length", a.job.min_length,
                   "Count only light carried by paths of at least this many segments (the camera "
                   "seeing an emitter is 1, direct light 2, the first indirect bounce 3; "

@@ -58,6 +58,10 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
         a.merge_radii.empty() ? std::vector<float>{-1.0f} : a.merge_radii;
     const std::vector<float> alphas =
         a.merge_alphas.empty() ? std::vector<float>{-1.0f} : a.merge_alphas;
+    // (guiding for the estimators that take it alone)
+    std::vector<int> guidings;
+    for (const std::string& g : a.guidings) guidings.push_back(int(*parse_guiding(g)));
+    if (guidings.empty()) guidings.push_back(-1);
     // (and the connections' draws for bdpt and vcm alone)
     const std::vector<int> draws =
         a.light_connections.empty() ? std::vector<int>{-1} : a.light_connections;
@@ -76,26 +80,33 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                                     for (int smp : samplers) {
                                         const bool vcm = merges(Estimator(e));
                                         const bool connecting = connects(Estimator(e));
+                                        // (the scene's estimator, e = -1, may take guiding:
+                                        // the render refuses it if not)
+                                        const bool guided =
+                                            e < 0 || traits(Estimator(e)).samples_emitters;
                                         for (float radius : vcm ? radii : std::vector<float>{-1.0f})
                                             for (float alpha :
                                                  vcm ? alphas : std::vector<float>{-1.0f})
                                                 for (int n :
                                                      connecting ? draws : std::vector<int>{-1})
-                                                    out.push_back(
-                                                        {.integrator = integrator,
-                                                         .isa = scalar ? "auto" : isa,
-                                                         .pool_size = pool,
-                                                         .survival_cap = cap,
-                                                         .cosine_diffuse = d,
-                                                         .estimator = e,
-                                                         .roulette = r,
-                                                         .triangle_solid_angle = t,
-                                                         .roulette_depth =
-                                                             a.roulette_depth.value_or(-1),
-                                                         .sampler = smp,
-                                                         .merge_radius = radius,
-                                                         .merge_alpha = alpha,
-                                                         .light_connections = n});
+                                                    for (int g :
+                                                         guided ? guidings : std::vector<int>{-1})
+                                                        out.push_back(
+                                                            {.integrator = integrator,
+                                                             .isa = scalar ? "auto" : isa,
+                                                             .pool_size = pool,
+                                                             .survival_cap = cap,
+                                                             .cosine_diffuse = d,
+                                                             .estimator = e,
+                                                             .roulette = r,
+                                                             .triangle_solid_angle = t,
+                                                             .roulette_depth =
+                                                                 a.roulette_depth.value_or(-1),
+                                                             .sampler = smp,
+                                                             .merge_radius = radius,
+                                                             .merge_alpha = alpha,
+                                                             .light_connections = n,
+                                                             .guiding = g});
                                     }
     }
     return out;
@@ -105,7 +116,7 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
 
 std::string converge_csv_header() {
     return "scene,integrator,isa,pool,survival_cap,diffuse_sampling,roulette,triangle_sampling,"
-           "sampler,estimator,merge_radius,merge_alpha,light_connections,threads,width,"
+           "sampler,estimator,merge_radius,merge_alpha,light_connections,guiding,threads,width,"
            "height,spp,"
            "repeats,seconds,rays,rays_per_second,mse,rmse,rel_mse,reference_mse,"
            "reference_rel_mse,mse_corrected,rmse_corrected,rel_mse_corrected,"
@@ -132,7 +143,8 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
                                   ? 1.0 / (e.rel_mse_corrected() * p.seconds)
                                   : 0.0;
     return fmt::format(
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:."
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.6g},{},{:.6g},{:.6g},{:.6g},{:"
+        "."
         "6g},{:.6g},"
         "{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}",
         scene.source.stem().string(), p.config.integrator, p.stats.isa, p.stats.pool_size,
@@ -144,11 +156,11 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
         merges(p.estimator.kind) ? fmt::format("{:.6g}", p.estimator.merge_alpha) : std::string(),
         // (the connections' draws as rendered, bdpt's and vcm's; empty for the others)
         connects(p.estimator.kind) ? std::to_string(p.estimator.light_connections) : std::string(),
-        p.stats.threads, scene.settings.width, scene.settings.height, p.spp, p.repeats, p.seconds,
-        p.rays, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse),
-        e.rel_mse, e.reference_mse, e.reference_rel_mse, e.mse_corrected(),
-        std::sqrt(e.mse_corrected()), e.rel_mse_corrected(), p.estimated_relative_error,
-        efficiency);
+        guiding_name(p.estimator.guiding), p.stats.threads, scene.settings.width,
+        scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
+        p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
+        e.reference_mse, e.reference_rel_mse, e.mse_corrected(), std::sqrt(e.mse_corrected()),
+        e.rel_mse_corrected(), p.estimated_relative_error, efficiency);
 }
 
 }  // namespace
@@ -256,6 +268,11 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "default: the scene's")
         ->delimiter(',')
         ->check(CLI::Range(0, int(kMaxLightConnections)));
+    c->add_option("--guiding", a.guidings,
+                  "Path guiding to sweep for nee and mis, comma-separated: " + describe_guidings() +
+                      "; default: the scene's")
+        ->delimiter(',')
+        ->check(CLI::IsMember(guiding_names()));
     c->add_option(
          "--roulette", a.roulettes,
          "Roulettes to sweep, comma-separated: " + describe_roulettes() + "; default: the scene's")
@@ -429,21 +446,23 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         });
     };
     if (!a.quiet)
-        std::fprintf(table, "%-9s %-7s %5s %5s %-7s %-11s %-11s %-6s %7s %10s %12s %12s %12s\n",
+        std::fprintf(table,
+                     "%-9s %-7s %5s %5s %-7s %-11s %-11s %-6s %-6s %7s %10s %12s %12s %12s\n",
                      "integr.", "isa", "pool", "cap", "diffuse", "roulette", "sampler", "est.",
-                     "spp", "seconds", "Mrays/s", "RMSE", "relMSE");
+                     "guide", "spp", "seconds", "Mrays/s", "RMSE", "relMSE");
     const std::vector<ConvergePoint> points = run_converge(
         scene, reference, have_variance ? &variance : nullptr, sweep, [&](const ConvergePoint& p) {
             rows.push_back(csv_row(scene, p));
             write_csv();
             if (a.quiet) return;
             std::fprintf(table,
-                         "%-9s %-7s %5d %5.2f %-7s %-11s %-11s %-6s %7lld %10.4f %12.2f %12.4g "
-                         "%12.4g\n",
+                         "%-9s %-7s %5d %5.2f %-7s %-11s %-11s %-6s %-6s %7lld %10.4f %12.2f "
+                         "%12.4g %12.4g\n",
                          p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
                          p.estimator.survival_cap, diffuse_name(p.estimator),
                          roulette_label(p.estimator).c_str(), sampler_name(p.estimator.sampler),
-                         estimator_name(p.estimator.kind), static_cast<long long>(p.spp), p.seconds,
+                         estimator_name(p.estimator.kind), guiding_name(p.estimator.guiding),
+                         static_cast<long long>(p.spp), p.seconds,
                          p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
                          std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
             std::fflush(table);
@@ -460,13 +479,14 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
         }
         const ConvergePoint* last = &points[first + n - 1];
         std::fprintf(stderr,
-                     "%s %s pool %d cap %.2f %s %s %s %s: MSE ~ spp^%.2f, %.3g s per path per "
-                     "pixel\n",
+                     "%s %s pool %d cap %.2f %s %s %s %s guiding %s: MSE ~ spp^%.2f, %.3g s per "
+                     "path per pixel\n",
                      last->config.integrator.c_str(), last->stats.isa.c_str(),
                      last->stats.pool_size, last->estimator.survival_cap,
                      diffuse_name(last->estimator), roulette_label(last->estimator).c_str(),
                      sampler_name(last->estimator.sampler), estimator_name(last->estimator.kind),
-                     log_log_slope(x, y), last->seconds / double(last->spp));
+                     guiding_name(last->estimator.guiding), log_log_slope(x, y),
+                     last->seconds / double(last->spp));
     }
     if (csv_stream) csv_stream->close();
     return rows;

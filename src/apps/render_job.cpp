@@ -177,6 +177,7 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
     if (a.roulette) e.roulette = *parse_roulette(*a.roulette), e.chosen |= kChoseRoulette;
     if (a.roulette_depth) e.roulette_depth = *a.roulette_depth;
     if (a.sampler) e.sampler = *parse_sampler(*a.sampler), e.chosen |= kChoseSampler;
+    if (a.guiding) e.guiding = *parse_guiding(*a.guiding);
     if (a.min_length) s.estimator.min_length = *a.min_length;
     if (a.max_length) s.estimator.max_length = *a.max_length;
     if (s.estimator.max_length < s.estimator.min_length)
@@ -392,6 +393,24 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         j["light_vertex_cache"] = {{"draws", est.light_connections},
                                    {"mean_light_vertices", light_pilot(scene)},
                                    {"connection_count", pc.connection_count}};
+    }
+    if (st.guiding) {
+        // The path guide: its size now, what it learnt from, and each training's time
+        const GuideStats& g = *st.guiding;
+        double training = 0.0;
+        for (double t : g.training_seconds) training += t;
+        j["guiding"] = {{"method", guiding_name(est.guiding)},
+                        {"cells", g.cells},
+                        {"nodes", g.nodes},
+                        {"learning_nodes", g.learning_nodes},
+                        {"bytes", g.bytes},
+                        {"records", g.records},
+                        {"guided_fractions", kGuideFractions},
+                        {"cells_by_fraction", g.cells_by_fraction},
+                        {"trainings", g.training_seconds.size()},
+                        {"trained_at_spp", g.trained_at},
+                        {"training_seconds", g.training_seconds},
+                        {"training_seconds_total", training}};
     }
     if (!checkpoint.empty()) {
         std::error_code ec;

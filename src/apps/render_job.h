@@ -32,6 +32,7 @@ struct RenderJob {
     std::optional<std::string> roulette;           // lobe or throughput
     std::optional<int> roulette_depth;
     std::optional<std::string> sampler;              // independent, sobol, zsobol or pmj02
+    std::optional<std::string> guiding;              // none or sdtree
     std::optional<int> min_length, max_length;       // path lengths that count
     std::vector<int> strategy;                       // bdpt: {s, t}, the one strategy kept
     bool unweighted = false;                         // ... without its weight

@@ -58,6 +58,7 @@ EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& 
     if (config.merge_radius >= 0.0f) settings.merge_radius = config.merge_radius;
     if (config.merge_alpha >= 0.0f) settings.merge_alpha = config.merge_alpha;
     if (config.light_connections >= 0) settings.light_connections = config.light_connections;
+    if (config.guiding >= 0) settings.guiding = Guiding(config.guiding);
     use_estimator(settings, config.estimator >= 0 ? Estimator(config.estimator) : settings.kind);
     return settings;
 }

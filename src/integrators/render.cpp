@@ -205,6 +205,23 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                          "at most 2^24 (16,777,216)");
     check_roulette(scene.settings.estimator, scene.source.string());
     const mpi::World& world = mpi::world();
+    std::unique_ptr<PathGuide> guide;
+    if (scene.settings.estimator.guiding != Guiding::kNone) {
+        check_guiding(scene.settings.estimator, scene.source.string());
+        const char* where = options.integrator != Integrator::kScalar ? "--integrator wavefront"
+                            : world.size > 1                          ? "MPI"
+                            : options.resume                          ? "--resume"
+                            : options.checkpoint                      ? "--checkpoint"
+                            : options.strategies                      ? "--strategies"
+                                                                      : nullptr;
+        if (where)
+            throw InputError(scene.source.string() + ": --guiding " +
+                             guiding_name(scene.settings.estimator.guiding) +
+                             " is not supported with " + where +
+                             " yet: a guided render runs with --integrator scalar in one process, "
+                             "without checkpoints (docs/estimators.md, \"Path guiding\")");
+        guide = std::make_unique<PathGuide>(options.guide_merges_threads);
+    }
     const bool root = world.rank == 0;
     std::vector<std::string> warnings;
     if (traits(scene.settings.estimator.kind).light_batches) {
@@ -242,7 +259,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         work_units(rs.width, rs.height, traits(scene.settings.estimator.kind).light_batches);
     TilePool pool;
     const UnitRenderer renderer(scene, wavefront.get(), tiles, pool, options.light_store_limit,
-                                options.strategies);
+                                options.strategies, guide.get());
     RenderResult result{root ? Film(rs.width, rs.height) : Film(0, 0), {}};
     RenderStats& st = result.stats;
     st.warnings = warnings;  // (the program prints them at the end)
@@ -316,7 +333,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         if (resume) result.film = resume->film;
         Progress progress(options.progress && isatty(STDERR_FILENO),
                           tiles.size() * (bounds.size() - 1));
-        Coordinator coord(scene, options, tiles, bounds, result.film, start, progress, pool);
+        Coordinator coord(scene, options, tiles, bounds, result.film, start, progress, pool,
+                          guide.get());
         if (resume) coord.restore_pending(*resume);
 
         CheckpointWriter checkpoints(options, st);
@@ -356,6 +374,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         if (wavefront) st.light_store_bytes = wavefront->light_store_bytes();
         st.seconds = seconds_since(start);
     }
+    if (guide) st.guiding = guide->stats();
     st.paths = st.rays.camera + st.rays.light;
     st.nonfinite_samples = result.film.nonfinite_samples();
     st.mean_relative_error = result.film.mean_relative_error();

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "integrators/film.h"
+#include "integrators/guide_stats.h"
 #include "integrators/registry.h"
 #include "integrators/strategies.h"
 #include "scene/scene.h"
@@ -87,6 +88,10 @@ struct RenderOptions {
     // bdpt with the scalar integrator in one process: also adds every pass's contributions
     // of each strategy to this film (integrators/strategies.h)
     StrategyFilm* strategies = nullptr;
+    // A guided render (path_guide.h) trains on the sums of every render thread's records.
+    // Always true; the tests clear it (training on one thread's records alone: an unmerged
+    // pass) to show that it is caught.
+    bool guide_merges_threads = true;
 };
 
 // Per-process figures of a distributed render (one entry per MPI rank).
@@ -141,7 +146,8 @@ struct RenderStats {
     int pool_size = 0;
     int ray_group = 0;  // wavefront: rays in flight per thread through the tree (scalar: 0)
     size_t pool_bytes = 0;
-    size_t light_store_bytes = 0;  // bdpt: the largest thread's light-vertex store
+    size_t light_store_bytes = 0;       // bdpt: the largest thread's light-vertex store
+    std::optional<GuideStats> guiding;  // a guided render's path guide (path_guide.h)
     double rays_per_second() const { return seconds > 0 ? double(rays.total()) / seconds : 0.0; }
 };
 

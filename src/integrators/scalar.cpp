@@ -2,6 +2,7 @@
 // time, using the same templated kernels as the wavefront integrator with T = float.
 #include "integrators/scalar.h"
 
+#include "integrators/path_guide.h"
 #include "integrators/scalar_path.h"
 #include "kernels/rng.h"
 
@@ -12,20 +13,65 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
     return trace_path(scene, c, camera_ray, independent_stream<float>(key), rays);
 }
 
+namespace {
+
+// What a guided render's camera path records at each Phong vertex for the path guide
+// (path_guide.h): the vertex, the direction it left in and that direction's density (the
+// lobe's, or the guided mixture's), the throughput after the vertex, and the light the path
+// gathered after it. At the path's end each record deposits L/p, L = gathered/throughput.
+struct GuideRecord {
+    Vec3f p, dir;
+    float density;
+    Vec3f throughput;
+    Vec3f gathered;
+    // A diffuse vertex with a guide: f·cos θ, and what the cell's share α learns from
+    // (PathGuide::SelectionSample)
+    bool selection;
+    Vec3f f_cos;
+    float guide_pdf, lobe_pdf, fraction;
+};
+constexpr int kMaxGuideRecords = 64;
+
+void deposit_records(PathGuide& guide, const GuideRecord* records, int count) {
+    for (int i = 0; i < count; ++i) {
+        const GuideRecord& r = records[i];
+        const auto part = [](float g, float t) { return t > 0.0f ? g / t : 0.0f; };
+        const Vec3f li(part(r.gathered.x, r.throughput.x), part(r.gathered.y, r.throughput.y),
+                       part(r.gathered.z, r.throughput.z));
+        const auto luminance = [](const Vec3f& c) {
+            return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+        };
+        const float l = luminance(li);
+        PathGuide::SelectionSample s;
+        if (r.selection) s = {luminance(r.f_cos * li), r.guide_pdf, r.lobe_pdf, r.fraction};
+        guide.deposit(r.p, r.dir, r.density > 0.0f ? l / r.density : 0.0f,
+                      r.selection ? &s : nullptr);
+    }
+}
+
+}  // namespace
+
 CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                                   const Ray<float>& camera_ray, const SampleStream<float>& rng,
-                                  RayCounts& rays) {
+                                  RayCounts& rays, PathGuide* learn) {
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
     float lobe_pdf = 0.0f;  // the density of the last Phong lobe's direction; 0 after the
                             // camera, a mirror or a refraction
+    // A guided render's records (learn: the guide that learns them)
+    GuideRecord records[kMaxGuideRecords];  // (uninitialised: written before read)
+    int recorded = 0;
+    const auto gain = [&](const Vec3f& x) {
+        radiance += x;
+        for (int i = 0; i < recorded; ++i) records[i].gathered += x;
+    };
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) {
             // An escaping path gathers the environment
             if (has_environment(c) && length_counts<float>(c.estimator, bounce + 1))
-                radiance += throughput * escaped_radiance<float>(c, ray.d, lobe_pdf);
+                gain(throughput * escaped_radiance<float>(c, ray.d, lobe_pdf));
             break;
         }
         const Material& material = scene.materials[size_t(hit.material)];
@@ -37,12 +83,15 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                 le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind, scene.emitter_id(hit),
                                                 lobe_pdf, ray.o, ray.d, hit.t,
                                                 c.estimator.triangle_solid_angle);
-            if (length_counts<float>(c.estimator, bounce + 1)) radiance += throughput * le;
+            if (length_counts<float>(c.estimator, bounce + 1)) gain(throughput * le);
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
         const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
         const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
+        // The guide of this point's cell, where the render is guided
+        const GuideAt guide =
+            c.guide && material.has_phong() ? guide_at(c.guide, hit.p) : GuideAt{};
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
         if (material.has_phong() && (c.light_count > 0 || c.nee) &&
@@ -52,13 +101,12 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
             for (int32_t j = 0; j < c.light_count; ++j)
                 lights += trace_request(
                     scene, point_light_request(c, j, m, ray.d, v, origin, Vec3f(1.0f), true), rays);
-            if (c.light_count > 0) radiance += throughput * lights;
+            if (c.light_count > 0) gain(throughput * lights);
             if (c.nee)
-                radiance +=
-                    throughput * trace_request(scene,
-                                               emitter_request(c, m, ray.d, v, origin, Vec3f(1.0f),
-                                                               true, rng, bounce),
-                                               rays);
+                gain(throughput * trace_request(scene,
+                                                emitter_request(c, m, ray.d, v, origin, Vec3f(1.0f),
+                                                                true, rng, bounce, &guide),
+                                                rays));
         }
 
         // Russian roulette picks one lobe, or the path's death; the lobe continues it
@@ -68,14 +116,42 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         const int32_t lobe =
             choose_lobe(m, u_lobe, c.estimator.survival_cap, p, normalised_lobes(c.estimator));
         if (lobe == kLobeAbsorbed || !may_extend<float>(c.estimator, bounce)) break;
-        const ScalarContinuation next =
-            continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng, bounce);
+        ScalarContinuation next;
+        // (for the guide's record: the direction's density, and the mixture's parts)
+        float density = 0.0f, guide_pdf = 0.0f, diffuse_pdf = 0.0f;
+        if (lobe == kLobeDiffuse && guide.active()) {
+            const GuidedContinuation g =
+                continue_guided_diffuse(c, m, v, hit.p, hit.n, magnitude, p, guide, rng, bounce);
+            next = g.next, density = g.density;
+            guide_pdf = g.guide_pdf, diffuse_pdf = g.lobe_pdf;
+        } else {
+            next = continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng,
+                                 bounce);
+            if (learn && lobe == kLobeDiffuse) {
+                density = diffuse_pdf = sampled_lobe_pdf<kLobeDiffuse>(
+                    m, ray.d, v.nsf, next.d, 1.0f, c.estimator.cosine_diffuse);
+                if (guide.exists()) guide_pdf = cierzo::guide_pdf(*guide.view, guide.root, next.d);
+            } else if (learn && lobe == kLobeSpecular) {
+                density = sampled_lobe_pdf<kLobeSpecular>(m, ray.d, v.nsf, next.d, 1.0f,
+                                                          c.estimator.cosine_diffuse);
+            }
+        }
         lobe_pdf = next.pdf;
         throughput = throughput_roulette(c.estimator, throughput * next.weight, u_roulette, bounce);
+        if (learn && lobe <= kLobeSpecular && recorded < kMaxGuideRecords) {
+            GuideRecord& r = records[recorded++];
+            r = {hit.p, next.d, density, throughput, Vec3f(0.0f), false, Vec3f(0.0f), 0, 0, 0};
+            if (lobe == kLobeDiffuse && guide.exists()) {
+                r.selection = true;
+                r.f_cos = m.kd * (max(dot(next.d, v.nsf), 0.0f) * float(kInvPi));
+                r.guide_pdf = guide_pdf, r.lobe_pdf = diffuse_pdf, r.fraction = guide.fraction;
+            }
+        }
         if (!(max_component(throughput) > 0.0f)) break;
         ray = {next.o, next.d};
         ++rays.extension;
     }
+    if (learn) deposit_records(*learn, records, recorded);
     return radiance;
 }
 
@@ -128,10 +204,12 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
                        rays);
 }
 
-void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays) {
+void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays,
+                        PathGuide* guide) {
     const RenderSettings& rs = scene.settings;
     const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
-    const PathContext context = scene.path_context();
+    PathContext context = scene.path_context();
+    if (guide) context.guide = guide->view();
     if (tile.light) {
         // A batch of light paths: one per key of its pixels and samples
         const PinholeFrame pinhole = scene.pinhole();
@@ -165,7 +243,7 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
                 ++rays.camera;
                 px.add(trace_path(scene, context,
                                   scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h),
-                                  rng, rays));
+                                  rng, rays, guide));
             }
         }
     }

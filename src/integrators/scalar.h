@@ -7,14 +7,17 @@
 
 namespace cierzo {
 
+class PathGuide;
+
 // The radiance carried back along one camera path whose numbers are the independent
 // sampler's for path key `key` (kernels/rng.h).
 Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key, RayCounts& rays);
 // The same with the scene's path context (Scene::path_context) computed once by the caller,
 // and the path's numbers from the sampler's stream of its (seed, pixel, sample)
-// (kernels/sampler.h, camera_stream).
+// (kernels/sampler.h, camera_stream). A guided render's paths sample from context.guide and
+// deposit their records in `learn` (path_guide.h).
 Vec3f trace_path(const Scene& scene, const PathContext& context, const Ray<float>& camera_ray,
-                 const SampleStream<float>& rng, RayCounts& rays);
+                 const SampleStream<float>& rng, RayCounts& rays, PathGuide* learn = nullptr);
 
 // One path from the lights (light tracing), with the numbers of the camera sample whose
 // stream it takes (light_stream): every connection to the pinhole that nothing blocks is
@@ -24,8 +27,10 @@ void trace_light_path(const Scene& scene, const PathContext& context, const Pinh
 
 // Samples [tile.s0, tile.s1) of the tile's pixels, added to the tile's sums; for a batch of
 // light paths (tile.light), one path from the lights per key of those pixels and samples,
-// splatted.
-void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays);
+// splatted. `guide`: a guided render's path guide (path_guide.h), which its camera paths
+// sample from (once trained) and learn into.
+void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays,
+                        PathGuide* guide = nullptr);
 
 // The same for the bidirectional estimators (scalar_bdpt.cpp): each sample's light subpath,
 // its connections to the pinhole splatted, then its camera subpath with every connection.

@@ -118,7 +118,7 @@ UnitResult UnitRenderer::render(const Unit& u) const {
                 std::make_shared<StrategyTile>(strategies_->layout(), t.x0, t.y0, t.x1, t.y1);
         render_tile_bdpt_scalar(scene_, t, r.sums, r.rays, light_store_limit_);
     } else {
-        render_tile_scalar(scene_, t, r.sums, r.rays);
+        render_tile_scalar(scene_, t, r.sums, r.rays, guide_);
     }
     return r;
 }
@@ -134,7 +134,8 @@ void Coordinator::PassWork::reset(size_t tiles, size_t splat_pixels) {
 
 Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
                          const std::vector<Tile>& tiles, std::vector<int64_t> bounds, Film& film,
-                         Clock::time_point start, Progress& progress, TilePool& pool)
+                         Clock::time_point start, Progress& progress, TilePool& pool,
+                         PathGuide* guide)
     : options_(options),
       tiles_(tiles),
       bounds_(std::move(bounds)),
@@ -142,6 +143,7 @@ Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
       start_(start),
       progress_(progress),
       pool_(pool),
+      guide_(guide),
       width_(scene.settings.width),
       splat_pixels_(splats(scene.settings.estimator.kind)
                         ? size_t(scene.settings.width) * size_t(scene.settings.height)
@@ -303,6 +305,8 @@ std::optional<Unit> Coordinator::take(int32_t ahead) {
     while (w.cursor < tiles_.size() && w.done[w.cursor]) ++w.cursor;  // (restored tiles)
     if (w.cursor >= tiles_.size()) return std::nullopt;
     const int32_t pass = frontier_ + ahead;
+    // (a pass after a training of the guide waits for it)
+    if (ahead > 0 && guide_ && PathGuide::trains_before(bounds_[size_t(pass)])) return std::nullopt;
     return Unit{int32_t(w.cursor++), pass, bounds_[size_t(pass)], bounds_[size_t(pass) + 1]};
 }
 
@@ -407,6 +411,9 @@ void Coordinator::commit_passes() {
             stopping_ = true;
             break;
         }
+        // The guide learns from the whole passes before the one now in progress
+        if (guide_ && PathGuide::trains_before(bounds_[size_t(frontier_)]))
+            guide_->train(bounds_[size_t(frontier_)]);
         // The next pass is now the one in progress: its units done early join the film
         if (early_) {
             PassWork& next = work_[first_];

@@ -32,6 +32,7 @@
 
 #include "core/huge_pages.h"
 #include "integrators/film.h"
+#include "integrators/path_guide.h"
 #include "integrators/progress.h"
 #include "integrators/render.h"
 #include "integrators/wavefront/wavefront.h"
@@ -113,13 +114,14 @@ class UnitRenderer {
 public:
     UnitRenderer(const Scene& scene, const WavefrontRenderer* wavefront,
                  const std::vector<Tile>& tiles, TilePool& pool, size_t light_store_limit,
-                 const StrategyFilm* strategies = nullptr)
+                 const StrategyFilm* strategies = nullptr, PathGuide* guide = nullptr)
         : scene_(scene),
           wavefront_(wavefront),
           tiles_(tiles),
           pool_(pool),
           light_store_limit_(light_store_limit),
-          strategies_(strategies) {}
+          strategies_(strategies),
+          guide_(guide) {}
     UnitResult render(const Unit& u) const;
 
 private:
@@ -129,12 +131,16 @@ private:
     TilePool& pool_;
     size_t light_store_limit_;        // the scalar bidirectional estimators' (RenderOptions)
     const StrategyFilm* strategies_;  // the strategy images recorded, if any
+    PathGuide* guide_;                // a guided render's path guide (path_guide.h)
 };
 
 // The one owner of the film of a render in one process: hands out units in pass order, keeps
 // the units of the pass in progress (and of the next one, which idle threads may start early)
 // aside, adds a pass to the film once it is whole, and applies the stopping rules at pass
-// ends.
+// ends. A guided render's path guide (path_guide.h) is trained when a pass is whole and the
+// next starts at a training point (PathGuide::trains_before); no unit of that next pass is
+// handed out before, so every unit of a pass samples the same guide and the training sees
+// whole passes.
 // Thread-safe: every method takes the lock. Waiters (wait()) are woken only when something
 // they wait for happens: a pass is added (units of a new pass can be handed out) or the
 // render stops; a finished unit alone wakes nobody.
@@ -142,7 +148,7 @@ class Coordinator {
 public:
     Coordinator(const Scene& scene, const RenderOptions& options, const std::vector<Tile>& tiles,
                 std::vector<int64_t> bounds, Film& film, Clock::time_point start,
-                Progress& progress, TilePool& pool);
+                Progress& progress, TilePool& pool, PathGuide* guide = nullptr);
 
     // Puts back the tiles of the first pass that a checkpoint had already done.
     void restore_pending(const RenderState& state);
@@ -201,6 +207,7 @@ private:
     Clock::time_point start_;
     Progress& progress_;
     TilePool& pool_;
+    PathGuide* guide_;
     int width_;
     size_t splat_pixels_;  // the image's pixels for an estimator that splats, else 0
     bool from_zero_;       // the film starts empty (not a resumed render's)

@@ -16,6 +16,8 @@ std::optional<Roulette> parse_roulette(std::string_view n) {
     return name_table::parse(kRoulettes, n);
 }
 std::optional<Sampler> parse_sampler(std::string_view n) { return name_table::parse(kSamplers, n); }
+const char* guiding_name(Guiding g) { return name_table::name_of(kGuidings, g); }
+std::optional<Guiding> parse_guiding(std::string_view n) { return name_table::parse(kGuidings, n); }
 
 void use_estimator(EstimatorSettings& e, Estimator kind) {
     e.kind = kind;
@@ -40,12 +42,21 @@ void check_roulette(const EstimatorSettings& e, const std::string& source) {
                          " (use --roulette lobe)");
 }
 
+void check_guiding(const EstimatorSettings& e, const std::string& source) {
+    if (e.guiding != Guiding::kNone && !traits(e.kind).samples_emitters)
+        throw InputError(source + ": guiding (" + guiding_name(e.guiding) +
+                         ") is for the nee and mis estimators, whose camera paths it guides; " +
+                         estimator_name(e.kind) + " takes none (use --guiding none)");
+}
+
 std::vector<std::string> estimator_names() { return name_table::names(kEstimators); }
 std::vector<std::string> roulette_names() { return name_table::names(kRoulettes); }
 std::vector<std::string> sampler_names() { return name_table::names(kSamplers); }
+std::vector<std::string> guiding_names() { return name_table::names(kGuidings); }
 
 std::string describe_estimators() { return name_table::describe(kEstimators); }
 std::string describe_roulettes() { return name_table::describe(kRoulettes); }
 std::string describe_samplers() { return name_table::describe(kSamplers); }
+std::string describe_guidings() { return name_table::describe(kGuidings); }
 
 }  // namespace cierzo

@@ -119,6 +119,15 @@ inline constexpr SamplerEntry kSamplers[] = {
     {Sampler::kPmj02, "pmj02", "progressive multi-jittered (0,2) tables, scrambled per pixel"},
 };
 
+using GuidingEntry = NamedEntry<Guiding>;
+
+inline constexpr GuidingEntry kGuidings[] = {
+    {Guiding::kNone, "none", "directions from the material's lobes alone; the default"},
+    {Guiding::kSdTree, "sdtree",
+     "nee and mis: half the diffuse directions from an SD-tree of the incident light, "
+     "learnt pass by pass (Müller et al. 2017); scalar integrator, one process"},
+};
+
 // How nee and mis sample emitting triangles (render.triangle_sampling, --triangle-sampling):
 // by area, or by the solid angle they subtend.
 inline constexpr const char* kTriangleSamplingNames[] = {"area", "solid-angle"};
@@ -134,16 +143,20 @@ const char* roulette_name(Roulette r);
 std::optional<Roulette> parse_roulette(std::string_view name);
 const char* sampler_name(Sampler s);
 std::optional<Sampler> parse_sampler(std::string_view name);
+const char* guiding_name(Guiding g);
+std::optional<Guiding> parse_guiding(std::string_view name);
 
 // Every name, in the order above (the valid values of an option).
 std::vector<std::string> estimator_names();
 std::vector<std::string> roulette_names();
 std::vector<std::string> sampler_names();
+std::vector<std::string> guiding_names();
 
 // "name (summary), name (summary) or name (summary)", for --help.
 std::string describe_estimators();
 std::string describe_roulettes();
 std::string describe_samplers();
+std::string describe_guidings();
 
 // Sets the estimator and gives the knobs not in e.chosen the estimator's defaults, chosen by
 // measurement (docs/estimators.md, "Defaults"): for nee and mis cosine diffuse sampling, the
@@ -155,5 +168,9 @@ void use_estimator(EstimatorSettings& e, Estimator kind);
 // Refuses (InputError naming `source`) a roulette the estimator does not take: the
 // throughput roulette is for nee and mis only.
 void check_roulette(const EstimatorSettings& e, const std::string& source);
+
+// Refuses (InputError naming `source`) guiding for an estimator that does not take it: it
+// guides the camera paths of nee and mis.
+void check_guiding(const EstimatorSettings& e, const std::string& source);
 
 }  // namespace cierzo

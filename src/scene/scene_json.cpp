@@ -226,6 +226,11 @@ void Loader::render_settings(Reader& root) {
         e.sampler = *source;
         e.chosen |= kChoseSampler;
     }
+    if (r.has("guiding")) {
+        const std::optional<Guiding> g = parse_guiding(r.string("guiding", "none"));
+        if (!g) r.fail("'guiding' must be \"none\" or \"sdtree\"");
+        e.guiding = *g;
+    }
     e.min_length = int32_t(r.integer("min_length", 1, 1, kMaxLengthLimit));
     e.max_length = r.has("max_length") ? int32_t(r.integer("max_length", 1, 1, kMaxLengthLimit))
                                        : kNoLengthLimit;

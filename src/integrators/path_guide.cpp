@@ -1,0 +1,397 @@
+// The path guide's learning (path_guide.h).
+#include "integrators/path_guide.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace cierzo {
+
+__extension__ typedef unsigned __int128 U128;
+
+struct PathGuide::LearnNode {
+    std::atomic<uint64_t> low[4];
+    std::atomic<uint64_t> high[4];  // the carries out of `low`
+    uint32_t child[4] = {0, 0, 0, 0};
+    U128 sum(int q) const {
+        return (U128(high[q].load(std::memory_order_relaxed)) << 64) |
+               U128(low[q].load(std::memory_order_relaxed));
+    }
+};
+
+// A quadtree as training builds it: nodes[0] is the root; child 0 is a leaf quadrant.
+struct PathGuide::Shape {
+    struct Node {
+        uint32_t child[4] = {0, 0, 0, 0};
+    };
+    std::vector<Node> nodes;
+};
+
+struct PathGuide::CellTrees {
+    std::vector<GuideDirectionNode> sampled;  // nodes[0] the root, children relative
+    Shape learning;
+};
+
+namespace {
+
+// Floats as unsigned integers in the floats' order, for atomic minima and maxima.
+uint32_t ordered(float f) {
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
+float from_ordered(uint32_t u) {
+    u = (u & 0x80000000u) ? (u & 0x7fffffffu) : ~u;
+    float f;
+    std::memcpy(&f, &u, 4);
+    return f;
+}
+
+// L/p in fixed point: 2^-32 resolution, at most 2^30 (a guide needs no more: the value
+// only shapes a sampling density, so clamping it biases nothing)
+uint64_t quantise(float value) {
+    if (!(value > 0.0f)) return 0;  // (NaN too)
+    const double v = std::min(double(value), 0x1.0p30);
+    return uint64_t(v * 0x1.0p32);
+}
+
+// A shape that subdivides the quadrants of the node `at` of a tree whose quadrant shares
+// are `share` (null: below the tree, where a quadrant's share is a quarter of its node's),
+// while a quadrant holds more than `rho` of the whole, to `max_depth` levels, within
+// `budget` nodes.
+void subdivide(PathGuide::Shape& out, const std::vector<std::array<double, 4>>* share,
+               const std::vector<std::array<uint32_t, 4>>* children, uint32_t at, double node_share,
+               int depth, double rho, int max_depth) {
+    const size_t self = out.nodes.size();
+    out.nodes.emplace_back();
+    for (int q = 0; q < 4; ++q) {
+        const double s = share ? (*share)[at][size_t(q)] : node_share * 0.25;
+        if (!(s > rho) || depth >= max_depth) continue;
+        const bool below = share && (*children)[at][size_t(q)] != 0;
+        const uint32_t child = uint32_t(out.nodes.size());
+        subdivide(out, below ? share : nullptr, children, below ? (*children)[at][size_t(q)] : 0, s,
+                  depth + 1, rho, max_depth);
+        out.nodes[self].child[q] = child;
+    }
+}
+
+}  // namespace
+
+namespace {
+std::atomic<uint64_t> next_serial{1};
+}  // namespace
+
+PathGuide::Learner& PathGuide::learner() {
+    thread_local uint64_t serial = 0;
+    thread_local Learner* mine = nullptr;
+    if (serial != serial_) {
+        std::lock_guard lock(learners_mutex_);
+        learners_.push_back(std::make_unique<Learner>());
+        learners_.back()->cells.assign(learning_roots_.size(), CellSums{});
+        mine = learners_.back().get();
+        serial = serial_;
+        Learner* none = nullptr;
+        first_.compare_exchange_strong(none, mine);
+    }
+    return *mine;
+}
+
+PathGuide::PathGuide(bool merge) : serial_(next_serial.fetch_add(1)), merge_(merge) {
+    for (int a = 0; a < 3; ++a) {
+        low_[a].store(ordered(std::numeric_limits<float>::infinity()));
+        high_[a].store(ordered(-std::numeric_limits<float>::infinity()));
+    }
+    // One cell; its first learning tree three levels deep (64 quadrants) and no sampled tree
+    Shape first;
+    subdivide(first, nullptr, nullptr, 0, 1.0, 1, 1.0 / 64.0, kGuideMaxDepth);
+    allocate_learning({first});
+    directions_.assign(1, GuideDirectionNode{});
+    roots_.assign(1, 0);
+    fractions_.assign(1, kGuideFirstFraction);
+    update_view();
+}
+
+PathGuide::~PathGuide() = default;
+
+void PathGuide::allocate_learning(const std::vector<Shape>& trees) {
+    size_t total = 0;
+    for (const Shape& t : trees) total += t.nodes.size();
+    learning_ = std::make_unique<LearnNode[]>(total);
+    learning_size_ = total;
+    learning_roots_.assign(trees.size(), 0);
+    size_t at = 0;
+    for (size_t c = 0; c < trees.size(); ++c) {
+        learning_roots_[c] = uint32_t(at);
+        for (const Shape::Node& n : trees[c].nodes) {
+            LearnNode& l = learning_[at++];
+            for (int q = 0; q < 4; ++q) {
+                l.low[q].store(0, std::memory_order_relaxed);
+                l.high[q].store(0, std::memory_order_relaxed);
+                l.child[q] = n.child[q] ? uint32_t(learning_roots_[c] + n.child[q]) : 0u;
+            }
+        }
+    }
+    for (const std::unique_ptr<Learner>& l : learners_) l->cells.assign(trees.size(), CellSums{});
+}
+
+void PathGuide::update_view() {
+    view_.spatial = spatial_.data();
+    view_.directions = directions_.data();
+    view_.roots = roots_.data();
+    view_.fractions = fractions_.data();
+    for (int a = 0; a < 3; ++a) view_.lo[a] = lo_[a], view_.size[a] = size_[a];
+}
+
+namespace {
+
+// Adds q to the 128-bit sum kept as (low, high): exact, in any order
+inline void add_exact(std::atomic<uint64_t>& low, std::atomic<uint64_t>& high, uint64_t q) {
+    const uint64_t before = low.fetch_add(q, std::memory_order_relaxed);
+    if (before + q < before) high.fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace
+
+void PathGuide::deposit(const Vec3f& p, const Vec3f& dir, float value,
+                        const SelectionSample* selection) {
+    Learner& mine = learner();
+    if (!merge_ && &mine != first_.load(std::memory_order_relaxed)) return;  // (planted bug)
+    const uint32_t cell = spatial_.size() == 1 ? 0u : guide_cell(view_, p);
+    CellSums& sums = mine.cells[cell];
+    ++sums.count;
+    if (!box_set_) {
+        const float at[3] = {p.x, p.y, p.z};
+        for (int a = 0; a < 3; ++a) {
+            if (!std::isfinite(at[a])) continue;
+            const uint32_t o = ordered(at[a]);
+            uint32_t lo = low_[a].load(std::memory_order_relaxed);
+            while (o < lo && !low_[a].compare_exchange_weak(lo, o, std::memory_order_relaxed)) {
+            }
+            uint32_t hi = high_[a].load(std::memory_order_relaxed);
+            while (o > hi && !high_[a].compare_exchange_weak(hi, o, std::memory_order_relaxed)) {
+            }
+        }
+    }
+    if (selection && selection->integrand > 0.0f) {
+        const SelectionSample& s = *selection;
+        const float used = s.fraction * s.guide_pdf + (1.0f - s.fraction) * s.lobe_pdf;
+        for (int k = 0; k < kGuideFractionCount; ++k) {
+            const float a = kGuideFractions[k];
+            const float pk = a * s.guide_pdf + (1.0f - a) * s.lobe_pdf;
+            // (a candidate that cannot draw the direction: the largest second moment)
+            const float m = pk > 0.0f && used > 0.0f ? (s.integrand / pk) * (s.integrand / used)
+                                                     : std::numeric_limits<float>::infinity();
+            const uint64_t q = quantise(m);
+            sums.low[k] += q;
+            sums.high[k] += sums.low[k] < q ? 1u : 0u;  // (the carry)
+        }
+    }
+    const uint64_t q = quantise(value);
+    if (q == 0) return;
+    float x, y;
+    direction_to_square(dir, x, y);
+    for (uint32_t n = learning_roots_[cell];;) {
+        LearnNode& node = learning_[n];
+        const uint32_t qx = x >= 0.5f ? 1u : 0u, qy = y >= 0.5f ? 1u : 0u;
+        const uint32_t k = qx + 2u * qy;
+        if (node.child[k]) {
+            n = node.child[k];
+            x = 2.0f * x - float(qx), y = 2.0f * y - float(qy);
+            continue;
+        }
+        add_exact(node.low[k], node.high[k], q);
+        return;
+    }
+}
+
+void PathGuide::train(int64_t spp_end) {
+    const auto start = std::chrono::steady_clock::now();
+    const int64_t spp_iteration = std::max<int64_t>(spp_end - last_end_, 1);
+    last_end_ = spp_end;
+    if (!box_set_) {
+        // The box of the first iteration's vertices, a little larger (a unit box without any)
+        for (int a = 0; a < 3; ++a) {
+            float lo = from_ordered(low_[a].load()), hi = from_ordered(high_[a].load());
+            if (!(lo <= hi)) lo = -0.5f, hi = 0.5f;
+            const float pad =
+                std::max(1e-3f * (hi - lo), 1e-4f * std::max(std::abs(lo), std::abs(hi)));
+            lo_[a] = lo - pad - 1e-20f;
+            size_[a] = (hi + pad + 1e-20f) - lo_[a];
+        }
+        box_set_ = true;
+    }
+
+    // Each cell's exact energies: a quadrant's sum, over its subtree
+    const size_t cells = learning_roots_.size();
+    std::vector<CellTrees> trees(cells);
+    std::vector<U128> energy(learning_size_ * 4);
+    for (size_t n = learning_size_; n-- > 0;)  // (children come after their parents)
+        for (int q = 0; q < 4; ++q) {
+            const uint32_t ch = learning_[n].child[q];
+            energy[n * 4 + size_t(q)] = ch ? energy[size_t(ch) * 4] + energy[size_t(ch) * 4 + 1] +
+                                                 energy[size_t(ch) * 4 + 2] +
+                                                 energy[size_t(ch) * 4 + 3]
+                                           : learning_[n].sum(q);
+        }
+    const size_t end_of_last = learning_size_;
+    for (size_t c = 0; c < cells; ++c) {
+        const uint32_t root = learning_roots_[c];
+        const uint32_t end = c + 1 < cells ? learning_roots_[c + 1] : uint32_t(end_of_last);
+        const U128 total = energy[size_t(root) * 4] + energy[size_t(root) * 4 + 1] +
+                           energy[size_t(root) * 4 + 2] + energy[size_t(root) * 4 + 3];
+        const double inv = total > 0 ? 1.0 / double(total) : 0.0;
+        std::vector<std::array<double, 4>> share(end - root);
+        std::vector<std::array<uint32_t, 4>> children(end - root);
+        CellTrees& t = trees[c];
+        t.sampled.resize(end - root);
+        for (uint32_t n = root; n < end; ++n)
+            for (int q = 0; q < 4; ++q) {
+                const double s = double(energy[size_t(n) * 4 + size_t(q)]) * inv;
+                const uint32_t ch = learning_[n].child[q];
+                share[n - root][size_t(q)] = s;
+                children[n - root][size_t(q)] = ch ? ch - root : 0u;
+                t.sampled[n - root].energy[q] = float(s);
+                t.sampled[n - root].child[q] = ch ? ch - root : 0u;
+            }
+        if (total > 0)
+            subdivide(t.learning, &share, &children, 0, 1.0, 1, kGuideSubdivide, kGuideMaxDepth);
+        else  // (no light came back: the cell keeps its learning tree's shape)
+            for (uint32_t n = root; n < end; ++n) {
+                Shape::Node s;
+                for (int q = 0; q < 4; ++q) s.child[q] = children[n - root][size_t(q)];
+                t.learning.nodes.push_back(s);
+            }
+    }
+
+    // Each cell's share α: the candidate of least second moment (a cell without records of
+    // it keeps its own)
+    std::vector<float> fraction(cells);
+    std::vector<uint64_t> counts(cells, 0);
+    for (size_t c = 0; c < cells; ++c) {
+        fraction[c] = fractions_[c];
+        U128 moments[kGuideFractionCount] = {};
+        for (const std::unique_ptr<Learner>& l : learners_) {
+            const CellSums& s = l->cells[c];
+            counts[c] += s.count;
+            for (int k = 0; k < kGuideFractionCount; ++k)
+                moments[k] += (U128(s.high[k]) << 64) | U128(s.low[k]);
+        }
+        records_ += counts[c];
+        const auto moment = [&](int k) { return moments[k]; };
+        int best = -1;
+        for (int k = 0; k < kGuideFractionCount; ++k)
+            if (moment(k) > 0 && (best < 0 || moment(k) < moment(best))) best = k;
+        if (best >= 0) fraction[c] = kGuideFractions[best];
+    }
+
+    // The tree over space again, cells cut where they took many vertices
+    const double threshold = kGuideSpatialThreshold * std::sqrt(double(spp_iteration) / 4.0);
+    std::vector<GuideSpatialNode> spatial;
+    std::vector<const CellTrees*> cell_trees;  // the new cells' trees
+    std::vector<float> cell_fractions;
+    uint64_t nodes = 0;
+    uint32_t cells_total = uint32_t(cells);
+    for (const CellTrees& t : trees) nodes += t.sampled.size() + t.learning.nodes.size();
+    struct Box {
+        float lo[3], size[3];
+    };
+    // (old node `n` with box b into new slot `slot`)
+    const auto rebuild = [&](auto&& self, uint32_t n, Box b, uint32_t slot) -> void {
+        const GuideSpatialNode& old = spatial_[n];
+        if (old.child > 0) {
+            const uint32_t axis = old.axis_or_cell;
+            const uint32_t child = uint32_t(spatial.size());
+            spatial.resize(spatial.size() + 2);
+            spatial[slot] = {int32_t(child), axis};
+            b.size[axis] *= 0.5f;
+            Box above = b;
+            above.lo[axis] += b.size[axis];
+            self(self, uint32_t(old.child), b, child);
+            self(self, uint32_t(old.child) + 1, above, child + 1);
+            return;
+        }
+        // A cell: cut while its halves would hold more than the threshold, within the
+        // bounds on cells and nodes (each cut adds a cell and a copy of its trees)
+        const CellTrees& t = trees[old.axis_or_cell];
+        const uint64_t per_copy = t.sampled.size() + t.learning.nodes.size();
+        const auto split = [&](auto&& again, Box box, double count, uint32_t at,
+                               int depth) -> void {
+            if (count > threshold && depth < 48 && cells_total < kGuideMaxCells &&
+                nodes + per_copy <= kGuideMaxNodes) {
+                ++cells_total;
+                nodes += per_copy;
+                uint32_t axis = 0;
+                for (uint32_t a = 1; a < 3; ++a)
+                    if (box.size[a] > box.size[axis]) axis = a;
+                const uint32_t child = uint32_t(spatial.size());
+                spatial.resize(spatial.size() + 2);
+                spatial[at] = {int32_t(child), axis};
+                box.size[axis] *= 0.5f;
+                Box above = box;
+                above.lo[axis] += box.size[axis];
+                again(again, box, count * 0.5, child, depth + 1);
+                again(again, above, count * 0.5, child + 1, depth + 1);
+                return;
+            }
+            spatial[at] = {0, uint32_t(cell_trees.size())};
+            cell_trees.push_back(&t);
+            cell_fractions.push_back(fraction[old.axis_or_cell]);
+        };
+        split(split, b, double(counts[old.axis_or_cell]), slot, 0);
+    };
+    spatial.resize(1);
+    Box whole;
+    for (int a = 0; a < 3; ++a) whole.lo[a] = lo_[a], whole.size[a] = size_[a];
+    rebuild(rebuild, 0, whole, 0);
+    spatial_ = std::move(spatial);
+
+    // The cells' trees, in the cells' order
+    directions_.clear();
+    roots_.assign(cell_trees.size(), 0);
+    std::vector<Shape> learning;
+    learning.reserve(cell_trees.size());
+    for (size_t c = 0; c < cell_trees.size(); ++c) {
+        const CellTrees& t = *cell_trees[c];
+        const uint32_t base = uint32_t(directions_.size());
+        roots_[c] = base;
+        for (GuideDirectionNode n : t.sampled) {
+            for (uint32_t& ch : n.child)
+                if (ch) ch += base;
+            directions_.push_back(n);
+        }
+        learning.push_back(t.learning);
+    }
+    fractions_ = std::move(cell_fractions);
+    allocate_learning(learning);
+    ++trainings_;
+    update_view();
+    training_seconds_.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    trained_at_.push_back(spp_end);
+}
+
+GuideStats PathGuide::stats() const {
+    GuideStats s;
+    s.cells = uint32_t(roots_.size());
+    s.nodes = directions_.size();
+    s.learning_nodes = learning_size_;
+    s.bytes = directions_.capacity() * sizeof(GuideDirectionNode) +
+              learning_size_ * sizeof(LearnNode) + spatial_.capacity() * sizeof(GuideSpatialNode) +
+              roots_.capacity() * 4 + learning_roots_.capacity() * 4 + roots_.capacity() * 4 +
+              learners_.size() * roots_.size() * sizeof(CellSums);
+    s.cells_by_fraction.assign(kGuideFractionCount, 0);
+    for (float f : fractions_)
+        for (int k = 0; k < kGuideFractionCount; ++k)
+            if (f == kGuideFractions[k]) ++s.cells_by_fraction[size_t(k)];
+    s.records = records_;  // (and those since the last training)
+    for (const std::unique_ptr<Learner>& l : learners_)
+        for (const CellSums& c : l->cells) s.records += c.count;
+    s.training_seconds = training_seconds_;
+    s.trained_at = trained_at_;
+    return s;
+}
+
+}  // namespace cierzo

@@ -1,0 +1,132 @@
+// Path guiding's learning side: the SD-tree (kernels/guiding.h) that nee's and mis's camera
+// paths sample from, learned from the light those paths carried back in earlier passes.
+//
+// Training in iterations. An iteration is the passes between two trainings; the trainings
+// fall before the passes that start at a power of two paths per pixel (1, 2, 4, 8, ...), so
+// each iteration has as many paths as all before it (Müller et al. 2017's doubling). While an
+// iteration runs, the guide sampled is fixed, and every Phong vertex of a camera path
+// deposits what came back along its direction, L/p (the luminance of the light the rest of
+// the path gathered, divided by the throughput from there and by the density the direction
+// was drawn with), into a second quadtree of its cell (the learning tree), and counts itself
+// in its cell. At the training:
+//   - each cell's learning tree, with its energies, becomes the cell's sampled tree;
+//   - its next learning tree subdivides every quadrant holding more than kGuideSubdivide of
+//     the cell's energy, to kGuideMaxDepth levels, and merges the rest;
+//   - each cell's share α of guided directions (kernels/guiding.h, kGuideFractions) becomes
+//     the candidate whose second moment, estimated from the iteration's diffuse records
+//     (SelectionSample), is least;
+//   - a cell with more than kGuideSpatialThreshold·√(paths per pixel of the iteration / 4)
+//     vertices is cut in half across its box's longest side, again while its halves would
+//     still hold more (each half starting with a copy of its quadtrees).
+//
+// Bit-reproducible. Deposits are added as integers (each L/p in fixed point, 2^-32 to 2^30,
+// into 128-bit sums kept as two 64-bit atomics with the carry), so the sums are exact and
+// the same whatever the order in which threads add them; a path's deposits depend only on
+// the guide of its pass; the training is one thread's deterministic arithmetic on those
+// sums. So an image is the same for any number of threads. (Under MPI, or across a
+// checkpoint, the sums would be added up across ranks or saved exactly; neither is done
+// yet: render() refuses guiding there.)
+//
+// Memory is bounded: at most kGuideMaxCells cells and kGuideMaxNodes quadtree nodes, which
+// stop the subdivisions where they would be exceeded (stats(): what it uses).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "integrators/guide_stats.h"
+#include "kernels/guiding.h"
+#include "kernels/vec3.h"
+
+namespace cierzo {
+
+inline constexpr double kGuideSubdivide = 0.01;          // ρ: a quadrant's share to subdivide
+inline constexpr int kGuideMaxDepth = 20;                // quadtree levels
+inline constexpr double kGuideSpatialThreshold = 12000;  // c: vertices per cell, as above
+inline constexpr uint32_t kGuideMaxCells = 1u << 14;
+inline constexpr uint32_t kGuideMaxNodes = 1u << 20;
+
+class PathGuide {
+public:
+    // (`merge`: always true; false learns from the records of the first thread that
+    // deposits alone, not the whole pass merged: a planted bug for the tests)
+    explicit PathGuide(bool merge = true);
+    PathGuide(const PathGuide&) = delete;
+    PathGuide& operator=(const PathGuide&) = delete;
+    ~PathGuide();
+
+    // Whether a training comes before the pass that starts at `spp` paths per pixel.
+    static bool trains_before(int64_t spp) { return spp > 0 && (spp & (spp - 1)) == 0; }
+
+    // What the paths sample from: null before the first training.
+    const GuideView* view() const { return trainings_ > 0 ? &view_ : nullptr; }
+
+    // What a diffuse vertex's record tells of the guide's share α: the estimate of the
+    // integrand at its direction, f·cos θ·L (luminance), and the densities of the guide and
+    // the lobe there with the share it was drawn with. For each candidate α' the record adds
+    // (f·cos θ·L)² / (p_α'·p_used) to the cell's estimate of that candidate's second moment.
+    struct SelectionSample {
+        float integrand = 0.0f;
+        float guide_pdf = 0.0f, lobe_pdf = 0.0f;
+        float fraction = 0.0f;
+    };
+
+    // One vertex's record: the direction `dir` leaving point p, and what came back along it
+    // divided by its density (L/p, before the quantisation); `selection` where the vertex
+    // was diffuse with a guide to sample. Thread-safe.
+    void deposit(const Vec3f& p, const Vec3f& dir, float value,
+                 const SelectionSample* selection = nullptr);
+
+    // Ends the iteration after the passes up to `spp_end` paths per pixel (no paths may be
+    // rendered meanwhile): the learnt trees become the sampled ones.
+    void train(int64_t spp_end);
+
+    GuideStats stats() const;
+
+    struct Shape;  // a quadtree's shape, nodes and children, as training builds it
+
+private:
+    struct LearnNode;  // a learning quadtree node: its quadrants' exact sums, their nodes
+    struct CellTrees;  // one cell's sampled tree and next learning tree
+
+    void update_view();
+    void allocate_learning(const std::vector<Shape>& trees);
+
+    std::vector<GuideSpatialNode> spatial_{GuideSpatialNode{}};
+    std::vector<GuideDirectionNode> directions_;  // every cell's sampled tree
+    std::vector<uint32_t> roots_;                 // per cell
+    std::vector<float> fractions_;                // per cell: α
+    std::unique_ptr<LearnNode[]> learning_;
+    size_t learning_size_ = 0;
+    std::vector<uint32_t> learning_roots_;  // per cell
+    // Each render thread's sums per cell (its vertices, and for each candidate α the second
+    // moment's estimate, low and high words), summed at the training: the cells' sums are
+    // touched by every record, and shared ones would have every thread wait on their lines
+    struct CellSums {
+        uint64_t count = 0;
+        uint64_t low[kGuideFractionCount] = {}, high[kGuideFractionCount] = {};
+    };
+    struct Learner {
+        std::vector<CellSums> cells;
+    };
+    Learner& learner();      // this thread's
+    const uint64_t serial_;  // (which guide a thread's cached learner is of)
+    const bool merge_;
+    std::mutex learners_mutex_;
+    std::vector<std::unique_ptr<Learner>> learners_;
+    std::atomic<Learner*> first_{nullptr};
+    uint64_t records_ = 0;
+    std::atomic<uint32_t> low_[3], high_[3];  // the box of the first iteration
+    bool box_set_ = false;
+    float lo_[3] = {0.0f, 0.0f, 0.0f}, size_[3] = {1.0f, 1.0f, 1.0f};
+    int64_t last_end_ = 0;
+    int trainings_ = 0;
+    std::vector<double> training_seconds_;
+    std::vector<int64_t> trained_at_;
+    GuideView view_;
+};
+
+}  // namespace cierzo
