@@ -95,6 +95,28 @@ def test_sampler_and_lengths_as_the_program(cierzo, tmp_path, sampler):
     assert image.max() > 0 and rest.max() > 0
 
 
+def test_guiding_as_the_program_and_checked(cierzo, tmp_path):
+    # (48 paths: the guide is trained after 16 and 32 and sampled after)
+    kw = dict(SMALL, spp=48)
+    out, stats_path = tmp_path / "guided.exr", tmp_path / "guided.json"
+    code, err = run_cli("render", scene_path("small_emitter"), "--width", kw["width"], "--height",
+                        kw["height"], "--spp", kw["spp"], "--seed", kw["seed"], "--threads",
+                        kw["threads"], "--estimator", "mis", "--integrator", "scalar",
+                        "--guiding", "sdtree", "--out", out, "--stats", stats_path, "--quiet")
+    assert code == 0, err
+    with open(stats_path) as f:
+        stats = json.load(f)
+    image, st = cierzo.render(scene_path("small_emitter"), estimator="mis", integrator="scalar",
+                              guiding="sdtree", **kw)
+    assert same_bits(image, cierzo.read_exr(out))
+    assert st["guiding"]["trainings"] == stats["guiding"]["trainings"] >= 2
+    assert st["guiding"]["cells"] == stats["guiding"]["cells"] >= 1
+    with pytest.raises(cierzo.Error, match="guiding"):
+        cierzo.render(scene_path("small_emitter"), estimator="lt", guiding="sdtree", **SMALL)
+    with pytest.raises(ValueError, match="guiding"):
+        cierzo.render(scene_path("small_emitter"), guiding="sometimes", **SMALL)
+
+
 def test_bdpt_strategy_images_as_the_program_and_adding_up(cierzo, tmp_path):
     exr, _ = cli_render(tmp_path, scene_path("caustic"),
                         extra=("--estimator", "bdpt", "--max-length", "3", "--min-length", "3",

@@ -12,10 +12,11 @@ namespace cierzo {
 
 __extension__ typedef unsigned __int128 U128;
 
-struct PathGuide::LearnNode {
+// (its children apart, in learning_child_: a deposit's descent reads only those, and they
+// stay in cache where the sums, a line per node, would not)
+struct alignas(64) PathGuide::LearnNode {
     std::atomic<uint64_t> low[4];
     std::atomic<uint64_t> high[4];  // the carries out of `low`
-    uint32_t child[4] = {0, 0, 0, 0};
     U128 sum(int q) const {
         return (U128(high[q].load(std::memory_order_relaxed)) << 64) |
                U128(low[q].load(std::memory_order_relaxed));
@@ -120,18 +121,21 @@ void PathGuide::allocate_learning(const std::vector<Shape>& trees) {
     size_t total = 0;
     for (const Shape& t : trees) total += t.nodes.size();
     learning_ = std::make_unique<LearnNode[]>(total);
+    learning_child_ = std::make_unique<uint32_t[]>(total * 4);
     learning_size_ = total;
     learning_roots_.assign(trees.size(), 0);
     size_t at = 0;
     for (size_t c = 0; c < trees.size(); ++c) {
         learning_roots_[c] = uint32_t(at);
         for (const Shape::Node& n : trees[c].nodes) {
-            LearnNode& l = learning_[at++];
+            LearnNode& l = learning_[at];
             for (int q = 0; q < 4; ++q) {
                 l.low[q].store(0, std::memory_order_relaxed);
                 l.high[q].store(0, std::memory_order_relaxed);
-                l.child[q] = n.child[q] ? uint32_t(learning_roots_[c] + n.child[q]) : 0u;
+                learning_child_[at * 4 + size_t(q)] =
+                    n.child[q] ? uint32_t(learning_roots_[c] + n.child[q]) : 0u;
             }
+            ++at;
         }
     }
     for (const std::unique_ptr<Learner>& l : learners_) l->cells.assign(trees.size(), CellSums{});
@@ -194,15 +198,14 @@ void PathGuide::deposit(const Vec3f& p, const Vec3f& dir, float value,
     float x, y;
     direction_to_square(dir, x, y);
     for (uint32_t n = learning_roots_[cell];;) {
-        LearnNode& node = learning_[n];
         const uint32_t qx = x >= 0.5f ? 1u : 0u, qy = y >= 0.5f ? 1u : 0u;
         const uint32_t k = qx + 2u * qy;
-        if (node.child[k]) {
-            n = node.child[k];
+        if (const uint32_t child = learning_child_[size_t(n) * 4 + k]) {
+            n = child;
             x = 2.0f * x - float(qx), y = 2.0f * y - float(qy);
             continue;
         }
-        add_exact(node.low[k], node.high[k], q);
+        add_exact(learning_[n].low[k], learning_[n].high[k], q);
         return;
     }
 }
@@ -230,7 +233,7 @@ void PathGuide::train(int64_t spp_end) {
     std::vector<U128> energy(learning_size_ * 4);
     for (size_t n = learning_size_; n-- > 0;)  // (children come after their parents)
         for (int q = 0; q < 4; ++q) {
-            const uint32_t ch = learning_[n].child[q];
+            const uint32_t ch = learning_child_[n * 4 + size_t(q)];
             energy[n * 4 + size_t(q)] = ch ? energy[size_t(ch) * 4] + energy[size_t(ch) * 4 + 1] +
                                                  energy[size_t(ch) * 4 + 2] +
                                                  energy[size_t(ch) * 4 + 3]
@@ -250,7 +253,7 @@ void PathGuide::train(int64_t spp_end) {
         for (uint32_t n = root; n < end; ++n)
             for (int q = 0; q < 4; ++q) {
                 const double s = double(energy[size_t(n) * 4 + size_t(q)]) * inv;
-                const uint32_t ch = learning_[n].child[q];
+                const uint32_t ch = learning_child_[size_t(n) * 4 + size_t(q)];
                 share[n - root][size_t(q)] = s;
                 children[n - root][size_t(q)] = ch ? ch - root : 0u;
                 t.sampled[n - root].energy[q] = float(s);
@@ -379,8 +382,9 @@ GuideStats PathGuide::stats() const {
     s.nodes = directions_.size();
     s.learning_nodes = learning_size_;
     s.bytes = directions_.capacity() * sizeof(GuideDirectionNode) +
-              learning_size_ * sizeof(LearnNode) + spatial_.capacity() * sizeof(GuideSpatialNode) +
-              roots_.capacity() * 4 + learning_roots_.capacity() * 4 + roots_.capacity() * 4 +
+              learning_size_ * (sizeof(LearnNode) + 16) +
+              spatial_.capacity() * sizeof(GuideSpatialNode) + roots_.capacity() * 4 +
+              learning_roots_.capacity() * 4 + roots_.capacity() * 4 +
               learners_.size() * roots_.size() * sizeof(CellSums);
     s.cells_by_fraction.assign(kGuideFractionCount, 0);
     for (float f : fractions_)

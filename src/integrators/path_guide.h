@@ -89,7 +89,7 @@ public:
     struct Shape;  // a quadtree's shape, nodes and children, as training builds it
 
 private:
-    struct LearnNode;  // a learning quadtree node: its quadrants' exact sums, their nodes
+    struct LearnNode;  // a learning quadtree node: its quadrants' exact sums
     struct CellTrees;  // one cell's sampled tree and next learning tree
 
     void update_view();
@@ -100,6 +100,7 @@ private:
     std::vector<uint32_t> roots_;                 // per cell
     std::vector<float> fractions_;                // per cell: α
     std::unique_ptr<LearnNode[]> learning_;
+    std::unique_ptr<uint32_t[]> learning_child_;  // 4 per node: its quadrants' nodes, or 0
     size_t learning_size_ = 0;
     std::vector<uint32_t> learning_roots_;  // per cell
     // Each render thread's sums per cell (its vertices, and for each candidate α the second

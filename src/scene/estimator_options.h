@@ -122,7 +122,9 @@ inline constexpr SamplerEntry kSamplers[] = {
 using GuidingEntry = NamedEntry<Guiding>;
 
 inline constexpr GuidingEntry kGuidings[] = {
-    {Guiding::kNone, "none", "directions from the material's lobes alone; the default"},
+    {Guiding::kNone, "none",
+     "directions from the material's lobes alone; the default of every estimator (sdtree "
+     "measured 0.57-0.75x mis's efficiency on caustic and small_emitter)"},
     {Guiding::kSdTree, "sdtree",
      "nee and mis: half the diffuse directions from an SD-tree of the incident light, "
      "learnt pass by pass (Müller et al. 2017); scalar integrator, one process"},

@@ -244,6 +244,27 @@ TEST(Guiding, LearningIsTheSameInAnyOrderAndOnAnyNumberOfThreads) {
     EXPECT_EQ(bytes_of(threaded), reference);
 }
 
+TEST(Guiding, TheDirectionMapIsAccurateAndInvertible) {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (int i = 0; i < 100000; ++i) {
+        const float y = u(rng), x = u(rng);
+        EXPECT_NEAR(guide_atan2(y, x), std::atan2(y, x), 2e-6f) << y << " " << x;
+    }
+    EXPECT_EQ(guide_atan2(0.0f, 0.0f), 0.0f);
+    EXPECT_NEAR(guide_atan2(1.0f, 0.0f), float(0.5 * kPi), 1e-6f);
+    EXPECT_NEAR(guide_atan2(0.0f, -1.0f), float(kPi), 1e-6f);
+    for (int i = 0; i < 100000; ++i) {
+        std::uniform_real_distribution<float> v(0.0f, 1.0f);
+        const float x = v(rng), y = v(rng);
+        float x2, y2;
+        direction_to_square(square_to_direction(x, y), x2, y2);
+        EXPECT_NEAR(x2, x, 1e-5f);
+        EXPECT_NEAR(std::min(std::abs(y2 - y), 1.0f - std::abs(y2 - y)), 0.0f, 2e-5f)
+            << x << " " << y;
+    }
+}
+
 TEST(Guiding, TrainingsFallOnPowersOfTwo) {
     for (int64_t s : {1, 2, 4, 8, 16, 32, 64, 1024}) EXPECT_TRUE(PathGuide::trains_before(s)) << s;
     for (int64_t s : {0, 3, 48, 96, 1000}) EXPECT_FALSE(PathGuide::trains_before(s)) << s;
