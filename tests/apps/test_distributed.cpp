@@ -200,6 +200,10 @@ TEST(Mpi, TwoThreeAndFourRanksGiveTheOneProcessImageByteForByte) {
          {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt", "--sampler",
           "pmj02"}},
     };
+    // (with the lighter settings, in the sanitizer job, 3 ranks alone, whose bands are
+    // uneven; the native run has compared 2, 3 and 4 by then)
+    const std::vector<int> rank_counts =
+        emulated() ? std::vector<int>{3} : std::vector<int>{2, 3, 4};
     int k = 0;
     for (const Case& c : cases) {
         SCOPED_TRACE(c.scene + " " + c.integrator);
@@ -207,7 +211,7 @@ TEST(Mpi, TwoThreeAndFourRanksGiveTheOneProcessImageByteForByte) {
         extra.insert(extra.end(), {"--integrator", c.integrator, "--variance"});
         const fs::path one = kDir / ("one" + std::to_string(k) + ".exr");
         ASSERT_EQ(run({render_args(c.scene, one, extra)}, "one"), 0) << text(kDir / "one.stderr");
-        for (int ranks : {2, 3, 4}) {
+        for (int ranks : rank_counts) {
             const fs::path out =
                 kDir / ("mpi" + std::to_string(k) + "_" + std::to_string(ranks) + ".exr");
             const fs::path js = kDir / ("mpi" + std::to_string(k) + ".json");
