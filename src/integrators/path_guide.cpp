@@ -301,19 +301,27 @@ void PathGuide::train(int64_t spp_end) {
     struct Box {
         float lo[3], size[3];
     };
+    // Node `at` becomes the cut of `box` across `axis`: its halves' first slot and boxes
+    struct Halves {
+        uint32_t child;
+        Box below, above;
+    };
+    const auto cut = [&](uint32_t at, Box box, uint32_t axis) {
+        const uint32_t child = uint32_t(spatial.size());
+        spatial.resize(spatial.size() + 2);
+        spatial[at] = {int32_t(child), axis};
+        box.size[axis] *= 0.5f;
+        Box above = box;
+        above.lo[axis] += box.size[axis];
+        return Halves{child, box, above};
+    };
     // (old node `n` with box b into new slot `slot`)
     const auto rebuild = [&](auto&& self, uint32_t n, Box b, uint32_t slot) -> void {
         const GuideSpatialNode& old = spatial_[n];
         if (old.child > 0) {
-            const uint32_t axis = old.axis_or_cell;
-            const uint32_t child = uint32_t(spatial.size());
-            spatial.resize(spatial.size() + 2);
-            spatial[slot] = {int32_t(child), axis};
-            b.size[axis] *= 0.5f;
-            Box above = b;
-            above.lo[axis] += b.size[axis];
-            self(self, uint32_t(old.child), b, child);
-            self(self, uint32_t(old.child) + 1, above, child + 1);
+            const Halves h = cut(slot, b, old.axis_or_cell);
+            self(self, uint32_t(old.child), h.below, h.child);
+            self(self, uint32_t(old.child) + 1, h.above, h.child + 1);
             return;
         }
         // A cell: cut while its halves would hold more than the threshold, within the
@@ -326,17 +334,12 @@ void PathGuide::train(int64_t spp_end) {
                 nodes + per_copy <= kGuideMaxNodes) {
                 ++cells_total;
                 nodes += per_copy;
-                uint32_t axis = 0;
+                uint32_t axis = 0;  // (the longest side)
                 for (uint32_t a = 1; a < 3; ++a)
                     if (box.size[a] > box.size[axis]) axis = a;
-                const uint32_t child = uint32_t(spatial.size());
-                spatial.resize(spatial.size() + 2);
-                spatial[at] = {int32_t(child), axis};
-                box.size[axis] *= 0.5f;
-                Box above = box;
-                above.lo[axis] += box.size[axis];
-                again(again, box, count * 0.5, child, depth + 1);
-                again(again, above, count * 0.5, child + 1, depth + 1);
+                const Halves h = cut(at, box, axis);
+                again(again, h.below, count * 0.5, h.child, depth + 1);
+                again(again, h.above, count * 0.5, h.child + 1, depth + 1);
                 return;
             }
             spatial[at] = {0, uint32_t(cell_trees.size())};
