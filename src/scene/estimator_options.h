@@ -126,8 +126,9 @@ inline constexpr GuidingEntry kGuidings[] = {
      "directions from the material's lobes alone; the default of every estimator (sdtree "
      "measured 0.57-0.75x mis's efficiency on caustic and small_emitter)"},
     {Guiding::kSdTree, "sdtree",
-     "nee and mis: half the diffuse directions from an SD-tree of the incident light, "
-     "learnt pass by pass (Müller et al. 2017); scalar integrator, one process"},
+     "nee and mis: a share of the diffuse directions (learnt per cell: 0, 1/4, 1/2 or 3/4) "
+     "from an SD-tree of the incident light, learnt pass by pass (Mueller et al. 2017); "
+     "scalar integrator, one process, no checkpoints"},
 };
 
 // How nee and mis sample emitting triangles (render.triangle_sampling, --triangle-sampling):
