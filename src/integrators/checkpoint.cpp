@@ -22,6 +22,7 @@
 #include "io/input_file.h"
 #include "io/output_file.h"
 #include "integrators/light_pilot.h"
+#include "integrators/path_guide.h"
 #include "integrators/registry.h"
 
 namespace cierzo {
@@ -200,6 +201,9 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
         id.estimator += fmt::format(" draws {} counted {:a}", s.estimator.light_connections,
                                     scene.path_context().connection_count);
     }
+    // (a guided render's image depends on its guide: path_guide.h)
+    if (s.estimator.guiding != Guiding::kNone)
+        id.estimator += std::string(" guided ") + guiding_name(s.estimator.guiding);
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);
@@ -256,6 +260,10 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id,
     put("cierzo:batches", fmt::format("{} {}", film.batches(), film.nonfinite_splats()));
     put("cierzo:seconds", fmt::format("{:.6f}", state.seconds));
     put("cierzo:tile_size", std::to_string(kTileSize));
+    // (a guided render's path guide: PathGuide::save's bytes)
+    if (!state.guide.empty())
+        header.insert("cierzo:guide",
+                      Imf::StringAttribute(std::string(state.guide.begin(), state.guide.end())));
     const bool pending = !state.pending_tiles.empty();
     for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
     for (const char* n : kWordNames) {
@@ -344,6 +352,16 @@ Checkpoint read_checkpoint(const fs::path& path) {
             throw InputError(path.string() + ": checkpoint of another tile size");
         RenderState& s = c.state;
         s.spp_done = get_int(header, path, "cierzo:spp_reached");
+        if (const auto* g = header.findTypedAttribute<Imf::StringAttribute>("cierzo:guide")) {
+            s.guide.assign(g->value().begin(), g->value().end());
+            try {
+                PathGuide check;
+                check.restore(s.guide);
+            } catch (const GuideStateError& e) {
+                throw InputError(path.string() +
+                                 ": the checkpoint's path guide is damaged: " + e.what());
+            }
+        }
         s.pending_end = get_int(header, path, "cierzo:pending_end");
         std::istringstream rays(get(header, path, "cierzo:rays"));
         if (!(rays >> s.rays.camera >> s.rays.extension >> s.rays.shadow >> s.rays.light))

@@ -7,10 +7,12 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string>
+#include <type_traits>
 
 namespace cierzo {
 
-__extension__ typedef unsigned __int128 U128;
+using U128 = GuideSum;
 
 // (its children apart, in learning_child_: a deposit's descent reads only those, and they
 // stay in cache where the sums, a line per node, would not)
@@ -91,7 +93,8 @@ PathGuide::Learner& PathGuide::learner() {
     if (serial != serial_) {
         std::lock_guard lock(learners_mutex_);
         learners_.push_back(std::make_unique<Learner>());
-        learners_.back()->cells.assign(learning_roots_.size(), CellSums{});
+        for (std::vector<CellSums>& c : learners_.back()->cells)
+            c.assign(learning_roots_.size(), CellSums{});
         mine = learners_.back().get();
         serial = serial_;
         Learner* none = nullptr;
@@ -120,26 +123,58 @@ PathGuide::~PathGuide() = default;
 void PathGuide::allocate_learning(const std::vector<Shape>& trees) {
     size_t total = 0;
     for (const Shape& t : trees) total += t.nodes.size();
-    learning_ = std::make_unique<LearnNode[]>(total);
     learning_child_ = std::make_unique<uint32_t[]>(total * 4);
-    learning_size_ = total;
     learning_roots_.assign(trees.size(), 0);
     size_t at = 0;
     for (size_t c = 0; c < trees.size(); ++c) {
         learning_roots_[c] = uint32_t(at);
         for (const Shape::Node& n : trees[c].nodes) {
-            LearnNode& l = learning_[at];
-            for (int q = 0; q < 4; ++q) {
-                l.low[q].store(0, std::memory_order_relaxed);
-                l.high[q].store(0, std::memory_order_relaxed);
+            for (int q = 0; q < 4; ++q)
                 learning_child_[at * 4 + size_t(q)] =
                     n.child[q] ? uint32_t(learning_roots_[c] + n.child[q]) : 0u;
-            }
             ++at;
         }
     }
-    for (const std::unique_ptr<Learner>& l : learners_) l->cells.assign(trees.size(), CellSums{});
+    resize_sums(total, trees.size());
 }
+
+void PathGuide::resize_sums(size_t nodes, size_t cells) {
+    learning_size_ = nodes;
+    for (std::unique_ptr<LearnNode[]>& slot : learning_) {
+        slot = std::make_unique<LearnNode[]>(nodes);
+        for (size_t n = 0; n < nodes; ++n)
+            for (int q = 0; q < 4; ++q) {
+                slot[n].low[q].store(0, std::memory_order_relaxed);
+                slot[n].high[q].store(0, std::memory_order_relaxed);
+            }
+    }
+    committed_.assign(nodes * 4, 0);
+    committed_cells_.assign(cells, CellTotals{});
+    for (const std::unique_ptr<Learner>& l : learners_)
+        for (std::vector<CellSums>& c : l->cells) c.assign(cells, CellSums{});
+}
+
+void PathGuide::commit_slot(int slot) {
+    LearnNode* nodes = learning_[slot].get();
+    for (size_t n = 0; n < learning_size_; ++n)
+        for (int q = 0; q < 4; ++q) {
+            committed_[n * 4 + size_t(q)] += nodes[n].sum(q);
+            nodes[n].low[q].store(0, std::memory_order_relaxed);
+            nodes[n].high[q].store(0, std::memory_order_relaxed);
+        }
+    for (const std::unique_ptr<Learner>& l : learners_) {
+        std::vector<CellSums>& cells = l->cells[slot];
+        for (size_t c = 0; c < cells.size(); ++c) {
+            CellTotals& t = committed_cells_[c];
+            t.count += cells[c].count;
+            for (int k = 0; k < kGuideFractionCount; ++k)
+                t.moment[k] += (U128(cells[c].high[k]) << 64) | U128(cells[c].low[k]);
+            cells[c] = CellSums{};
+        }
+    }
+}
+
+void PathGuide::commit_pass(int32_t pass) { commit_slot(int(pass & 1)); }
 
 void PathGuide::update_view() {
     view_.spatial = spatial_.data();
@@ -159,12 +194,13 @@ inline void add_exact(std::atomic<uint64_t>& low, std::atomic<uint64_t>& high, u
 
 }  // namespace
 
-void PathGuide::deposit(const Vec3f& p, const Vec3f& dir, float value,
+void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float value,
                         const SelectionSample* selection) {
     Learner& mine = learner();
     if (!merge_ && &mine != first_.load(std::memory_order_relaxed)) return;  // (planted bug)
+    const int slot = int(pass & 1);
     const uint32_t cell = spatial_.size() == 1 ? 0u : guide_cell(view_, p);
-    CellSums& sums = mine.cells[cell];
+    CellSums& sums = mine.cells[slot][cell];
     ++sums.count;
     if (!box_set_) {
         const float at[3] = {p.x, p.y, p.z};
@@ -205,13 +241,14 @@ void PathGuide::deposit(const Vec3f& p, const Vec3f& dir, float value,
             x = 2.0f * x - float(qx), y = 2.0f * y - float(qy);
             continue;
         }
-        add_exact(learning_[n].low[k], learning_[n].high[k], q);
+        add_exact(learning_[slot][n].low[k], learning_[slot][n].high[k], q);
         return;
     }
 }
 
 void PathGuide::train(int64_t spp_end) {
     const auto start = std::chrono::steady_clock::now();
+    commit_slot(0), commit_slot(1);
     const int64_t spp_iteration = std::max<int64_t>(spp_end - last_end_, 1);
     last_end_ = spp_end;
     if (!box_set_) {
@@ -237,7 +274,7 @@ void PathGuide::train(int64_t spp_end) {
             energy[n * 4 + size_t(q)] = ch ? energy[size_t(ch) * 4] + energy[size_t(ch) * 4 + 1] +
                                                  energy[size_t(ch) * 4 + 2] +
                                                  energy[size_t(ch) * 4 + 3]
-                                           : learning_[n].sum(q);
+                                           : committed_[n * 4 + size_t(q)];
         }
     const size_t end_of_last = learning_size_;
     for (size_t c = 0; c < cells; ++c) {
@@ -275,15 +312,9 @@ void PathGuide::train(int64_t spp_end) {
     std::vector<uint64_t> counts(cells, 0);
     for (size_t c = 0; c < cells; ++c) {
         fraction[c] = fractions_[c];
-        U128 moments[kGuideFractionCount] = {};
-        for (const std::unique_ptr<Learner>& l : learners_) {
-            const CellSums& s = l->cells[c];
-            counts[c] += s.count;
-            for (int k = 0; k < kGuideFractionCount; ++k)
-                moments[k] += (U128(s.high[k]) << 64) | U128(s.low[k]);
-        }
+        counts[c] = committed_cells_[c].count;
         records_ += counts[c];
-        const auto moment = [&](int k) { return moments[k]; };
+        const auto moment = [&](int k) { return committed_cells_[c].moment[k]; };
         int best = -1;
         for (int k = 0; k < kGuideFractionCount; ++k)
             if (moment(k) > 0 && (best < 0 || moment(k) < moment(best))) best = k;
@@ -379,23 +410,245 @@ void PathGuide::train(int64_t spp_end) {
     trained_at_.push_back(spp_end);
 }
 
+// ---- Saved states and ranks' sums ---------------------------------------------------------
+
+namespace {
+
+constexpr char kStateMagic[16] = "cierzo guide 1";
+constexpr char kSumsMagic[16] = "cierzo sums 1";
+
+struct Out {
+    std::vector<char> bytes;
+    template <typename T>
+    void put(const T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        const size_t at = bytes.size();
+        bytes.resize(at + sizeof(T));
+        std::memcpy(bytes.data() + at, &v, sizeof(T));
+    }
+    template <typename T>
+    void array(const T* data, size_t n) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        put(uint64_t(n));
+        if (n == 0) return;
+        const size_t at = bytes.size();
+        bytes.resize(at + n * sizeof(T));
+        std::memcpy(bytes.data() + at, data, n * sizeof(T));
+    }
+};
+
+struct In {
+    const std::vector<char>& bytes;
+    size_t at = 0;
+    template <typename T>
+    T get() {
+        if (sizeof(T) > bytes.size() - at) throw GuideStateError("truncated");
+        T v;
+        std::memcpy(&v, bytes.data() + at, sizeof(T));
+        at += sizeof(T);
+        return v;
+    }
+    // An array of at most `most` entries
+    template <typename T>
+    std::vector<T> array(uint64_t most, const char* what) {
+        const uint64_t n = get<uint64_t>();
+        if (n > most)
+            throw GuideStateError(std::string(what) + ": " + std::to_string(n) +
+                                  " entries, at most " + std::to_string(most) + " possible");
+        if (n > (bytes.size() - at) / sizeof(T)) throw GuideStateError("truncated");
+        std::vector<T> v(n);
+        if (n) std::memcpy(v.data(), bytes.data() + at, n * sizeof(T));
+        at += n * sizeof(T);
+        return v;
+    }
+    void magic(const char (&m)[16], const char* what) {
+        char got[16];
+        for (char& c : got) c = get<char>();
+        if (std::memcmp(got, m, 16) != 0)
+            throw GuideStateError(std::string("not ") + what + " of this cierzo");
+    }
+    void end() const {
+        if (at != bytes.size()) throw GuideStateError("longer than its contents");
+    }
+};
+
+// FNV-1a over the learning trees' shape: ranks' sums are added only onto the same trees
+uint64_t shape_hash(const uint32_t* child, size_t n, const std::vector<uint32_t>& roots) {
+    uint64_t h = 1469598103934665603ull;
+    const auto mix = [&](uint32_t v) { h = (h ^ v) * 1099511628211ull; };
+    for (size_t i = 0; i < n; ++i) mix(child[i]);
+    for (uint32_t r : roots) mix(r);
+    return h;
+}
+
+}  // namespace
+
+std::vector<char> PathGuide::sums() const {
+    Out o;
+    for (char c : kSumsMagic) o.put(c);
+    o.put(shape_hash(learning_child_.get(), learning_size_ * 4, learning_roots_));
+    for (int a = 0; a < 3; ++a)
+        o.put(low_[a].load(std::memory_order_relaxed)),
+            o.put(high_[a].load(std::memory_order_relaxed));
+    o.array(committed_.data(), committed_.size());
+    o.array(committed_cells_.data(), committed_cells_.size());
+    return std::move(o.bytes);
+}
+
+void PathGuide::add_sums(const std::vector<char>& bytes) {
+    In in{bytes};
+    in.magic(kSumsMagic, "a guide's sums");
+    if (in.get<uint64_t>() !=
+        shape_hash(learning_child_.get(), learning_size_ * 4, learning_roots_))
+        throw GuideStateError("sums of other learning trees");
+    uint32_t low[3], high[3];
+    for (int a = 0; a < 3; ++a) low[a] = in.get<uint32_t>(), high[a] = in.get<uint32_t>();
+    const std::vector<U128> nodes = in.array<U128>(committed_.size(), "learning sums");
+    const std::vector<CellTotals> cells = in.array<CellTotals>(committed_cells_.size(), "cells");
+    in.end();
+    if (nodes.size() != committed_.size() || cells.size() != committed_cells_.size())
+        throw GuideStateError("sums of other learning trees");
+    for (size_t i = 0; i < nodes.size(); ++i) committed_[i] += nodes[i];
+    for (size_t c = 0; c < cells.size(); ++c) {
+        committed_cells_[c].count += cells[c].count;
+        for (int k = 0; k < kGuideFractionCount; ++k)
+            committed_cells_[c].moment[k] += cells[c].moment[k];
+    }
+    for (int a = 0; a < 3; ++a) {
+        if (low[a] < low_[a].load()) low_[a].store(low[a]);
+        if (high[a] > high_[a].load()) high_[a].store(high[a]);
+    }
+}
+
+std::vector<char> PathGuide::save() const {
+    Out o;
+    for (char c : kStateMagic) o.put(c);
+    o.put(int32_t(trainings_)), o.put(last_end_), o.put(uint8_t(box_set_)), o.put(records_);
+    for (int a = 0; a < 3; ++a) o.put(lo_[a]), o.put(size_[a]);
+    o.array(trained_at_.data(), trained_at_.size());
+    o.array(training_seconds_.data(), training_seconds_.size());
+    o.array(spatial_.data(), spatial_.size());
+    o.array(directions_.data(), directions_.size());
+    o.array(roots_.data(), roots_.size());
+    o.array(fractions_.data(), fractions_.size());
+    o.array(learning_roots_.data(), learning_roots_.size());
+    o.array(learning_child_.get(), learning_size_ * 4);
+    std::vector<char> sums = this->sums();
+    o.array(sums.data(), sums.size());
+    return std::move(o.bytes);
+}
+
+void PathGuide::restore(const std::vector<char>& bytes, bool with_sums) {
+    In in{bytes};
+    in.magic(kStateMagic, "a path guide's state");
+    const int32_t trainings = in.get<int32_t>();
+    const int64_t last_end = in.get<int64_t>();
+    const uint8_t box_set = in.get<uint8_t>();
+    const uint64_t records = in.get<uint64_t>();
+    float lo[3], size[3];
+    for (int a = 0; a < 3; ++a) lo[a] = in.get<float>(), size[a] = in.get<float>();
+    const uint64_t most_trainings = 64;
+    auto trained_at = in.array<int64_t>(most_trainings, "trainings");
+    auto seconds = in.array<double>(most_trainings, "training times");
+    // (a cell's cut adds two nodes)
+    auto spatial = in.array<GuideSpatialNode>(2 * uint64_t(kGuideMaxCells), "spatial nodes");
+    auto directions = in.array<GuideDirectionNode>(kGuideMaxNodes + 1, "quadtree nodes");
+    auto roots = in.array<uint32_t>(kGuideMaxCells, "cells");
+    auto fractions = in.array<float>(kGuideMaxCells, "cells' shares");
+    auto learning_roots = in.array<uint32_t>(kGuideMaxCells, "learning trees");
+    auto child = in.array<uint32_t>(4 * uint64_t(kGuideMaxNodes), "learning nodes");
+    const std::vector<char> sums = in.array<char>(bytes.size(), "sums");
+    in.end();
+
+    // Every size and index, so that no lookup can leave its array or loop
+    const auto fail = [](const std::string& why) { throw GuideStateError(why); };
+    const size_t cells = roots.size();
+    if (trainings < 0 || size_t(trainings) != trained_at.size() ||
+        seconds.size() != trained_at.size() || last_end < 0 ||
+        (trainings > 0 && last_end != trained_at.back()) || (trainings > 0 && !box_set))
+        fail("inconsistent trainings");
+    for (int a = 0; a < 3; ++a)
+        if (!std::isfinite(lo[a]) || !(size[a] > 0.0f) || !std::isfinite(size[a]))
+            fail("a box that is not finite");
+    if (cells == 0 || fractions.size() != cells || learning_roots.size() != cells ||
+        spatial.empty() || directions.empty() || child.empty() || child.size() % 4 != 0)
+        fail("inconsistent cell counts");
+    std::vector<uint8_t> seen(cells, 0);
+    for (size_t n = 0; n < spatial.size(); ++n) {
+        const GuideSpatialNode& s = spatial[n];
+        if (s.child > 0) {
+            if (size_t(s.child) <= n || size_t(s.child) + 1 >= spatial.size() || s.axis_or_cell > 2)
+                fail("a spatial node out of range");
+        } else if (s.child < 0 || s.axis_or_cell >= cells || seen[s.axis_or_cell]++) {
+            fail("a spatial leaf out of range");
+        }
+    }
+    for (size_t n = 0; n < directions.size(); ++n)
+        for (int q = 0; q < 4; ++q) {
+            const uint32_t ch = directions[n].child[q];
+            const float e = directions[n].energy[q];
+            if ((ch != 0 && (ch <= n || ch >= directions.size())) || !(e >= 0.0f) ||
+                !std::isfinite(e))
+                fail("a quadtree node out of range");
+        }
+    const size_t nodes = child.size() / 4;
+    for (size_t c = 0; c < cells; ++c) {
+        if (roots[c] >= directions.size() || learning_roots[c] >= nodes ||
+            (c == 0 ? learning_roots[c] != 0 : learning_roots[c] <= learning_roots[c - 1]))
+            fail("a cell's tree out of range");
+        bool known = false;
+        for (float f : kGuideFractions) known |= f == fractions[c];
+        if (!known) fail("a cell's share that is not one of the candidates");
+    }
+    for (size_t n = 0; n < nodes; ++n)
+        for (int q = 0; q < 4; ++q) {
+            const uint32_t ch = child[n * 4 + size_t(q)];
+            if (ch != 0 && (ch <= n || ch >= nodes)) fail("a learning node out of range");
+        }
+
+    trainings_ = trainings, last_end_ = last_end, box_set_ = box_set != 0, records_ = records;
+    for (int a = 0; a < 3; ++a) lo_[a] = lo[a], size_[a] = size[a];
+    trained_at_ = std::move(trained_at), training_seconds_ = std::move(seconds);
+    spatial_ = std::move(spatial), directions_ = std::move(directions);
+    roots_ = std::move(roots), fractions_ = std::move(fractions);
+    learning_roots_ = std::move(learning_roots);
+    learning_child_ = std::make_unique<uint32_t[]>(child.size());
+    std::memcpy(learning_child_.get(), child.data(), child.size() * 4);
+    resize_sums(nodes, cells);
+    if (with_sums) {
+        add_sums(sums);
+    } else {
+        // (the box's bounds only: the first iteration's, which every rank needs)
+        In s{sums};
+        s.magic(kSumsMagic, "a guide's sums");
+        (void)s.get<uint64_t>();
+        for (int a = 0; a < 3; ++a) {
+            low_[a].store(s.get<uint32_t>());
+            high_[a].store(s.get<uint32_t>());
+        }
+    }
+    update_view();
+}
+
 GuideStats PathGuide::stats() const {
     GuideStats s;
     s.cells = uint32_t(roots_.size());
     s.nodes = directions_.size();
     s.learning_nodes = learning_size_;
     s.bytes = directions_.capacity() * sizeof(GuideDirectionNode) +
-              learning_size_ * (sizeof(LearnNode) + 16) +
+              learning_size_ * (2 * sizeof(LearnNode) + 4 * sizeof(U128) + 16) +
               spatial_.capacity() * sizeof(GuideSpatialNode) + roots_.capacity() * 4 +
               learning_roots_.capacity() * 4 + roots_.capacity() * 4 +
-              learners_.size() * roots_.size() * sizeof(CellSums);
+              (2 * learners_.size() * sizeof(CellSums) + sizeof(CellTotals)) * roots_.size();
     s.cells_by_fraction.assign(kGuideFractionCount, 0);
     for (float f : fractions_)
         for (int k = 0; k < kGuideFractionCount; ++k)
             if (f == kGuideFractions[k]) ++s.cells_by_fraction[size_t(k)];
     s.records = records_;  // (and those since the last training)
+    for (const CellTotals& c : committed_cells_) s.records += c.count;
     for (const std::unique_ptr<Learner>& l : learners_)
-        for (const CellSums& c : l->cells) s.records += c.count;
+        for (const std::vector<CellSums>& slot : l->cells)
+            for (const CellSums& c : slot) s.records += c.count;
     s.training_seconds = training_seconds_;
     s.trained_at = trained_at_;
     return s;

@@ -23,9 +23,12 @@
 // into 128-bit sums kept as two 64-bit atomics with the carry), so the sums are exact and
 // the same whatever the order in which threads add them; a path's deposits depend only on
 // the guide of its pass; the training is one thread's deterministic arithmetic on those
-// sums. So an image is the same for any number of threads. (Under MPI, or across a
-// checkpoint, the sums would be added up across ranks or saved exactly; neither is done
-// yet: render() refuses guiding there.)
+// sums. So an image is the same for any number of threads. Deposits go to their pass's
+// slot (pass mod 2: the units of the pass after the one in progress may be rendered
+// early), which joins the iteration's exact sums when the pass is whole (commit_pass).
+// Those sums, with the trees, are what a checkpoint keeps (save, restore: a resumed render
+// goes on with the very numbers) and what ranks add up before each training (sums,
+// add_sums: every rank then trains the same trees from the same integers).
 //
 // Memory is bounded: at most kGuideMaxCells cells and kGuideMaxNodes quadtree nodes, which
 // stop the subdivisions where they would be exceeded (stats(): what it uses).
@@ -35,6 +38,8 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "integrators/guide_stats.h"
@@ -43,11 +48,19 @@
 
 namespace cierzo {
 
+__extension__ typedef unsigned __int128 GuideSum;  // an exact sum of deposits
+
 inline constexpr double kGuideSubdivide = 0.01;          // ρ: a quadrant's share to subdivide
 inline constexpr int kGuideMaxDepth = 20;                // quadtree levels
 inline constexpr double kGuideSpatialThreshold = 12000;  // c: vertices per cell, as above
 inline constexpr uint32_t kGuideMaxCells = 1u << 14;
 inline constexpr uint32_t kGuideMaxNodes = 1u << 20;
+
+// A saved state or a rank's sums that cannot be read (what is wrong with it); the caller
+// names the file or the rank.
+struct GuideStateError : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
 
 class PathGuide {
 public:
@@ -74,15 +87,34 @@ public:
         float fraction = 0.0f;
     };
 
-    // One vertex's record: the direction `dir` leaving point p, and what came back along it
-    // divided by its density (L/p, before the quantisation); `selection` where the vertex
-    // was diffuse with a guide to sample. Thread-safe.
-    void deposit(const Vec3f& p, const Vec3f& dir, float value,
+    // One vertex's record, of a path of pass `pass`: the direction `dir` leaving point p,
+    // and what came back along it divided by its density (L/p, before the quantisation);
+    // `selection` where the vertex was diffuse with a guide to sample. Thread-safe.
+    void deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float value,
                  const SelectionSample* selection = nullptr);
 
+    // Pass `pass` is whole (no path of it is being rendered): its deposits join the
+    // iteration's sums. Not while a path of pass + 2 is rendered (the same slot).
+    void commit_pass(int32_t pass);
+
     // Ends the iteration after the passes up to `spp_end` paths per pixel (no paths may be
-    // rendered meanwhile): the learnt trees become the sampled ones.
+    // rendered meanwhile, and none of a later pass has been): every deposit joins the
+    // iteration's sums, and the learnt trees become the sampled ones.
     void train(int64_t spp_end);
+    // The paths per pixel of the last training (0: none yet).
+    int64_t trained_through() const { return last_end_; }
+
+    // The whole state after the committed passes (the trees sampled and learning, and the
+    // iteration's exact sums): restored, it goes on as this guide would. restore() takes a
+    // fresh guide; with `sums` false it leaves the iteration's sums at zero (the other ranks
+    // of a resumed render: one rank holds them). It checks every size and index and throws
+    // GuideStateError for a state that is malformed.
+    std::vector<char> save() const;
+    void restore(const std::vector<char>& state, bool sums = true);
+    // The committed passes' exact sums (a rank's, for the others before a training), and
+    // adding another guide's: a guide of the same trees (GuideStateError otherwise).
+    std::vector<char> sums() const;
+    void add_sums(const std::vector<char>& sums);
 
     GuideStats stats() const;
 
@@ -93,27 +125,38 @@ private:
     struct CellTrees;  // one cell's sampled tree and next learning tree
 
     void update_view();
+    void resize_sums(size_t nodes, size_t cells);  // zeroed
     void allocate_learning(const std::vector<Shape>& trees);
 
     std::vector<GuideSpatialNode> spatial_{GuideSpatialNode{}};
     std::vector<GuideDirectionNode> directions_;  // every cell's sampled tree
     std::vector<uint32_t> roots_;                 // per cell
     std::vector<float> fractions_;                // per cell: α
-    std::unique_ptr<LearnNode[]> learning_;
+    // The learning trees: per pass slot, their quadrants' sums (atomic: deposits); the
+    // committed passes' (U128, four a node)
+    std::unique_ptr<LearnNode[]> learning_[2];
+    std::vector<GuideSum> committed_;
     std::unique_ptr<uint32_t[]> learning_child_;  // 4 per node: its quadrants' nodes, or 0
     size_t learning_size_ = 0;
     std::vector<uint32_t> learning_roots_;  // per cell
-    // Each render thread's sums per cell (its vertices, and for each candidate α the second
-    // moment's estimate, low and high words), summed at the training: the cells' sums are
-    // touched by every record, and shared ones would have every thread wait on their lines
+    // Each render thread's sums per cell and pass slot (its vertices, and for each candidate
+    // α the second moment's estimate, low and high words), added up when a pass is
+    // committed: the cells' sums are touched by every record, and shared ones would have
+    // every thread wait on their lines
     struct CellSums {
         uint64_t count = 0;
         uint64_t low[kGuideFractionCount] = {}, high[kGuideFractionCount] = {};
     };
     struct Learner {
-        std::vector<CellSums> cells;
+        std::vector<CellSums> cells[2];
     };
-    Learner& learner();      // this thread's
+    struct CellTotals {  // the committed passes'
+        uint64_t count = 0;
+        GuideSum moment[kGuideFractionCount] = {};
+    };
+    std::vector<CellTotals> committed_cells_;
+    Learner& learner();  // this thread's
+    void commit_slot(int slot);
     const uint64_t serial_;  // (which guide a thread's cached learner is of)
     const bool merge_;
     std::mutex learners_mutex_;

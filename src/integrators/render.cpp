@@ -210,17 +210,22 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         check_guiding(scene.settings.estimator, scene.source.string());
         const char* where = options.integrator != Integrator::kScalar ? "--integrator wavefront"
                             : world.size > 1                          ? "MPI"
-                            : options.resume                          ? "--resume"
-                            : options.checkpoint                      ? "--checkpoint"
                             : options.strategies                      ? "--strategies"
                                                                       : nullptr;
         if (where)
             throw InputError(scene.source.string() + ": --guiding " +
                              guiding_name(scene.settings.estimator.guiding) +
                              " is not supported with " + where +
-                             " yet: a guided render runs with --integrator scalar in one process, "
-                             "without checkpoints (docs/estimators.md, \"Path guiding\")");
+                             " yet: a guided render runs with --integrator scalar in one process "
+                             "(docs/estimators.md, \"Path guiding\")");
         guide = std::make_unique<PathGuide>(options.guide_merges_threads);
+        // (a resumed render's guide goes on from its checkpoint's)
+        if (world.rank == 0 && options.resume) {
+            if (options.resume->guide.empty())
+                throw InputError(scene.source.string() +
+                                 ": the checkpoint to resume holds no path guide");
+            guide->restore(options.resume->guide);
+        }
     }
     const bool root = world.rank == 0;
     std::vector<std::string> warnings;
@@ -282,6 +287,10 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     }
     const std::vector<int64_t> bounds =
         pass_bounds(resume ? resume->spp_done : 0, rs.spp, pass_pixels(scene));
+    // (a render stopped at a training point, before the training: it trains now)
+    if (guide && resume && PathGuide::trains_before(bounds[0]) &&
+        guide->trained_through() < bounds[0])
+        guide->train(bounds[0]);
 
     if (world.size > 1) {
         // Under MPI every rank owns a band of the image and adds its passes; rank 0 also
@@ -335,7 +344,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                           tiles.size() * (bounds.size() - 1));
         Coordinator coord(scene, options, tiles, bounds, result.film, start, progress, pool,
                           guide.get());
-        if (resume) coord.restore_pending(*resume);
+        if (resume && !guide) coord.restore_pending(*resume);  // (guided: none kept)
 
         CheckpointWriter checkpoints(options, st);
         WorkTotals totals;

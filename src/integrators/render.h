@@ -60,6 +60,9 @@ struct RenderState {
     Film pending{0, 0};
     RayCounts rays;        // rays of the passes in `film` (all runs)
     double seconds = 0.0;  // render time of all runs so far
+    // A guided render's path guide after the passes in `film` (PathGuide::save; its
+    // checkpoints then keep whole passes only: no pending tiles)
+    std::vector<char> guide;
 };
 
 struct RenderOptions {

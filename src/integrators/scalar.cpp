@@ -32,7 +32,7 @@ struct GuideRecord {
 };
 constexpr int kMaxGuideRecords = 64;
 
-void deposit_records(PathGuide& guide, const GuideRecord* records, int count) {
+void deposit_records(PathGuide& guide, int32_t pass, const GuideRecord* records, int count) {
     for (int i = 0; i < count; ++i) {
         const GuideRecord& r = records[i];
         const auto part = [](float g, float t) { return t > 0.0f ? g / t : 0.0f; };
@@ -44,7 +44,7 @@ void deposit_records(PathGuide& guide, const GuideRecord* records, int count) {
         const float l = luminance(li);
         PathGuide::SelectionSample s;
         if (r.selection) s = {luminance(r.f_cos * li), r.guide_pdf, r.lobe_pdf, r.fraction};
-        guide.deposit(r.p, r.dir, r.density > 0.0f ? l / r.density : 0.0f,
+        guide.deposit(pass, r.p, r.dir, r.density > 0.0f ? l / r.density : 0.0f,
                       r.selection ? &s : nullptr);
     }
 }
@@ -53,7 +53,7 @@ void deposit_records(PathGuide& guide, const GuideRecord* records, int count) {
 
 CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                                   const Ray<float>& camera_ray, const SampleStream<float>& rng,
-                                  RayCounts& rays, PathGuide* learn) {
+                                  RayCounts& rays, PathGuide* learn, int32_t pass) {
     Vec3f radiance(0.0f);
     Vec3f throughput(1.0f);
     Ray<float> ray = camera_ray;
@@ -151,7 +151,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         ray = {next.o, next.d};
         ++rays.extension;
     }
-    if (learn) deposit_records(*learn, records, recorded);
+    if (learn) deposit_records(*learn, pass, records, recorded);
     return radiance;
 }
 
@@ -205,7 +205,7 @@ CIERZO_PATH_LOOP void trace_light_path(const Scene& scene, const PathContext& c,
 }
 
 void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays,
-                        PathGuide* guide) {
+                        PathGuide* guide, int32_t pass) {
     const RenderSettings& rs = scene.settings;
     const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
     PathContext context = scene.path_context();
@@ -243,7 +243,7 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
                 ++rays.camera;
                 px.add(trace_path(scene, context,
                                   scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h),
-                                  rng, rays, guide));
+                                  rng, rays, guide, pass));
             }
         }
     }

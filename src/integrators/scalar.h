@@ -15,9 +15,10 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
 // The same with the scene's path context (Scene::path_context) computed once by the caller,
 // and the path's numbers from the sampler's stream of its (seed, pixel, sample)
 // (kernels/sampler.h, camera_stream). A guided render's paths sample from context.guide and
-// deposit their records in `learn` (path_guide.h).
+// deposit their records in `learn` (path_guide.h) as paths of pass `pass`.
 Vec3f trace_path(const Scene& scene, const PathContext& context, const Ray<float>& camera_ray,
-                 const SampleStream<float>& rng, RayCounts& rays, PathGuide* learn = nullptr);
+                 const SampleStream<float>& rng, RayCounts& rays, PathGuide* learn = nullptr,
+                 int32_t pass = 0);
 
 // One path from the lights (light tracing), with the numbers of the camera sample whose
 // stream it takes (light_stream): every connection to the pinhole that nothing blocks is
@@ -28,9 +29,9 @@ void trace_light_path(const Scene& scene, const PathContext& context, const Pinh
 // Samples [tile.s0, tile.s1) of the tile's pixels, added to the tile's sums; for a batch of
 // light paths (tile.light), one path from the lights per key of those pixels and samples,
 // splatted. `guide`: a guided render's path guide (path_guide.h), which its camera paths
-// sample from (once trained) and learn into.
+// sample from (once trained) and learn into, as paths of pass `pass`.
 void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, RayCounts& rays,
-                        PathGuide* guide = nullptr);
+                        PathGuide* guide = nullptr, int32_t pass = 0);
 
 // The same for the bidirectional estimators (scalar_bdpt.cpp): each sample's light subpath,
 // its connections to the pinhole splatted, then its camera subpath with every connection.

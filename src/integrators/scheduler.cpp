@@ -118,7 +118,7 @@ UnitResult UnitRenderer::render(const Unit& u) const {
                 std::make_shared<StrategyTile>(strategies_->layout(), t.x0, t.y0, t.x1, t.y1);
         render_tile_bdpt_scalar(scene_, t, r.sums, r.rays, light_store_limit_);
     } else {
-        render_tile_scalar(scene_, t, r.sums, r.rays, guide_);
+        render_tile_scalar(scene_, t, r.sums, r.rays, guide_, u.pass);
     }
     return r;
 }
@@ -151,6 +151,8 @@ Coordinator::Coordinator(const Scene& scene, const RenderOptions& options,
       from_zero_(bounds_.empty() || bounds_[0] == 0),
       early_(!splat_pixels_ && !options.strategies) {
     passes_ = int32_t(bounds_.size()) - 1;
+    // (nothing to render: a resumed render that had reached its paths per pixel)
+    if (passes_ <= 0) stopping_ = true;
     for (PassWork& w : work_) w.reset(tiles_.size(), splat_pixels_);
     if (early_ && (passes_ > 1 || !from_zero_)) {
         next_.resize(size_t(film.width()) * size_t(film.height()));
@@ -282,6 +284,12 @@ RenderState Coordinator::snapshot(const RenderState* resumed) const {
                 }
             }
     }
+    if (guide_) {
+        // (the pass in progress is left out: its tiles' deposits are mixed in its slot
+        // with those of its tiles not done; a resumed render renders it again)
+        s.pending_end = 0, s.pending_tiles.clear(), s.pending = Film(0, 0);
+        s.guide = guide_->save();
+    }
     return s;
 }
 
@@ -301,6 +309,7 @@ LaneStats Coordinator::lanes() const {
 }
 
 std::optional<Unit> Coordinator::take(int32_t ahead) {
+    if (frontier_ + ahead >= passes_) return std::nullopt;
     PassWork& w = work_[(first_ + ahead) & 1];
     while (w.cursor < tiles_.size() && w.done[w.cursor]) ++w.cursor;  // (restored tiles)
     if (w.cursor >= tiles_.size()) return std::nullopt;
@@ -399,6 +408,7 @@ void Coordinator::commit_passes() {
         if (early_ && into_next()) std::swap(film_.pixels(), next_);
         rays_ += w.rays;
         w.reset(tiles_.size(), splat_pixels_);
+        if (guide_) guide_->commit_pass(frontier_);
         first_ ^= 1;
         ++frontier_;
         if (frontier_ == passes_) {

@@ -313,6 +313,12 @@ TEST(Checkpoint, AFinishedRenderOnABoundaryContinuesToTheBitsOfALongerOne) {
     const RenderResult continued = render(longer, r);
     EXPECT_TRUE(same_film(full.film, continued.film));
     EXPECT_EQ(continued.stats.rays.camera, uint64_t(40 * 32 * 32));
+    // Resumed to the paths it has reached, it ends at once with its film (it once waited
+    // forever for a pass that did not exist)
+    r.resume = &*last;
+    const RenderResult same = render(shorter, r);
+    EXPECT_TRUE(same_film(last->film, same.film));
+    EXPECT_EQ(same.stats.rays.camera, 0u);
 }
 
 TEST(CheckpointFile, KeepsTheStateExactlyWithTilesOfAPass) {

@@ -5,16 +5,23 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <map>
+#include <mutex>
 #include <random>
 #include <thread>
 #include <vector>
 
+#include <unistd.h>
+
 #include "core/error.h"
+#include "integrators/checkpoint.h"
 #include "integrators/path_guide.h"
 #include "scene/estimator_options.h"
 #include "support/analytic_scenes.h"
 #include "support/emulator.h"
 #include "support/report_scene.h"
+#include "support/removed_at_exit.h"
 #include "support/render_variants.h"
 #include "support/statistics.h"
 
@@ -70,7 +77,7 @@ double mass(const GuideView& g, uint32_t n, double x0, double y0, double x1, dou
 
 // A guide trained twice on the records of a lobe (the second time on its refined trees)
 void train_on(PathGuide& guide, const std::vector<Record>& records, int64_t spp) {
-    for (const Record& r : records) guide.deposit(r.p, r.dir, r.value);
+    for (const Record& r : records) guide.deposit(0, r.p, r.dir, r.value);
     guide.train(spp);
 }
 
@@ -161,7 +168,7 @@ TEST(Guiding, DegenerateCellsGiveNoNaN) {
     }
     {  // one record
         PathGuide guide;
-        guide.deposit(Vec3f(0.0f), Vec3f(0, 1, 0), 3.0f);
+        guide.deposit(0, Vec3f(0.0f), Vec3f(0, 1, 0), 3.0f);
         guide.train(1);
         guide.train(2);
         const GuideView* g = guide.view();
@@ -170,12 +177,12 @@ TEST(Guiding, DegenerateCellsGiveNoNaN) {
     {  // all the energy in one direction, huge values, and values that are not numbers
         PathGuide guide;
         const Vec3f d = normalize(Vec3f(1, 2, 3));
-        for (int i = 0; i < 100000; ++i) guide.deposit(Vec3f(0.0f), d, 1e30f);
-        guide.deposit(Vec3f(0.0f), d, std::nanf(""));
-        guide.deposit(Vec3f(0.0f), d, -1.0f);
-        guide.deposit(Vec3f(0.0f), d, INFINITY);
+        for (int i = 0; i < 100000; ++i) guide.deposit(0, Vec3f(0.0f), d, 1e30f);
+        guide.deposit(0, Vec3f(0.0f), d, std::nanf(""));
+        guide.deposit(0, Vec3f(0.0f), d, -1.0f);
+        guide.deposit(0, Vec3f(0.0f), d, INFINITY);
         guide.train(1);
-        for (int i = 0; i < 100000; ++i) guide.deposit(Vec3f(0.0f), d, 1e30f);
+        for (int i = 0; i < 100000; ++i) guide.deposit(0, Vec3f(0.0f), d, 1e30f);
         guide.train(2);
         const GuideView* g = guide.view();
         const uint32_t root = g->roots[guide_cell(*g, Vec3f(0.0f))];
@@ -233,7 +240,7 @@ TEST(Guiding, LearningIsTheSameInAnyOrderAndOnAnyNumberOfThreads) {
         for (size_t t = 0; t < 3; ++t)
             threads.emplace_back([&, t] {
                 for (size_t i = t; i < records->size(); i += 3)
-                    threaded.deposit((*records)[i].p, (*records)[i].dir, (*records)[i].value);
+                    threaded.deposit(0, (*records)[i].p, (*records)[i].dir, (*records)[i].value);
             });
         for (std::thread& t : threads) t.join();
         threaded.train(records == &first ? 1 : 2);
@@ -278,7 +285,7 @@ TEST(Guiding, MemoryStaysWithinItsBounds) {
         std::uniform_real_distribution<float> u(0.0f, 1.0f);
         for (int i = 0; i < 400000; ++i) {
             const Vec3f p(u(rng), u(rng), u(rng));
-            guide.deposit(p, uniform_direction(rng), 1.0f + u(rng));
+            guide.deposit(0, p, uniform_direction(rng), 1.0f + u(rng));
         }
         guide.train(spp);
     }
@@ -404,6 +411,125 @@ TEST(GuidedRender, AgreesWithMisPerPixelOnEveryScene) {
             EXPECT_GE(test::pixels_agreeing(a.film, b.film), 0.99);
         }
     }
+}
+
+// ---- Checkpoints -------------------------------------------------------------------------
+
+namespace fs = std::filesystem;
+const fs::path kDir = fs::temp_directory_path() / ("cierzo_guide_" + std::to_string(getpid()));
+const test::RemovedAtExit kDirRemoved{kDir};
+
+RenderOptions scalar_options(int threads) {
+    RenderOptions o;
+    o.integrator = Integrator::kScalar;
+    o.threads = threads;
+    o.progress = false;
+    return o;
+}
+
+// The state a render of `scene` to `spp` paths per pixel ends with.
+RenderState final_state(Scene scene, int64_t spp) {
+    scene.settings.spp = spp;
+    RenderOptions o = scalar_options(2);
+    RenderState last;
+    o.checkpoint = [&](const RenderState& s) { last = s; };
+    render(scene, o);
+    return last;
+}
+
+RenderResult resumed_from(const Scene& scene, const RenderState& state, int threads) {
+    RenderOptions o = scalar_options(threads);
+    o.resume = &state;
+    return render(scene, o);
+}
+
+// A guided render's checkpoint holds its guide and whole passes. Resumed (on another number
+// of threads) it ends in the uninterrupted render's bits: from the end of a pass between
+// two trainings (the guide's sums of the iteration's passes so far must be exact), from a
+// training point reached before its training (a render of 16 paths per pixel ends before the
+// training at 16), and from states taken every millisecond (mid-pass: that pass is rendered
+// again), each written to a file and read back.
+TEST(GuidedRender, EveryCheckpointResumesToTheUninterruptedBits) {
+    // (passes end at 1, 2, 4, 8, 16, 32, 48, 64, 80: trainings at the powers of two)
+    Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 80);
+    s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
+    const RenderResult full = render_on(s, 2);
+    for (int64_t spp : {16, 48}) {
+        SCOPED_TRACE(spp);
+        const RenderState st = final_state(s, spp);
+        ASSERT_EQ(st.spp_done, spp);
+        ASSERT_FALSE(st.guide.empty());
+        EXPECT_TRUE(same_bits(resumed_from(s, st, 3).film, full.film));
+        // (the planted bug: the iteration's sums left out of the state)
+        if (spp == 48) {
+            PathGuide g;
+            g.restore(st.guide, false);
+            RenderState without = st;
+            without.guide = g.save();
+            EXPECT_FALSE(same_bits(resumed_from(s, without, 3).film, full.film));
+        }
+    }
+
+    std::vector<RenderState> states;
+    std::mutex m;
+    RenderOptions o = scalar_options(2);
+    o.checkpoint_every = 0.001;
+    o.checkpoint = [&](const RenderState& st) {
+        std::lock_guard lock(m);
+        states.push_back(st);
+    };
+    ASSERT_TRUE(same_bits(render(s, o).film, full.film)) << "checkpointing changed the image";
+    std::map<int64_t, const RenderState*> by_spp;  // (one state per paths reached)
+    for (const RenderState& st : states) {
+        EXPECT_TRUE(st.pending_tiles.empty());
+        EXPECT_FALSE(st.guide.empty());
+        by_spp[st.spp_done] = &st;
+    }
+    fs::create_directories(kDir);
+    const CheckpointIdentity id = checkpoint_identity(s, "scalar", "scalar", 0);
+    for (const auto& [spp, st] : by_spp) {
+        SCOPED_TRACE(spp);
+        const fs::path file = kDir / ("guided_" + std::to_string(spp) + ".exr");
+        write_checkpoint(file, id, *st);
+        const Checkpoint c = read_checkpoint(file);
+        ASSERT_EQ(c.state.guide, st->guide);
+        EXPECT_TRUE(same_bits(resumed_from(s, c.state, 1).film, full.film));
+    }
+}
+
+TEST(GuidedRender, ACheckpointWithADamagedGuideOrOfAnUnguidedRenderIsRefused) {
+    Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 8);
+    s.set_resolution(16, 16);
+    const RenderState st = final_state(s, 8);
+    fs::create_directories(kDir);
+    const CheckpointIdentity id = checkpoint_identity(s, "scalar", "scalar", 0);
+    for (int damage = 0; damage < 3; ++damage) {
+        RenderState bad = st;
+        if (damage == 0) bad.guide.resize(bad.guide.size() / 2);  // truncated
+        if (damage == 1) bad.guide.push_back(0);                  // longer than its contents
+        if (damage == 2) bad.guide[3] ^= 0x20;                    // not a guide's state
+        const fs::path file = kDir / ("damaged_" + std::to_string(damage) + ".exr");
+        write_checkpoint(file, id, bad);
+        try {
+            read_checkpoint(file);
+            ADD_FAILURE() << "a damaged guide was read: " << damage;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("path guide"), std::string::npos) << e.what();
+        }
+    }
+    // A guided checkpoint is not resumed unguided, nor an unguided one guided
+    Scene plain = s;
+    plain.settings.estimator.guiding = Guiding::kNone;
+    Checkpoint c{id, st};
+    EXPECT_THROW(check_resume("g.exr", c, checkpoint_identity(plain, "scalar", "scalar", 0)),
+                 InputError);
+    c.id = checkpoint_identity(plain, "scalar", "scalar", 0);
+    EXPECT_THROW(check_resume("p.exr", c, id), InputError);
+    // An unguided state has no guide for a guided render to go on from
+    RenderState none = st;
+    none.guide.clear();
+    EXPECT_THROW(resumed_from(s, none, 1), InputError);
 }
 
 TEST(GuidedRender, RefusedWhereItIsNotSupported) {
