@@ -150,6 +150,7 @@ void PathGuide::resize_sums(size_t nodes, size_t cells) {
     }
     committed_.assign(nodes * 4, 0);
     committed_cells_.assign(cells, CellTotals{});
+    std::lock_guard lock(learners_mutex_);
     for (const std::unique_ptr<Learner>& l : learners_)
         for (std::vector<CellSums>& c : l->cells) c.assign(cells, CellSums{});
 }
@@ -162,6 +163,7 @@ void PathGuide::commit_slot(int slot) {
             nodes[n].low[q].store(0, std::memory_order_relaxed);
             nodes[n].high[q].store(0, std::memory_order_relaxed);
         }
+    std::lock_guard lock(learners_mutex_);
     for (const std::unique_ptr<Learner>& l : learners_) {
         std::vector<CellSums>& cells = l->cells[slot];
         for (size_t c = 0; c < cells.size(); ++c) {
@@ -630,7 +632,20 @@ void PathGuide::restore(const std::vector<char>& bytes, bool with_sums) {
     update_view();
 }
 
+std::vector<char> PathGuide::merge_states(const std::vector<std::vector<char>>& states) {
+    if (states.empty()) return {};
+    PathGuide total;
+    total.restore(states[0]);
+    for (size_t i = 1; i < states.size(); ++i) {
+        PathGuide g;
+        g.restore(states[i]);
+        total.add_sums(g.sums());
+    }
+    return total.save();
+}
+
 GuideStats PathGuide::stats() const {
+    std::lock_guard lock(learners_mutex_);
     GuideStats s;
     s.cells = uint32_t(roots_.size());
     s.nodes = directions_.size();

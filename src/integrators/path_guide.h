@@ -115,6 +115,9 @@ public:
     // adding another guide's: a guide of the same trees (GuideStateError otherwise).
     std::vector<char> sums() const;
     void add_sums(const std::vector<char>& sums);
+    // The state of ranks' guides of the same trees (save's, each with its rank's sums) as
+    // one guide with all their sums: a checkpoint's under MPI.
+    static std::vector<char> merge_states(const std::vector<std::vector<char>>& states);
 
     GuideStats stats() const;
 
@@ -159,7 +162,7 @@ private:
     void commit_slot(int slot);
     const uint64_t serial_;  // (which guide a thread's cached learner is of)
     const bool merge_;
-    std::mutex learners_mutex_;
+    mutable std::mutex learners_mutex_;  // (learners_ grows as threads first deposit)
     std::vector<std::unique_ptr<Learner>> learners_;
     std::atomic<Learner*> first_{nullptr};
     uint64_t records_ = 0;

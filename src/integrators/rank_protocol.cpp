@@ -40,6 +40,35 @@ using rank::LocalQueue;
 using rank::Outbox;
 
 constexpr int kTagToRoot = 21, kTagControl = 22, kTagState = 23, kTagResults = 24, kTagSplats = 25;
+constexpr int kTagGuideStart = 26, kTagGuideSums = 27, kTagGuideState = 28;
+
+// A guided render's messages (rank_protocol.h): a number (the passes' start, a training's
+// pass, a checkpoint's id), then a guide's bytes (PathGuide's state or sums).
+std::vector<char> guide_message(int64_t number, const std::vector<char>& guide) {
+    std::vector<char> m(sizeof(number) + guide.size());
+    std::memcpy(m.data(), &number, sizeof(number));
+    if (!guide.empty()) std::memcpy(m.data() + sizeof(number), guide.data(), guide.size());
+    return m;
+}
+int64_t guide_number(const std::vector<char>& m, const std::string& from) {
+    if (m.size() < sizeof(int64_t))
+        throw MessageError(from + " sent a malformed path guide message (" +
+                           std::to_string(m.size()) + " bytes)");
+    int64_t n;
+    std::memcpy(&n, m.data(), sizeof(n));
+    return n;
+}
+std::vector<char> guide_bytes(const std::vector<char>& m) {
+    return std::vector<char>(m.begin() + sizeof(int64_t), m.end());
+}
+// Every rank's guide (of the same trees) as one with all their sums.
+std::vector<char> merged_guide(const std::vector<std::vector<char>>& guides) {
+    try {
+        return PathGuide::merge_states(guides);
+    } catch (const GuideStateError& e) {
+        throw MessageError(std::string("the ranks' path guides do not fit together: ") + e.what());
+    }
+}
 
 std::string rank_name(int r) { return "rank " + std::to_string(r); }
 
@@ -70,6 +99,17 @@ struct Dealing {
     Gathering bands;   // the checkpoint's
     Gathering finals;  // the end's (into a film made at the start: no pages faulted in then)
     bool finals_done = false;
+    // A guided render: each rank's guide, per checkpoint (and kFinalState: the end's); a
+    // checkpoint whose bands are all in waits in `ready` for the guides
+    std::map<int64_t, std::vector<std::vector<char>>> guides;
+    std::optional<RenderState> ready;
+    bool guides_in(int64_t id, int ranks) const {
+        auto it = guides.find(id);
+        if (it == guides.end()) return false;
+        for (const std::vector<char>& g : it->second)
+            if (g.empty()) return false;
+        return int(it->second.size()) == ranks;
+    }
 };
 
 }  // namespace
@@ -98,7 +138,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     Dealing dealing;
     if (root) {
         const RenderState* resume = run.resume;
-        const bool with_pending = resume && !splatting && run.bounds.size() > 1 &&
+        // (a guided render's checkpoints keep whole passes only)
+        const bool with_pending = resume && !splatting && !run.guide && run.bounds.size() > 1 &&
                                   resume->pending_end == run.bounds[1] &&
                                   !resume->pending_tiles.empty();
         for (int r = 0; r < ranks; ++r) {
@@ -109,7 +150,8 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         progress.emplace(run.options.progress && isatty(STDERR_FILENO),
                          run.units.size() * (run.bounds.size() - 1));
         dealer.emplace(bands, run.light_units, run.bounds, run.options, run.start, *progress,
-                       with_pending ? resume->pending_tiles : std::vector<uint8_t>{});
+                       with_pending ? resume->pending_tiles : std::vector<uint8_t>{},
+                       run.guide != nullptr);
         dealing.waiting.resize(size_t(ranks));
         dealing.told.resize(size_t(ranks));
         // (the film of the end made now, before the render: its pages are in by then)
@@ -126,6 +168,38 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         }
         std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
+    // A guided render: the passes (rank 0's, from where a resumed render starts) and the
+    // guide of a resumed checkpoint, without its sums (rank 0 holds them)
+    std::vector<int64_t> bounds = run.bounds;
+    if (run.guide) {
+        if (root) {
+            const std::vector<char> start =
+                guide_message(bounds[0], run.resume ? run.guide->save() : std::vector<char>{});
+            for (int r = 1; r < ranks; ++r) link.send(r, kTagGuideStart, start);
+        } else {
+            for (;;) {
+                link.pump();
+                if (std::optional<mpi::Message> m = link.receive(kTagGuideStart, 0)) {
+                    const int64_t spp_start = guide_number(m->bytes, names[0]);
+                    if (spp_start < 0 || spp_start > rs.spp)
+                        throw MessageError("rank 0 sent passes that start at " +
+                                           std::to_string(spp_start) + " paths per pixel");
+                    bounds = pass_bounds(spp_start, rs.spp, pass_pixels(run.scene));
+                    if (m->bytes.size() > sizeof(int64_t)) {
+                        try {
+                            run.guide->restore(guide_bytes(m->bytes), false);
+                        } catch (const GuideStateError& e) {
+                            throw MessageError("rank 0 sent a path guide that cannot be read: " +
+                                               std::string(e.what()));
+                        }
+                    }
+                    break;
+                }
+                std::this_thread::sleep_for(std::chrono::microseconds(200));
+            }
+        }
+    }
+    const int32_t passes = int32_t(bounds.size()) - 1;
 
     // ---- The render threads
     Outbox outbox;
@@ -213,6 +287,60 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
         for (std::thread& t : workers)
             if (t.joinable()) t.join();
     };
+
+    // ---- A guided render's trainings: every rank sends its exact sums of the iteration to
+    // every other, adds theirs (integers: in any order, the same) and trains the same trees
+    int32_t committed = 0;  // passes whose deposits have joined the guide's sums
+    std::map<int64_t, std::vector<mpi::Message>> early_sums;  // (of a later training)
+    const auto train_guide = [&](int32_t pass) {
+        const std::vector<char> mine = guide_message(pass, run.guide->sums());
+        for (int r = 0; r < ranks; ++r)
+            if (r != me) link.send(r, kTagGuideSums, mine);
+        std::vector<std::vector<char>> from(static_cast<size_t>(ranks));
+        int in = 0;
+        const auto take = [&](mpi::Message&& m) {
+            const int64_t p = guide_number(m.bytes, names[size_t(m.source)]);
+            if (p > pass) {
+                early_sums[p].push_back(std::move(m));
+                return;
+            }
+            if (p < pass || m.source == me || !from[size_t(m.source)].empty())
+                throw MessageError(names[size_t(m.source)] +
+                                   " sent its path guide's sums of pass " + std::to_string(p) +
+                                   " at the training before pass " + std::to_string(pass));
+            from[size_t(m.source)] = guide_bytes(m.bytes);
+            ++in;
+        };
+        if (auto it = early_sums.find(pass); it != early_sums.end()) {
+            std::vector<mpi::Message> early = std::move(it->second);
+            early_sums.erase(it);
+            for (mpi::Message& m : early) take(std::move(m));
+        }
+        while (in < ranks - 1) {
+            if (failed) std::rethrow_exception(failure);
+            link.pump();
+            bool got = false;
+            while (std::optional<mpi::Message> m = link.receive(kTagGuideSums)) {
+                take(std::move(*m));
+                got = true;
+            }
+            if (!got && in < ranks - 1) std::this_thread::sleep_for(std::chrono::microseconds(100));
+        }
+        for (int r = 0; r < ranks; ++r) {
+            if (r == me) continue;
+            try {
+                run.guide->add_sums(from[size_t(r)]);
+            } catch (const GuideStateError& e) {
+                throw MessageError(names[size_t(r)] +
+                                   " sent path guide sums that do not fit: " + e.what());
+            }
+        }
+        run.guide->train(bounds[size_t(pass)]);
+    };
+    // (a resumed render stopped at a training point, before the training, trains first)
+    if (run.guide && passes > 0 && PathGuide::trains_before(bounds[0]) &&
+        run.guide->trained_through() < bounds[0])
+        train_guide(0);
 
     // ---- The main thread's loop
     bool waiting = false, over = false, final_sent = false, news = true, last_had_units = true;
@@ -302,13 +430,38 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         if (run.resume) st.rays += run.resume->rays;
                         st.seconds =
                             seconds_since(run.start) + (run.resume ? run.resume->seconds : 0.0);
-                        dealing.checkpoint = 0;
-                        run.checkpoint(std::move(st));
+                        dealing.ready = std::move(st);
                     }
                     mpi::recycle(std::move(m->bytes));
                     outcome.gather_seconds += thread_seconds() - gather_start;
                 }
-                if (dealing.finals_done) break;
+                // (a guided render's guides, each rank's with its sums)
+                while (std::optional<mpi::Message> m = link.receive(kTagGuideState)) {
+                    acted = true;
+                    outcome.bytes_received += m->bytes.size();
+                    const int64_t id = guide_number(m->bytes, names[size_t(m->source)]);
+                    std::vector<std::vector<char>>& g = dealing.guides[id];
+                    g.resize(size_t(ranks));
+                    if (!g[size_t(m->source)].empty() || m->bytes.size() <= sizeof(int64_t))
+                        throw MessageError(names[size_t(m->source)] +
+                                           " sent a path guide for a checkpoint twice, or empty");
+                    g[size_t(m->source)] = guide_bytes(m->bytes);
+                }
+                // A checkpoint whose bands (and guides) are all in
+                if (dealing.ready && (!run.guide || dealing.guides_in(dealing.checkpoint, ranks))) {
+                    RenderState st = std::move(*dealing.ready);
+                    dealing.ready.reset();
+                    if (run.guide) {
+                        st.guide = merged_guide(dealing.guides[dealing.checkpoint]);
+                        dealing.guides.erase(dealing.checkpoint);
+                        st.pending_end = 0, st.pending_tiles.clear(), st.pending = Film(0, 0);
+                    }
+                    dealing.checkpoint = 0;
+                    run.checkpoint(std::move(st));
+                }
+                if (dealing.finals_done &&
+                    (!run.guide || dealing.guides_in(wire::kFinalState, ranks)))
+                    break;
             }
             // -- Every rank: what rank 0 says, in order
             if (!over) {
@@ -318,6 +471,10 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                     for (const Unit& u : c.units)
                         if (size_t(u.tile) >= run.units.size())
                             throw MessageError("rank 0 granted a unit of no tile");
+                    // (the passes before the one in progress are whole on every rank: their
+                    // deposits join the guide's sums)
+                    if (run.guide)
+                        while (committed < c.frontier) run.guide->commit_pass(committed++);
                     if (c.over) {
                         over = true;
                         if (root) {  // (the end's pass, before any band of the end comes)
@@ -337,9 +494,18 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                         queue.push_task([&owner] { owner.catch_up(); });
                     }
                     granted_through = std::max(granted_through, c.granted_through);
-                    if (c.checkpoint > 0)
+                    // (a pass after a training: every rank trains before any renders it)
+                    if (run.guide && c.frontier < passes &&
+                        PathGuide::trains_before(bounds[size_t(c.frontier)]) &&
+                        run.guide->trained_through() < bounds[size_t(c.frontier)])
+                        train_guide(c.frontier);
+                    if (c.checkpoint > 0) {
                         link.send(0, kTagState,
                                   wire::encode(wire::State{c.checkpoint, owner.snapshot()}));
+                        if (run.guide)
+                            link.send(0, kTagGuideState,
+                                      guide_message(c.checkpoint, run.guide->save()));
+                    }
                     queue.push(c.units);
                     // (news alone may mean units to ask for; an answer is not news: a rank
                     // answered with none asks again only when it runs dry or hears news)
@@ -374,6 +540,9 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
                     BandState band = owner.snapshot();
                     link.send(0, kTagState,
                               wire::encode(wire::State{wire::kFinalState, std::move(band)}));
+                    if (run.guide)
+                        link.send(0, kTagGuideState,
+                                  guide_message(wire::kFinalState, run.guide->save()));
                     final_sent = acted = true;
                 }
                 if (!root) break;
@@ -481,6 +650,11 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     // receiver takes it, and a rank that has left its loop takes nothing until the drain)
     if (root) {
         outcome.final_state = std::move(dealing.finals.state);
+        if (run.guide) {
+            RenderState& f = outcome.final_state;
+            f.guide = merged_guide(dealing.guides[wire::kFinalState]);
+            f.pending_end = 0, f.pending_tiles.clear(), f.pending = Film(0, 0);
+        }
         outcome.final_state.rays = dealer->rays();
         if (run.resume) outcome.final_state.rays += run.resume->rays;
         outcome.final_state.seconds =

@@ -9,7 +9,17 @@
 //                       resumed checkpoint, first);
 //   a rank to an owner: Results (the sums of units of the owner's tiles it rendered),
 //                       Splats (estimators that splat: its splats of one pass in the owner's
-//                       band, once it has rendered all it was given of the pass).
+//                       band, once it has rendered all it was given of the pass);
+// and in a guided render (path_guide.h):
+//   rank 0 to a rank:   GuideStart (the passes' start, and the guide of a resumed
+//                       checkpoint, without its sums), first;
+//   a rank to a rank:   GuideSums (before a training: its exact sums of the iteration's
+//                       passes, to every other rank; each adds them all and trains the same
+//                       trees);
+//   a rank to rank 0:   GuideState (for a checkpoint or at the end: its guide with its sums,
+//                       which rank 0 adds up into the checkpoint's guide).
+// The dealer hands out no unit of a pass after a training before the pass before it is
+// whole; so at a training every rank's sums hold whole passes, all of them.
 // Rank 0 sends to itself through a local queue, so every rank runs the same loop. The
 // messages and their codec: rank_messages.h.
 #pragma once
@@ -56,6 +66,8 @@ struct RankRun {
     std::vector<int64_t> bounds;
     const RenderState* resume = nullptr;
     std::function<void(RenderState&&)> checkpoint;
+    // A guided render's path guide (every rank's own; rank 0's restored from `resume`)
+    PathGuide* guide = nullptr;
 };
 
 // Runs this rank's part of a render under MPI until it ends; rank 0 gets the outcome.

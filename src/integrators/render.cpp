@@ -209,14 +209,13 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     if (scene.settings.estimator.guiding != Guiding::kNone) {
         check_guiding(scene.settings.estimator, scene.source.string());
         const char* where = options.integrator != Integrator::kScalar ? "--integrator wavefront"
-                            : world.size > 1                          ? "MPI"
                             : options.strategies                      ? "--strategies"
                                                                       : nullptr;
         if (where)
             throw InputError(scene.source.string() + ": --guiding " +
                              guiding_name(scene.settings.estimator.guiding) +
                              " is not supported with " + where +
-                             " yet: a guided render runs with --integrator scalar in one process "
+                             " yet: a guided render runs with --integrator scalar "
                              "(docs/estimators.md, \"Path guiding\")");
         guide = std::make_unique<PathGuide>(options.guide_merges_threads);
         // (a resumed render's guide goes on from its checkpoint's)
@@ -287,8 +286,9 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     }
     const std::vector<int64_t> bounds =
         pass_bounds(resume ? resume->spp_done : 0, rs.spp, pass_pixels(scene));
-    // (a render stopped at a training point, before the training: it trains now)
-    if (guide && resume && PathGuide::trains_before(bounds[0]) &&
+    // (a render stopped at a training point, before the training: it trains now; ranks
+    // train together, rank_protocol.h)
+    if (guide && resume && world.size == 1 && PathGuide::trains_before(bounds[0]) &&
         guide->trained_through() < bounds[0])
         guide->train(bounds[0]);
 
@@ -308,6 +308,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                     {},
                     nullptr,
                     {}};
+        run.guide = guide.get();
         if (root) {
             run.bounds = bounds;
             run.resume = resume;

@@ -8,7 +8,7 @@ namespace cierzo {
 
 UnitDealer::UnitDealer(const TileBands& bands, size_t light_units, std::vector<int64_t> bounds,
                        const RenderOptions& options, Clock::time_point start, Progress& progress,
-                       const std::vector<uint8_t>& pending)
+                       const std::vector<uint8_t>& pending, bool guided)
     : bands_(bands),
       light_units_(light_units),
       bounds_(std::move(bounds)),
@@ -16,6 +16,7 @@ UnitDealer::UnitDealer(const TileBands& bands, size_t light_units, std::vector<i
       start_(start),
       progress_(progress),
       pending_(pending),
+      guided_(guided),
       reported_(size_t(bands.ranks()), 0) {
     passes_ = int32_t(bounds_.size()) - 1;
     if (passes_ <= 0) {
@@ -96,7 +97,11 @@ std::vector<Unit> UnitDealer::grant(int rank, size_t n) {
     const size_t units = light_units_ + bands_.tiles();
     n = std::min(n, std::max<size_t>(1, 2 * units / size_t(bands_.ranks())));
     Deal* now = deal(frontier_);
-    Deal* next = deal(frontier_ + 1);
+    // (a guided render's pass after a training waits for it: path_guide.h)
+    Deal* next = guided_ && frontier_ + 1 < passes_ &&
+                         PathGuide::trains_before(bounds_[size_t(frontier_) + 1])
+                     ? nullptr
+                     : deal(frontier_ + 1);
     // Light batches, own tiles, others' tiles; each of the pass in progress, then the next
     enum Take { kLight, kOwn, kOther };
     for (Take take : {kLight, kOwn, kOther})

@@ -26,9 +26,11 @@ class UnitDealer {
 public:
     // `bounds`: the passes (pass_bounds); `pending`: the first pass's tiles a checkpoint
     // already holds (by image tile; empty: none).
+    // `guided`: no unit of a pass after a training of the path guide is handed out before
+    // the pass before it is whole (every rank trains then: rank_protocol.h).
     UnitDealer(const TileBands& bands, size_t light_units, std::vector<int64_t> bounds,
                const RenderOptions& options, Clock::time_point start, Progress& progress,
-               const std::vector<uint8_t>& pending);
+               const std::vector<uint8_t>& pending, bool guided = false);
 
     // Up to `n` units for rank `rank`.
     std::vector<Unit> grant(int rank, size_t n);
@@ -71,6 +73,7 @@ private:
     Clock::time_point start_;
     Progress& progress_;
     std::vector<uint8_t> pending_;  // (the first pass's)
+    const bool guided_;
     int32_t passes_ = 0;
     int32_t frontier_ = 0;
     Deal deals_[2];

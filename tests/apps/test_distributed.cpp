@@ -199,6 +199,12 @@ TEST(Mpi, TwoThreeAndFourRanksGiveTheOneProcessImageByteForByte) {
          "scalar",
          {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt", "--sampler",
           "pmj02"}},
+        // (path guiding: every rank's sums of an iteration are added up before each training,
+        // at 16, 32 and 64 paths per pixel, and every rank trains the same trees)
+        {"small_emitter.json",
+         "scalar",
+         {"--spp", "80", "--width", "48", "--height", "40", "--estimator", "mis", "--guiding",
+          "sdtree"}},
     };
     // (with the lighter settings, in the sanitizer job, 3 ranks alone, whose bands are
     // uneven; the native run has compared 2, 3 and 4 by then)
@@ -414,10 +420,16 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     const bool heavy = std::any_of(estimator.begin(), estimator.end(), [](const std::string& e) {
         return e == "bdpt" || e == "vcm" || e == "bpm" || e == "ppm";
     });
+    // (a guided render, by the scalar integrator: past the trainings at 16 and 32 paths per
+    // pixel, and natively a few more)
+    const bool guided = std::find(estimator.begin(), estimator.end(), "sdtree") != estimator.end();
     // (under an emulator a bidirectional path costs seconds per pass already: 100 paths
     // per pixel outlast the first checkpoint many times over)
-    const std::string spp = emulated() ? (heavy ? "100" : "300") : heavy ? "800" : "2000";
-    const bool small = emulated() || heavy;
+    const std::string spp = guided       ? (emulated() ? "48" : "256")
+                            : emulated() ? (heavy ? "100" : "300")
+                            : heavy      ? "800"
+                                         : "2000";
+    const bool small = emulated() || heavy || guided;
     std::vector<std::string> scene = {
         "--spp",     spp, "--width", small ? "64" : "160", "--height", small ? "48" : "120",
         "--variance"};
@@ -492,6 +504,63 @@ TEST(Checkpoints, KilledAndResumedVertexMergingGivesTheUninterruptedImage) {
 // (bpm: no splats, so the tiles done of the pass in progress are kept, as for camera paths)
 TEST(Checkpoints, KilledAndResumedPhotonMappingGivesTheUninterruptedImage) {
     kill_and_resume(0, "caustic_mirror.json", {"--estimator", "bpm"});
+}
+
+// A guided render finished under 2 ranks at 48 paths per pixel (between the trainings at 32
+// and 64: its checkpoint holds the ranks' sums of the passes since 32, added up) and at 16 (a
+// training point, not yet trained), continued under 3 ranks to 80: the one-process image
+TEST(Mpi, AGuidedRenderContinuedOnOtherRanksGivesTheOneProcessImage) {
+    REQUIRE_MPI();
+    const std::vector<std::string> scene = {"--width",    "48",           "--height", "40",
+                                            "--variance", "--estimator",  "mis",      "--guiding",
+                                            "sdtree",     "--integrator", "scalar"};
+    const auto with = [&](std::vector<std::string> more) {
+        more.insert(more.begin(), scene.begin(), scene.end());
+        return more;
+    };
+    const fs::path one = kDir / "guided_one.exr";
+    ASSERT_EQ(run({render_args("small_emitter.json", one, with({"--spp", "80"}))}, "g1"), 0)
+        << text(kDir / "g1.stderr");
+    for (const char* spp : {"16", "48"}) {
+        SCOPED_TRACE(spp);
+        const fs::path ck = kDir / ("guided_ck" + std::string(spp) + ".exr");
+        const fs::path part = kDir / "guided_part.exr", rest = kDir / "guided_rest.exr";
+        fs::remove(ck);
+        ASSERT_EQ(run({render_args("small_emitter.json", part,
+                                   with({"--spp", spp, "--checkpoint", ck.string()})),
+                       2},
+                      "g2"),
+                  0)
+            << text(kDir / "g2.stderr");
+        EXPECT_EQ(cierzo::read_checkpoint(ck).state.spp_done, std::stoll(spp));
+        ASSERT_EQ(run({render_args("small_emitter.json", rest,
+                                   with({"--spp", "80", "--resume", ck.string()})),
+                       3},
+                      "g3"),
+                  0)
+            << text(kDir / "g3.stderr");
+        EXPECT_TRUE(same_pixels(one, rest));
+    }
+}
+
+// A guided render's checkpoint holds its path guide (the trees and the exact sums of the
+// iteration's passes so far, added up over the ranks): resumed on another number of ranks,
+// or in one process, the image is the uninterrupted one
+TEST(Checkpoints, AGuidedRenderKilledAndResumedGivesTheUninterruptedImage) {
+    kill_and_resume(0, "small_emitter.json",
+                    {"--estimator", "mis", "--guiding", "sdtree", "--integrator", "scalar"});
+}
+
+TEST(Checkpoints, AGuidedRenderKilledUnderTwoRanksAndResumedUnderThreeGivesTheSameImage) {
+    REQUIRE_MPI();
+    kill_and_resume(2, "small_emitter.json",
+                    {"--estimator", "mis", "--guiding", "sdtree", "--integrator", "scalar"}, 3);
+}
+
+TEST(Checkpoints, AGuidedRenderKilledUnderThreeRanksAndResumedInOneProcessGivesTheSameImage) {
+    REQUIRE_MPI();
+    kill_and_resume(3, "small_emitter.json",
+                    {"--estimator", "nee", "--guiding", "sdtree", "--integrator", "scalar"});
 }
 
 TEST(Checkpoints, KilledAndResumedWithTheSobolSamplerGivesTheUninterruptedImage) {
