@@ -46,6 +46,15 @@ uint32_t ordered(float f) {
     std::memcpy(&u, &f, 4);
     return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
+// The box's histograms: a coordinate's bin is the top 12 bits of its ordered bits (sign,
+// exponent and 3 bits of mantissa: bins an eighth of a binade wide, over every float)
+constexpr int kBinShift = 20;
+constexpr size_t kBoxBins = size_t(1) << (32 - kBinShift);
+// A robust box: the coordinates between these quantiles of the first iteration's vertices
+// per axis (paths that leave a room through an opening reach its infinite floor hundreds of
+// units away; a box around those would leave the room a cell or two)
+constexpr double kBoxQuantile = 0.005;
+
 float from_ordered(uint32_t u) {
     u = (u & 0x80000000u) ? (u & 0x7fffffffu) : ~u;
     float f;
@@ -95,6 +104,8 @@ PathGuide::Learner& PathGuide::learner() {
         learners_.push_back(std::make_unique<Learner>());
         for (std::vector<CellSums>& c : learners_.back()->cells)
             c.assign(learning_roots_.size(), CellSums{});
+        if (!box_set_)
+            for (std::vector<uint64_t>& b : learners_.back()->bins) b.assign(3 * kBoxBins, 0);
         mine = learners_.back().get();
         serial = serial_;
         Learner* none = nullptr;
@@ -104,10 +115,7 @@ PathGuide::Learner& PathGuide::learner() {
 }
 
 PathGuide::PathGuide(bool merge) : serial_(next_serial.fetch_add(1)), merge_(merge) {
-    for (int a = 0; a < 3; ++a) {
-        low_[a].store(ordered(std::numeric_limits<float>::infinity()));
-        high_[a].store(ordered(-std::numeric_limits<float>::infinity()));
-    }
+    committed_bins_.assign(3 * kBoxBins, 0);
     // One cell; its first learning tree three levels deep (64 quadrants) and no sampled tree
     Shape first;
     subdivide(first, nullptr, nullptr, 0, 1.0, 1, 1.0 / 64.0, kGuideMaxDepth);
@@ -173,6 +181,9 @@ void PathGuide::commit_slot(int slot) {
                 t.moment[k] += (U128(cells[c].high[k]) << 64) | U128(cells[c].low[k]);
             cells[c] = CellSums{};
         }
+        std::vector<uint64_t>& bins = l->bins[slot];
+        for (size_t i = 0; i < bins.size() && i < committed_bins_.size(); ++i)
+            committed_bins_[i] += bins[i], bins[i] = 0;
     }
 }
 
@@ -206,16 +217,9 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
     ++sums.count;
     if (!box_set_) {
         const float at[3] = {p.x, p.y, p.z};
-        for (int a = 0; a < 3; ++a) {
-            if (!std::isfinite(at[a])) continue;
-            const uint32_t o = ordered(at[a]);
-            uint32_t lo = low_[a].load(std::memory_order_relaxed);
-            while (o < lo && !low_[a].compare_exchange_weak(lo, o, std::memory_order_relaxed)) {
-            }
-            uint32_t hi = high_[a].load(std::memory_order_relaxed);
-            while (o > hi && !high_[a].compare_exchange_weak(hi, o, std::memory_order_relaxed)) {
-            }
-        }
+        std::vector<uint64_t>& bins = mine.bins[slot];
+        for (int a = 0; a < 3; ++a)
+            if (std::isfinite(at[a])) ++bins[size_t(a) * kBoxBins + (ordered(at[a]) >> kBinShift)];
     }
     if (selection && selection->integrand > 0.0f) {
         const SelectionSample& s = *selection;
@@ -254,16 +258,38 @@ void PathGuide::train(int64_t spp_end) {
     const int64_t spp_iteration = std::max<int64_t>(spp_end - last_end_, 1);
     last_end_ = spp_end;
     if (!box_set_) {
-        // The box of the first iteration's vertices, a little larger (a unit box without any)
+        // The box of the first iteration's vertices between the quantiles, from the bins'
+        // outer edges, a little larger (a unit box without any); vertices outside it fall in
+        // its border cells
         for (int a = 0; a < 3; ++a) {
-            float lo = from_ordered(low_[a].load()), hi = from_ordered(high_[a].load());
-            if (!(lo <= hi)) lo = -0.5f, hi = 0.5f;
+            const uint64_t* bins = committed_bins_.data() + size_t(a) * kBoxBins;
+            uint64_t total = 0;
+            for (size_t b = 0; b < kBoxBins; ++b) total += bins[b];
+            float lo = -0.5f, hi = 0.5f;
+            if (total > 0) {
+                const uint64_t skip = uint64_t(kBoxQuantile * double(total));
+                size_t first = 0, last = kBoxBins - 1;
+                for (uint64_t seen = 0; first < kBoxBins; ++first)
+                    if ((seen += bins[first]) > skip) break;
+                for (uint64_t seen = 0; last > 0; --last)
+                    if ((seen += bins[last]) > skip) break;
+                // (a bin's lowest and highest floats, past the infinities' and NaNs' bins)
+                lo = from_ordered(uint32_t(first) << kBinShift);
+                hi = from_ordered((uint32_t(last) << kBinShift) | ((1u << kBinShift) - 1));
+                const float most = std::numeric_limits<float>::max() / 4;
+                lo = std::clamp(lo, -most, most), hi = std::clamp(hi, -most, most);
+                if (!(lo <= hi)) lo = -0.5f, hi = 0.5f;
+            }
             const float pad =
-                std::max(1e-3f * (hi - lo), 1e-4f * std::max(std::abs(lo), std::abs(hi)));
+                std::max(1e-2f * (hi - lo), 1e-4f * std::max(std::abs(lo), std::abs(hi)));
             lo_[a] = lo - pad - 1e-20f;
             size_[a] = (hi + pad + 1e-20f) - lo_[a];
         }
         box_set_ = true;
+        committed_bins_ = {};
+        std::lock_guard lock(learners_mutex_);
+        for (const std::unique_ptr<Learner>& l : learners_)
+            for (std::vector<uint64_t>& b : l->bins) b = {};
     }
 
     // Each cell's exact energies: a quadrant's sum, over its subtree
@@ -489,9 +515,7 @@ std::vector<char> PathGuide::sums() const {
     Out o;
     for (char c : kSumsMagic) o.put(c);
     o.put(shape_hash(learning_child_.get(), learning_size_ * 4, learning_roots_));
-    for (int a = 0; a < 3; ++a)
-        o.put(low_[a].load(std::memory_order_relaxed)),
-            o.put(high_[a].load(std::memory_order_relaxed));
+    o.array(committed_bins_.data(), committed_bins_.size());
     o.array(committed_.data(), committed_.size());
     o.array(committed_cells_.data(), committed_cells_.size());
     return std::move(o.bytes);
@@ -503,12 +527,12 @@ void PathGuide::add_sums(const std::vector<char>& bytes) {
     if (in.get<uint64_t>() !=
         shape_hash(learning_child_.get(), learning_size_ * 4, learning_roots_))
         throw GuideStateError("sums of other learning trees");
-    uint32_t low[3], high[3];
-    for (int a = 0; a < 3; ++a) low[a] = in.get<uint32_t>(), high[a] = in.get<uint32_t>();
+    const std::vector<uint64_t> bins = in.array<uint64_t>(committed_bins_.size(), "box bins");
     const std::vector<U128> nodes = in.array<U128>(committed_.size(), "learning sums");
     const std::vector<CellTotals> cells = in.array<CellTotals>(committed_cells_.size(), "cells");
     in.end();
-    if (nodes.size() != committed_.size() || cells.size() != committed_cells_.size())
+    if (nodes.size() != committed_.size() || cells.size() != committed_cells_.size() ||
+        bins.size() != committed_bins_.size())
         throw GuideStateError("sums of other learning trees");
     for (size_t i = 0; i < nodes.size(); ++i) committed_[i] += nodes[i];
     for (size_t c = 0; c < cells.size(); ++c) {
@@ -516,10 +540,7 @@ void PathGuide::add_sums(const std::vector<char>& bytes) {
         for (int k = 0; k < kGuideFractionCount; ++k)
             committed_cells_[c].moment[k] += cells[c].moment[k];
     }
-    for (int a = 0; a < 3; ++a) {
-        if (low[a] < low_[a].load()) low_[a].store(low[a]);
-        if (high[a] > high_[a].load()) high_[a].store(high[a]);
-    }
+    for (size_t i = 0; i < bins.size(); ++i) committed_bins_[i] += bins[i];
 }
 
 std::vector<char> PathGuide::save() const {
@@ -617,17 +638,16 @@ void PathGuide::restore(const std::vector<char>& bytes, bool with_sums) {
     learning_child_ = std::make_unique<uint32_t[]>(child.size());
     std::memcpy(learning_child_.get(), child.data(), child.size() * 4);
     resize_sums(nodes, cells);
-    if (with_sums) {
-        add_sums(sums);
-    } else {
-        // (the box's bounds only: the first iteration's, which every rank needs)
-        In s{sums};
-        s.magic(kSumsMagic, "a guide's sums");
-        (void)s.get<uint64_t>();
-        for (int a = 0; a < 3; ++a) {
-            low_[a].store(s.get<uint32_t>());
-            high_[a].store(s.get<uint32_t>());
-        }
+    committed_bins_.assign(box_set_ ? 0 : 3 * kBoxBins, 0);
+    {
+        std::lock_guard lock(learners_mutex_);
+        for (const std::unique_ptr<Learner>& l : learners_)
+            for (std::vector<uint64_t>& b : l->bins) b.assign(committed_bins_.size(), 0);
+    }
+    add_sums(sums);  // (checked in any case: they must fit the trees)
+    if (!with_sums) {
+        resize_sums(nodes, cells);
+        std::fill(committed_bins_.begin(), committed_bins_.end(), 0);
     }
     update_view();
 }

@@ -152,6 +152,7 @@ private:
     };
     struct Learner {
         std::vector<CellSums> cells[2];
+        std::vector<uint64_t> bins[2];  // the first iteration's: kBoxBins per axis
     };
     struct CellTotals {  // the committed passes'
         uint64_t count = 0;
@@ -166,7 +167,9 @@ private:
     std::vector<std::unique_ptr<Learner>> learners_;
     std::atomic<Learner*> first_{nullptr};
     uint64_t records_ = 0;
-    std::atomic<uint32_t> low_[3], high_[3];  // the box of the first iteration
+    // The box of the tree over space, from the first iteration's vertices: each axis's
+    // histogram (kBoxBins bins of the coordinates' float order) of the committed passes
+    std::vector<uint64_t> committed_bins_;
     bool box_set_ = false;
     float lo_[3] = {0.0f, 0.0f, 0.0f}, size_[3] = {1.0f, 1.0f, 1.0f};
     int64_t last_end_ = 0;

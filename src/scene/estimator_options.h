@@ -128,7 +128,7 @@ inline constexpr GuidingEntry kGuidings[] = {
     {Guiding::kSdTree, "sdtree",
      "nee and mis: a share of the diffuse directions (learnt per cell: 0, 1/4, 1/2 or 3/4) "
      "from an SD-tree of the incident light, learnt pass by pass (Mueller et al. 2017); "
-     "scalar integrator, one process, no checkpoints"},
+     "scalar integrator, in one process or under MPI, with checkpoints"},
 };
 
 // How nee and mis sample emitting triangles (render.triangle_sampling, --triangle-sampling):
