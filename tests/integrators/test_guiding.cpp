@@ -500,7 +500,9 @@ TEST(GuidedRender, EveryCheckpointResumesToTheUninterruptedBits) {
             const RenderResult wrong = resumed_from(s, without, 3);
             ASSERT_TRUE(wrong.stats.guiding);
             EXPECT_LT(wrong.stats.guiding->records, full.stats.guiding->records);
-            if (!lighter()) EXPECT_FALSE(same_bits(wrong.film, full.film));
+            if (!lighter()) {
+                EXPECT_FALSE(same_bits(wrong.film, full.film));
+            }
         }
     }
 
