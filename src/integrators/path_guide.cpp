@@ -673,8 +673,11 @@ GuideStats PathGuide::stats() const {
     s.bytes = directions_.capacity() * sizeof(GuideDirectionNode) +
               learning_size_ * (2 * sizeof(LearnNode) + 4 * sizeof(U128) + 16) +
               spatial_.capacity() * sizeof(GuideSpatialNode) + roots_.capacity() * 4 +
-              learning_roots_.capacity() * 4 + roots_.capacity() * 4 +
-              (2 * learners_.size() * sizeof(CellSums) + sizeof(CellTotals)) * roots_.size();
+              learning_roots_.capacity() * 4 + fractions_.capacity() * 4 +
+              (2 * learners_.size() * sizeof(CellSums) + sizeof(CellTotals)) * roots_.size() +
+              committed_bins_.capacity() * 8;  // (the box's histograms: first iteration)
+    for (const std::unique_ptr<Learner>& l : learners_)
+        for (const std::vector<uint64_t>& b : l->bins) s.bytes += b.capacity() * 8;
     s.cells_by_fraction.assign(kGuideFractionCount, 0);
     for (float f : fractions_)
         for (int k = 0; k < kGuideFractionCount; ++k)
