@@ -64,10 +64,22 @@ float from_ordered(uint32_t u) {
 
 // L/p in fixed point: 2^-32 resolution, at most 2^30 (a guide needs no more: the value
 // only shapes a sampling density, so clamping it biases nothing)
-uint64_t quantise(float value) {
-    if (!(value > 0.0f)) return 0;  // (NaN too)
-    const double v = std::min(double(value), 0x1.0p30);
+uint64_t quantise(double value) {
+    if (!(value > 0.0)) return 0;  // (NaN too)
+    const double v = std::min(value, 0x1.0p30);
     return uint64_t(v * 0x1.0p32);
+}
+
+uint32_t bits_of(float f) {
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return u;
+}
+// (SplitMix64's finaliser)
+uint64_t mix64(uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
 }
 
 // A shape that subdivides the quadrants of the node `at` of a tree whose quadrant shares
@@ -114,7 +126,8 @@ PathGuide::Learner& PathGuide::learner() {
     return *mine;
 }
 
-PathGuide::PathGuide(bool merge) : serial_(next_serial.fetch_add(1)), merge_(merge) {
+PathGuide::PathGuide(bool merge, bool filter)
+    : serial_(next_serial.fetch_add(1)), merge_(merge), filter_(filter) {
     committed_bins_.assign(3 * kBoxBins, 0);
     // One cell; its first learning tree three levels deep (64 quadrants) and no sampled tree
     Shape first;
@@ -235,20 +248,100 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
             sums.high[k] += sums.low[k] < q ? 1u : 0u;  // (the carry)
         }
     }
-    const uint64_t q = quantise(value);
-    if (q == 0) return;
+    if (!(value > 0.0f)) return;  // (NaN too)
     float x, y;
     direction_to_square(dir, x, y);
-    for (uint32_t n = learning_roots_[cell];;) {
-        const uint32_t qx = x >= 0.5f ? 1u : 0u, qy = y >= 0.5f ? 1u : 0u;
-        const uint32_t k = qx + 2u * qy;
-        if (const uint32_t child = learning_child_[size_t(n) * 4 + k]) {
-            n = child;
-            x = 2.0f * x - float(qx), y = 2.0f * y - float(qy);
-            continue;
+    if (!filter_) {
+        const uint64_t q = quantise(value);
+        for (uint32_t n = learning_roots_[cell];;) {
+            const uint32_t qx = x >= 0.5f ? 1u : 0u, qy = y >= 0.5f ? 1u : 0u;
+            const uint32_t k = qx + 2u * qy;
+            if (const uint32_t child = learning_child_[size_t(n) * 4 + k]) {
+                n = child;
+                x = 2.0f * x - float(qx), y = 2.0f * y - float(qy);
+                continue;
+            }
+            if (q) add_exact(learning_[slot][n].low[k], learning_[slot][n].high[k], q);
+            return;
         }
-        add_exact(learning_[slot][n].low[k], learning_[slot][n].high[k], q);
-        return;
+    }
+
+    // Over space, the stochastic box filter: the energy goes to the cell of p moved by up
+    // to half its cell's size along each axis, the offsets a hash of the record (so a
+    // record's cell depends on the record alone, not on the order or the thread; records
+    // of the very same point and direction all move alike)
+    uint32_t into = cell;
+    if (spatial_.size() > 1) {
+        float lo[3], size[3];
+        cell_box(p, lo, size);
+        uint64_t h = bits_of(p.x) | (uint64_t(bits_of(p.y)) << 32);
+        h = mix64(h ^ mix64(bits_of(p.z) | (uint64_t(bits_of(dir.x)) << 32)));
+        h = mix64(h ^ (bits_of(dir.y) | (uint64_t(bits_of(dir.z)) << 32)));
+        const float at[3] = {p.x, p.y, p.z};
+        Vec3f moved;
+        float* m[3] = {&moved.x, &moved.y, &moved.z};
+        for (int a = 0; a < 3; ++a) {
+            const float u = float((h >> (21 * a)) & 0x1fffff) * 0x1.0p-21f;  // [0, 1)
+            *m[a] = at[a] + (u - 0.5f) * size[a];
+        }
+        into = guide_cell(view_, moved);
+    }
+
+    // Over directions, the box filter: a square of the side of the learning tree's leaf at
+    // the direction, centred on it (across φ's seam, y, it wraps; past the poles, x, its
+    // part is dropped), each leaf it overlaps given the energy of its share of the square
+    const uint32_t root = learning_roots_[into];
+    double side = 1.0;
+    {
+        float lx = x, ly = y;
+        for (uint32_t n = root;;) {
+            const uint32_t qx = lx >= 0.5f ? 1u : 0u, qy = ly >= 0.5f ? 1u : 0u;
+            side *= 0.5;
+            const uint32_t child = learning_child_[size_t(n) * 4 + qx + 2u * qy];
+            if (!child) break;
+            n = child;
+            lx = 2.0f * lx - float(qx), ly = 2.0f * ly - float(qy);
+        }
+    }
+    Splat s{learning_[slot].get(),
+            learning_child_.get(),
+            std::max(0.0, x - 0.5 * side),
+            std::min(1.0, x + 0.5 * side),
+            0.0,
+            0.0,
+            double(value) / (side * side)};
+    const double y0 = y - 0.5 * side, y1 = y + 0.5 * side;
+    s.y0 = std::max(0.0, y0), s.y1 = std::min(1.0, y1);
+    s.add(root, 0.0, 0.0, 1.0);
+    if (y0 < 0.0) s.y0 = y0 + 1.0, s.y1 = 1.0, s.add(root, 0.0, 0.0, 1.0);
+    if (y1 > 1.0) s.y0 = 0.0, s.y1 = y1 - 1.0, s.add(root, 0.0, 0.0, 1.0);
+}
+
+void PathGuide::Splat::add(uint32_t n, double ox, double oy, double w) const {
+    const double h = 0.5 * w;
+    for (uint32_t k = 0; k < 4; ++k) {
+        const double qx = ox + h * double(k & 1u), qy = oy + h * double(k >> 1);
+        const double a = std::min(x1, qx + h) - std::max(x0, qx);
+        const double b = std::min(y1, qy + h) - std::max(y0, qy);
+        if (!(a > 0.0 && b > 0.0)) continue;
+        if (const uint32_t child = children[size_t(n) * 4 + k]) {
+            add(child, qx, qy, h);
+        } else if (const uint64_t q = quantise(density * a * b)) {
+            add_exact(sums[n].low[k], sums[n].high[k], q);
+        }
+    }
+}
+
+void PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3]) const {
+    for (int a = 0; a < 3; ++a) lo[a] = lo_[a], size[a] = size_[a];
+    const float at[3] = {p.x, p.y, p.z};
+    for (uint32_t n = 0; spatial_[n].child > 0;) {
+        const uint32_t axis = spatial_[n].axis_or_cell;
+        size[axis] *= 0.5f;
+        const float mid = lo[axis] + size[axis];
+        const bool above = at[axis] >= mid;
+        if (above) lo[axis] = mid;
+        n = uint32_t(spatial_[n].child) + (above ? 1u : 0u);
     }
 }
 
@@ -442,7 +535,7 @@ void PathGuide::train(int64_t spp_end) {
 
 namespace {
 
-constexpr char kStateMagic[16] = "cierzo guide 1";
+constexpr char kStateMagic[16] = "cierzo guide 2";  // (2: filtered deposits)
 constexpr char kSumsMagic[16] = "cierzo sums 1";
 
 struct Out {

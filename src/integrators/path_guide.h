@@ -8,7 +8,14 @@
 // deposits what came back along its direction, L/p (the luminance of the light the rest of
 // the path gathered, divided by the throughput from there and by the density the direction
 // was drawn with), into a second quadtree of its cell (the learning tree), and counts itself
-// in its cell. At the training:
+// in its cell. The deposit is filtered, as in Müller's "Practical Path Guiding in
+// Production" (2019): over space, it goes to the cell of its point moved by a pseudo-random
+// offset of up to half its own cell's size per axis (a hash of the record: a stochastic box
+// filter that stays a function of the record); over directions, it spreads over the learning
+// tree's leaves under a square the side of its own leaf centred on it (a box filter). A
+// direction next to one where much light was seen then keeps some density, where nearest-
+// leaf deposits left a few sampled directions carrying all of a rare path's light. At the
+// training:
 //   - each cell's learning tree, with its energies, becomes the cell's sampled tree;
 //   - its next learning tree subdivides every quadrant holding more than kGuideSubdivide of
 //     the cell's energy, to kGuideMaxDepth levels, and merges the rest;
@@ -65,8 +72,10 @@ struct GuideStateError : std::runtime_error {
 class PathGuide {
 public:
     // (`merge`: always true; false learns from the records of the first thread that
-    // deposits alone, not the whole pass merged: a planted bug for the tests)
-    explicit PathGuide(bool merge = true);
+    // deposits alone, not the whole pass merged: a planted bug for the tests. `filter`:
+    // the deposits' filters over space and directions, as above; false puts each in its
+    // own cell and quadrant, for the tests and measurements)
+    explicit PathGuide(bool merge = true, bool filter = true);
     PathGuide(const PathGuide&) = delete;
     PathGuide& operator=(const PathGuide&) = delete;
     ~PathGuide();
@@ -127,6 +136,16 @@ private:
     struct LearnNode;  // a learning quadtree node: its quadrants' exact sums
     struct CellTrees;  // one cell's sampled tree and next learning tree
 
+    // A deposit's square over directions [x0, x1) × [y0, y1), spread over the leaves of a
+    // learning tree, each given density × its overlap
+    struct Splat {
+        LearnNode* sums;
+        const uint32_t* children;
+        double x0, x1, y0, y1, density;
+        void add(uint32_t node, double ox, double oy, double width) const;
+    };
+    // The box of the cell of p
+    void cell_box(const Vec3f& p, float lo[3], float size[3]) const;
     void update_view();
     void resize_sums(size_t nodes, size_t cells);  // zeroed
     void allocate_learning(const std::vector<Shape>& trees);
@@ -163,6 +182,7 @@ private:
     void commit_slot(int slot);
     const uint64_t serial_;  // (which guide a thread's cached learner is of)
     const bool merge_;
+    const bool filter_;
     mutable std::mutex learners_mutex_;  // (learners_ grows as threads first deposit)
     std::vector<std::unique_ptr<Learner>> learners_;
     std::atomic<Learner*> first_{nullptr};
