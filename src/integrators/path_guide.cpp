@@ -126,7 +126,7 @@ PathGuide::Learner& PathGuide::learner() {
     return *mine;
 }
 
-PathGuide::PathGuide(bool merge, bool filter)
+PathGuide::PathGuide(bool merge, bool filter, float first_fraction)
     : serial_(next_serial.fetch_add(1)), merge_(merge), filter_(filter) {
     committed_bins_.assign(3 * kBoxBins, 0);
     // One cell; its first learning tree three levels deep (64 quadrants) and no sampled tree
@@ -135,7 +135,7 @@ PathGuide::PathGuide(bool merge, bool filter)
     allocate_learning({first});
     directions_.assign(1, GuideDirectionNode{});
     roots_.assign(1, 0);
-    fractions_.assign(1, kGuideFirstFraction);
+    fractions_.assign(1, first_fraction);
     update_view();
 }
 

@@ -74,8 +74,11 @@ public:
     // (`merge`: always true; false learns from the records of the first thread that
     // deposits alone, not the whole pass merged: a planted bug for the tests. `filter`:
     // the deposits' filters over space and directions, as above; false puts each in its
-    // own cell and quadrant, for the tests and measurements)
-    explicit PathGuide(bool merge = true, bool filter = true);
+    // own cell and quadrant, for the tests and measurements. `first_fraction`: every cell's
+    // share α until its records choose one; the tests' small renders take ½ to sample their
+    // guides from the first training on)
+    explicit PathGuide(bool merge = true, bool filter = true,
+                       float first_fraction = kGuideFirstFraction);
     PathGuide(const PathGuide&) = delete;
     PathGuide& operator=(const PathGuide&) = delete;
     ~PathGuide();

@@ -217,7 +217,9 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                              " is not supported with " + where +
                              " yet: a guided render runs with --integrator scalar "
                              "(docs/estimators.md, \"Path guiding\")");
-        guide = std::make_unique<PathGuide>(options.guide_merges_threads);
+        guide =
+            std::make_unique<PathGuide>(options.guide_merges_threads, true,
+                                        options.guide_first_fraction.value_or(kGuideFirstFraction));
         // (a resumed render's guide goes on from its checkpoint's)
         if (world.rank == 0 && options.resume) {
             if (options.resume->guide.empty())

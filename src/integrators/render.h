@@ -95,6 +95,10 @@ struct RenderOptions {
     // Always true; the tests clear it (training on one thread's records alone: an unmerged
     // pass) to show that it is caught.
     bool guide_merges_threads = true;
+    // Every cell's share α of guided directions until its records choose one (unset: 0,
+    // kGuideFirstFraction). The tests' small renders take ½, where no cell's records would
+    // choose to sample the guide, to show that what they test changes the image.
+    std::optional<float> guide_first_fraction;
 };
 
 // Per-process figures of a distributed render (one entry per MPI rank).

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 #include <vector>
@@ -331,6 +332,47 @@ TEST(Guiding, ADepositReachesTheCellsWithinHalfACellOfIt) {
     }
 }
 
+// The share α: every cell starts at 0 (the first guide is not sampled) and a training keeps
+// the candidate of least estimated second moment, estimated from diffuse records drawn from
+// the lobe alone. Where the light comes from a small bright cone the guide has learnt, a
+// share of the guide wins; where it comes evenly from everywhere, the cosine lobe is exact
+// (f·cos θ·L / p is constant) and 0 stays.
+TEST(Guiding, TheShareStartsAtZeroAndGrowsWhereTheGuidePays) {
+    const Vec3f peak = normalize(Vec3f(0.3f, 0.2f, 0.9f));
+    for (bool bright_cone : {true, false}) {
+        SCOPED_TRACE(bright_cone);
+        PathGuide guide;
+        train_on(guide, lobe_records(200000, 21, peak), 1);
+        const GuideView* g = guide.view();
+        ASSERT_NE(g, nullptr);
+        const uint32_t cells = guide.stats().cells;
+        for (uint32_t c = 0; c < cells; ++c) EXPECT_EQ(g->fractions[c], 0.0f) << c;
+        // Diffuse records about +z, cosine-distributed, drawn with α = 0
+        std::mt19937 rng(22);
+        std::uniform_real_distribution<float> u(0.0f, 1.0f);
+        for (int i = 0; i < 200000; ++i) {
+            const Vec3f p(u(rng), u(rng), u(rng));
+            const float r = std::sqrt(u(rng)), phi = float(2.0 * kPi) * u(rng);
+            const Vec3f d(r * std::cos(phi), r * std::sin(phi), std::sqrt(1.0f - r * r));
+            const float lobe_pdf = d.z * float(kInvPi);
+            const float light = bright_cone && dot(d, peak) > 0.97f ? 100.0f : 1.0f;
+            PathGuide::SelectionSample s;
+            s.integrand = float(kInvPi) * d.z * light;  // f·cos θ·L, albedo 1
+            s.guide_pdf = guide_pdf(*g, g->roots[guide_cell(*g, p)], d);
+            s.lobe_pdf = lobe_pdf;
+            s.fraction = 0.0f;
+            guide.deposit(0, p, d, light / lobe_pdf, &s);
+        }
+        guide.train(2);
+        g = guide.view();
+        const uint32_t middle = guide_cell(*g, Vec3f(0.5f));
+        if (bright_cone)
+            EXPECT_GT(g->fractions[middle], 0.0f);
+        else
+            EXPECT_EQ(g->fractions[middle], 0.0f);
+    }
+}
+
 // The tree over space spans the first iteration's vertices but for the farthest half percent
 // per axis: a room seen through an open side has a few vertices on its infinite floor
 // hundreds of units away, and a box around those left the room one or two cells
@@ -411,12 +453,16 @@ Scene guided(Scene s, Estimator e, int spp, Guiding g = Guiding::kSdTree) {
     return s;
 }
 
-RenderResult render_on(const Scene& scene, int threads, bool merge_threads = true) {
+// (`first_fraction`: the cells' share α before their records choose one; ½ has a small
+// render sample its guide, where the default, 0, may never)
+RenderResult render_on(const Scene& scene, int threads, bool merge_threads = true,
+                       std::optional<float> first_fraction = {}) {
     RenderOptions o;
     o.integrator = Integrator::kScalar;
     o.threads = threads;
     o.progress = false;
     o.guide_merges_threads = merge_threads;
+    o.guide_first_fraction = first_fraction;
     return render(scene, o);
 }
 
@@ -432,12 +478,14 @@ TEST(GuidedRender, IsTheSameOnOneTwoAndThreeThreads) {
         // (trainings after 16 and 32 paths per pixel, and after 64 natively)
         Scene s = guided(parse_scene(test::kLobes, "lobes.json"), e, lighter() ? 48 : 128);
         s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
-        const RenderResult one = render_on(s, 1);
+        const RenderResult one = render_on(s, 1, true, 0.5f);
         ASSERT_TRUE(one.stats.guiding);
         EXPECT_GE(one.stats.guiding->training_seconds.size(), 2u);  // (trained at 16, 32, ...)
         EXPECT_GT(one.stats.guiding->cells, 1u);
-        for (int threads : {2, 3})
-            EXPECT_TRUE(same_bits(render_on(s, threads).film, one.film)) << threads;
+        for (int threads : {2, 3}) {
+            EXPECT_TRUE(same_bits(render_on(s, threads, true, 0.5f).film, one.film)) << threads;
+            EXPECT_TRUE(same_bits(render_on(s, threads).film, render_on(s, 1).film)) << threads;
+        }
         // The guide changed the image: it is not the unguided one
         Scene plain = s;
         plain.settings.estimator.guiding = Guiding::kNone;
@@ -488,10 +536,10 @@ TEST(GuidedRender, TrainingOnAnUnmergedPassIsCaught) {
     // (trainings after 16, 32 and 64 paths per pixel)
     Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 128);
     s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
-    const RenderResult one = render_on(s, 1, false);
+    const RenderResult one = render_on(s, 1, false, 0.5f);
     bool differs = false;
     for (int k = 0; k < 4 && !differs; ++k)
-        differs = !same_bits(render_on(s, 3, false).film, one.film);
+        differs = !same_bits(render_on(s, 3, false, 0.5f).film, one.film);
     EXPECT_TRUE(differs);
 }
 
