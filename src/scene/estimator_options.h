@@ -124,7 +124,7 @@ using GuidingEntry = NamedEntry<Guiding>;
 inline constexpr GuidingEntry kGuidings[] = {
     {Guiding::kNone, "none",
      "directions from the material's lobes alone; the default of every estimator (sdtree "
-     "measured 0.52-0.75x the scalar mis's efficiency on caustic and small_emitter)"},
+     "measured 0.60x the scalar mis's efficiency on caustic and small_emitter at 30 s)"},
     {Guiding::kSdTree, "sdtree",
      "nee and mis: a share of the diffuse directions (learnt per cell: 0, 1/4, 1/2 or 3/4) "
      "from an SD-tree of the incident light, learnt pass by pass from filtered deposits "
