@@ -225,7 +225,9 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
     Learner& mine = learner();
     if (!merge_ && &mine != first_.load(std::memory_order_relaxed)) return;  // (planted bug)
     const int slot = int(pass & 1);
-    const uint32_t cell = spatial_.size() == 1 ? 0u : guide_cell(view_, p);
+    // (the cell's box too: the spatial filter's width)
+    float lo[3], size[3];
+    const uint32_t cell = cell_box(p, lo, size);
     CellSums& sums = mine.cells[slot][cell];
     ++sums.count;
     if (!box_set_) {
@@ -249,31 +251,13 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
         }
     }
     if (!(value > 0.0f)) return;  // (NaN too)
-    float x, y;
-    direction_to_square(dir, x, y);
-    if (!filter_) {
-        const uint64_t q = quantise(value);
-        for (uint32_t n = learning_roots_[cell];;) {
-            const uint32_t qx = x >= 0.5f ? 1u : 0u, qy = y >= 0.5f ? 1u : 0u;
-            const uint32_t k = qx + 2u * qy;
-            if (const uint32_t child = learning_child_[size_t(n) * 4 + k]) {
-                n = child;
-                x = 2.0f * x - float(qx), y = 2.0f * y - float(qy);
-                continue;
-            }
-            if (q) add_exact(learning_[slot][n].low[k], learning_[slot][n].high[k], q);
-            return;
-        }
-    }
 
     // Over space, the stochastic box filter: the energy goes to the cell of p moved by up
     // to half its cell's size along each axis, the offsets a hash of the record (so a
     // record's cell depends on the record alone, not on the order or the thread; records
     // of the very same point and direction all move alike)
     uint32_t into = cell;
-    if (spatial_.size() > 1) {
-        float lo[3], size[3];
-        cell_box(p, lo, size);
+    if (filter_ && spatial_.size() > 1) {
         uint64_t h = bits_of(p.x) | (uint64_t(bits_of(p.y)) << 32);
         h = mix64(h ^ mix64(bits_of(p.z) | (uint64_t(bits_of(dir.x)) << 32)));
         h = mix64(h ^ (bits_of(dir.y) | (uint64_t(bits_of(dir.z)) << 32)));
@@ -287,22 +271,31 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
         into = guide_cell(view_, moved);
     }
 
-    // Over directions, the box filter: a square of the side of the learning tree's leaf at
-    // the direction, centred on it (across φ's seam, y, it wraps; past the poles, x, its
-    // part is dropped), each leaf it overlaps given the energy of its share of the square
+    // The learning tree's leaf at the direction: unfiltered, the deposit's own
+    float x, y;
+    direction_to_square(dir, x, y);
     const uint32_t root = learning_roots_[into];
     double side = 1.0;
     {
         float lx = x, ly = y;
         for (uint32_t n = root;;) {
             const uint32_t qx = lx >= 0.5f ? 1u : 0u, qy = ly >= 0.5f ? 1u : 0u;
+            const uint32_t k = qx + 2u * qy;
             side *= 0.5;
-            const uint32_t child = learning_child_[size_t(n) * 4 + qx + 2u * qy];
+            const uint32_t child = learning_child_[size_t(n) * 4 + k];
+            if (!child && !filter_) {
+                if (const uint64_t q = quantise(value))
+                    add_exact(learning_[slot][n].low[k], learning_[slot][n].high[k], q);
+                return;
+            }
             if (!child) break;
             n = child;
             lx = 2.0f * lx - float(qx), ly = 2.0f * ly - float(qy);
         }
     }
+    // Over directions, the box filter: a square of the leaf's side centred on the direction
+    // (across φ's seam, y, it wraps; past the poles, x, its part is dropped), each leaf it
+    // overlaps given the energy of its share of the square
     Splat s{learning_[slot].get(),
             learning_child_.get(),
             std::max(0.0, x - 0.5 * side),
@@ -332,10 +325,11 @@ void PathGuide::Splat::add(uint32_t n, double ox, double oy, double w) const {
     }
 }
 
-void PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3]) const {
+uint32_t PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3]) const {
     for (int a = 0; a < 3; ++a) lo[a] = lo_[a], size[a] = size_[a];
     const float at[3] = {p.x, p.y, p.z};
-    for (uint32_t n = 0; spatial_[n].child > 0;) {
+    uint32_t n = 0;
+    while (spatial_[n].child > 0) {  // (guide_cell's descent, keeping the box)
         const uint32_t axis = spatial_[n].axis_or_cell;
         size[axis] *= 0.5f;
         const float mid = lo[axis] + size[axis];
@@ -343,6 +337,7 @@ void PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3]) const {
         if (above) lo[axis] = mid;
         n = uint32_t(spatial_[n].child) + (above ? 1u : 0u);
     }
+    return spatial_[n].axis_or_cell;
 }
 
 void PathGuide::train(int64_t spp_end) {

@@ -147,8 +147,8 @@ private:
         double x0, x1, y0, y1, density;
         void add(uint32_t node, double ox, double oy, double width) const;
     };
-    // The box of the cell of p
-    void cell_box(const Vec3f& p, float lo[3], float size[3]) const;
+    // The cell of p, and its box
+    uint32_t cell_box(const Vec3f& p, float lo[3], float size[3]) const;
     void update_view();
     void resize_sums(size_t nodes, size_t cells);  // zeroed
     void allocate_learning(const std::vector<Shape>& trees);
