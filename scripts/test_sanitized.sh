@@ -17,18 +17,9 @@ export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # (fewer paths, smaller images): here the sanitizers look for memory errors and undefined
 # behaviour, the native run has already checked the statistics at full strength
 export CIERZO_TEST_EMULATED=1
-# The statistical comparisons over every scene are left to the native run: each renders every
-# scene many times over (about 220 s of this job's 1,190 s of tests), while the code they run
-# (every estimator, both integrators, the samplers) runs here in the smaller tests that
-# compare them on a few scenes (Bidirectional.ScalarAndWavefrontAgree, VcmFindsACaustic...,
-# Estimators.Irradiance..., GuidedRender.AgreesWithMisPerPixelOnEveryScene's three scenes)
-statistical='^(Bidirectional\.(AgreesWithMis|VcmAgreesWithMis|BpmAndPpmAgreeWithMisInMean)OnEveryScene'
-statistical+='|Estimators\.AgreeWithinThreeSigmaOnEveryScene'
-statistical+='|Converge\.(AFivePercentBiasStandsAboveTheNoise|ALowerSurvivalCapCostsAccuracy|MseFallsAsOneOverPathsPerPixel)'
-statistical+='|GuidedRender\.AgreesWithMisPerPixelOnEveryScene'
-# (and the guided renders killed under MPI: the ranks' guide exchange runs in the smaller
-# Mpi.AGuidedRenderContinuedOnOtherRanksGivesTheOneProcessImage)
-statistical+='|Checkpoints\.AGuidedRenderKilledUnder.*)$'
+# The statistical comparisons over every scene are left to the native run (the script says
+# why)
+source scripts/statistical_tests.sh
 cd build-sanitize
 ctest --output-on-failure --parallel "$(nproc)" --timeout 1800 -E "$statistical"
 cd ..

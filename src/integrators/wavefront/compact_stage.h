@@ -80,7 +80,7 @@ void move_paths(const PathPool& p, uint32_t fields, int32_t i, uint32_t bits, in
 // Ended paths with radiance go to the film's queue; survivors move down to `kept` with the
 // fields `fields` (move_paths), bounce + 1. Both keep pool order.
 template <class A>
-void compact_paths(Wave<A>& w, const TileJob& job, uint32_t fields) {
+CIERZO_STAGE void compact_paths(Wave<A>& w, const TileJob& job, uint32_t fields) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;

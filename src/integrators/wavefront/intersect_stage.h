@@ -121,6 +121,26 @@ inline void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const Bv
     }
 }
 
+// The closest hits of the `live` lanes of K rays in the scene BVH below their t (K floats at
+// `t`, updated), the rays whose interval [0, t] meets the tree's box one by one; on_hit(l,
+// hit) for each lane hit. (Not inlined: the traversal of a deep tree costs far more than the
+// call, and a copy of it in every stage loop that intersects would only grow the per-ISA
+// objects; a one-node tree's packet test, cheap, stays inlined.)
+template <class A, class OnHit>
+[[gnu::noinline]] void closest_in_tree_by_ray(const BvhView& bvh, const AlphaTable* alpha,
+                                              const Ray<typename Wave<A>::F>& ray,
+                                              typename Wave<A>::M live, float* t,
+                                              const OnHit& on_hit) {
+    using F = typename Wave<A>::F;
+    const WideRays<A> rays(ray);
+    uint32_t enter = mask_bits(live & slab_hits<A>(bvh.bounds, rays, F::load_aligned(t)));
+    for (; enter; enter &= enter - 1) {
+        const int l = std::countr_zero(enter);
+        BvhHit hit;
+        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), t[l], hit, alpha)) on_hit(l, hit);
+    }
+}
+
 // The closest hits of K rays in the scene BVH below their t (K floats at `t`, updated),
 // for the `live` lanes: a one-node tree, or K rays from one point (a pinhole camera's), are
 // traced all at once (packet_traverse); otherwise the rays whose interval [0, t] meets the
@@ -148,13 +168,7 @@ void closest_in_tree(const BvhView& bvh, const AlphaTable* alpha, bool packet,
         }
         return;
     }
-    const WideRays<A> rays(ray);
-    uint32_t enter = mask_bits(live & slab_hits<A>(bvh.bounds, rays, F::load_aligned(t)));
-    for (; enter; enter &= enter - 1) {
-        const int l = std::countr_zero(enter);
-        BvhHit hit;
-        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), t[l], hit, alpha)) on_hit(l, hit);
-    }
+    closest_in_tree_by_ray<A>(bvh, alpha, ray, live, t, on_hit);
 }
 
 // ---- Many rays in flight -----------------------------------------------------------------
@@ -204,7 +218,7 @@ void gather_group_rays(const GroupArrays& g, int32_t& n, const WideRays<A>& rays
 // in p.t and p.prim (and a triangle's mesh, index and normal): the unbounded primitives and
 // packets K rays at a time, then the rays that enter the tree, all of them, in groups.
 template <class A>
-void closest_hits_grouped(Wave<A>& w) {
+CIERZO_STAGE void closest_hits_grouped(Wave<A>& w) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
@@ -469,6 +483,29 @@ void batch_closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ra
     closest_hit(w, i, ray, t, prim);
 }
 
+// Whether the scene BVH blocks K shadow rays within tmax, ray by ray, for the lanes `live`
+// that nothing unbounded has `blocked`. (Not inlined, as closest_in_tree_by_ray.)
+template <class A>
+[[gnu::noinline]] typename Wave<A>::M occluded_by_ray(const FlatScene& s,
+                                                      const Ray<typename Wave<A>::F>& ray,
+                                                      const typename Wave<A>::F& tmax,
+                                                      typename Wave<A>::M live,
+                                                      typename Wave<A>::M blocked) {
+    using I = typename Wave<A>::I;
+    // The open rays that enter the tree's box through it, one by one
+    const WideRays<A> rays(ray);
+    alignas(64) float tm[Wave<A>::K];
+    alignas(64) int32_t hit[Wave<A>::K] = {};
+    tmax.store_aligned(tm);
+    uint32_t open = mask_bits(live & !blocked & slab_hits<A>(s.bvh->bounds, rays, tmax));
+    for (; open; open &= open - 1) {
+        const int l = std::countr_zero(open);
+        BvhHit unused;
+        if (traverse<true, NodeLanes<A>>(*s.bvh, rays.lane(l), tm[l], unused, s.alpha)) hit[l] = 1;
+    }
+    return blocked | mask_f32(I::load_aligned(hit) != I(0));
+}
+
 // Whether anything blocks K shadow rays within tmax (for the `live` lanes); lanes already
 // blocked skip nothing (SIMD), but the loops stop once every lane is blocked.
 template <class A>
@@ -481,26 +518,12 @@ typename Wave<A>::M occluded(const FlatScene& s, const Ray<typename Wave<A>::F>&
         s.unbounded_quadric_count, QuadricTable<F>{s.quadric_lanes, s.unbounded_quadrics});
     if (s.features.packet && !all(blocked)) {
         F t = tmax;
-        typename Wave<A>::I kind(0), lane(0), instance(-1);
+        I kind(0), lane(0), instance(-1);
         const Vec3<F> inv(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
         return blocked | packet_traverse<true>(*s.bvh, ray, inv, make_ray_shear(ray.d),
                                                live & !blocked, t, kind, lane, instance, s.alpha);
     }
-    if (s.features.bvh && !all(blocked)) {
-        // The open rays that enter the tree's box through it, one by one
-        const WideRays<A> rays(ray);
-        alignas(64) float tm[Wave<A>::K];
-        alignas(64) int32_t hit[Wave<A>::K] = {};
-        tmax.store_aligned(tm);
-        uint32_t open = mask_bits(live & !blocked & slab_hits<A>(s.bvh->bounds, rays, tmax));
-        for (; open; open &= open - 1) {
-            const int l = std::countr_zero(open);
-            BvhHit unused;
-            if (traverse<true, NodeLanes<A>>(*s.bvh, rays.lane(l), tm[l], unused, s.alpha))
-                hit[l] = 1;
-        }
-        blocked = blocked | mask_f32(I::load_aligned(hit) != I(0));
-    }
+    if (s.features.bvh && !all(blocked)) blocked = occluded_by_ray<A>(s, ray, tmax, live, blocked);
     return blocked;
 }
 

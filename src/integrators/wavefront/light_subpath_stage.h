@@ -81,7 +81,7 @@ void queue_connections(Wave<A>& w, typename Wave<A>::M want,
 // The queued camera connections, K at a time (any hit); the clear ones are splatted, and the
 // splats handed to the film.
 template <class A>
-CIERZO_STAGE_LOOP void trace_camera_connections(Wave<A>& w, const TileJob& job,
+CIERZO_STAGE_LOOP CIERZO_STAGE void trace_camera_connections(Wave<A>& w, const TileJob& job,
                                                 int32_t& connections) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
@@ -151,7 +151,7 @@ void append_light_vertices(LightVertexStore& st, uint32_t bits,
 // The light-store's vertices grouped by path: begin[k]..begin[k + 1] of `order` are path
 // k's, in the order they were stored (a counting sort; a path's vertices were stored in
 // the order of its bounces).
-inline void group_light_vertices(LightVertexStore& st, int32_t paths) {
+CIERZO_STAGE inline void group_light_vertices(LightVertexStore& st, int32_t paths) {
     for (int32_t k = 0; k <= paths; ++k) st.begin[k] = 0;
     for (int32_t v = 0; v < st.count; ++v) ++st.begin[st.path[v] + 1];
     for (int32_t k = 0; k < paths; ++k) st.begin[k + 1] += st.begin[k];
@@ -166,7 +166,7 @@ inline void group_light_vertices(LightVertexStore& st, int32_t paths) {
 // emitter's point connected; for a light subpath, its number in the job, MIS quantities and
 // start. A start that cannot be sampled is dead at once (its throughput 0).
 template <LightUse kUse, class A>
-CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
+CIERZO_STAGE_LOOP CIERZO_STAGE void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
                                                int32_t& connections) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
@@ -411,7 +411,7 @@ void each_vertex(Wave<A>& w, const Vertex& vertex) {
 // The job's paths from the lights (one per key of its pixels and samples, from `cursor`),
 // as a wave, to the end.
 template <LightUse kUse, class A>
-CIERZO_STAGE_LOOP void trace_light_subpaths(Wave<A>& w, const TileJob& job, TileCursor& cursor) {
+CIERZO_STAGE_LOOP CIERZO_STAGE void trace_light_subpaths(Wave<A>& w, const TileJob& job, TileCursor& cursor) {
     using F = typename Wave<A>::F;
     w.live = 0;
     int32_t connections = 0;

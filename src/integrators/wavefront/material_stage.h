@@ -88,7 +88,7 @@ Bsdf<xsimd::batch<float, A>> hit_bsdf(const FlatScene& s, const xsimd::batch<int
 // starts[m] where material m's group begins (starts has material_count + 1 entries). Hits
 // on solid materials are left out: their colours come from the tables.
 template <class A>
-void sort_by_material(Wave<A>& w, int32_t* starts) {
+CIERZO_STAGE void sort_by_material(Wave<A>& w, int32_t* starts) {
     PathPool& p = w.pool;
     const int32_t* textured = w.scene.textured;
     const int32_t mc = w.scene.material_count;
@@ -201,7 +201,7 @@ void hit_uvs(const Wave<A>& w, const typename Wave<A>::I& j, const Vec3<typename
 // The textured channels of every live hit on a textured material, a material at a time (its
 // texture's parameters broadcast), into p.col.
 template <class A>
-CIERZO_STAGE_LOOP void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
+CIERZO_STAGE_LOOP CIERZO_STAGE void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;

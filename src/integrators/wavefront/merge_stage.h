@@ -38,7 +38,7 @@ MergeWeights<typename Wave<A>::F> lane_merge_weights(const Wave<A>& w, int32_t i
 // its radius, found through the job's grid lane by lane (merge_at); what they add goes to
 // the lanes' radiance in the pool.
 template <class A>
-void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
+[[gnu::noinline]] void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
                  const Vec3<typename Wave<A>::F>& beta, const MergeWeights<typename Wave<A>::F>& mw,
                  const typename Wave<A>::M& want) {
     using F = typename Wave<A>::F;
@@ -86,7 +86,7 @@ void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>&
 }
 
 // The job's grid (vcm): its stored vertices as photons of their sample's set.
-inline void build_merge_grid(LightVertexStore& st) {
+CIERZO_STAGE inline void build_merge_grid(LightVertexStore& st) {
     MergeTable& t = *st.merging;
     const uint32_t per = uint32_t(t.paths_per_sample);
     t.reserve_photons(size_t(st.count));

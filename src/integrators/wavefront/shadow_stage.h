@@ -36,7 +36,7 @@ ShadowChunk<A> shadow_chunk(Wave<A>& w, int32_t i) {
 // first (the unbounded primitives K rays at a time, then the tree), then the radiance
 // updates in the order of the queue, as trace_shadow_rays makes them.
 template <class A>
-void trace_shadow_rays_grouped(Wave<A>& w) {
+CIERZO_STAGE void trace_shadow_rays_grouped(Wave<A>& w) {
     using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
@@ -71,7 +71,7 @@ void trace_shadow_rays_grouped(Wave<A>& w) {
 }
 
 template <class A>
-CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
+CIERZO_STAGE_LOOP CIERZO_STAGE void trace_shadow_rays(Wave<A>& w) {
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;
