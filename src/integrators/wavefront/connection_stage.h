@@ -73,10 +73,12 @@ void queue_owned(Wave<A>& w, int32_t i, const ShadowRequest<typename Wave<A>::F>
 // vertex cv to n vertices drawn from its sample's set (kernels/bidirectional.h), queued as
 // shadow rays owned by the lane.
 template <class A>
-[[gnu::noinline]] void draw_connections(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
-                      const Vec3<typename Wave<A>::F>& beta,
-                      const MergeWeights<typename Wave<A>::F>& mw, const typename Wave<A>::M& phong,
-                      const typename Wave<A>::U& bounce, int32_t& queued) {
+[[gnu::noinline]] void draw_connections(Wave<A>& w, int32_t i,
+                                        const CameraVertex<typename Wave<A>::F>& cv,
+                                        const Vec3<typename Wave<A>::F>& beta,
+                                        const MergeWeights<typename Wave<A>::F>& mw,
+                                        const typename Wave<A>::M& phong,
+                                        const typename Wave<A>::U& bounce, int32_t& queued) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;

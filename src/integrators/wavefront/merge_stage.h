@@ -38,9 +38,11 @@ MergeWeights<typename Wave<A>::F> lane_merge_weights(const Wave<A>& w, int32_t i
 // its radius, found through the job's grid lane by lane (merge_at); what they add goes to
 // the lanes' radiance in the pool.
 template <class A>
-[[gnu::noinline]] void merge_lanes(Wave<A>& w, int32_t i, const CameraVertex<typename Wave<A>::F>& cv,
-                 const Vec3<typename Wave<A>::F>& beta, const MergeWeights<typename Wave<A>::F>& mw,
-                 const typename Wave<A>::M& want) {
+[[gnu::noinline]] void merge_lanes(Wave<A>& w, int32_t i,
+                                   const CameraVertex<typename Wave<A>::F>& cv,
+                                   const Vec3<typename Wave<A>::F>& beta,
+                                   const MergeWeights<typename Wave<A>::F>& mw,
+                                   const typename Wave<A>::M& want) {
     using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;

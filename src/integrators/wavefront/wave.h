@@ -17,8 +17,8 @@
 
 // Stage loops inline every kernel they call, so a batch's values stay in registers instead
 // of going through memory around calls that pass Bsdf and Vec3 lanes; but not the stages
-// they run (CIERZO_STAGE, below) nor a deep tree's traversal ray by ray (intersect_stage.h). Sanitizer builds skip
-// it: there it would only multiply the compile time of the per-ISA objects.
+// they run (CIERZO_STAGE, below) nor a deep tree's traversal ray by ray (intersect_stage.h).
+// Sanitizer builds skip it: there it would only multiply the compile time of the per-ISA objects.
 #if defined(__SANITIZE_ADDRESS__)
 #define CIERZO_STAGE_LOOP
 #else
