@@ -226,8 +226,8 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
     if (!merge_ && &mine != first_.load(std::memory_order_relaxed)) return;  // (planted bug)
     const int slot = int(pass & 1);
     // (the cell's box too: the spatial filter's width)
-    float lo[3], size[3];
-    const uint32_t cell = cell_box(p, lo, size);
+    float lo[3], size[3], lower[3], upper[3];
+    const uint32_t cell = cell_box(p, lo, size, lower, upper);
     CellSums& sums = mine.cells[slot][cell];
     ++sums.count;
     if (!box_set_) {
@@ -262,13 +262,14 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
         h = mix64(h ^ mix64(bits_of(p.z) | (uint64_t(bits_of(dir.x)) << 32)));
         h = mix64(h ^ (bits_of(dir.y) | (uint64_t(bits_of(dir.z)) << 32)));
         const float at[3] = {p.x, p.y, p.z};
-        Vec3f moved;
-        float* m[3] = {&moved.x, &moved.y, &moved.z};
+        float m[3];
+        bool inside = true;  // (then the descent would find `cell` again)
         for (int a = 0; a < 3; ++a) {
             const float u = float((h >> (21 * a)) & 0x1fffff) * 0x1.0p-21f;  // [0, 1)
-            *m[a] = at[a] + (u - 0.5f) * size[a];
+            m[a] = at[a] + (u - 0.5f) * size[a];
+            inside = inside && m[a] >= lower[a] && m[a] < upper[a];
         }
-        into = guide_cell(view_, moved);
+        if (!inside) into = guide_cell(view_, Vec3f(m[0], m[1], m[2]));
     }
 
     // The learning tree's leaf at the direction: unfiltered, the deposit's own
@@ -305,9 +306,26 @@ void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float va
             double(value) / (side * side)};
     const double y0 = y - 0.5 * side, y1 = y + 0.5 * side;
     s.y0 = std::max(0.0, y0), s.y1 = std::min(1.0, y1);
-    s.add(root, 0.0, 0.0, 1.0);
-    if (y0 < 0.0) s.y0 = y0 + 1.0, s.y1 = 1.0, s.add(root, 0.0, 0.0, 1.0);
-    if (y1 > 1.0) s.y0 = 0.0, s.y1 = y1 - 1.0, s.add(root, 0.0, 0.0, 1.0);
+    s.add_below(root);
+    if (y0 < 0.0) s.y0 = y0 + 1.0, s.y1 = 1.0, s.add_below(root);
+    if (y1 > 1.0) s.y0 = 0.0, s.y1 = y1 - 1.0, s.add_below(root);
+}
+
+void PathGuide::Splat::add_below(uint32_t root) const {
+    uint32_t n = root;
+    double ox = 0.0, oy = 0.0, w = 1.0;
+    for (;;) {
+        // The quadrant that holds the square's low corner; the square in it (as add()
+        // reckons overlaps: a neighbour it only touches gets nothing), and not a leaf
+        const double h = 0.5 * w;
+        const uint32_t kx = x0 >= ox + h ? 1u : 0u, ky = y0 >= oy + h ? 1u : 0u;
+        const double qx = ox + h * double(kx), qy = oy + h * double(ky);
+        if (x1 > qx + h || y1 > qy + h) break;
+        const uint32_t child = children[size_t(n) * 4 + kx + 2u * ky];
+        if (!child) break;
+        n = child, ox = qx, oy = qy, w = h;
+    }
+    add(n, ox, oy, w);
 }
 
 void PathGuide::Splat::add(uint32_t n, double ox, double oy, double w) const {
@@ -325,8 +343,13 @@ void PathGuide::Splat::add(uint32_t n, double ox, double oy, double w) const {
     }
 }
 
-uint32_t PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3]) const {
-    for (int a = 0; a < 3; ++a) lo[a] = lo_[a], size[a] = size_[a];
+uint32_t PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3], float lower[3],
+                             float upper[3]) const {
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = lo_[a], size[a] = size_[a];
+        lower[a] = -std::numeric_limits<float>::infinity();
+        upper[a] = std::numeric_limits<float>::infinity();
+    }
     const float at[3] = {p.x, p.y, p.z};
     uint32_t n = 0;
     while (spatial_[n].child > 0) {  // (guide_cell's descent, keeping the box)
@@ -334,7 +357,10 @@ uint32_t PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3]) const {
         size[axis] *= 0.5f;
         const float mid = lo[axis] + size[axis];
         const bool above = at[axis] >= mid;
-        if (above) lo[axis] = mid;
+        if (above)
+            lo[axis] = mid, lower[axis] = mid;
+        else
+            upper[axis] = mid;
         n = uint32_t(spatial_[n].child) + (above ? 1u : 0u);
     }
     return spatial_[n].axis_or_cell;

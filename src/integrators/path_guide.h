@@ -146,9 +146,14 @@ private:
         const uint32_t* children;
         double x0, x1, y0, y1, density;
         void add(uint32_t node, double ox, double oy, double width) const;
+        // add() from the deepest node below `root` whose square holds [x0, x1] × [y0, y1]
+        // (the same leaves, the same amounts: a descent from the root reaches no others)
+        void add_below(uint32_t root) const;
     };
-    // The cell of p, and its box
-    uint32_t cell_box(const Vec3f& p, float lo[3], float size[3]) const;
+    // The cell of p, and its box; and the bounds its descent compared p with: any point q
+    // with lower ≤ q < upper on every axis is in the same cell
+    uint32_t cell_box(const Vec3f& p, float lo[3], float size[3], float lower[3],
+                      float upper[3]) const;
     void update_view();
     void resize_sums(size_t nodes, size_t cells);  // zeroed
     void allocate_learning(const std::vector<Shape>& trees);
