@@ -21,10 +21,15 @@ Configurations: as bench/efficiency.py (each names all four knobs):
               independent numbers)
   all         cosine diffuse, throughput roulette from vertex 1, triangles by solid angle
   all+sobol   the same with the sobol sampler: nee's and mis's defaults
+With --guiding, instead (both by the scalar integrator, the only one that guides):
+  defaults    all+sobol, unguided
+  sdtree      all+sobol with --guiding sdtree. Each band is a render of its own, so its guide
+              learns from that band's light alone (a guide of the whole image's light would
+              learn the same directions where that band's light dominates)
 
 Usage: PYTHONPATH=build/python/module /usr/bin/python3 bench/error_by_length.py
        [--scenes box,cornell,PATH.json] [--size 128] [--spp 64] [--reference-spp 4096]
-       [--estimator mis] [--out FILE.json]
+       [--estimator mis] [--guiding] [--out FILE.json]
 """
 import argparse
 import json
@@ -41,6 +46,8 @@ BASE = {"roulette": "lobe", "diffuse_sampling": "uniform", "triangle_sampling": 
 ALL = {"roulette": "throughput", "roulette_depth": 1, "diffuse_sampling": "cosine",
        "triangle_sampling": "solid-angle"}
 CONFIGS = {"lobe": {}, "all": ALL, "all+sobol": {**ALL, "sampler": "sobol"}}
+GUIDED = {"defaults": {**ALL, "sampler": "sobol", "integrator": "scalar"},
+          "sdtree": {**ALL, "sampler": "sobol", "integrator": "scalar", "guiding": "sdtree"}}
 EPSILON = 1e-2  # as cierzo converge's relative MSE
 
 
@@ -61,8 +68,11 @@ def main():
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--estimator", default="mis")
+    ap.add_argument("--guiding", action="store_true",
+                    help="compare unguided and guided defaults (scalar integrator)")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
+    configs = GUIDED if a.guiding else CONFIGS
     results = []
     for name in a.scenes.split(","):
         scene = pathlib.Path(name) if name.endswith(".json") else ROOT / "scenes" / f"{name}.json"
@@ -74,7 +84,7 @@ def main():
             ref[band], ref_var[band] = img.astype(np.float64), var.astype(np.float64)
         whole = sum(ref.values())
         scale = 1.0 / (whole * whole + EPSILON)
-        for label, config in CONFIGS.items():
+        for label, config in configs.items():
             entry = {"scene": scene.stem, "config": label, "spp": a.spp}
             for band in BANDS:
                 img, _ = cierzo.render(str(scene), spp=a.spp, estimator=a.estimator, threads=1,

@@ -191,7 +191,9 @@ int run_main(int argc, char** argv) {
         ->check(CLI::Range(1, kMaxLengthLimit));
     r->add_option("--max-length", a.job.max_length,
                   "Count only light carried by paths of at most this many segments, and end "
-                  "paths there (overrides render.max_length; default: no limit)")
+                  "paths there (a guided render's go on: its guide learns from the whole light, "
+                  "so its bands add up to its image) (overrides render.max_length; default: no "
+                  "limit)")
         ->check(CLI::Range(1, kMaxLengthLimit));
     r->add_option("--strategy", a.job.strategy,
                   "bdpt: count only the paths strategy S,T makes (S light vertices, T camera "

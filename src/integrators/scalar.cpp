@@ -59,19 +59,24 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
     Ray<float> ray = camera_ray;
     float lobe_pdf = 0.0f;  // the density of the last Phong lobe's direction; 0 after the
                             // camera, a mirror or a refraction
-    // A guided render's records (learn: the guide that learns them)
+    // A guided render's records (learn: the guide that learns them). Its guide learns from
+    // the whole light, whatever lengths the film counts (render.min_length, max_length): its
+    // paths go on past max_length, and light of the lengths left out still reaches the
+    // records, so the bands of a guided render are the same paths with the same guide and
+    // add up to its whole image, as an unguided render's do
     GuideRecord records[kMaxGuideRecords];  // (uninitialised: written before read)
     int recorded = 0;
-    const auto gain = [&](const Vec3f& x) {
-        radiance += x;
+    const auto counts = [&](uint32_t length) { return length_counts<float>(c.estimator, length); };
+    const auto gain = [&](const Vec3f& x, bool counted) {
+        if (counted) radiance += x;
         for (int i = 0; i < recorded; ++i) records[i].gathered += x;
     };
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) {
             // An escaping path gathers the environment
-            if (has_environment(c) && length_counts<float>(c.estimator, bounce + 1))
-                gain(throughput * escaped_radiance<float>(c, ray.d, lobe_pdf));
+            if (has_environment(c) && (learn || counts(bounce + 1)))
+                gain(throughput * escaped_radiance<float>(c, ray.d, lobe_pdf), counts(bounce + 1));
             break;
         }
         const Material& material = scene.materials[size_t(hit.material)];
@@ -83,7 +88,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                 le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind, scene.emitter_id(hit),
                                                 lobe_pdf, ray.o, ray.d, hit.t,
                                                 c.estimator.triangle_solid_angle);
-            if (length_counts<float>(c.estimator, bounce + 1)) gain(throughput * le);
+            if (learn || counts(bounce + 1)) gain(throughput * le, counts(bounce + 1));
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
@@ -94,19 +99,20 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
             c.guide && material.has_phong() ? guide_at(c.guide, hit.p) : GuideAt{};
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
-        if (material.has_phong() && (c.light_count > 0 || c.nee) &&
-            length_counts<float>(c.estimator, bounce + 2)) {
+        if (material.has_phong() && (c.light_count > 0 || c.nee) && (learn || counts(bounce + 2))) {
+            const bool counted = counts(bounce + 2);
             const Vec3f origin = shadow_origin(v, hit.p, magnitude);
             Vec3f lights(0.0f);
             for (int32_t j = 0; j < c.light_count; ++j)
                 lights += trace_request(
                     scene, point_light_request(c, j, m, ray.d, v, origin, Vec3f(1.0f), true), rays);
-            if (c.light_count > 0) gain(throughput * lights);
+            if (c.light_count > 0) gain(throughput * lights, counted);
             if (c.nee)
                 gain(throughput * trace_request(scene,
                                                 emitter_request(c, m, ray.d, v, origin, Vec3f(1.0f),
                                                                 true, rng, bounce, &guide),
-                                                rays));
+                                                rays),
+                     counted);
         }
 
         // Russian roulette picks one lobe, or the path's death; the lobe continues it
@@ -115,7 +121,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         lobe_uniforms<float>(rng, bounce, normalised_lobes(c.estimator), u_lobe, u_roulette);
         const int32_t lobe =
             choose_lobe(m, u_lobe, c.estimator.survival_cap, p, normalised_lobes(c.estimator));
-        if (lobe == kLobeAbsorbed || !may_extend<float>(c.estimator, bounce)) break;
+        if (lobe == kLobeAbsorbed || (!learn && !may_extend<float>(c.estimator, bounce))) break;
         ScalarContinuation next;
         // (for the guide's record: the direction's density, and the mixture's parts)
         float density = 0.0f, guide_pdf = 0.0f, diffuse_pdf = 0.0f;

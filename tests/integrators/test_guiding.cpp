@@ -493,6 +493,36 @@ TEST(GuidedRender, IsTheSameOnOneTwoAndThreeThreads) {
     }
 }
 
+TEST(GuidedRender, BandsOfPathLengthsAddUpToTheWholeImage) {
+    // The guide learns from the whole light whatever lengths the film counts, so the images
+    // of lengths 1..2, 3 and 4.. are the same paths with the same guide: they add up, pixel
+    // by pixel, to the whole image (but for the rounding of the film's sums). A guide that
+    // learnt from its band's light alone would draw other paths in each band, off by noise.
+    for (Estimator e : {Estimator::kNee, Estimator::kMis}) {
+        SCOPED_TRACE(estimator_name(e));
+        // (trainings after 16 and 32 paths per pixel)
+        Scene s = guided(parse_scene(test::kLobes, "lobes.json"), e, 48);
+        s.set_resolution(32, 24);
+        const auto image = [&](int lo, int hi) {
+            Scene band = s;
+            band.settings.estimator.min_length = lo;
+            band.settings.estimator.max_length = hi;
+            return render_on(band, 2, true, 0.5f).film.mean();
+        };
+        const Image whole = image(1, kNoLengthLimit), direct = image(1, 2), first = image(3, 3),
+                    rest = image(4, kNoLengthLimit);
+        double largest = 0, worst = 0, in_bands[3] = {0, 0, 0};
+        for (size_t i = 0; i < whole.rgb.size(); ++i) {
+            const double sum = double(direct.rgb[i]) + first.rgb[i] + rest.rgb[i];
+            largest = std::max(largest, double(whole.rgb[i]));
+            worst = std::max(worst, std::abs(sum - whole.rgb[i]));
+            in_bands[0] += direct.rgb[i], in_bands[1] += first.rgb[i], in_bands[2] += rest.rgb[i];
+        }
+        EXPECT_LE(worst, 1e-5 * largest + 1e-6);
+        for (double b : in_bands) EXPECT_GT(b, 0.0);
+    }
+}
+
 TEST(GuidedRender, AnalyticAnswers) {
     // A point light in a diffuse sphere, and a diffuse ball inside an emitting sphere (a
     // furnace: every point of it sees the emitter alone)
