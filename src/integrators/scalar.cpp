@@ -62,8 +62,9 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
     // A guided render's records (learn: the guide that learns them). Its guide learns from
     // the whole light, whatever lengths the film counts (render.min_length, max_length): its
     // paths go on past max_length, and light of the lengths left out still reaches the
-    // records, so the bands of a guided render are the same paths with the same guide and
-    // add up to its whole image, as an unguided render's do
+    // records (light that no record is yet there to gather is not traced), so the bands of a
+    // guided render are the same paths with the same guide and add up to its whole image, as
+    // an unguided render's do
     GuideRecord records[kMaxGuideRecords];  // (uninitialised: written before read)
     int recorded = 0;
     const auto counts = [&](uint32_t length) { return length_counts<float>(c.estimator, length); };
@@ -75,7 +76,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         Hit hit;
         if (!scene.intersect(ray, kRayFar, hit)) {
             // An escaping path gathers the environment
-            if (has_environment(c) && (learn || counts(bounce + 1)))
+            if (has_environment(c) && (recorded > 0 || counts(bounce + 1)))
                 gain(throughput * escaped_radiance<float>(c, ray.d, lobe_pdf), counts(bounce + 1));
             break;
         }
@@ -88,7 +89,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                 le *= emitter_hit_weight<float>(c.emitters, c.estimator.kind, scene.emitter_id(hit),
                                                 lobe_pdf, ray.o, ray.d, hit.t,
                                                 c.estimator.triangle_solid_angle);
-            if (learn || counts(bounce + 1)) gain(throughput * le, counts(bounce + 1));
+            if (recorded > 0 || counts(bounce + 1)) gain(throughput * le, counts(bounce + 1));
             break;
         }
         const Bsdf<float> m = scene.bsdf_at(hit);
@@ -99,7 +100,8 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
             c.guide && material.has_phong() ? guide_at(c.guide, hit.p) : GuideAt{};
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
-        if (material.has_phong() && (c.light_count > 0 || c.nee) && (learn || counts(bounce + 2))) {
+        if (material.has_phong() && (c.light_count > 0 || c.nee) &&
+            (recorded > 0 || counts(bounce + 2))) {
             const bool counted = counts(bounce + 2);
             const Vec3f origin = shadow_origin(v, hit.p, magnitude);
             Vec3f lights(0.0f);

@@ -46,7 +46,7 @@ F floor_divide(const F& a, const F& b, F& remainder) {
 // kRadiance: the pool carries each path's radiance (zeroed here); without it, shading hands
 // the emission that ends a path straight to the film.
 template <bool kRadiance, class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void generate_camera_paths(Wave<A>& w, TileCursor& c) {
+CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     constexpr int32_t K = Wave<A>::K;

@@ -81,8 +81,8 @@ void queue_connections(Wave<A>& w, typename Wave<A>::M want,
 // The queued camera connections, K at a time (any hit); the clear ones are splatted, and the
 // splats handed to the film.
 template <class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void trace_camera_connections(Wave<A>& w, const TileJob& job,
-                                                             int32_t& connections) {
+CIERZO_STAGE_LOOP void trace_camera_connections(Wave<A>& w, const TileJob& job,
+                                                int32_t& connections) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;
@@ -166,8 +166,8 @@ CIERZO_STAGE inline void group_light_vertices(LightVertexStore& st, int32_t path
 // emitter's point connected; for a light subpath, its number in the job, MIS quantities and
 // start. A start that cannot be sampled is dead at once (its throughput 0).
 template <LightUse kUse, class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
-                                                            int32_t& connections) {
+CIERZO_STAGE_LOOP void generate_light_subpaths(Wave<A>& w, TileCursor& cursor,
+                                               int32_t& connections) {
     using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
@@ -411,8 +411,7 @@ void each_vertex(Wave<A>& w, const Vertex& vertex) {
 // The job's paths from the lights (one per key of its pixels and samples, from `cursor`),
 // as a wave, to the end.
 template <LightUse kUse, class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void trace_light_subpaths(Wave<A>& w, const TileJob& job,
-                                                         TileCursor& cursor) {
+CIERZO_STAGE_LOOP void trace_light_subpaths(Wave<A>& w, const TileJob& job, TileCursor& cursor) {
     using F = typename Wave<A>::F;
     w.live = 0;
     int32_t connections = 0;

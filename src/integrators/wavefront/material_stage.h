@@ -201,7 +201,7 @@ void hit_uvs(const Wave<A>& w, const typename Wave<A>::I& j, const Vec3<typename
 // The textured channels of every live hit on a textured material, a material at a time (its
 // texture's parameters broadcast), into p.col.
 template <class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
+CIERZO_STAGE_LOOP void evaluate_sorted_materials(Wave<A>& w, int32_t* starts) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;

@@ -238,7 +238,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, con
 
 // Shading of the surfaces stored before the material stage, K at a time.
 template <int kFused, class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void shade_stored(Wave<A>& w) {
+CIERZO_STAGE_LOOP void shade_stored(Wave<A>& w) {
     using F = typename Wave<A>::F;
     PathPool& p = w.pool;
     int32_t queued = 0;
@@ -253,7 +253,7 @@ CIERZO_STAGE_LOOP CIERZO_STAGE void shade_stored(Wave<A>& w) {
 
 // A lobe's kernel over its bucket: full batches of gathered lanes.
 template <int kLobe, class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
+CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t size) {
     using F = typename Wave<A>::F;
     using I = typename Wave<A>::I;
     constexpr int32_t K = Wave<A>::K;

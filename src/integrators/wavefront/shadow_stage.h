@@ -71,7 +71,7 @@ CIERZO_STAGE void trace_shadow_rays_grouped(Wave<A>& w) {
 }
 
 template <class A>
-CIERZO_STAGE_LOOP CIERZO_STAGE void trace_shadow_rays(Wave<A>& w) {
+CIERZO_STAGE_LOOP void trace_shadow_rays(Wave<A>& w) {
     constexpr int32_t K = Wave<A>::K;
     PathPool& p = w.pool;
     const FlatScene& s = w.scene;

@@ -15,21 +15,21 @@
 #include "kernels/rng.h"
 #include "kernels/sampler.h"
 
-// Stage loops inline every kernel they call, so a batch's values stay in registers instead
-// of going through memory around calls that pass Bsdf and Vec3 lanes; but not the stages
-// they run (CIERZO_STAGE, below) nor a deep tree's traversal ray by ray (intersect_stage.h).
-// Sanitizer builds skip it: there it would only multiply the compile time of the per-ISA objects.
-#if defined(__SANITIZE_ADDRESS__)
-#define CIERZO_STAGE_LOOP
-#else
-#define CIERZO_STAGE_LOOP [[gnu::flatten]]
-#endif
-
 // A stage: one pass over the whole wave (camera paths, shadow rays, compaction, a lobe's
 // bucket...). Its call costs nothing beside the loop, so it is never inlined: a flattened
 // caller would otherwise copy it whole into every loop that runs it, and the per-ISA objects'
 // compile time grows with the largest function, not with the code.
 #define CIERZO_STAGE [[gnu::noinline]]
+
+// A stage loop: a stage that inlines every kernel it calls, so a batch's values stay in
+// registers instead of going through memory around calls that pass Bsdf and Vec3 lanes; but
+// not the stages it runs nor a deep tree's traversal ray by ray (intersect_stage.h). Sanitizer
+// builds skip the flattening: there it would only multiply the per-ISA objects' compile time.
+#if defined(__SANITIZE_ADDRESS__)
+#define CIERZO_STAGE_LOOP CIERZO_STAGE
+#else
+#define CIERZO_STAGE_LOOP [[gnu::flatten, gnu::noinline]]
+#endif
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
