@@ -177,6 +177,10 @@ struct EstimatorSettings {
     // their diffuse directions from the incident light learned from earlier passes
     // (kernels/guiding.h, src/integrators/path_guide.h)
     Guiding guiding = Guiding::kNone;
+    // The Phong vertices of a camera path that the guide serves, counted from the camera: it
+    // draws their diffuse directions, weighs with its density there and learns from their
+    // records alone (render.guided_vertices, --guided-vertices; 0: every Phong vertex)
+    int32_t guided_vertices = 1;
     // Always true; the tests clear it to show that a MIS weight without the guide's density
     // is caught
     bool guide_in_mis = true;

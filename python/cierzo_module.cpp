@@ -175,11 +175,11 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp, std::o
                     std::optional<std::string> roulette, std::optional<int> roulette_depth,
                     std::optional<std::string> triangle_sampling,
                     std::optional<std::string> sampler, std::optional<std::string> guiding,
-                    std::optional<int> min_length, std::optional<int> max_length,
-                    std::optional<std::pair<int, int>> strategy, bool unweighted, bool strategies,
-                    std::optional<float> merge_radius, std::optional<float> merge_alpha,
-                    std::optional<int> light_connections, int pool, bool variance,
-                    double time_budget, double target_error, bool progress,
+                    std::optional<int> guided_vertices, std::optional<int> min_length,
+                    std::optional<int> max_length, std::optional<std::pair<int, int>> strategy,
+                    bool unweighted, bool strategies, std::optional<float> merge_radius,
+                    std::optional<float> merge_alpha, std::optional<int> light_connections,
+                    int pool, bool variance, double time_budget, double target_error, bool progress,
                     const py::object& cancel, const std::optional<fs::path>& checkpoint,
                     std::optional<double> checkpoint_every, const std::optional<fs::path>& resume) {
     // The command line's checks of its options
@@ -201,6 +201,7 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp, std::o
     check_member("triangle_sampling", triangle_sampling, kTriangleSampling);
     check_member("sampler", sampler, kSamplerNames);
     check_member("guiding", guiding, kGuidingNames);
+    check_range<int>("guided_vertices", guided_vertices, 0, kMaxLengthLimit);
     check_range<int>("min_length", min_length, 1, kMaxLengthLimit);
     check_range<int>("max_length", max_length, 1, kMaxLengthLimit);
     check_range<double>("checkpoint_every", checkpoint_every, 0.01, 1e9);
@@ -218,6 +219,7 @@ py::tuple py_render(const py::object& source, std::optional<int64_t> spp, std::o
     job.triangle_sampling = triangle_sampling;
     job.sampler = sampler;
     job.guiding = guiding;
+    job.guided_vertices = guided_vertices;
     job.min_length = min_length, job.max_length = max_length;
     if (strategy) job.strategy = {strategy->first, strategy->second};
     job.unweighted = unweighted;
@@ -303,11 +305,12 @@ py::list py_converge(
     const std::vector<float>& survival_cap, const std::vector<std::string>& diffuse_sampling,
     const std::vector<std::string>& roulette, std::optional<int> roulette_depth,
     const std::vector<std::string>& triangle_sampling, const std::vector<std::string>& sampler,
-    const std::vector<std::string>& guiding, const std::vector<std::string>& estimator,
-    const std::vector<float>& merge_radius, const std::vector<float>& merge_alpha,
-    const std::vector<int>& light_connections, std::optional<std::string> reference_estimator,
-    std::optional<int> width, std::optional<int> height, int threads, int repeats,
-    const std::optional<fs::path>& out, bool verbose, const py::object& cancel) {
+    const std::vector<std::string>& guiding, std::optional<int> guided_vertices,
+    const std::vector<std::string>& estimator, const std::vector<float>& merge_radius,
+    const std::vector<float>& merge_alpha, const std::vector<int>& light_connections,
+    std::optional<std::string> reference_estimator, std::optional<int> width,
+    std::optional<int> height, int threads, int repeats, const std::optional<fs::path>& out,
+    bool verbose, const py::object& cancel) {
     check_range<int64_t>("reference_spp", reference_spp, 1, UINT32_MAX);
     check_member("reference_integrator", reference_integrator, kIntegratorNames);
     for (int64_t v : spp) check_range<int64_t>("spp", v, 1, UINT32_MAX);
@@ -322,6 +325,7 @@ py::list py_converge(
         check_member("triangle_sampling", v, kTriangleSampling);
     for (const std::string& v : sampler) check_member("sampler", v, kSamplerNames);
     for (const std::string& v : guiding) check_member("guiding", v, kGuidingNames);
+    check_range<int>("guided_vertices", guided_vertices, 0, kMaxLengthLimit);
     for (const std::string& v : estimator) check_member("estimator", v, kEstimatorNames);
     for (float v : merge_radius)
         if (!(v > 0.0f) || !std::isfinite(v))
@@ -358,6 +362,7 @@ py::list py_converge(
     a.triangle_sampling = triangle_sampling;
     a.samplers = sampler;
     a.guidings = guiding;
+    a.guided_vertices = guided_vertices;
     a.estimators = estimator;
     a.merge_radii = merge_radius, a.merge_alphas = merge_alpha;
     a.light_connections = light_connections;
@@ -485,14 +490,15 @@ name it '<dict>'. Raises cierzo.Error with the command line's message.)");
           py::arg("diffuse_sampling") = py::none(), py::arg("roulette") = py::none(),
           py::arg("roulette_depth") = py::none(), py::arg("triangle_sampling") = py::none(),
           py::arg("sampler") = py::none(), py::arg("guiding") = py::none(),
-          py::arg("min_length") = py::none(), py::arg("max_length") = py::none(),
-          py::arg("strategy") = py::none(), py::arg("unweighted") = false,
-          py::arg("strategies") = false, py::arg("merge_radius") = py::none(),
-          py::arg("merge_alpha") = py::none(), py::arg("light_connections") = py::none(),
-          py::arg("pool") = 0, py::arg("variance") = false, py::arg("time_budget") = 0.0,
-          py::arg("target_error") = 0.0, py::arg("progress") = false,
-          py::arg("cancel") = py::none(), py::arg("checkpoint") = py::none(),
-          py::arg("checkpoint_every") = py::none(), py::arg("resume") = py::none(),
+          py::arg("guided_vertices") = py::none(), py::arg("min_length") = py::none(),
+          py::arg("max_length") = py::none(), py::arg("strategy") = py::none(),
+          py::arg("unweighted") = false, py::arg("strategies") = false,
+          py::arg("merge_radius") = py::none(), py::arg("merge_alpha") = py::none(),
+          py::arg("light_connections") = py::none(), py::arg("pool") = 0,
+          py::arg("variance") = false, py::arg("time_budget") = 0.0, py::arg("target_error") = 0.0,
+          py::arg("progress") = false, py::arg("cancel") = py::none(),
+          py::arg("checkpoint") = py::none(), py::arg("checkpoint_every") = py::none(),
+          py::arg("resume") = py::none(),
           R"(Renders a scene (a Scene, a path or a dict) as `cierzo render` does.
 
 Returns (image, stats), or (image, variance, stats) with variance=True: float32 arrays of
@@ -509,7 +515,8 @@ or be 'scalar'). Keywords left at None keep the scene's value:
   mis), roulette_depth (the vertex the throughput roulette starts at, 0..1024),
   triangle_sampling ('area', 'solid-angle': how nee and mis sample emitting triangles),
   sampler ('independent', 'sobol', 'zsobol', 'pmj02': where the random numbers come from),
-  guiding ('none', 'sdtree': nee and mis with the scalar integrator),
+  guiding ('none', 'sdtree': nee and mis with the scalar integrator), guided_vertices (the
+  Phong vertices of a camera path the guide serves, from the camera; 0: every one),
   min_length, max_length (only paths of that many segments count: 1 is the camera seeing an
   emitter, 2 direct light; 1..1048576);
   strategy (bdpt: a pair (s, t), only the paths of s light and t camera vertices count, with
@@ -548,7 +555,7 @@ seed, estimator or integrator is refused).)");
           py::arg("roulette") = std::vector<std::string>{}, py::arg("roulette_depth") = py::none(),
           py::arg("triangle_sampling") = std::vector<std::string>{},
           py::arg("sampler") = std::vector<std::string>{},
-          py::arg("guiding") = std::vector<std::string>{},
+          py::arg("guiding") = std::vector<std::string>{}, py::arg("guided_vertices") = py::none(),
           py::arg("estimator") = std::vector<std::string>{},
           py::arg("merge_radius") = std::vector<float>{},
           py::arg("merge_alpha") = std::vector<float>{},
@@ -564,11 +571,12 @@ diffuse_sampling, roulette, triangle_sampling, sampler and estimator, for nee an
 and for vcm, bpm and ppm
 merge_radius and merge_alpha, for bdpt and vcm light_connections (lists; an empty list
 keeps the scene's value; roulette_depth
-one value or None). Returns one dict per render, keyed by the CSV's columns (scene,
+and guided_vertices one value or None). Returns one dict per render, keyed by the CSV's columns (scene,
 integrator, isa, pool, survival_cap, diffuse_sampling, roulette ('lobe', or e.g.
 'throughput3': from vertex 3), triangle_sampling, sampler, estimator, merge_radius and
 merge_alpha (vcm's, bpm's and ppm's, as rendered; empty for the others), light_connections
-(bdpt's and vcm's; empty for the others), guiding, threads, width, height, spp, repeats, seconds, rays,
+(bdpt's and vcm's; empty for the others), guiding ('none', or e.g. 'sdtree1': the guide
+serving the first Phong vertex), threads, width, height, spp, repeats, seconds, rays,
 rays_per_second, mse, rmse, rel_mse, reference_mse, reference_rel_mse, mse_corrected,
 rmse_corrected, rel_mse_corrected, estimated_relative_error, efficiency). out writes the
 same rows as CSV, save_reference the rendered reference (.exr); verbose prints the table and

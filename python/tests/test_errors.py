@@ -74,7 +74,7 @@ def test_render_size_limit_has_the_programs_message(cierzo, tmp_path):
                                 dict(roulette="russian"), dict(roulette_depth=-1),
                                 dict(roulette_depth=1025), dict(triangle_sampling="cone"),
                                 dict(sampler="halton"), dict(min_length=0),
-                                dict(max_length=2000000)])
+                                dict(max_length=2000000), dict(guided_vertices=-1)])
 def test_bad_keywords(cierzo, kw):
     with pytest.raises(ValueError, match=next(iter(kw))):
         cierzo.render(scene_path("cornell"), **kw)

@@ -102,15 +102,17 @@ def test_guiding_as_the_program_and_checked(cierzo, tmp_path):
     code, err = run_cli("render", scene_path("small_emitter"), "--width", kw["width"], "--height",
                         kw["height"], "--spp", kw["spp"], "--seed", kw["seed"], "--threads",
                         kw["threads"], "--estimator", "mis", "--integrator", "scalar",
-                        "--guiding", "sdtree", "--out", out, "--stats", stats_path, "--quiet")
+                        "--guiding", "sdtree", "--guided-vertices", 2, "--out", out, "--stats",
+                        stats_path, "--quiet")
     assert code == 0, err
     with open(stats_path) as f:
         stats = json.load(f)
     image, st = cierzo.render(scene_path("small_emitter"), estimator="mis", integrator="scalar",
-                              guiding="sdtree", **kw)
+                              guiding="sdtree", guided_vertices=2, **kw)
     assert same_bits(image, cierzo.read_exr(out))
     assert st["guiding"]["trainings"] == stats["guiding"]["trainings"] >= 2
     assert st["guiding"]["cells"] == stats["guiding"]["cells"] >= 1
+    assert st["guiding"]["guided_vertices"] == stats["guiding"]["guided_vertices"] == 2
     with pytest.raises(cierzo.Error, match="guiding"):
         cierzo.render(scene_path("small_emitter"), estimator="lt", guiding="sdtree", **SMALL)
     with pytest.raises(ValueError, match="guiding"):

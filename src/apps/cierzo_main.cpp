@@ -184,6 +184,12 @@ int run_main(int argc, char** argv) {
                   "Path guiding: " + describe_guidings() +
                       " (overrides render.guiding; docs/estimators.md, \"Path guiding\")")
         ->check(CLI::IsMember(guiding_names()));
+    r->add_option("--guided-vertices", a.job.guided_vertices,
+                  "A guided render's guide serves the first N Phong (diffuse or glossy) vertices "
+                  "of each camera path: it draws part of their diffuse directions and learns "
+                  "from their light alone; 0: every Phong vertex (overrides "
+                  "render.guided_vertices; default 1)")
+        ->check(CLI::Range(0, kMaxLengthLimit));
     r->add_option("--min-length", a.job.min_length,
                   "Count only light carried by paths of at least this many segments (the camera "
                   "seeing an emitter is 1, direct light 2, the first indirect bounce 3; "

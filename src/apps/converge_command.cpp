@@ -106,7 +106,9 @@ std::vector<ConvergeConfig> configs_of(const ConvergeArgs& a) {
                                                              .merge_radius = radius,
                                                              .merge_alpha = alpha,
                                                              .light_connections = n,
-                                                             .guiding = g});
+                                                             .guiding = g,
+                                                             .guided_vertices =
+                                                                 a.guided_vertices.value_or(-1)});
                                     }
     }
     return out;
@@ -127,6 +129,13 @@ namespace {
 
 const char* diffuse_name(const EstimatorSettings& e) {
     return e.cosine_diffuse ? "cosine" : "uniform";
+}
+
+// "none", or "sdtree1" (the guide serving the first Phong vertex; "sdtree0": every one)
+std::string guiding_label(const EstimatorSettings& e) {
+    return e.guiding == Guiding::kNone
+               ? std::string(guiding_name(e.guiding))
+               : fmt::format("{}{}", guiding_name(e.guiding), e.guided_vertices);
 }
 
 // "lobe", or "throughput3" (the throughput roulette from vertex 3)
@@ -156,11 +165,11 @@ std::string csv_row(const Scene& scene, const ConvergePoint& p) {
         merges(p.estimator.kind) ? fmt::format("{:.6g}", p.estimator.merge_alpha) : std::string(),
         // (the connections' draws as rendered, bdpt's and vcm's; empty for the others)
         connects(p.estimator.kind) ? std::to_string(p.estimator.light_connections) : std::string(),
-        guiding_name(p.estimator.guiding), p.stats.threads, scene.settings.width,
-        scene.settings.height, p.spp, p.repeats, p.seconds, p.rays,
-        p.seconds > 0 ? double(p.rays) / p.seconds : 0.0, e.mse, std::sqrt(e.mse), e.rel_mse,
-        e.reference_mse, e.reference_rel_mse, e.mse_corrected(), std::sqrt(e.mse_corrected()),
-        e.rel_mse_corrected(), p.estimated_relative_error, efficiency);
+        guiding_label(p.estimator), p.stats.threads, scene.settings.width, scene.settings.height,
+        p.spp, p.repeats, p.seconds, p.rays, p.seconds > 0 ? double(p.rays) / p.seconds : 0.0,
+        e.mse, std::sqrt(e.mse), e.rel_mse, e.reference_mse, e.reference_rel_mse, e.mse_corrected(),
+        std::sqrt(e.mse_corrected()), e.rel_mse_corrected(), p.estimated_relative_error,
+        efficiency);
 }
 
 }  // namespace
@@ -273,6 +282,11 @@ CLI::App* add_converge_command(CLI::App& app) {
                       "; default: the scene's")
         ->delimiter(',')
         ->check(CLI::IsMember(guiding_names()));
+    c->add_option("--guided-vertices", a.guided_vertices,
+                  "The Phong vertices a guide serves from the camera (0: every one; render's "
+                  "--guided-vertices); the CSV's guiding column appends it (sdtree1); default: "
+                  "the scene's")
+        ->check(CLI::Range(0, kMaxLengthLimit));
     c->add_option(
          "--roulette", a.roulettes,
          "Roulettes to sweep, comma-separated: " + describe_roulettes() + "; default: the scene's")
@@ -461,7 +475,7 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
                          p.config.integrator.c_str(), p.stats.isa.c_str(), p.stats.pool_size,
                          p.estimator.survival_cap, diffuse_name(p.estimator),
                          roulette_label(p.estimator).c_str(), sampler_name(p.estimator.sampler),
-                         estimator_name(p.estimator.kind), guiding_name(p.estimator.guiding),
+                         estimator_name(p.estimator.kind), guiding_label(p.estimator).c_str(),
                          static_cast<long long>(p.spp), p.seconds,
                          p.seconds > 0 ? double(p.rays) / p.seconds * 1e-6 : 0.0,
                          std::sqrt(p.error.mse_corrected()), p.error.rel_mse_corrected());
@@ -485,7 +499,7 @@ std::vector<std::string> run_converge_job(Scene scene, const ConvergeArgs& a) {
                      last->stats.pool_size, last->estimator.survival_cap,
                      diffuse_name(last->estimator), roulette_label(last->estimator).c_str(),
                      sampler_name(last->estimator.sampler), estimator_name(last->estimator.kind),
-                     guiding_name(last->estimator.guiding), log_log_slope(x, y),
+                     guiding_label(last->estimator).c_str(), log_log_slope(x, y),
                      last->seconds / double(last->spp));
     }
     if (csv_stream) csv_stream->close();

@@ -36,6 +36,7 @@ struct ConvergeArgs {
     std::vector<std::string> triangle_sampling;
     std::vector<std::string> samplers;
     std::vector<std::string> guidings;  // nee and mis only
+    std::optional<int> guided_vertices;
     std::vector<float> merge_radii, merge_alphas;  // vcm only
     std::vector<int> light_connections;            // bdpt and vcm only
     std::optional<int> roulette_depth;

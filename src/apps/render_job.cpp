@@ -178,6 +178,7 @@ void apply_render_overrides(Scene& scene, const RenderJob& a) {
     if (a.roulette_depth) e.roulette_depth = *a.roulette_depth;
     if (a.sampler) e.sampler = *parse_sampler(*a.sampler), e.chosen |= kChoseSampler;
     if (a.guiding) e.guiding = *parse_guiding(*a.guiding);
+    if (a.guided_vertices) e.guided_vertices = *a.guided_vertices;
     if (a.min_length) s.estimator.min_length = *a.min_length;
     if (a.max_length) s.estimator.max_length = *a.max_length;
     if (s.estimator.max_length < s.estimator.min_length)
@@ -400,6 +401,7 @@ nlohmann::json render_stats_json(const Scene& scene, const RenderStats& st,
         double training = 0.0;
         for (double t : g.training_seconds) training += t;
         j["guiding"] = {{"method", guiding_name(est.guiding)},
+                        {"guided_vertices", est.guided_vertices},
                         {"cells", g.cells},
                         {"nodes", g.nodes},
                         {"learning_nodes", g.learning_nodes},

@@ -33,6 +33,7 @@ struct RenderJob {
     std::optional<int> roulette_depth;
     std::optional<std::string> sampler;              // independent, sobol, zsobol or pmj02
     std::optional<std::string> guiding;              // none or sdtree
+    std::optional<int> guided_vertices;              // 0: every Phong vertex
     std::optional<int> min_length, max_length;       // path lengths that count
     std::vector<int> strategy;                       // bdpt: {s, t}, the one strategy kept
     bool unweighted = false;                         // ... without its weight

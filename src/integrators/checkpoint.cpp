@@ -203,7 +203,8 @@ CheckpointIdentity checkpoint_identity(const Scene& scene, const std::string& in
     }
     // (a guided render's image depends on its guide: path_guide.h)
     if (s.estimator.guiding != Guiding::kNone)
-        id.estimator += std::string(" guided ") + guiding_name(s.estimator.guiding);
+        id.estimator += fmt::format(" guided {} vertices {}", guiding_name(s.estimator.guiding),
+                                    s.estimator.guided_vertices);
     id.survival_cap = fmt::format("{:a}", s.estimator.survival_cap);
     id.diffuse_sampling = s.estimator.cosine_diffuse ? "cosine" : "uniform";
     id.roulette = roulette_identity(s.estimator);

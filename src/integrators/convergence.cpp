@@ -59,6 +59,7 @@ EstimatorSettings with_config(EstimatorSettings settings, const ConvergeConfig& 
     if (config.merge_alpha >= 0.0f) settings.merge_alpha = config.merge_alpha;
     if (config.light_connections >= 0) settings.light_connections = config.light_connections;
     if (config.guiding >= 0) settings.guiding = Guiding(config.guiding);
+    if (config.guided_vertices >= 0) settings.guided_vertices = config.guided_vertices;
     use_estimator(settings, config.estimator >= 0 ? Estimator(config.estimator) : settings.kind);
     return settings;
 }

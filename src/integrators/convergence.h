@@ -55,6 +55,7 @@ struct ConvergeConfig {
     float merge_alpha = -1.0f;      // vcm: < 0 the scene's
     int light_connections = -1;     // bdpt, vcm: < 0 the scene's
     int guiding = -1;               // -1: the scene's; else a Guiding (nee, mis)
+    int guided_vertices = -1;       // -1: the scene's
 };
 
 struct ConvergePoint {

@@ -67,6 +67,10 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
     // an unguided render's do
     GuideRecord records[kMaxGuideRecords];  // (uninitialised: written before read)
     int recorded = 0;
+    // The Phong vertices met so far, and how many the guide serves (guided_vertices)
+    int32_t phong_vertices = 0;
+    const int32_t served =
+        c.estimator.guided_vertices > 0 ? c.estimator.guided_vertices : INT32_MAX;
     const auto counts = [&](uint32_t length) { return length_counts<float>(c.estimator, length); };
     const auto gain = [&](const Vec3f& x, bool counted) {
         if (counted) radiance += x;
@@ -95,9 +99,12 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         const Bsdf<float> m = scene.bsdf_at(hit);
         const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
         const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
-        // The guide of this point's cell, where the render is guided
-        const GuideAt guide =
-            c.guide && material.has_phong() ? guide_at(c.guide, hit.p) : GuideAt{};
+        // The guide of this point's cell, where the render is guided and the guide serves
+        // this vertex
+        const bool phong = material.has_phong();
+        const bool guide_serves = phong && phong_vertices < served;
+        phong_vertices += phong ? 1 : 0;
+        const GuideAt guide = c.guide && guide_serves ? guide_at(c.guide, hit.p) : GuideAt{};
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
         if (material.has_phong() && (c.light_count > 0 || c.nee) &&
@@ -135,18 +142,18 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         } else {
             next = continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng,
                                  bounce);
-            if (learn && lobe == kLobeDiffuse) {
+            if (learn && guide_serves && lobe == kLobeDiffuse) {
                 density = diffuse_pdf = sampled_lobe_pdf<kLobeDiffuse>(
                     m, ray.d, v.nsf, next.d, 1.0f, c.estimator.cosine_diffuse);
                 if (guide.exists()) guide_pdf = cierzo::guide_pdf(*guide.view, guide.root, next.d);
-            } else if (learn && lobe == kLobeSpecular) {
+            } else if (learn && guide_serves && lobe == kLobeSpecular) {
                 density = sampled_lobe_pdf<kLobeSpecular>(m, ray.d, v.nsf, next.d, 1.0f,
                                                           c.estimator.cosine_diffuse);
             }
         }
         lobe_pdf = next.pdf;
         throughput = throughput_roulette(c.estimator, throughput * next.weight, u_roulette, bounce);
-        if (learn && lobe <= kLobeSpecular && recorded < kMaxGuideRecords) {
+        if (learn && guide_serves && lobe <= kLobeSpecular && recorded < kMaxGuideRecords) {
             GuideRecord& r = records[recorded++];
             r = {hit.p, next.d, density, throughput, Vec3f(0.0f), false, Vec3f(0.0f), 0, 0, 0};
             if (lobe == kLobeDiffuse && guide.exists()) {

@@ -231,6 +231,8 @@ void Loader::render_settings(Reader& root) {
         if (!g) r.fail("'guiding' must be \"none\" or \"sdtree\"");
         e.guiding = *g;
     }
+    e.guided_vertices =
+        int32_t(r.integer("guided_vertices", e.guided_vertices, 0, kMaxLengthLimit));
     e.min_length = int32_t(r.integer("min_length", 1, 1, kMaxLengthLimit));
     e.max_length = r.has("max_length") ? int32_t(r.integer("max_length", 1, 1, kMaxLengthLimit))
                                        : kNoLengthLimit;

@@ -523,20 +523,76 @@ TEST(GuidedRender, BandsOfPathLengthsAddUpToTheWholeImage) {
     }
 }
 
+TEST(GuidedRender, TheGuideServesTheVerticesItIsGiven) {
+    // render.guided_vertices: the guide draws, weighs and learns at a camera path's first N
+    // Phong vertices alone (0: every one). Its records say where it learnt: at most one a
+    // path for N = 1, at most two for N = 2, and more than two a path where every vertex of
+    // a closed room's paths records. A setting that was ignored would record alike in all
+    // three, and draw the same image
+    Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 48);
+    s.set_resolution(16, 16);
+    const double paths = 16.0 * 16.0 * 48.0;
+    double records[3] = {0, 0, 0};
+    std::vector<Film> films;
+    for (int n : {0, 1, 2}) {
+        SCOPED_TRACE(n);
+        s.settings.estimator.guided_vertices = n;
+        const RenderResult r = render_on(s, 2, true, 0.5f);
+        ASSERT_TRUE(r.stats.guiding);
+        records[n] = double(r.stats.guiding->records);
+        EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+        films.push_back(r.film);
+    }
+    EXPECT_LE(records[1], paths);
+    EXPECT_GT(records[1], 0.5 * paths);  // (most paths reach a Phong vertex)
+    EXPECT_LE(records[2], 2.0 * paths);
+    EXPECT_GT(records[2], records[1]);
+    EXPECT_GT(records[0], 2.0 * paths);
+    EXPECT_FALSE(same_bits(films[0], films[1]));
+    EXPECT_FALSE(same_bits(films[1], films[2]));
+}
+
+TEST(GuidedRender, GuidedVerticesAreReadAndChecked) {
+    const std::string head = R"({"camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+        "materials": {"w": {"kd": 0.5}}, "objects": [{"type": "plane", "normal": [0, 1, 0],
+        "distance": 1, "material": "w"}], "render": {"estimator": "mis", "guiding": "sdtree", )";
+    EXPECT_EQ(parse_scene(head + R"("seed": 1}})", "g.json").settings.estimator.guided_vertices, 1);
+    EXPECT_EQ(parse_scene(head + R"("guided_vertices": 0}})", "g.json")
+                  .settings.estimator.guided_vertices,
+              0);
+    EXPECT_EQ(parse_scene(head + R"("guided_vertices": 3}})", "g.json")
+                  .settings.estimator.guided_vertices,
+              3);
+    for (const char* bad : {R"("guided_vertices": -1}})", R"("guided_vertices": 1.5}})",
+                            R"("guided_vertices": "all"}})"}) {
+        try {
+            parse_scene(head + bad, "g.json");
+            ADD_FAILURE() << "accepted " << bad;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("g.json"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("guided_vertices"), std::string::npos) << e.what();
+        }
+    }
+}
+
 TEST(GuidedRender, AnalyticAnswers) {
     // A point light in a diffuse sphere, and a diffuse ball inside an emitting sphere (a
     // furnace: every point of it sees the emitter alone)
     const int spp = lighter() ? 64 : 256;
     const double bound = lighter() ? 0.03 : 0.015;
-    for (Estimator e : {Estimator::kNee, Estimator::kMis}) {
-        SCOPED_TRACE(estimator_name(e));
-        Scene room = guided(parse_scene(test::kRoom, "room.json"), e, spp);
-        room.set_resolution(32, 32);
-        test::expect_answer(render_on(room, 2), test::kRoomL, bound);
-        Scene ball = guided(parse_scene(test::kBall, "ball.json"), e, spp);
-        ball.set_resolution(32, 32);
-        test::expect_answer(render_on(ball, 2), 0.8, bound);
-    }
+    // (the guide at the first vertex, the default, and at every vertex)
+    for (Estimator e : {Estimator::kNee, Estimator::kMis})
+        for (int vertices : {1, 0}) {
+            SCOPED_TRACE(std::string(estimator_name(e)) + " " + std::to_string(vertices));
+            Scene room = guided(parse_scene(test::kRoom, "room.json"), e, spp);
+            room.settings.estimator.guided_vertices = vertices;
+            room.set_resolution(32, 32);
+            test::expect_answer(render_on(room, 2), test::kRoomL, bound);
+            Scene ball = guided(parse_scene(test::kBall, "ball.json"), e, spp);
+            ball.settings.estimator.guided_vertices = vertices;
+            ball.set_resolution(32, 32);
+            test::expect_answer(render_on(ball, 2), 0.8, bound);
+        }
 }
 
 // A diffuse floor (ρ = 0.5) under an emitting sphere (Le 1, radius 0.5, centre 1 above the
@@ -721,6 +777,12 @@ TEST(GuidedRender, ACheckpointWithADamagedGuideOrOfAnUnguidedRenderIsRefused) {
                  InputError);
     c.id = checkpoint_identity(plain, "scalar", "scalar", 0);
     EXPECT_THROW(check_resume("p.exr", c, id), InputError);
+    // nor one whose guide served other vertices
+    Scene deeper = s;
+    deeper.settings.estimator.guided_vertices = 0;
+    c.id = id;
+    EXPECT_THROW(check_resume("d.exr", c, checkpoint_identity(deeper, "scalar", "scalar", 0)),
+                 InputError);
     // An unguided state has no guide for a guided render to go on from
     RenderState none = st;
     none.guide.clear();
