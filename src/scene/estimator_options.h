@@ -124,8 +124,8 @@ using GuidingEntry = NamedEntry<Guiding>;
 inline constexpr GuidingEntry kGuidings[] = {
     {Guiding::kNone, "none",
      "directions from the material's lobes alone; the default of every estimator (sdtree "
-     "measured 0.91-1.02x the scalar mis's efficiency at 30 s on small_emitter, caustic, "
-     "mesh_200k and guiding/lantern)"},
+     "measured 0.88-1.02x the scalar mis's efficiency at 30 s on small_emitter, caustic, "
+     "mesh_200k and guiding/lantern, 0.05-0.31x the wavefront mis's)"},
     {Guiding::kSdTree, "sdtree",
      "nee and mis: a share of the diffuse directions (learnt per cell: 0, 1/4, 1/2 or 3/4) "
      "from an SD-tree of the incident light, learnt pass by pass from filtered deposits "
