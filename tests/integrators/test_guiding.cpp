@@ -473,24 +473,28 @@ bool same_bits(const Film& a, const Film& b) {
 }
 
 TEST(GuidedRender, IsTheSameOnOneTwoAndThreeThreads) {
-    for (Estimator e : {Estimator::kNee, Estimator::kMis}) {
-        SCOPED_TRACE(estimator_name(e));
-        // (trainings after 16 and 32 paths per pixel, and after 64 natively)
-        Scene s = guided(parse_scene(test::kLobes, "lobes.json"), e, lighter() ? 48 : 128);
-        s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
-        const RenderResult one = render_on(s, 1, true, 0.5f);
-        ASSERT_TRUE(one.stats.guiding);
-        EXPECT_GE(one.stats.guiding->training_seconds.size(), 2u);  // (trained at 16, 32, ...)
-        EXPECT_GT(one.stats.guiding->cells, 1u);
-        for (int threads : {2, 3}) {
-            EXPECT_TRUE(same_bits(render_on(s, threads, true, 0.5f).film, one.film)) << threads;
-            EXPECT_TRUE(same_bits(render_on(s, threads).film, render_on(s, 1).film)) << threads;
+    // (the guide at every vertex, whose many records cut the space into cells even in the
+    // emulator's small renders, and at the first vertex alone, the default)
+    for (Estimator e : {Estimator::kNee, Estimator::kMis})
+        for (int vertices : {0, 1}) {
+            SCOPED_TRACE(std::string(estimator_name(e)) + " " + std::to_string(vertices));
+            // (trainings after 16 and 32 paths per pixel, and after 64 natively)
+            Scene s = guided(parse_scene(test::kLobes, "lobes.json"), e, lighter() ? 48 : 128);
+            s.settings.estimator.guided_vertices = vertices;
+            s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
+            const RenderResult one = render_on(s, 1, true, 0.5f);
+            ASSERT_TRUE(one.stats.guiding);
+            EXPECT_GE(one.stats.guiding->training_seconds.size(), 2u);  // (trained at 16, 32, ...)
+            if (vertices == 0) EXPECT_GT(one.stats.guiding->cells, 1u);
+            for (int threads : {2, 3}) {
+                EXPECT_TRUE(same_bits(render_on(s, threads, true, 0.5f).film, one.film)) << threads;
+                EXPECT_TRUE(same_bits(render_on(s, threads).film, render_on(s, 1).film)) << threads;
+            }
+            // The guide changed the image: it is not the unguided one
+            Scene plain = s;
+            plain.settings.estimator.guiding = Guiding::kNone;
+            EXPECT_FALSE(same_bits(render_on(plain, 1).film, one.film));
         }
-        // The guide changed the image: it is not the unguided one
-        Scene plain = s;
-        plain.settings.estimator.guiding = Guiding::kNone;
-        EXPECT_FALSE(same_bits(render_on(plain, 1).film, one.film));
-    }
 }
 
 TEST(GuidedRender, BandsOfPathLengthsAddUpToTheWholeImage) {
@@ -688,8 +692,11 @@ RenderResult resumed_from(const Scene& scene, const RenderState& state, int thre
 // training at 16), and from states taken every millisecond (mid-pass: that pass is rendered
 // again), each written to a file and read back.
 TEST(GuidedRender, EveryCheckpointResumesToTheUninterruptedBits) {
-    // (passes end at 1, 2, 4, 8, 16, 32, 48, 64, 80: trainings at the powers of two)
+    // (passes end at 1, 2, 4, 8, 16, 32, 48, 64, 80: trainings at the powers of two; the
+    // guide at every vertex, whose records are enough in the emulator's small renders for
+    // the planted bug below to change the trees it trains)
     Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 80);
+    s.settings.estimator.guided_vertices = 0;
     s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
     const RenderResult full = render_on(s, 2);
     for (int64_t spp : {16, 48}) {
