@@ -570,9 +570,8 @@ paths-per-pixel count of spp for every combination of integrator, isa, pool, sur
 diffuse_sampling, roulette, triangle_sampling, sampler and estimator, for nee and mis guiding,
 and for vcm, bpm and ppm
 merge_radius and merge_alpha, for bdpt and vcm light_connections (lists; an empty list
-keeps the scene's value; roulette_depth
-and guided_vertices one value or None). Returns one dict per render, keyed by the CSV's columns (scene,
-integrator, isa, pool, survival_cap, diffuse_sampling, roulette ('lobe', or e.g.
+keeps the scene's value; roulette_depth and guided_vertices one value or None). Returns one
+dict per render, keyed by the CSV's columns (scene, integrator, isa, pool, survival_cap, diffuse_sampling, roulette ('lobe', or e.g.
 'throughput3': from vertex 3), triangle_sampling, sampler, estimator, merge_radius and
 merge_alpha (vcm's, bpm's and ppm's, as rendered; empty for the others), light_connections
 (bdpt's and vcm's; empty for the others), guiding ('none', or e.g. 'sdtree1': the guide

@@ -100,15 +100,15 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         const float magnitude = max(max_abs(hit.p), max_abs(ray.o));
         const VertexFrame<float> v = vertex_frame(c.smooth, ray.d, hit.n, hit.ns);
         // The guide of this point's cell, where the render is guided and the guide serves
-        // this vertex
+        // this vertex; a guided render records what comes back there
         const bool phong = material.has_phong();
         const bool guide_serves = phong && phong_vertices < served;
         phong_vertices += phong ? 1 : 0;
         const GuideAt guide = c.guide && guide_serves ? guide_at(c.guide, hit.p) : GuideAt{};
+        const bool records_here = learn && guide_serves;
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
-        if (material.has_phong() && (c.light_count > 0 || c.nee) &&
-            (recorded > 0 || counts(bounce + 2))) {
+        if (phong && (c.light_count > 0 || c.nee) && (recorded > 0 || counts(bounce + 2))) {
             const bool counted = counts(bounce + 2);
             const Vec3f origin = shadow_origin(v, hit.p, magnitude);
             Vec3f lights(0.0f);
@@ -130,7 +130,10 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         lobe_uniforms<float>(rng, bounce, normalised_lobes(c.estimator), u_lobe, u_roulette);
         const int32_t lobe =
             choose_lobe(m, u_lobe, c.estimator.survival_cap, p, normalised_lobes(c.estimator));
-        if (lobe == kLobeAbsorbed || (!learn && !may_extend<float>(c.estimator, bounce))) break;
+        // (past max_length a guided path goes on while a record is there, or is made here or
+        // may be later, to gather what follows: the same paths as the whole render's)
+        const bool recording = learn && (recorded > 0 || records_here || phong_vertices < served);
+        if (lobe == kLobeAbsorbed || (!recording && !may_extend<float>(c.estimator, bounce))) break;
         ScalarContinuation next;
         // (for the guide's record: the direction's density, and the mixture's parts)
         float density = 0.0f, guide_pdf = 0.0f, diffuse_pdf = 0.0f;
@@ -142,18 +145,18 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         } else {
             next = continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng,
                                  bounce);
-            if (learn && guide_serves && lobe == kLobeDiffuse) {
+            if (records_here && lobe == kLobeDiffuse) {
                 density = diffuse_pdf = sampled_lobe_pdf<kLobeDiffuse>(
                     m, ray.d, v.nsf, next.d, 1.0f, c.estimator.cosine_diffuse);
                 if (guide.exists()) guide_pdf = cierzo::guide_pdf(*guide.view, guide.root, next.d);
-            } else if (learn && guide_serves && lobe == kLobeSpecular) {
+            } else if (records_here && lobe == kLobeSpecular) {
                 density = sampled_lobe_pdf<kLobeSpecular>(m, ray.d, v.nsf, next.d, 1.0f,
                                                           c.estimator.cosine_diffuse);
             }
         }
         lobe_pdf = next.pdf;
         throughput = throughput_roulette(c.estimator, throughput * next.weight, u_roulette, bounce);
-        if (learn && guide_serves && lobe <= kLobeSpecular && recorded < kMaxGuideRecords) {
+        if (records_here && lobe <= kLobeSpecular && recorded < kMaxGuideRecords) {
             GuideRecord& r = records[recorded++];
             r = {hit.p, next.d, density, throughput, Vec3f(0.0f), false, Vec3f(0.0f), 0, 0, 0};
             if (lobe == kLobeDiffuse && guide.exists()) {
