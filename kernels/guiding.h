@@ -75,165 +75,239 @@ inline constexpr float kGuideFirstFraction = 0.0f;
 
 inline namespace CIERZO_ISA_NAMESPACE {
 
-// The cell of point p (points outside the box go to the cell at its border).
-inline uint32_t guide_cell(const GuideView& g, const Vec3f& p) {
-    float lo[3] = {g.lo[0], g.lo[1], g.lo[2]};
-    float size[3] = {g.size[0], g.size[1], g.size[2]};
-    const float at[3] = {p.x, p.y, p.z};
-    uint32_t n = 0;
-    while (g.spatial[n].child > 0) {
-        const uint32_t axis = g.spatial[n].axis_or_cell;
-        size[axis] *= 0.5f;
-        const float mid = lo[axis] + size[axis];
-        const bool above = at[axis] >= mid;
-        if (above) lo[axis] = mid;
-        n = uint32_t(g.spatial[n].child) + (above ? 1u : 0u);
+// Every function below is written once for both integrators, on lanes T (kernels/lanes.h):
+// float for a scalar path, a batch for the wavefront's K paths, each lane descending its own
+// tree by gathers until every lane of `lanes` has reached its leaf. Lanes outside `lanes`
+// read node 0 and keep what they had.
+
+// The tables the descents gather from: a spatial node is two words (child, axis_or_cell),
+// a direction node eight (four energies, four children).
+inline const int32_t* spatial_words(const GuideView& g) {
+    static_assert(sizeof(GuideSpatialNode) == 2 * sizeof(int32_t));
+    return reinterpret_cast<const int32_t*>(g.spatial);
+}
+inline const float* direction_energies(const GuideView& g) {
+    static_assert(sizeof(GuideDirectionNode) == 8 * sizeof(float));
+    return reinterpret_cast<const float*>(g.directions);
+}
+inline const int32_t* direction_children(const GuideView& g) {
+    return reinterpret_cast<const int32_t*>(g.directions) + 4;
+}
+
+// The cell of point p, on the lanes of `lanes` (points outside the box go to the cell at its
+// border; other lanes get cell 0's).
+template <class T>
+I32<T> guide_cell(const GuideView& g, const Vec3<T>& p, const Mask<T>& lanes = Mask<T>(true)) {
+    using I = I32<T>;
+    const int32_t* words = spatial_words(g);
+    T lo[3] = {T(g.lo[0]), T(g.lo[1]), T(g.lo[2])};
+    T size[3] = {T(g.size[0]), T(g.size[1]), T(g.size[2])};
+    const T at[3] = {p.x, p.y, p.z};
+    I n(0);
+    Mask<T> go = lanes;
+    for (;;) {
+        const I child = gather_table(words, n * I(2));
+        go = go & mask_f32(child > I(0));
+        if (none(go)) break;
+        const I axis = gather_table(words, n * I(2) + I(1));
+        Mask<T> above(false);
+        for (int a = 0; a < 3; ++a) {
+            const Mask<T> on = go & mask_f32(axis == I(a));
+            size[a] = select(on, size[a] * T(0.5f), size[a]);
+            const T mid = lo[a] + size[a];
+            const Mask<T> up = on & (at[a] >= mid);
+            lo[a] = select(up, mid, lo[a]);
+            above = above | up;
+        }
+        n = select(mask_i32(go), child + select(mask_i32(above), I(1), I(0)), n);
     }
-    return g.spatial[n].axis_or_cell;
+    return gather_table(words, n * I(2) + I(1));
 }
 
 // atan2(y, x) within 2·10⁻⁶ radians, by a polynomial on [0, 1] and the octant (the direction
 // map's own, used alike by sampling, densities and deposits; libm's took 4% of a guided
 // render's time)
-inline float guide_atan2(float y, float x) {
-    const float ax = std::abs(x), ay = std::abs(y);
-    const float big = std::max(ax, ay), small = std::min(ax, ay);
-    const float t = big > 0.0f ? small / big : 0.0f;
-    const float t2 = t * t;
-    float r =
-        t *
-        (0.99997726f +
-         t2 * (-0.33262347f +
-               t2 * (0.19354346f + t2 * (-0.11643287f + t2 * (0.05265332f + t2 * -0.01172120f)))));
-    if (ay > ax) r = float(0.5 * kPi) - r;
-    if (x < 0.0f) r = float(kPi) - r;
-    return y < 0.0f ? -r : r;
+template <class T>
+T guide_atan2(const T& y, const T& x) {
+    const T ax = abs(x), ay = abs(y);
+    const T big = max(ax, ay), small = min(ax, ay);
+    const T t = select(big > T(0.0f), small / big, T(0.0f));
+    const T t2 = t * t;
+    T r = t * (T(0.99997726f) +
+               t2 * (T(-0.33262347f) +
+                     t2 * (T(0.19354346f) +
+                           t2 * (T(-0.11643287f) + t2 * (T(0.05265332f) + t2 * T(-0.01172120f))))));
+    r = select(ay > ax, T(float(0.5 * kPi)) - r, r);
+    r = select(x < T(0.0f), T(float(kPi)) - r, r);
+    return select(y < T(0.0f), -r, r);
 }
 
 // The cylindrical equal-area map of a unit direction to [0, 1)² and back.
-inline void direction_to_square(const Vec3f& d, float& x, float& y) {
-    constexpr float kBelowOne = 0x1.fffffep-1f;
-    const float z = std::clamp(d.z, -1.0f, 1.0f);
-    x = std::min(0.5f * (z + 1.0f), kBelowOne);
-    float phi = guide_atan2(d.y, d.x) * float(0.5 * kInvPi);
-    if (phi < 0.0f) phi += 1.0f;
-    y = std::min(std::max(phi, 0.0f), kBelowOne);
+template <class T>
+void direction_to_square(const Vec3<T>& d, T& x, T& y) {
+    const T kBelowOne(0x1.fffffep-1f);
+    const T z = min(max(d.z, T(-1.0f)), T(1.0f));
+    x = min(T(0.5f) * (z + T(1.0f)), kBelowOne);
+    T phi = guide_atan2(d.y, d.x) * T(float(0.5 * kInvPi));
+    phi = select(phi < T(0.0f), phi + T(1.0f), phi);
+    y = min(max(phi, T(0.0f)), kBelowOne);
 }
-inline Vec3f square_to_direction(float x, float y) {
-    const float cos_t = 2.0f * x - 1.0f;
-    const float sin_t = std::sqrt(std::max(0.0f, 1.0f - cos_t * cos_t));
-    const float phi = float(2.0 * kPi) * y;
-    return {sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t};
+template <class T>
+Vec3<T> square_to_direction(const T& x, const T& y) {
+    const T cos_t = T(2.0f) * x - T(1.0f);
+    const T sin_t = sqrt(max(T(0.0f), T(1.0f) - cos_t * cos_t));
+    const T phi = T(float(2.0 * kPi)) * y;
+    return {sin_t * cos(phi), sin_t * sin(phi), cos_t};
 }
 
-// The guide's density (solid angle) of unit direction d in the quadtree at `root`.
-inline float guide_pdf(const GuideView& g, uint32_t root, const Vec3f& d) {
-    float x, y;
-    direction_to_square(d, x, y);
-    float density = 1.0f;
-    for (uint32_t n = root;;) {
-        const GuideDirectionNode& node = g.directions[n];
-        const float total = (node.energy[0] + node.energy[1]) + (node.energy[2] + node.energy[3]);
-        if (!(total > 0.0f)) break;  // (no energy: uniform from here)
-        const uint32_t qx = x >= 0.5f ? 1u : 0u, qy = y >= 0.5f ? 1u : 0u;
-        const uint32_t q = qx + 2u * qy;
-        density *= 4.0f * node.energy[q] / total;
-        if (node.child[q] == 0 || !(density > 0.0f)) break;
-        x = 2.0f * x - float(qx), y = 2.0f * y - float(qy);
-        n = node.child[q];
+// One quadtree node's four energies, gathered for each lane's node n, and their sum.
+template <class T>
+struct GuideQuadrants {
+    T e[4];
+    T total;
+    GuideQuadrants(const GuideView& g, const I32<T>& n) {
+        const float* energies = direction_energies(g);
+        const I32<T> at = n * I32<T>(8);
+        for (int q = 0; q < 4; ++q) e[q] = gather_table(energies, at + I32<T>(q));
+        total = (e[0] + e[1]) + (e[2] + e[3]);
     }
-    return density * float(0.25 * kInvPi);
-}
-
-// A direction drawn from the quadtree at `root` with (u1, u2) in [0, 1)², and its density
-// (that of guide_pdf, computed on the way down).
-inline Vec3f guide_sample(const GuideView& g, uint32_t root, float u1, float u2, float& pdf) {
-    constexpr float kBelowOne = 0x1.fffffep-1f;
-    float ox = 0.0f, oy = 0.0f, size = 1.0f, density = 1.0f;
-    for (uint32_t n = root;;) {
-        const GuideDirectionNode& node = g.directions[n];
-        const float* e = node.energy;
-        const float total = (e[0] + e[1]) + (e[2] + e[3]);
-        if (!(total > 0.0f)) break;
-        // The column (x) in proportion to its two quadrants, then the quadrant in it; each
-        // number is stretched back over [0, 1) for what follows
-        const float left = (e[0] + e[2]) / total;
-        uint32_t qx = 0;
-        if (u1 < left) {
-            u1 = u1 / left;
-        } else {
-            qx = 1, u1 = (u1 - left) / (1.0f - left);
-        }
-        const float column = qx ? e[1] + e[3] : e[0] + e[2];
-        const float lower = (qx ? e[1] : e[0]) / column;
-        uint32_t qy = 0;
-        if (u2 < lower) {
-            u2 = u2 / lower;
-        } else {
-            qy = 1, u2 = (u2 - lower) / (1.0f - lower);
-        }
-        u1 = std::min(std::max(u1, 0.0f), kBelowOne), u2 = std::min(std::max(u2, 0.0f), kBelowOne);
-        const uint32_t q = qx + 2u * qy;
-        density *= 4.0f * e[q] / total;
-        size *= 0.5f;
-        ox += float(qx) * size, oy += float(qy) * size;
-        if (node.child[q] == 0) break;
-        n = node.child[q];
-    }
-    pdf = density * float(0.25 * kInvPi);
-    return square_to_direction(ox + u1 * size, oy + u2 * size);
-}
-
-// The guide at one vertex, as the diffuse lobe's sampler and the MIS weights see it: the
-// cell's quadtree and the share α of the lobe's directions it draws (0: not guided).
-struct GuideAt {
-    const GuideView* view = nullptr;
-    uint32_t root = 0;
-    float fraction = 0.0f;
-    bool active() const { return fraction > 0.0f; }
-    bool exists() const { return view != nullptr; }
-    // The guided diffuse lobe's density of direction wi against the lobe's own, pdf_diffuse:
-    // α·p_guide + (1 − α)·pdf_diffuse
-    float mix(const Vec3f& wi, float pdf_diffuse) const {
-        if (!active()) return pdf_diffuse;
-        return fraction * guide_pdf(*view, root, wi) + (1.0f - fraction) * pdf_diffuse;
+    // The energy of quadrant qx + 2·qy
+    T of(const Mask<T>& qx, const Mask<T>& qy) const {
+        return select(qy, select(qx, e[3], e[2]), select(qx, e[1], e[0]));
     }
 };
 
-inline GuideAt guide_at(const GuideView* g, const Vec3f& p) {
-    if (!g) return {};
-    const uint32_t cell = guide_cell(*g, p);
-    return {g, g->roots[cell], g->fractions[cell]};
+// The guide's density (solid angle) of unit direction d in the quadtree at `root`, on the
+// lanes of `lanes` (the others: 1/4π).
+template <class T>
+T guide_pdf(const GuideView& g, const I32<T>& root, const Vec3<T>& d,
+            const Mask<T>& lanes = Mask<T>(true)) {
+    using I = I32<T>;
+    const int32_t* children = direction_children(g);
+    T x, y;
+    direction_to_square(d, x, y);
+    T density(1.0f);
+    I n = select(mask_i32(lanes), root, I(0));
+    for (Mask<T> go = lanes; any(go);) {
+        const GuideQuadrants<T> node(g, n);
+        go = go & (node.total > T(0.0f));  // (no energy: uniform from here)
+        const Mask<T> qx = x >= T(0.5f), qy = y >= T(0.5f);
+        density = select(go, density * (T(4.0f) * node.of(qx, qy) / node.total), density);
+        const I q = select(mask_i32(qx), I(1), I(0)) + select(mask_i32(qy), I(2), I(0));
+        const I child = gather_table(children, n * I(8) + q);
+        go = go & mask_f32(child != I(0)) & (density > T(0.0f));
+        x = select(go, T(2.0f) * x - select(qx, T(1.0f), T(0.0f)), x);
+        y = select(go, T(2.0f) * y - select(qy, T(1.0f), T(0.0f)), y);
+        n = select(mask_i32(go), child, n);
+    }
+    return density * T(float(0.25 * kInvPi));
+}
+
+// A direction drawn from the quadtree at `root` with (u1, u2) in [0, 1)², on the lanes of
+// `lanes`, and its density (that of guide_pdf, computed on the way down).
+template <class T>
+Vec3<T> guide_sample(const GuideView& g, const I32<T>& root, T u1, T u2, T& pdf,
+                     const Mask<T>& lanes = Mask<T>(true)) {
+    using I = I32<T>;
+    const int32_t* children = direction_children(g);
+    const T kBelowOne(0x1.fffffep-1f);
+    T ox(0.0f), oy(0.0f), size(1.0f), density(1.0f);
+    I n = select(mask_i32(lanes), root, I(0));
+    for (Mask<T> go = lanes; any(go);) {
+        const GuideQuadrants<T> node(g, n);
+        const T* e = node.e;
+        go = go & (node.total > T(0.0f));
+        // The column (x) in proportion to its two quadrants, then the quadrant in it; each
+        // number is stretched back over [0, 1) for what follows
+        const T left = (e[0] + e[2]) / node.total;
+        const Mask<T> qx = u1 >= left;
+        const T u1s = select(qx, (u1 - left) / (T(1.0f) - left), u1 / left);
+        const T column = select(qx, e[1] + e[3], e[0] + e[2]);
+        const T lower = select(qx, e[1], e[0]) / column;
+        const Mask<T> qy = u2 >= lower;
+        const T u2s = select(qy, (u2 - lower) / (T(1.0f) - lower), u2 / lower);
+        u1 = select(go, min(max(u1s, T(0.0f)), kBelowOne), u1);
+        u2 = select(go, min(max(u2s, T(0.0f)), kBelowOne), u2);
+        density = select(go, density * (T(4.0f) * node.of(qx, qy) / node.total), density);
+        const T half = size * T(0.5f);
+        ox = select(go & qx, ox + half, ox), oy = select(go & qy, oy + half, oy);
+        size = select(go, half, size);
+        const I q = select(mask_i32(qx), I(1), I(0)) + select(mask_i32(qy), I(2), I(0));
+        const I child = gather_table(children, n * I(8) + q);
+        go = go & mask_f32(child != I(0));
+        n = select(mask_i32(go), child, n);
+    }
+    pdf = density * T(float(0.25 * kInvPi));
+    return square_to_direction(ox + u1 * size, oy + u2 * size);
+}
+
+// The guide at one vertex (per lane), as the diffuse lobe's sampler and the MIS weights see
+// it: the cell's quadtree and the share α of the lobe's directions it draws (0: not guided).
+template <class T>
+struct GuideAt {
+    const GuideView* view = nullptr;
+    I32<T> root = I32<T>(0);
+    T fraction = T(0.0f);
+    Mask<T> active() const { return fraction > T(0.0f); }
+    bool exists() const { return view != nullptr; }
+    // The guided diffuse lobe's density of direction wi against the lobe's own, pdf_diffuse:
+    // α·p_guide + (1 − α)·pdf_diffuse
+    T mix(const Vec3<T>& wi, const T& pdf_diffuse) const {
+        const Mask<T> on = active();
+        if (!view || none(on)) return pdf_diffuse;
+        const T mixed =
+            fraction * guide_pdf(*view, root, wi, on) + (T(1.0f) - fraction) * pdf_diffuse;
+        return select(on, mixed, pdf_diffuse);
+    }
+};
+
+// The guide at point p on the lanes of `lanes` (the others, and every lane without a guide:
+// not guided).
+template <class T>
+GuideAt<T> guide_at(const GuideView* g, const Vec3<T>& p, const Mask<T>& lanes = Mask<T>(true)) {
+    if (!g || none(lanes)) return {};
+    const I32<T> cell = guide_cell(*g, p, lanes);
+    return {g, gather_table(reinterpret_cast<const int32_t*>(g->roots), cell),
+            select(lanes, gather_table(g->fractions, cell), T(0.0f))};
 }
 
 // The diffuse lobe's continuation where the guide is active: u1 below α picks the guide,
 // above it the lobe's sampler; (u1 stretched over [0, 1), u2) draw the direction. The weight is
 // f·cos θ / (P_d·p), p the mixture's density, 0 below the surface; `pdf` is P_d·p, the density MIS
 // weighs the direction with, and guide_pdf_out and lobe_pdf_out the mixture's two densities.
-inline Scatter<float> sample_guided_diffuse(const Bsdf<float>& m, const Vec3f& nf,
-                                            const GuideAt& guide, float u1, float u2,
-                                            float probability, bool cosine, float& pdf,
-                                            float& guide_pdf_out, float& lobe_pdf_out) {
-    constexpr float kBelowOne = 0x1.fffffep-1f;
-    Vec3f dir;
-    const float a = guide.fraction;
-    if (u1 < a) {
-        // (the density of the leaf it was drawn from: guide_pdf's, but for a direction that
-        // rounding puts across a leaf's edge)
-        dir = guide_sample(*guide.view, guide.root, std::min(u1 / a, kBelowOne), u2, guide_pdf_out);
-    } else {
-        u1 = std::min((u1 - a) / (1.0f - a), kBelowOne);
-        dir = to_world(
-            cosine ? sample_cosine_hemisphere(u1, u2) : sample_uniform_hemisphere(u1, u2), nf);
-        guide_pdf_out = guide_pdf(*guide.view, guide.root, dir);
-    }
-    const float c = dot(dir, nf);
-    const float pdf_diffuse = c > 0.0f ? (cosine ? c * float(kInvPi) : float(0.5 * kInvPi)) : 0.0f;
+// (Lanes where the guide is not active draw from the lobe alone, with u1 as it is.)
+template <class T>
+Scatter<T> sample_guided_diffuse(const Bsdf<T>& m, const Vec3<T>& nf, const GuideAt<T>& guide,
+                                 const T& u1, const T& u2, const T& probability, bool cosine,
+                                 T& pdf, T& guide_pdf_out, T& lobe_pdf_out) {
+    const T kBelowOne(0x1.fffffep-1f);
+    const T a = guide.fraction;
+    const Mask<T> from_guide = u1 < a;
+    // (the density of the leaf it was drawn from: guide_pdf's, but for a direction that
+    // rounding puts across a leaf's edge)
+    T drawn_pdf(0.0f);
+    Vec3<T> dir(T(0.0f));
+    if (any(from_guide))
+        dir = guide_sample(*guide.view, guide.root, min(u1 / a, kBelowOne), u2, drawn_pdf,
+                           from_guide);
+    const T ul = min((u1 - a) / (T(1.0f) - a), kBelowOne);
+    const Vec3<T> lobe_dir =
+        to_world(cosine ? sample_cosine_hemisphere(ul, u2) : sample_uniform_hemisphere(ul, u2), nf);
+    dir = select(from_guide, dir, lobe_dir);
+    const Mask<T> from_lobe = (!from_guide) & guide.active();
+    guide_pdf_out = select(from_guide, drawn_pdf, T(0.0f));
+    if (any(from_lobe))
+        guide_pdf_out = select(
+            from_lobe, cierzo::guide_pdf(*guide.view, guide.root, dir, from_lobe), guide_pdf_out);
+    const T c = dot(dir, nf);
+    const T pdf_diffuse =
+        select(c > T(0.0f), cosine ? c * T(float(kInvPi)) : T(float(0.5 * kInvPi)), T(0.0f));
     lobe_pdf_out = pdf_diffuse;
-    const float p = a * guide_pdf_out + (1.0f - a) * pdf_diffuse;
+    const T p = a * guide_pdf_out + (T(1.0f) - a) * pdf_diffuse;
     pdf = probability * p;
-    if (!(c > 0.0f) || !(pdf > 0.0f)) return {dir, Vec3f(0.0f)};
-    return {dir, m.kd * (float(kInvPi) * c / pdf)};
+    const Mask<T> ok = (c > T(0.0f)) & (pdf > T(0.0f));
+    const T factor = select(ok, T(float(kInvPi)) * c / select(ok, pdf, T(1.0f)), T(0.0f));
+    return {dir, m.kd * factor};
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

@@ -23,7 +23,7 @@ T power_heuristic(const T& pa, const T& pb) {
 // The shadow ray of one emitter sample at a Phong vertex and what it brings if unblocked
 // (before the path's throughput): Le·Σ_lobe f_lobe·cos θ·w_lobe / pdf, w = 1 for nee, the
 // power heuristic against P(lobe)·pdf_lobe for mis. Where the path guide is active at the
-// vertex (scalar paths: `guide`), the diffuse lobe's density is the guided mixture's
+// vertex (`guide`, on its active lanes), the diffuse lobe's density is the guided mixture's
 // (kernels/guiding.h), as the direction the path goes on in was drawn from it.
 template <class T>
 struct EmitterShadow {
@@ -36,7 +36,7 @@ template <class T>
 EmitterShadow<T> emitter_shadow(const EmitterTable& e, const EstimatorSettings& est,
                                 const Bsdf<T>& m, const Vec3<T>& d, const Vec3<T>& nf,
                                 const Vec3<T>& origin, const SampleStream<T>& rng,
-                                const U32<T>& bounce, const GuideAt* guide = nullptr) {
+                                const U32<T>& bounce, const GuideAt<T>* guide = nullptr) {
     // (one emitter: nothing to choose, and no numbers drawn for it)
     T u_pick(0.0f), u_alias(0.0f), u1, u2;
     if (e.count > 1) uniform_pair<T>(rng, bounce, Purpose::kEmitterPick, u_pick, u_alias);
@@ -50,9 +50,7 @@ EmitterShadow<T> emitter_shadow(const EmitterTable& e, const EstimatorSettings& 
         T pd, ps;
         phong_lobe_probabilities(m, est.survival_cap, pd, ps, normalised_lobes(est));
         T pdf_diffuse = f.pdf_diffuse;
-        if constexpr (std::is_same_v<T, float>)
-            if (guide && guide->active() && est.guide_in_mis)
-                pdf_diffuse = guide->mix(ls.wi, pdf_diffuse);
+        if (guide && est.guide_in_mis) pdf_diffuse = guide->mix(ls.wi, pdf_diffuse);
         fcos = f.diffuse * power_heuristic(pdf, pd * pdf_diffuse) +
                f.specular * power_heuristic(pdf, ps * f.pdf_specular);
     } else {

@@ -83,7 +83,7 @@ ShadowRequest<T> emitter_request(const PathContext& c, const Bsdf<T>& m, const V
                                  const VertexFrame<T>& v, const Vec3<T>& origin,
                                  const Vec3<T>& beta, const Mask<T>& phong,
                                  const SampleStream<T>& rng, const U32<T>& bounce,
-                                 const GuideAt* guide = nullptr) {
+                                 const GuideAt<T>* guide = nullptr) {
     const EmitterShadow<T> es =
         emitter_shadow(c.emitters, c.estimator, m, d, v.nsf, origin, rng, bounce, guide);
     const Vec3<T> value = beta * es.value;
@@ -223,11 +223,34 @@ ScalarContinuation continue_path(int32_t lobe, const PathContext& c, const Bsdf<
     }
 }
 
-// The diffuse lobe's continuation where the path guide is active (scalar paths; `guide`
-// from guide_at, `probability` P_d): a direction from the
-// guide or the lobe (sample_guided_diffuse, kernels/guiding.h), and `pdf` P_d·p (for MIS,
-// where the estimator samples emitters, as continuation_pdf). `density` is the mixture's p
-// alone, which the guide's records divide by, and guide_pdf and lobe_pdf its two parts.
+// The diffuse lobe's continuation where the path guide is active (`guide` from guide_at,
+// `probability` P_d): a direction from the guide or the lobe (sample_guided_diffuse,
+// kernels/guiding.h), its weight, and `pdf` P_d·p, p the mixture's density (which the
+// guide's records divide by), with guide_pdf and lobe_pdf its two parts. On lanes where the
+// guide is not active the caller takes continue_path's instead.
+template <class T>
+struct GuidedScatter {
+    Scatter<T> sc;
+    T pdf, guide_pdf, lobe_pdf;
+};
+template <class T>
+GuidedScatter<T> continue_guided_diffuse(const PathContext& c, const Bsdf<T>& m,
+                                         const VertexFrame<T>& v, const T& probability,
+                                         const GuideAt<T>& guide, const SampleStream<T>& rng,
+                                         const U32<T>& bounce) {
+    T u1, u2;
+    uniform2<T>(rng, bounce, Purpose::kDirection1, u1, u2);
+    GuidedScatter<T> g;
+    g.sc = sample_guided_diffuse(m, v.nsf, guide, u1, u2, probability, c.estimator.cosine_diffuse,
+                                 g.pdf, g.guide_pdf, g.lobe_pdf);
+    // A reflection about the shading normal must leave on the geometric surface's side
+    if (c.smooth)
+        g.sc.weight = select(on_arriving_side(g.sc.dir, v.nf), g.sc.weight, Vec3<T>(T(0.0f)));
+    return g;
+}
+
+// The same for one path (the scalar loop): the continuation, with `pdf` P_d·p where the
+// estimator samples emitters (as continuation_pdf), and the mixture's p (`density`).
 struct GuidedContinuation {
     ScalarContinuation next;
     float density;
@@ -236,18 +259,15 @@ struct GuidedContinuation {
 inline GuidedContinuation continue_guided_diffuse(const PathContext& c, const Bsdf<float>& m,
                                                   const VertexFrame<float>& v, const Vec3f& pos,
                                                   const Vec3f& n, float magnitude,
-                                                  float probability, const GuideAt& guide,
+                                                  float probability, const GuideAt<float>& guide,
                                                   const SampleStream<float>& rng, uint32_t bounce) {
-    float u1, u2;
-    uniform2<float>(rng, bounce, Purpose::kDirection1, u1, u2);
-    float pdf = 0.0f, guide_pdf = 0.0f, lobe_pdf = 0.0f;
-    Scatter<float> sc = sample_guided_diffuse(m, v.nsf, guide, u1, u2, probability,
-                                              c.estimator.cosine_diffuse, pdf, guide_pdf, lobe_pdf);
-    if (c.smooth && !on_arriving_side(sc.dir, v.nf)) sc.weight = Vec3f(0.0f);
-    return {{leaving_origin(pos, n, sc.dir, magnitude), sc.dir, sc.weight, c.nee ? pdf : 0.0f},
-            pdf / probability,
-            guide_pdf,
-            lobe_pdf};
+    const GuidedScatter<float> g =
+        continue_guided_diffuse<float>(c, m, v, probability, guide, rng, bounce);
+    return {
+        {leaving_origin(pos, n, g.sc.dir, magnitude), g.sc.dir, g.sc.weight, c.nee ? g.pdf : 0.0f},
+        g.pdf / probability,
+        g.guide_pdf,
+        g.lobe_pdf};
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

@@ -220,6 +220,22 @@ inline void add_exact(std::atomic<uint64_t>& low, std::atomic<uint64_t>& high, u
 
 }  // namespace
 
+void PathGuide::deposit(int32_t pass, const GuideRecord& r) {
+    const auto part = [](float g, float t) { return t > 0.0f ? g / t : 0.0f; };
+    const Vec3f li(part(r.gathered[0], r.throughput[0]), part(r.gathered[1], r.throughput[1]),
+                   part(r.gathered[2], r.throughput[2]));
+    const auto luminance = [](const Vec3f& c) {
+        return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+    };
+    const float l = luminance(li);
+    SelectionSample s;
+    if (r.selection)
+        s = {luminance(Vec3f(r.f_cos[0], r.f_cos[1], r.f_cos[2]) * li), r.guide_pdf, r.lobe_pdf,
+             r.fraction};
+    deposit(pass, Vec3f(r.p[0], r.p[1], r.p[2]), Vec3f(r.dir[0], r.dir[1], r.dir[2]),
+            r.density > 0.0f ? l / r.density : 0.0f, r.selection ? &s : nullptr);
+}
+
 void PathGuide::deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float value,
                         const SelectionSample* selection) {
     Learner& mine = learner();

@@ -49,6 +49,7 @@
 #include <string>
 #include <vector>
 
+#include "integrators/guide_record.h"
 #include "integrators/guide_stats.h"
 #include "kernels/guiding.h"
 #include "kernels/vec3.h"
@@ -104,6 +105,11 @@ public:
     // `selection` where the vertex was diffuse with a guide to sample. Thread-safe.
     void deposit(int32_t pass, const Vec3f& p, const Vec3f& dir, float value,
                  const SelectionSample* selection = nullptr);
+
+    // A camera path's record of one vertex (guide_record.h), when the path has ended: it
+    // deposits L/p, L the luminance of gathered/throughput (0 where the throughput is), p
+    // its density; with its selection sample where it has one. Thread-safe.
+    void deposit(int32_t pass, const GuideRecord& r);
 
     // Pass `pass` is whole (no path of it is being rendered): its deposits join the
     // iteration's sums. Not while a path of pass + 2 is rendered (the same slot).

@@ -208,15 +208,17 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
     std::unique_ptr<PathGuide> guide;
     if (scene.settings.estimator.guiding != Guiding::kNone) {
         check_guiding(scene.settings.estimator, scene.source.string());
-        const char* where = options.integrator != Integrator::kScalar ? "--integrator wavefront"
-                            : options.strategies                      ? "--strategies"
-                                                                      : nullptr;
-        if (where)
+        // (the wavefront's guided paths end where the film's lengths end; the scalar loop's go
+        // on past render.max_length while their records gather light)
+        if (options.integrator != Integrator::kScalar && limits_length(scene.settings.estimator))
             throw InputError(scene.source.string() + ": --guiding " +
                              guiding_name(scene.settings.estimator.guiding) +
-                             " is not supported with " + where +
-                             " yet: a guided render runs with --integrator scalar "
-                             "(docs/estimators.md, \"Path guiding\")");
+                             " with render.min_length or render.max_length runs with "
+                             "--integrator scalar only (docs/estimators.md, \"Path guiding\")");
+        if (options.strategies)
+            throw InputError(scene.source.string() + ": --guiding " +
+                             guiding_name(scene.settings.estimator.guiding) +
+                             " is not supported with --strategies");
         guide =
             std::make_unique<PathGuide>(options.guide_merges_threads, true,
                                         options.guide_first_fraction.value_or(kGuideFirstFraction));

@@ -16,38 +16,10 @@ Vec3f trace_path(const Scene& scene, const Ray<float>& camera_ray, uint32_t key,
 namespace {
 
 // What a guided render's camera path records at each Phong vertex for the path guide
-// (path_guide.h): the vertex, the direction it left in and that direction's density (the
-// lobe's, or the guided mixture's), the throughput after the vertex, and the light the path
-// gathered after it. At the path's end each record deposits L/p, L = gathered/throughput.
-struct GuideRecord {
-    Vec3f p, dir;
-    float density;
-    Vec3f throughput;
-    Vec3f gathered;
-    // A diffuse vertex with a guide: f·cos θ, and what the cell's share α learns from
-    // (PathGuide::SelectionSample)
-    bool selection;
-    Vec3f f_cos;
-    float guide_pdf, lobe_pdf, fraction;
-};
+// (guide_record.h), the light it gathers after the vertex added as it comes.
 constexpr int kMaxGuideRecords = 64;
 
-void deposit_records(PathGuide& guide, int32_t pass, const GuideRecord* records, int count) {
-    for (int i = 0; i < count; ++i) {
-        const GuideRecord& r = records[i];
-        const auto part = [](float g, float t) { return t > 0.0f ? g / t : 0.0f; };
-        const Vec3f li(part(r.gathered.x, r.throughput.x), part(r.gathered.y, r.throughput.y),
-                       part(r.gathered.z, r.throughput.z));
-        const auto luminance = [](const Vec3f& c) {
-            return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
-        };
-        const float l = luminance(li);
-        PathGuide::SelectionSample s;
-        if (r.selection) s = {luminance(r.f_cos * li), r.guide_pdf, r.lobe_pdf, r.fraction};
-        guide.deposit(pass, r.p, r.dir, r.density > 0.0f ? l / r.density : 0.0f,
-                      r.selection ? &s : nullptr);
-    }
-}
+void add(float* sum, const Vec3f& x) { sum[0] += x.x, sum[1] += x.y, sum[2] += x.z; }
 
 }  // namespace
 
@@ -74,7 +46,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
     const auto counts = [&](uint32_t length) { return length_counts<float>(c.estimator, length); };
     const auto gain = [&](const Vec3f& x, bool counted) {
         if (counted) radiance += x;
-        for (int i = 0; i < recorded; ++i) records[i].gathered += x;
+        for (int i = 0; i < recorded; ++i) add(records[i].gathered, x);
     };
     for (uint32_t bounce = 0;; ++bounce) {
         Hit hit;
@@ -104,7 +76,8 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         const bool phong = material.has_phong();
         const bool guide_serves = phong && phong_vertices < served;
         phong_vertices += phong ? 1 : 0;
-        const GuideAt guide = c.guide && guide_serves ? guide_at(c.guide, hit.p) : GuideAt{};
+        const GuideAt<float> guide =
+            c.guide && guide_serves ? guide_at(c.guide, hit.p) : GuideAt<float>{};
         const bool records_here = learn && guide_serves;
 
         // Direct light at every Phong vertex: the point lights, and an emitter sample
@@ -158,10 +131,22 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         throughput = throughput_roulette(c.estimator, throughput * next.weight, u_roulette, bounce);
         if (records_here && lobe <= kLobeSpecular && recorded < kMaxGuideRecords) {
             GuideRecord& r = records[recorded++];
-            r = {hit.p, next.d, density, throughput, Vec3f(0.0f), false, Vec3f(0.0f), 0, 0, 0};
+            r = {{hit.p.x, hit.p.y, hit.p.z},
+                 {next.d.x, next.d.y, next.d.z},
+                 density,
+                 {throughput.x, throughput.y, throughput.z},
+                 {0.0f, 0.0f, 0.0f},
+                 {0.0f, 0.0f, 0.0f},
+                 0.0f,
+                 0.0f,
+                 0.0f,
+                 0,
+                 -1,
+                 recorded - 1};
             if (lobe == kLobeDiffuse && guide.exists()) {
-                r.selection = true;
-                r.f_cos = m.kd * (max(dot(next.d, v.nsf), 0.0f) * float(kInvPi));
+                const Vec3f f_cos = m.kd * (max(dot(next.d, v.nsf), 0.0f) * float(kInvPi));
+                r.selection = 1;
+                r.f_cos[0] = f_cos.x, r.f_cos[1] = f_cos.y, r.f_cos[2] = f_cos.z;
                 r.guide_pdf = guide_pdf, r.lobe_pdf = diffuse_pdf, r.fraction = guide.fraction;
             }
         }
@@ -169,7 +154,8 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         ray = {next.o, next.d};
         ++rays.extension;
     }
-    if (learn) deposit_records(*learn, pass, records, recorded);
+    if (learn)
+        for (int i = 0; i < recorded; ++i) learn->deposit(pass, records[i]);
     return radiance;
 }
 

@@ -111,7 +111,7 @@ UnitResult UnitRenderer::render(const Unit& u) const {
     if (t.light)
         r.sums.splats.reserve(size_t(t.x1 - t.x0) * size_t(t.y1 - t.y0) * size_t(t.s1 - t.s0));
     if (wavefront_) {
-        wavefront_->render_tile(t, r.sums, r.rays, r.lanes);
+        wavefront_->render_tile(t, r.sums, r.rays, r.lanes, guide_, u.pass);
     } else if (bidirectional(scene_.settings.estimator.kind)) {
         if (strategies_)
             r.sums.strategies =

@@ -20,6 +20,7 @@
 #include "core/error.h"
 #include "integrators/checkpoint.h"
 #include "integrators/path_guide.h"
+#include "integrators/registry.h"
 #include "scene/estimator_options.h"
 #include "support/analytic_scenes.h"
 #include "support/emulator.h"
@@ -311,7 +312,7 @@ TEST(Guiding, ADepositReachesTheCellsWithinHalfACellOfIt) {
         // A boundary between cells along x through the cube's middle
         const GuideView* g = guide.view();
         float below = 0.3f;
-        const uint32_t start = guide_cell(*g, Vec3f(below, 0.5f, 0.5f));
+        const int32_t start = guide_cell(*g, Vec3f(below, 0.5f, 0.5f));
         float above = below;
         while (above < 0.7f && guide_cell(*g, Vec3f(above, 0.5f, 0.5f)) == start) above += 1e-3f;
         ASSERT_NE(guide_cell(*g, Vec3f(above, 0.5f, 0.5f)), start);
@@ -456,9 +457,10 @@ Scene guided(Scene s, Estimator e, int spp, Guiding g = Guiding::kSdTree) {
 // (`first_fraction`: the cells' share α before their records choose one; ½ has a small
 // render sample its guide, where the default, 0, may never)
 RenderResult render_on(const Scene& scene, int threads, bool merge_threads = true,
-                       std::optional<float> first_fraction = {}) {
+                       std::optional<float> first_fraction = {},
+                       Integrator integrator = Integrator::kScalar) {
     RenderOptions o;
-    o.integrator = Integrator::kScalar;
+    o.integrator = integrator;
     o.threads = threads;
     o.progress = false;
     o.guide_merges_threads = merge_threads;
@@ -472,28 +474,113 @@ bool same_bits(const Film& a, const Film& b) {
                        a.pixels().size() * sizeof(PixelSums)) == 0;
 }
 
+// Both integrators, by name (the wavefront's guided paths: guide_stage.h)
+const Integrator kIntegrators[] = {Integrator::kScalar, Integrator::kWavefront};
+
 TEST(GuidedRender, IsTheSameOnOneTwoAndThreeThreads) {
     // (the guide at every vertex, whose many records cut the space into cells even in the
-    // emulator's small renders, and at the first vertex alone, the default)
-    for (Estimator e : {Estimator::kNee, Estimator::kMis})
-        for (int vertices : {0, 1}) {
-            SCOPED_TRACE(std::string(estimator_name(e)) + " " + std::to_string(vertices));
-            // (trainings after 16 and 32 paths per pixel, and after 64 natively)
-            Scene s = guided(parse_scene(test::kLobes, "lobes.json"), e, lighter() ? 48 : 128);
+    // emulator's small renders, and at the first vertex alone, the default; lobes.json has
+    // several lobe kinds, which the wavefront samples in its lobe buckets, and
+    // small_emitter's one lobe it samples as it shades)
+    for (Integrator in : kIntegrators)
+        for (const char* scene : {"lobes", "small_emitter"})
+            for (Estimator e : {Estimator::kNee, Estimator::kMis})
+                for (int vertices : {0, 1}) {
+                    if (std::string(scene) == "small_emitter" &&
+                        (in == Integrator::kScalar || e == Estimator::kNee || vertices == 0))
+                        continue;
+                    SCOPED_TRACE(std::string(integrator_name(in)) + " " + scene + " " +
+                                 estimator_name(e) + " " + std::to_string(vertices));
+                    // (trainings after 16 and 32 paths per pixel, and after 64 natively)
+                    Scene s =
+                        guided(std::string(scene) == "lobes"
+                                   ? parse_scene(test::kLobes, "lobes.json")
+                                   : load_scene(CIERZO_SOURCE_DIR "/scenes/small_emitter.json"),
+                               e, lighter() ? 48 : 128);
+                    s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
+                    s.settings.estimator.guided_vertices = vertices;
+                    const RenderResult one = render_on(s, 1, true, 0.5f, in);
+                    ASSERT_TRUE(one.stats.guiding);
+                    EXPECT_GE(one.stats.guiding->training_seconds.size(), 2u);  // (16, 32, ...)
+                    if (vertices == 0) {
+                        EXPECT_GT(one.stats.guiding->cells, 1u);
+                    }
+                    EXPECT_EQ(one.stats.nonfinite_samples, 0u);
+                    // (and the default share, α = 0 until the records choose one: the
+                    // scalar loop's)
+                    for (int threads : {2, 3}) {
+                        EXPECT_TRUE(same_bits(render_on(s, threads, true, 0.5f, in).film, one.film))
+                            << threads;
+                        if (in == Integrator::kScalar) {
+                            EXPECT_TRUE(same_bits(render_on(s, threads, true, {}, in).film,
+                                                  render_on(s, 1, true, {}, in).film))
+                                << threads;
+                        }
+                    }
+                    // The guide changed the image: it is not the unguided one
+                    Scene plain = s;
+                    plain.settings.estimator.guiding = Guiding::kNone;
+                    EXPECT_FALSE(same_bits(render_on(plain, 1, true, {}, in).film, one.film));
+                }
+}
+
+// The guide a render's final state holds, trained on the passes of that state (those since
+// the last training).
+std::unique_ptr<PathGuide> trained_guide(const Scene& scene, Integrator in, int64_t spp) {
+    RenderOptions o;
+    o.integrator = in;
+    o.threads = 2;
+    o.progress = false;
+    o.guide_first_fraction = 0.5f;
+    RenderState last;
+    o.checkpoint = [&](const RenderState& st) { last = st; };
+    render(scene, o);
+    auto guide = std::make_unique<PathGuide>();
+    guide->restore(last.guide);
+    guide->train(spp);
+    return guide;
+}
+
+TEST(GuidedRender, TheWavefrontRecordsWhatTheScalarLoopRecords) {
+    // The two integrators draw the same paths (to float rounding), so the records their paths
+    // hand the guide are the same: as many, with the same light in the same directions. Two
+    // passes of 16 paths per pixel: the first without a guide, the second drawing half its
+    // diffuse directions from the guide the first trained, its records with the mixture's
+    // densities. The guide trained from that second pass is compared, quadrant by quadrant,
+    // at every cell's root: the shares differ by 10⁻⁸–10⁻⁴. A record that took its own
+    // vertex's direct light (planted: 0.05–0.21), or that divided by the lobe's density where
+    // the direction was drawn from the mixture (planted: 0.02–0.04), moves them by far more.
+    for (const char* name : {"lobes", "small_emitter", "room"})
+        for (int vertices : {1, 0}) {
+            SCOPED_TRACE(std::string(name) + " " + std::to_string(vertices));
+            Scene s = std::string(name) == "lobes" ? parse_scene(test::kLobes, "lobes.json")
+                      : std::string(name) == "room"
+                          ? parse_scene(test::kRoom, "room.json")
+                          : load_scene(CIERZO_SOURCE_DIR "/scenes/small_emitter.json");
+            // (passes of 16 paths per pixel, the first trained on at 16; with the guide at
+            // every vertex, one pass: its paths' many records each, without a guide to draw
+            // from, where the second pass's paths, drawing from it at every vertex, part
+            // as rounding moves a number across a quadrant's edge)
+            const int spp = vertices == 1 ? 32 : 16;
+            s = guided(s, Estimator::kMis, spp);
             s.settings.estimator.guided_vertices = vertices;
-            s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
-            const RenderResult one = render_on(s, 1, true, 0.5f);
-            ASSERT_TRUE(one.stats.guiding);
-            EXPECT_GE(one.stats.guiding->training_seconds.size(), 2u);  // (trained at 16, 32, ...)
-            if (vertices == 0) EXPECT_GT(one.stats.guiding->cells, 1u);
-            for (int threads : {2, 3}) {
-                EXPECT_TRUE(same_bits(render_on(s, threads, true, 0.5f).film, one.film)) << threads;
-                EXPECT_TRUE(same_bits(render_on(s, threads).film, render_on(s, 1).film)) << threads;
+            s.set_resolution(32, 32);
+            const auto scalar = trained_guide(s, Integrator::kScalar, spp);
+            const auto wavefront = trained_guide(s, Integrator::kWavefront, spp);
+            const GuideStats a = scalar->stats(), b = wavefront->stats();
+            EXPECT_NEAR(double(b.records), double(a.records), 0.002 * double(a.records));
+            ASSERT_EQ(a.cells, b.cells);
+            const GuideView* va = scalar->view();
+            const GuideView* vb = wavefront->view();
+            ASSERT_TRUE(va && vb);
+            double largest = 0;
+            for (uint32_t c = 0; c < a.cells; ++c) {
+                const GuideDirectionNode& x = va->directions[va->roots[c]];
+                const GuideDirectionNode& y = vb->directions[vb->roots[c]];
+                for (int q = 0; q < 4; ++q)
+                    largest = std::max(largest, double(std::abs(x.energy[q] - y.energy[q])));
             }
-            // The guide changed the image: it is not the unguided one
-            Scene plain = s;
-            plain.settings.estimator.guiding = Guiding::kNone;
-            EXPECT_FALSE(same_bits(render_on(plain, 1).film, one.film));
+            EXPECT_LT(largest, 0.01);
         }
 }
 
@@ -536,24 +623,27 @@ TEST(GuidedRender, TheGuideServesTheVerticesItIsGiven) {
     Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 48);
     s.set_resolution(16, 16);
     const double paths = 16.0 * 16.0 * 48.0;
-    double records[3] = {0, 0, 0};
-    std::vector<Film> films;
-    for (int n : {0, 1, 2}) {
-        SCOPED_TRACE(n);
-        s.settings.estimator.guided_vertices = n;
-        const RenderResult r = render_on(s, 2, true, 0.5f);
-        ASSERT_TRUE(r.stats.guiding);
-        records[n] = double(r.stats.guiding->records);
-        EXPECT_EQ(r.stats.nonfinite_samples, 0u);
-        films.push_back(r.film);
+    for (Integrator in : kIntegrators) {
+        SCOPED_TRACE(integrator_name(in));
+        double records[3] = {0, 0, 0};
+        std::vector<Film> films;
+        for (int n : {0, 1, 2}) {
+            SCOPED_TRACE(n);
+            s.settings.estimator.guided_vertices = n;
+            const RenderResult r = render_on(s, 2, true, 0.5f, in);
+            ASSERT_TRUE(r.stats.guiding);
+            records[n] = double(r.stats.guiding->records);
+            EXPECT_EQ(r.stats.nonfinite_samples, 0u);
+            films.push_back(r.film);
+        }
+        EXPECT_LE(records[1], paths);
+        EXPECT_GT(records[1], 0.5 * paths);  // (most paths reach a Phong vertex)
+        EXPECT_LE(records[2], 2.0 * paths);
+        EXPECT_GT(records[2], records[1]);
+        EXPECT_GT(records[0], 2.0 * paths);
+        EXPECT_FALSE(same_bits(films[0], films[1]));
+        EXPECT_FALSE(same_bits(films[1], films[2]));
     }
-    EXPECT_LE(records[1], paths);
-    EXPECT_GT(records[1], 0.5 * paths);  // (most paths reach a Phong vertex)
-    EXPECT_LE(records[2], 2.0 * paths);
-    EXPECT_GT(records[2], records[1]);
-    EXPECT_GT(records[0], 2.0 * paths);
-    EXPECT_FALSE(same_bits(films[0], films[1]));
-    EXPECT_FALSE(same_bits(films[1], films[2]));
 }
 
 TEST(GuidedRender, GuidedVerticesAreReadAndChecked) {
@@ -585,18 +675,20 @@ TEST(GuidedRender, AnalyticAnswers) {
     const int spp = lighter() ? 64 : 256;
     const double bound = lighter() ? 0.03 : 0.015;
     // (the guide at the first vertex, the default, and at every vertex)
-    for (Estimator e : {Estimator::kNee, Estimator::kMis})
-        for (int vertices : {1, 0}) {
-            SCOPED_TRACE(std::string(estimator_name(e)) + " " + std::to_string(vertices));
-            Scene room = guided(parse_scene(test::kRoom, "room.json"), e, spp);
-            room.settings.estimator.guided_vertices = vertices;
-            room.set_resolution(32, 32);
-            test::expect_answer(render_on(room, 2), test::kRoomL, bound);
-            Scene ball = guided(parse_scene(test::kBall, "ball.json"), e, spp);
-            ball.settings.estimator.guided_vertices = vertices;
-            ball.set_resolution(32, 32);
-            test::expect_answer(render_on(ball, 2), 0.8, bound);
-        }
+    for (Integrator in : kIntegrators)
+        for (Estimator e : {Estimator::kNee, Estimator::kMis})
+            for (int vertices : {1, 0}) {
+                SCOPED_TRACE(std::string(integrator_name(in)) + " " + estimator_name(e) + " " +
+                             std::to_string(vertices));
+                Scene room = guided(parse_scene(test::kRoom, "room.json"), e, spp);
+                room.settings.estimator.guided_vertices = vertices;
+                room.set_resolution(32, 32);
+                test::expect_answer(render_on(room, 2, true, {}, in), test::kRoomL, bound);
+                Scene ball = guided(parse_scene(test::kBall, "ball.json"), e, spp);
+                ball.settings.estimator.guided_vertices = vertices;
+                ball.set_resolution(32, 32);
+                test::expect_answer(render_on(ball, 2, true, {}, in), 0.8, bound);
+            }
 }
 
 // A diffuse floor (ρ = 0.5) under an emitting sphere (Le 1, radius 0.5, centre 1 above the
@@ -610,14 +702,17 @@ const char* kFloorUnderSphere = R"({"render": {"width": 16, "height": 16, "seed"
 
 TEST(GuidedRender, AGuideDensityLeftOutOfTheEmitterSampleWeightIsCaught) {
     const int spp = lighter() ? 128 : 512;
-    Scene s = guided(parse_scene(kFloorUnderSphere, "floor.json"), Estimator::kMis, spp);
-    const RenderResult right = render_on(s, 2);
-    test::expect_answer(right, 0.125, 0.01);
-    // The planted bug: the emitter sample's MIS weight without the guide's density
-    s.settings.estimator.guide_in_mis = false;
-    const RenderResult wrong = render_on(s, 2);
-    const test::ImageMean m = test::image_mean(wrong.film, 1);
-    EXPECT_GT(std::abs(m.mean - 0.125), 5.0 * m.sigma) << m.mean << " ± " << m.sigma;
+    for (Integrator in : kIntegrators) {
+        SCOPED_TRACE(integrator_name(in));
+        Scene s = guided(parse_scene(kFloorUnderSphere, "floor.json"), Estimator::kMis, spp);
+        const RenderResult right = render_on(s, 2, true, {}, in);
+        test::expect_answer(right, 0.125, 0.01);
+        // The planted bug: the emitter sample's MIS weight without the guide's density
+        s.settings.estimator.guide_in_mis = false;
+        const RenderResult wrong = render_on(s, 2, true, {}, in);
+        const test::ImageMean m = test::image_mean(wrong.film, 1);
+        EXPECT_GT(std::abs(m.mean - 0.125), 5.0 * m.sigma) << m.mean << " ± " << m.sigma;
+    }
 }
 
 TEST(GuidedRender, TrainingOnAnUnmergedPassIsCaught) {
@@ -626,11 +721,14 @@ TEST(GuidedRender, TrainingOnAnUnmergedPassIsCaught) {
     // (trainings after 16, 32 and 64 paths per pixel)
     Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 128);
     s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
-    const RenderResult one = render_on(s, 1, false, 0.5f);
-    bool differs = false;
-    for (int k = 0; k < 4 && !differs; ++k)
-        differs = !same_bits(render_on(s, 3, false, 0.5f).film, one.film);
-    EXPECT_TRUE(differs);
+    for (Integrator in : kIntegrators) {
+        SCOPED_TRACE(integrator_name(in));
+        const RenderResult one = render_on(s, 1, false, 0.5f, in);
+        bool differs = false;
+        for (int k = 0; k < 4 && !differs; ++k)
+            differs = !same_bits(render_on(s, 3, false, 0.5f, in).film, one.film);
+        EXPECT_TRUE(differs);
+    }
 }
 
 TEST(GuidedRender, AgreesWithMisPerPixelOnEveryScene) {
@@ -644,11 +742,13 @@ TEST(GuidedRender, AgreesWithMisPerPixelOnEveryScene) {
             continue;
         Scene scene = load_scene(path);
         scene.set_resolution(32, 32);
-        for (Estimator e : {Estimator::kMis}) {
-            Scene g = guided(scene, e, spp);
-            Scene plain = guided(scene, e, spp, Guiding::kNone);
+        // (the guided wavefront against the unguided scalar loop)
+        for (Integrator in : kIntegrators) {
+            SCOPED_TRACE(integrator_name(in));
+            Scene g = guided(scene, Estimator::kMis, spp);
+            Scene plain = guided(scene, Estimator::kMis, spp, Guiding::kNone);
             plain.settings.seed = g.settings.seed + 1;
-            const RenderResult a = render_on(g, 2), b = render_on(plain, 2);
+            const RenderResult a = render_on(g, 2, true, {}, in), b = render_on(plain, 2);
             EXPECT_EQ(a.stats.nonfinite_samples, 0u);
             EXPECT_GE(test::pixels_agreeing(a.film, b.film), 0.99);
         }
@@ -661,26 +761,27 @@ namespace fs = std::filesystem;
 const fs::path kDir = fs::temp_directory_path() / ("cierzo_guide_" + std::to_string(getpid()));
 const test::RemovedAtExit kDirRemoved{kDir};
 
-RenderOptions scalar_options(int threads) {
+RenderOptions scalar_options(int threads, Integrator integrator = Integrator::kScalar) {
     RenderOptions o;
-    o.integrator = Integrator::kScalar;
+    o.integrator = integrator;
     o.threads = threads;
     o.progress = false;
     return o;
 }
 
 // The state a render of `scene` to `spp` paths per pixel ends with.
-RenderState final_state(Scene scene, int64_t spp) {
+RenderState final_state(Scene scene, int64_t spp, Integrator in = Integrator::kScalar) {
     scene.settings.spp = spp;
-    RenderOptions o = scalar_options(2);
+    RenderOptions o = scalar_options(2, in);
     RenderState last;
     o.checkpoint = [&](const RenderState& s) { last = s; };
     render(scene, o);
     return last;
 }
 
-RenderResult resumed_from(const Scene& scene, const RenderState& state, int threads) {
-    RenderOptions o = scalar_options(threads);
+RenderResult resumed_from(const Scene& scene, const RenderState& state, int threads,
+                          Integrator in = Integrator::kScalar) {
+    RenderOptions o = scalar_options(threads, in);
     o.resume = &state;
     return render(scene, o);
 }
@@ -755,6 +856,36 @@ TEST(GuidedRender, EveryCheckpointResumesToTheUninterruptedBits) {
     }
 }
 
+TEST(GuidedRender, TheWavefrontResumesToTheUninterruptedBits) {
+    // The wavefront's guided render, stopped at a training point before its training (16)
+    // and between two (48), resumed on another number of threads: the uninterrupted bits
+    Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 80);
+    s.set_resolution(lighter() ? 32 : 48, lighter() ? 24 : 32);
+    RenderOptions o = scalar_options(2, Integrator::kWavefront);
+    o.guide_first_fraction = 0.5f;
+    const RenderResult full = render(s, o);
+    for (int64_t spp : {16, 48}) {
+        SCOPED_TRACE(spp);
+        Scene part = s;
+        part.settings.spp = spp;
+        RenderState st;
+        o.checkpoint = [&](const RenderState& state) { st = state; };
+        render(part, o);
+        ASSERT_EQ(st.spp_done, spp);
+        RenderOptions again = scalar_options(3, Integrator::kWavefront);
+        again.guide_first_fraction = 0.5f;
+        again.resume = &st;
+        const RenderResult resumed = render(s, again);
+        EXPECT_TRUE(same_bits(resumed.film, full.film));
+        ASSERT_TRUE(resumed.stats.guiding && full.stats.guiding);
+        EXPECT_EQ(resumed.stats.guiding->records, full.stats.guiding->records);
+    }
+    o.checkpoint = nullptr;
+    Scene plain = s;
+    plain.settings.estimator.guiding = Guiding::kNone;
+    EXPECT_FALSE(same_bits(render(plain, o).film, full.film));
+}
+
 TEST(GuidedRender, ACheckpointWithADamagedGuideOrOfAnUnguidedRenderIsRefused) {
     Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 8);
     s.set_resolution(16, 16);
@@ -799,16 +930,17 @@ TEST(GuidedRender, ACheckpointWithADamagedGuideOrOfAnUnguidedRenderIsRefused) {
 TEST(GuidedRender, RefusedWhereItIsNotSupported) {
     Scene s = guided(parse_scene(test::kRoom, "room.json"), Estimator::kBdpt, 16);
     EXPECT_THROW(render_on(s, 1), InputError);
+    // The wavefront's guided paths do not go on past render.max_length (the scalar loop's do)
     s = guided(parse_scene(test::kRoom, "room.json"), Estimator::kMis, 16);
-    RenderOptions o;
-    o.integrator = Integrator::kWavefront;
-    o.progress = false;
+    s.settings.estimator.max_length = 3;
     try {
-        render(s, o);
-        ADD_FAILURE() << "the wavefront rendered a guided scene";
+        render_on(s, 1, true, {}, Integrator::kWavefront);
+        ADD_FAILURE() << "the wavefront rendered a guided band of lengths";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("--integrator wavefront"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("--integrator scalar"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("room.json"), std::string::npos);
     }
+    EXPECT_NO_THROW(render_on(s, 1));
 }
 
 }  // namespace

@@ -121,6 +121,11 @@ CIERZO_STAGE_LOOP void generate_camera_paths(Wave<A>& w, TileCursor& c) {
         keep3(Vec3<F>(F(1.0f)), p.beta_r, p.beta_g, p.beta_b);
         if constexpr (kRadiance) keep3(Vec3<F>(F(0.0f)), p.rad_r, p.rad_g, p.rad_b);
         if (s.path.nee) keep_f(F(0.0f), p.lobe_pdf).store_aligned(p.lobe_pdf + i);
+        if (w.guide) {  // (a guided render: no Phong vertex met, no record made)
+            keep_u(U(0u), p.phong).store_aligned(p.phong + i);
+            const U none = keep_u(U(~0u), reinterpret_cast<const uint32_t*>(p.record));
+            none.store_aligned(reinterpret_cast<uint32_t*>(p.record) + i);
+        }
     };
     int32_t i = first / K * K;
     if (i < first) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "integrators/wavefront/camera_stage.h"
+#include "integrators/wavefront/guide_stage.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -68,7 +69,8 @@ void move_paths(const PathPool& p, uint32_t fields, int32_t i, uint32_t bits, in
         if constexpr (k == kFieldBounce) {
             compress<A>(U::load_aligned(a + i) + U(1u), bits).store_unaligned(a + kept);
         } else if constexpr (k >= kFieldKey) {
-            compress<A>(U::load_aligned(a + i), bits).store_unaligned(a + kept);
+            using B = xsimd::batch<std::remove_pointer_t<decltype(a)>, A>;  // (uint32 or int32)
+            compress<A>(B::load_aligned(a + i), bits).store_unaligned(a + kept);
         } else if constexpr ((kHeld >> k) & 1u) {
             compress<A>(held_field<k, A>(held), bits).store_unaligned(a + kept);
         } else {
@@ -101,13 +103,15 @@ CIERZO_STAGE void compact_paths(Wave<A>& w, const TileJob& job, uint32_t fields)
 }
 
 // The camera paths' compaction (the report's estimators): their radiance, pixel, and with
-// nee or mis the last lobe's density, as well.
+// nee or mis the last lobe's density, as well; a guided render's paths first settle their
+// records (guide_stage.h) and keep their Phong vertices' count and last record.
 template <class A>
 void compact_paths(Wave<A>& w, const TileJob& job) {
     const FlatScene& s = w.scene;
+    if (w.guide) settle_records(w);
     compact_paths(w, job,
                   path_fields(s) | kRadianceFields | field_bit(kFieldPixel) |
-                      (s.path.nee ? field_bit(kFieldLobePdf) : 0u));
+                      (s.path.nee ? field_bit(kFieldLobePdf) : 0u) | (w.guide ? kGuideFields : 0u));
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

@@ -8,6 +8,20 @@
 
 namespace cierzo {
 
+struct GuideView;
+struct GuideRecord;
+
+// A guided render's camera paths (kernels/guiding.h): the guide they sample from (null before
+// the first training), the Phong vertices of each path it serves, and where the records go
+// when a path ends: deposit(learner, pass, record).
+struct WavefrontGuide {
+    const GuideView* view = nullptr;
+    int32_t served = 1;
+    int32_t pass = 0;
+    void* learner = nullptr;
+    void (*deposit)(void* learner, int32_t pass, const GuideRecord& record) = nullptr;
+};
+
 // One unit of work and where its finished paths go: a camera tile, or a batch of light paths
 // (`light`: one per key of the pixels and samples, splatted).
 struct TileJob {
@@ -24,6 +38,8 @@ struct TileJob {
     // Light tracing: adds `count` splats (pixel index anywhere in the image, value), in order.
     void (*splat)(void* film, int32_t count, const uint32_t* pixel, const float* r, const float* g,
                   const float* b);
+    // A guided render's camera tile: its guide (null: not guided)
+    const WavefrontGuide* guide = nullptr;
 };
 
 // How `cierzo trace` takes the rays through the tree: K at a time, each alone (the

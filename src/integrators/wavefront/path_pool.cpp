@@ -42,15 +42,15 @@ PathPool carve(char* base, int32_t capacity, int32_t lights, int32_t materials, 
                       &p.snz,      &p.probability, &p.roulette_draw,
                       &p.lobe_pdf, &p.mis_vcm,     &p.mis_vc,
                       &p.mis_vm,   &p.start_cos,   &p.done_r,
-                      &p.done_g,   &p.done_b})
+                      &p.done_g,   &p.done_b,      &p.guide_fraction})
         *a = c.take<float>(n);
     for (auto& channel : p.col)
         for (float*& a : channel) a = c.take<float>(n);
     for (uint32_t** a :
-         {&p.key, &p.pixel, &p.bounce, &p.index, &p.mesh_tri, &p.done_pixel, &p.path_id})
+         {&p.key, &p.pixel, &p.bounce, &p.index, &p.mesh_tri, &p.done_pixel, &p.path_id, &p.phong})
         *a = c.take<uint32_t>(n);
     for (int32_t** a : {&p.prim, &p.mesh_id, &p.material, &p.emitter, &p.alive, &p.lobe, &p.order,
-                        &p.start_emitter})
+                        &p.start_emitter, &p.record, &p.guide_root, &p.made})
         *a = c.take<int32_t>(n);
     for (int32_t*& a : p.bucket) a = c.take<int32_t>(n);
     p.material_starts = c.take<int32_t>(size_t(materials) + 1);

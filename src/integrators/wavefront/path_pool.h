@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <type_traits>
 
+#include "integrators/guide_record.h"
+
 namespace cierzo {
 
 class MergeGrid;
@@ -104,7 +106,9 @@ enum PathField : int32_t {
     kFieldPixel,
     kFieldIndex,
     kFieldPathId,
-    kFieldBounce
+    kFieldBounce,
+    kFieldPhong,
+    kFieldRecord
 };
 template <int32_t kField>
 using Field = std::integral_constant<int32_t, kField>;
@@ -113,6 +117,18 @@ inline constexpr uint32_t kRayFields = 0x3fu << kFieldOx;
 inline constexpr uint32_t kBetaFields = 7u << kFieldBetaR;
 inline constexpr uint32_t kRadianceFields = 7u << kFieldRadR;
 inline constexpr uint32_t kMisFields = 7u << kFieldMisVcm;
+// A guided render's camera paths: their Phong vertices so far, and their last record
+inline constexpr uint32_t kGuideFields = field_bit(kFieldPhong) | field_bit(kFieldRecord);
+
+// One thread's records of a guided render's camera paths (guide_record.h), appended as the
+// paths make them and handed to the guide as the paths end; emptied at each job's start.
+// `grow` (the renderer's) makes room for at least `records`, keeping those stored.
+struct GuideRecordTable {
+    GuideRecord* records = nullptr;
+    int32_t count = 0, capacity = 0;
+    void* owner = nullptr;
+    void (*grow)(GuideRecordTable& table, int32_t records) = nullptr;
+};
 
 struct PathPool {
     int32_t capacity = 0;
@@ -131,6 +147,11 @@ struct PathPool {
     uint32_t* path_id;
     int32_t* start_emitter;
     LightVertexStore* light_store = nullptr;
+    // A guided render (kernels/guiding.h): each camera path's Phong vertices so far and its
+    // last record in `guide_records` (-1: none)
+    uint32_t* phong;
+    int32_t* record;
+    GuideRecordTable* guide_records = nullptr;
 
     // The path state above, each array once: f(Field<k>{}, array) for every PathField k (what
     // compaction moves: move_paths, compact_stage.h)
@@ -146,6 +167,7 @@ struct PathPool {
         f(Field<kFieldMisVm>{}, mis_vm);
         f(Field<kFieldKey>{}, key), f(Field<kFieldPixel>{}, pixel), f(Field<kFieldIndex>{}, index);
         f(Field<kFieldPathId>{}, path_id), f(Field<kFieldBounce>{}, bounce);
+        f(Field<kFieldPhong>{}, phong), f(Field<kFieldRecord>{}, record);
     }
 
     // Per-bounce scratch: the hit, the surface and its material
@@ -158,6 +180,10 @@ struct PathPool {
     float *snx, *sny, *snz;  // scenes with smooth meshes: the shading normal (kernels/shading.h)
     int32_t* material;
     int32_t* emitter;  // nee/mis: the sampled emitter hit, or -1
+    // A guided render: the guide each Phong vertex is served by (its quadtree's root, -1 for a
+    // vertex the guide does not serve, and its share α), and the record the vertex made (-1)
+    int32_t *guide_root, *made;
+    float* guide_fraction;
     int32_t* alive;
     float* col[5][3];  // textured emission, kd, ks, kr, kt as the material stage evaluated them
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include "integrators/wavefront/compact_stage.h"
+#include "integrators/wavefront/guide_stage.h"
 #include "integrators/wavefront/intersect_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/surface_stage.h"
@@ -29,21 +30,65 @@ struct LobeStep {
     F pdf = F(
         0.0f);  // nee/mis: the density the lobe sampled d with, P(lobe) included (0: a delta lobe)
     typename Wave<A>::M alive;
+    // A guided render's vertices that record (guide_stage.h): what their records need
+    RecordDensities<A> record;
+    Vec3<F> nsf;
 
     // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset; n the
     // geometric normal, ns the shading normal (= n without smooth meshes)
     // c: the scene's path context, or a copy whose switches the caller knows at compile time
+    // guide: a guided render's (guide_stage.h): the diffuse lobe draws from it where it is
+    // active, and the served vertices' records are measured (`learn`)
     LobeStep(const PathContext& c, const Bsdf<F>& m, const F& magnitude, const Vec3<F>& d0,
              const Vec3<F>& pos, const Vec3<F>& n, const Vec3<F>& ns, const Vec3<F>& beta0,
-             const F& probability, const SampleStream<F>& rng, const F& u_roulette,
-             const U& bounce) {
+             const F& probability, const SampleStream<F>& rng, const F& u_roulette, const U& bounce,
+             const GuideLanes<A>* guide = nullptr, bool learn = false) {
         const VertexFrame<F> v = vertex_frame(c.smooth, d0, n, ns);
-        const Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, rng, bounce);
-        beta = throughput_roulette(c.estimator, beta0 * sc.weight, u_roulette, bounce);
+        Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, rng, bounce);
         continuation_pdf<kLobe>(c, m, d0, v, sc.dir, probability, pdf);
+        nsf = v.nsf;
+        if (guide) guided(c, m, d0, v, probability, rng, bounce, *guide, learn, sc);
+        beta = throughput_roulette(c.estimator, beta0 * sc.weight, u_roulette, bounce);
         alive = max_component(beta) > F(0.0f);
         o = leaving_origin(pos, n, sc.dir, magnitude);
         d = sc.dir;
+    }
+
+    // The guide's part (the scalar loop's rules, integrators/scalar.cpp): the diffuse lobe's
+    // lanes where the guide is active take the guided continuation instead; the densities
+    // the records of served vertices divide by, and where the diffuse lobe has a guide, the
+    // mixture's parts.
+    void guided(const PathContext& c, const Bsdf<F>& m, const Vec3<F>& d0, const VertexFrame<F>& v,
+                const F& probability, const SampleStream<F>& rng, const U& bounce,
+                const GuideLanes<A>& guide, bool learn, Scatter<F>& sc) {
+        if constexpr (kLobe == kLobeDiffuse) {
+            const auto on = guide.at.active();
+            F guided_density(0.0f);
+            if (any(on)) {
+                const GuidedScatter<F> g =
+                    continue_guided_diffuse<F>(c, m, v, probability, guide.at, rng, bounce);
+                sc.dir = select(on, g.sc.dir, sc.dir);
+                sc.weight = select(on, g.sc.weight, sc.weight);
+                if (c.nee) pdf = select(on, g.pdf, pdf);
+                guided_density = g.pdf / probability;
+                record.guide_pdf = g.guide_pdf, record.lobe_pdf = g.lobe_pdf;
+            }
+            if (!learn) return;
+            const F own = sampled_lobe_pdf<kLobeDiffuse>(m, d0, v.nsf, sc.dir, F(1.0f),
+                                                         c.estimator.cosine_diffuse);
+            record.density = select(on, guided_density, own);
+            record.lobe_pdf = select(on, record.lobe_pdf, own);
+            const auto unguided = guide.served & !on;
+            if (guide.at.exists() && any(unguided))
+                record.guide_pdf =
+                    select(unguided, guide_pdf(*guide.at.view, guide.at.root, sc.dir, unguided),
+                           record.guide_pdf);
+        } else if constexpr (kLobe == kLobeSpecular) {
+            if (learn)
+                record.density = sampled_lobe_pdf<kLobeSpecular>(m, d0, v.nsf, sc.dir, F(1.0f),
+                                                                 c.estimator.cosine_diffuse);
+        }
+        (void)guide, (void)rng, (void)bounce, (void)probability;
     }
 };
 
@@ -151,6 +196,13 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, con
     // (kInlineNee is chosen only with emitter samples and no point lights: known at compile
     // time there)
     const bool nee = c.nee;
+    // A guided render: the guide that serves the batch's Phong vertices (guide_stage.h)
+    GuideLanes<A> guided;
+    if (w.guide) {
+        const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
+        guided = serve_vertices(w, i, pos, phong);
+    }
+    const GuideAt<F>* guide = w.guide && w.guide->view ? &guided.at : nullptr;
     if (f.lights || nee) {
         auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
         phong = length_counts<F>(c.estimator, bounce + U(2u), phong);
@@ -159,7 +211,7 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, con
             const Vec3<F> origin = shadow_origin(v, pos, sf.magnitude);
             if (nee) {
                 const ShadowRequest<F> r =
-                    emitter_request(s.path, m, d, v, origin, beta, phong, rng, bounce);
+                    emitter_request(s.path, m, d, v, origin, beta, phong, rng, bounce, guide);
                 const uint32_t bits = mask_bits(r.want);
                 if constexpr (kInlineNee) {
                     if (bits) {
@@ -200,7 +252,13 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, con
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
         const LobeStep<kFused, A> step(c, m, sf.magnitude, d, pos, n, sf.ns, beta, probability, rng,
-                                       u_roulette, bounce);
+                                       u_roulette, bounce, w.guide ? &guided : nullptr,
+                                       w.guide != nullptr);
+        if constexpr (!kCompact && (kFused == kLobeDiffuse || kFused == kLobeSpecular))
+            if (w.guide)
+                make_records<kFused == kLobeDiffuse>(w, Wave<A>::lane_ids(i),
+                                                     mask_bits(alive & guided.served), pos, step.d,
+                                                     m, step.nsf, guided, step.record);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
         if constexpr (kCompact) {
@@ -279,17 +337,25 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         const F u_roulette = normalised_lobes(w.scene.path.estimator)
                                  ? gather_lanes<A>(p.roulette_draw, j)
                                  : F(0.0f);
-        const LobeStep<kLobe, A> step(w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j),
-                                      pos, n,
-                                      w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
-                                      gather3<A>(p.beta_r, p.beta_g, p.beta_b, j),
-                                      gather_lanes<A>(p.probability, j), rng, u_roulette, bounce);
+        // (a guided render: the guide that served these vertices, and their records)
+        GuideLanes<A> guided;
+        if (w.guide) guided = served_vertices(w, j);
+        const LobeStep<kLobe, A> step(
+            w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
+            w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
+            gather3<A>(p.beta_r, p.beta_g, p.beta_b, j), gather_lanes<A>(p.probability, j), rng,
+            u_roulette, bounce, w.guide ? &guided : nullptr, w.guide != nullptr);
+        const int32_t lanes = std::min(K, size - i);
+        if constexpr (kLobe == kLobeDiffuse || kLobe == kLobeSpecular)
+            if (w.guide)
+                make_records<kLobe == kLobeDiffuse>(w, j,
+                                                    mask_bits(guided.served) & ((1u << lanes) - 1u),
+                                                    pos, step.d, m, step.nsf, guided, step.record);
         scatter3(step.o, p.ox, p.oy, p.oz, j);
         scatter3(step.d, p.dx, p.dy, p.dz, j);
         scatter3(step.beta, p.beta_r, p.beta_g, p.beta_b, j);
         select(mask_i32(step.alive), I(1), I(0)).scatter(p.alive, j);
         if (w.scene.path.nee) step.pdf.scatter(p.lobe_pdf, j);
-        const int32_t lanes = std::min(K, size - i);
         w.counters.extension +=
             uint64_t(std::popcount(mask_bits(step.alive) & ((1u << lanes) - 1u)));
         w.counters.lanes_active += uint64_t(lanes);

@@ -45,7 +45,8 @@ struct Wave {
     const FlatScene& scene;
     PathPool& pool;
     WavefrontCounters& counters;
-    int32_t live = 0;  // paths in [0, live) are in flight
+    int32_t live = 0;                       // paths in [0, live) are in flight
+    const WavefrontGuide* guide = nullptr;  // a guided render's camera paths (job.h)
 
     int32_t rounded_up(int32_t n) const { return (n + K - 1) / K * K; }
 

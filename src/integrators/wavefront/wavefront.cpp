@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "integrators/merge_grid.h"
+#include "integrators/path_guide.h"
 #include "integrators/registry.h"
 #include "scene/flat_tables.h"
 
@@ -90,6 +91,27 @@ struct LightStoreMemory {
     }
 };
 
+// One thread's table of a guided render's records (path_pool.h, GuideRecordTable), grown as
+// a job's paths make them.
+struct GuideRecordMemory {
+    std::vector<GuideRecord> records;
+    GuideRecordTable table;
+    GuideRecordMemory() {
+        table.owner = this;
+        table.grow = [](GuideRecordTable& t, int32_t count) {
+            GuideRecordMemory& m = *static_cast<GuideRecordMemory*>(t.owner);
+            m.records.resize(std::max<size_t>(size_t(count), 2 * m.records.size()));
+            t.records = m.records.data();
+            t.capacity = int32_t(std::min<size_t>(m.records.size(), INT32_MAX));
+        };
+        table.grow(table, 4096);
+    }
+};
+
+void deposit_record(void* guide, int32_t pass, const GuideRecord& record) {
+    static_cast<PathGuide*>(guide)->deposit(pass, record);
+}
+
 // One thread's pool: an aligned block carved into SoA arrays.
 struct PoolMemory {
     void* memory = nullptr;
@@ -103,7 +125,8 @@ struct PoolMemory {
     PoolMemory(const PoolMemory&) = delete;
     PoolMemory& operator=(const PoolMemory&) = delete;
     ~PoolMemory() { std::free(memory); }
-    std::unique_ptr<LightStoreMemory> light_store;  // bdpt only
+    std::unique_ptr<LightStoreMemory> light_store;     // bdpt only
+    std::unique_ptr<GuideRecordMemory> guide_records;  // guided renders only
 };
 
 }  // namespace
@@ -227,7 +250,7 @@ size_t WavefrontRenderer::pool_bytes() const {
 }
 
 void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts& rays,
-                                    LaneStats& lanes) const {
+                                    LaneStats& lanes, PathGuide* guide, int32_t pass) const {
     // The camera stage splits path numbers into pixel and sample in float lanes (exact below 2^24)
     if (int64_t(tile.x1 - tile.x0) * (tile.y1 - tile.y0) >= (int64_t(1) << 23))
         throw std::logic_error("wavefront tiles must have fewer than 2^23 pixels");
@@ -241,8 +264,16 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
                                           size_t(tile.s1 - tile.s0));
         pool.light_store = &memory.light_store->store;
     }
-    const TileJob job{tile.x0, tile.y0,    tile.x1, tile.y1,      tile.s0,
-                      tile.s1, tile.light, &film,   finish_paths, splat_paths};
+    TileJob job{tile.x0, tile.y0,    tile.x1, tile.y1,      tile.s0,
+                tile.s1, tile.light, &film,   finish_paths, splat_paths};
+    WavefrontGuide guided;
+    if (guide && !tile.light) {
+        if (!memory.guide_records) memory.guide_records = std::make_unique<GuideRecordMemory>();
+        pool.guide_records = &memory.guide_records->table;
+        const int32_t n = data_->scene.settings.estimator.guided_vertices;
+        guided = {guide->view(), n > 0 ? n : INT32_MAX, pass, guide, deposit_record};
+        job.guide = &guided;
+    }
     WavefrontCounters c;
     // Every camera path of the job is counted now; the kernels hand over only the radiant ones
     if (!tile.light) film.count_paths(uint64_t(tile.s1 - tile.s0));

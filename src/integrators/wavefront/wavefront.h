@@ -10,6 +10,8 @@
 
 namespace cierzo {
 
+class PathGuide;
+
 // Lane utilisation of a render: live lanes over lanes computed.
 struct LaneStats {
     uint64_t shade_active = 0, shade_total = 0;
@@ -37,8 +39,10 @@ public:
     size_t pool_bytes() const;
     // bdpt: the largest of the threads' light-vertex stores (bytes; 0 for other estimators)
     size_t light_store_bytes() const;
-    // Thread-safe: each calling thread uses its own path pool.
-    void render_tile(const Tile& tile, FilmTile& film, RayCounts& rays, LaneStats& lanes) const;
+    // Thread-safe: each calling thread uses its own path pool. A guided render's camera
+    // tiles (nee, mis) sample `guide` and record for it as paths of pass `pass`.
+    void render_tile(const Tile& tile, FilmTile& film, RayCounts& rays, LaneStats& lanes,
+                     PathGuide* guide = nullptr, int32_t pass = 0) const;
     // Closest hits of `count` ray records (7 floats: origin, direction, tmax) through the
     // scene, with this ISA's traversal alone; adds to `totals`.
     void trace(const float* rays, size_t count, const TraceOptions& options,

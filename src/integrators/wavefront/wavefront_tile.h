@@ -70,13 +70,16 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
     Wave<A> w{scene, pool, counters};
     TileCursor cursor = tile_cursor(job);
     const FlatFeatures& f = scene.features;
+    w.guide = job.guide;
+    if (job.guide) pool.guide_records->count = 0;
     if constexpr (kFused != kLobeCount) {
         // One lobe, no point lights, no textures: shading compacts, no radiance is carried;
         // with nee or mis, shading also traces the emitter sample and carries radiance
         // (an environment is gathered by paths that miss: radiance is carried, shading does
-        // not compact)
-        const bool escapes = has_environment(scene.path);
-        if (!f.lights && !f.textures && !scene.path.nee && !escapes) {
+        // not compact; a guided render's paths take the general loop, whose compaction
+        // settles their records)
+        const bool general = has_environment(scene.path) || job.guide;
+        if (!f.lights && !f.textures && !scene.path.nee && !general) {
             for (;;) {
                 generate_camera_paths<false>(w, cursor);
                 if (w.live == 0) return;
@@ -85,7 +88,7 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
         }
         // (with many rays in flight, the emitter samples' shadow rays go to the shadow stage,
         // which groups them: the loop below)
-        if (!f.lights && !f.textures && scene.path.nee && !escapes && !grouped(scene)) {
+        if (!f.lights && !f.textures && scene.path.nee && !general && !grouped(scene)) {
             for (;;) {
                 generate_camera_paths<true>(w, cursor);
                 if (w.live == 0) return;

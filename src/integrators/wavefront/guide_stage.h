@@ -1,0 +1,157 @@
+// A guided render's camera paths in the wavefront (kernels/guiding.h): the guide that serves
+// each Phong vertex, found for whole lanes; the records the served vertices make; and their
+// hand-over to the guide when their paths end. The rules are the scalar loop's
+// (integrators/scalar.cpp): the guide serves the first render.guided_vertices Phong vertices
+// of each path, which draw part of their diffuse directions from it, weigh the emitter
+// sample and what the next segment hits with its density, and record what comes back along
+// the direction they left in. A record's light is what the path gathers after the vertex's
+// own shadow rays have landed: the record keeps the path's radiance then (at the compaction
+// that follows the shadow stage), and takes it from the path's radiance at its end.
+#pragma once
+
+#include "integrators/wavefront/wave.h"
+#include "kernels/guiding.h"
+
+namespace cierzo {
+inline namespace CIERZO_ISA_NAMESPACE {
+
+// A path keeps at most this many records (the scalar loop's bound).
+inline constexpr int32_t kMaxPathRecords = 64;
+
+// The guide at a batch's Phong vertices: where it serves them (`served`), and its quadtree
+// and share α there (`at`: no lane active before the first training).
+template <class A>
+struct GuideLanes {
+    GuideAt<typename Wave<A>::F> at;
+    typename Wave<A>::M served = typename Wave<A>::M(false);
+};
+
+// The guide of batch i's Phong vertices `phong` (at points pos): each path counts its Phong
+// vertices, and the first `served` of them are served. The pool keeps what the lobe buckets
+// read back (guide_root, guide_fraction), and no record made yet (made = -1).
+template <class A>
+GuideLanes<A> serve_vertices(Wave<A>& w, int32_t i, const Vec3<typename Wave<A>::F>& pos,
+                             const typename Wave<A>::M& phong) {
+    using F = typename Wave<A>::F;
+    using U = typename Wave<A>::U;
+    using I = typename Wave<A>::I;
+    PathPool& p = w.pool;
+    const WavefrontGuide& g = *w.guide;
+    const U before = U::load_aligned(p.phong + i);
+    GuideLanes<A> out;
+    out.served = phong & mask_f32(xsimd::bitwise_cast<I>(before) < I(g.served));
+    (before + select(mask_u32(phong), U(1u), U(0u))).store_aligned(p.phong + i);
+    out.at = guide_at(g.view, pos, out.served);
+    select(mask_i32(out.served), out.at.root, I(-1)).store_aligned(p.guide_root + i);
+    out.at.fraction.store_aligned(p.guide_fraction + i);
+    I(-1).store_aligned(p.made + i);
+    (void)sizeof(F);
+    return out;
+}
+
+// The guide the lobe buckets' lanes j were served by (serve_vertices kept it).
+template <class A>
+GuideLanes<A> served_vertices(const Wave<A>& w, const typename Wave<A>::I& j) {
+    using I = typename Wave<A>::I;
+    const PathPool& p = w.pool;
+    GuideLanes<A> out;
+    const I root = gather_lanes<A>(p.guide_root, j);
+    out.served = mask_f32(root >= I(0));
+    out.at.view = w.guide->view;
+    out.at.root = max(root, I(0));
+    out.at.fraction = gather_lanes<A>(p.guide_fraction, j);
+    return out;
+}
+
+// What a lobe's continuation tells the records of the vertices it leaves: the direction's
+// density, and at a diffuse vertex with a guide, the mixture's two densities.
+template <class A>
+struct RecordDensities {
+    using F = typename Wave<A>::F;
+    F density = F(0.0f), guide_pdf = F(0.0f), lobe_pdf = F(0.0f);
+};
+
+// The records of the lanes in `bits` (pool indices j, at points pos, leaving in dir; m their
+// material, nsf the shading normal on the arriving side): each appended to the thread's table
+// and linked to its path's last one, unless the path holds kMaxPathRecords. A diffuse
+// vertex with a guide to sample (kDiffuse and a guide) also records what the cell's share α
+// learns from.
+template <bool kDiffuse, class A>
+void make_records(Wave<A>& w, const typename Wave<A>::I& j, uint32_t bits,
+                  const Vec3<typename Wave<A>::F>& pos, const Vec3<typename Wave<A>::F>& dir,
+                  const Bsdf<typename Wave<A>::F>& m, const Vec3<typename Wave<A>::F>& nsf,
+                  const GuideLanes<A>& guide, const RecordDensities<A>& r) {
+    using F = typename Wave<A>::F;
+    constexpr int32_t K = Wave<A>::K;
+    if (!bits) return;
+    PathPool& p = w.pool;
+    GuideRecordTable& table = *p.guide_records;
+    const bool selection = kDiffuse && guide.at.exists();
+    alignas(64) float lane[14][K];
+    alignas(64) int32_t index[K];
+    j.store_aligned(index);
+    const F* values[] = {&pos.x, &pos.y, &pos.z, &dir.x, &dir.y, &dir.z, &r.density};
+    for (int k = 0; k < 7; ++k) values[k]->store_aligned(lane[k]);
+    if (selection) {
+        const Vec3<F> f_cos = m.kd * (max(dot(dir, nsf), F(0.0f)) * F(float(kInvPi)));
+        const F* more[] = {&f_cos.x,     &f_cos.y,    &f_cos.z,
+                           &r.guide_pdf, &r.lobe_pdf, &guide.at.fraction};
+        for (int k = 0; k < 6; ++k) more[k]->store_aligned(lane[7 + k]);
+    }
+    for (; bits; bits &= bits - 1) {
+        const int32_t l = std::countr_zero(bits);
+        const int32_t path = index[l];
+        const int32_t previous = p.record[path];
+        const int32_t ordinal = previous >= 0 ? table.records[previous].ordinal + 1 : 0;
+        if (ordinal >= kMaxPathRecords) continue;
+        if (table.count == table.capacity) table.grow(table, table.count + 1);
+        GuideRecord& rec = table.records[table.count];
+        rec = {{lane[0][l], lane[1][l], lane[2][l]},
+               {lane[3][l], lane[4][l], lane[5][l]},
+               lane[6][l],
+               {0.0f, 0.0f, 0.0f},
+               {0.0f, 0.0f, 0.0f},
+               {0.0f, 0.0f, 0.0f},
+               0.0f,
+               0.0f,
+               0.0f,
+               0,
+               previous,
+               ordinal};
+        if (selection) {
+            rec.f_cos[0] = lane[7][l], rec.f_cos[1] = lane[8][l], rec.f_cos[2] = lane[9][l];
+            rec.guide_pdf = lane[10][l], rec.lobe_pdf = lane[11][l], rec.fraction = lane[12][l];
+            rec.selection = 1;
+        }
+        p.record[path] = p.made[path] = table.count++;
+    }
+}
+
+// After the shadow stage: each record made this bounce takes its path's throughput and the
+// radiance it has gathered so far; each path that ended hands its records to the guide, the
+// light each gathered being the path's radiance now less what it had at the record.
+template <class A>
+CIERZO_STAGE void settle_records(Wave<A>& w) {
+    PathPool& p = w.pool;
+    const WavefrontGuide& g = *w.guide;
+    GuideRecordTable& table = *p.guide_records;
+    for (int32_t l = 0; l < w.live; ++l) {
+        if (p.made[l] >= 0) {
+            GuideRecord& r = table.records[p.made[l]];
+            r.throughput[0] = p.beta_r[l], r.throughput[1] = p.beta_g[l];
+            r.throughput[2] = p.beta_b[l];
+            r.gathered[0] = p.rad_r[l], r.gathered[1] = p.rad_g[l], r.gathered[2] = p.rad_b[l];
+        }
+        if (p.alive[l]) continue;
+        const float final[3] = {p.rad_r[l], p.rad_g[l], p.rad_b[l]};
+        for (int32_t k = p.record[l]; k >= 0;) {
+            GuideRecord& r = table.records[k];
+            for (int c = 0; c < 3; ++c) r.gathered[c] = final[c] - r.gathered[c];
+            g.deposit(g.learner, g.pass, r);
+            k = r.previous;
+        }
+    }
+}
+
+}  // namespace CIERZO_ISA_NAMESPACE
+}  // namespace cierzo
