@@ -13,6 +13,7 @@ struct GuideStats {
     uint64_t learning_nodes = 0;              // the learning trees' nodes
     uint64_t bytes = 0;                       // the memory both take
     uint64_t records = 0;                     // vertices deposited, in all iterations
+    bool learning = true;                     // whether the paths still record (PathGuide)
     std::vector<uint32_t> cells_by_fraction;  // cells of each share α (kGuideFractions)
     std::vector<double> training_seconds;     // each training's (one per iteration)
     std::vector<int64_t> trained_at;          // the paths per pixel each training came after

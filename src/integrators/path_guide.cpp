@@ -126,8 +126,11 @@ PathGuide::Learner& PathGuide::learner() {
     return *mine;
 }
 
-PathGuide::PathGuide(bool merge, bool filter, float first_fraction)
-    : serial_(next_serial.fetch_add(1)), merge_(merge), filter_(filter) {
+PathGuide::PathGuide(bool merge, bool filter, float first_fraction, uint64_t learn_records)
+    : serial_(next_serial.fetch_add(1)),
+      merge_(merge),
+      filter_(filter),
+      learn_records_(learn_records) {
     committed_bins_.assign(3 * kBoxBins, 0);
     // One cell; its first learning tree three levels deep (64 quadrants) and no sampled tree
     Shape first;
@@ -812,6 +815,7 @@ GuideStats PathGuide::stats() const {
     for (float f : fractions_)
         for (int k = 0; k < kGuideFractionCount; ++k)
             if (f == kGuideFractions[k]) ++s.cells_by_fraction[size_t(k)];
+    s.learning = learning();
     s.records = records_;  // (and those since the last training)
     for (const CellTotals& c : committed_cells_) s.records += c.count;
     for (const std::unique_ptr<Learner>& l : learners_)

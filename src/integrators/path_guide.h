@@ -62,6 +62,10 @@ inline constexpr double kGuideSubdivide = 0.01;          // ρ: a quadrant's sha
 inline constexpr int kGuideMaxDepth = 20;                // quadtree levels
 inline constexpr double kGuideSpatialThreshold = 12000;  // c: vertices per cell, as above
 inline constexpr uint32_t kGuideMaxCells = 1u << 14;
+// The records the trainings take before the guide stops learning: the passes after the
+// training that reaches them sample its last guide and record nothing (their records cost
+// a wavefront path about as much as the path itself; docs/estimators.md, "Path guiding")
+inline constexpr uint64_t kGuideLearnRecords = uint64_t(1) << 25;
 inline constexpr uint32_t kGuideMaxNodes = 1u << 20;
 
 // A saved state or a rank's sums that cannot be read (what is wrong with it); the caller
@@ -77,9 +81,11 @@ public:
     // the deposits' filters over space and directions, as above; false puts each in its
     // own cell and quadrant, for the tests and measurements. `first_fraction`: every cell's
     // share α until its records choose one; the tests' small renders take ½ to sample their
-    // guides from the first training on)
+    // guides from the first training on.
+    // `learn_records`: kGuideLearnRecords, or fewer for the tests.)
     explicit PathGuide(bool merge = true, bool filter = true,
-                       float first_fraction = kGuideFirstFraction);
+                       float first_fraction = kGuideFirstFraction,
+                       uint64_t learn_records = kGuideLearnRecords);
     PathGuide(const PathGuide&) = delete;
     PathGuide& operator=(const PathGuide&) = delete;
     ~PathGuide();
@@ -89,6 +95,9 @@ public:
 
     // What the paths sample from: null before the first training.
     const GuideView* view() const { return trainings_ > 0 ? &view_ : nullptr; }
+    // Whether the paths record for it: until its trainings have taken `learn_records`
+    // records (the same for the whole iteration, and kept by save)
+    bool learning() const { return records_ < learn_records_; }
 
     // What a diffuse vertex's record tells of the guide's share α: the estimate of the
     // integrand at its direction, f·cos θ·L (luminance), and the densities of the guide and
@@ -197,6 +206,7 @@ private:
     const uint64_t serial_;  // (which guide a thread's cached learner is of)
     const bool merge_;
     const bool filter_;
+    const uint64_t learn_records_;
     mutable std::mutex learners_mutex_;  // (learners_ grows as threads first deposit)
     std::vector<std::unique_ptr<Learner>> learners_;
     std::atomic<Learner*> first_{nullptr};

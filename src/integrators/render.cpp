@@ -221,7 +221,8 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
                              " is not supported with --strategies");
         guide =
             std::make_unique<PathGuide>(options.guide_merges_threads, true,
-                                        options.guide_first_fraction.value_or(kGuideFirstFraction));
+                                        options.guide_first_fraction.value_or(kGuideFirstFraction),
+                                        options.guide_learn_records.value_or(kGuideLearnRecords));
         // (a resumed render's guide goes on from its checkpoint's)
         if (world.rank == 0 && options.resume) {
             if (options.resume->guide.empty())

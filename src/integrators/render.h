@@ -99,6 +99,9 @@ struct RenderOptions {
     // kGuideFirstFraction). The tests' small renders take ½, where no cell's records would
     // choose to sample the guide, to show that what they test changes the image.
     std::optional<float> guide_first_fraction;
+    // The records the guide's trainings take before it stops learning (unset:
+    // kGuideLearnRecords; the tests set fewer).
+    std::optional<uint64_t> guide_learn_records;
 };
 
 // Per-process figures of a distributed render (one entry per MPI rank).

@@ -214,6 +214,7 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
     const float inv_w = 1.0f / float(rs.width), inv_h = 1.0f / float(rs.height);
     PathContext context = scene.path_context();
     if (guide) context.guide = guide->view();
+    PathGuide* learn = guide && guide->learning() ? guide : nullptr;  // (records for it)
     if (tile.light) {
         // A batch of light paths: one per key of its pixels and samples
         const PinholeFrame pinhole = scene.pinhole();
@@ -247,7 +248,7 @@ void render_tile_scalar(const Scene& scene, const Tile& tile, FilmTile& film, Ra
                 ++rays.camera;
                 px.add(trace_path(scene, context,
                                   scene.camera.generate(float(x) + jx, float(y) + jy, inv_w, inv_h),
-                                  rng, rays, guide, pass));
+                                  rng, rays, learn, pass));
             }
         }
     }

@@ -424,6 +424,32 @@ TEST(Guiding, TrainingsFallOnPowersOfTwo) {
     for (int64_t s : {0, 3, 48, 96, 1000}) EXPECT_FALSE(PathGuide::trains_before(s)) << s;
 }
 
+TEST(Guiding, LearningStopsAtTheTrainingThatReachesItsRecords) {
+    // A guide that learns from 250 records: after a training of 200 it still learns, after
+    // the next (400 in all) it does not, and its state says so
+    PathGuide guide(true, true, kGuideFirstFraction, 250);
+    EXPECT_TRUE(guide.learning());
+    const auto iteration = [&](int32_t pass, int64_t spp) {
+        for (int i = 0; i < 200; ++i)
+            guide.deposit(pass, Vec3f(0.01f * float(i), 0.5f, 0.5f), Vec3f(0, 0, 1), 1.0f);
+        guide.commit_pass(pass);
+        guide.train(spp);
+    };
+    iteration(0, 1);
+    EXPECT_TRUE(guide.learning());
+    EXPECT_TRUE(guide.stats().learning);
+    iteration(1, 2);
+    EXPECT_FALSE(guide.learning());
+    EXPECT_FALSE(guide.stats().learning);
+    EXPECT_EQ(guide.stats().records, 400u);
+    PathGuide again(true, true, kGuideFirstFraction, 250);
+    again.restore(guide.save());
+    EXPECT_FALSE(again.learning());
+    PathGuide more(true, true, kGuideFirstFraction, 1000);  // (its own bound: still learning)
+    more.restore(guide.save());
+    EXPECT_TRUE(more.learning());
+}
+
 TEST(Guiding, MemoryStaysWithinItsBounds) {
     // Many records spread everywhere cut the tree over space to its bound on cells
     PathGuide guide;
@@ -582,6 +608,38 @@ TEST(GuidedRender, TheWavefrontRecordsWhatTheScalarLoopRecords) {
             }
             EXPECT_LT(largest, 0.01);
         }
+}
+
+TEST(GuidedRender, PathsStopRecordingWhenTheGuideStopsLearning) {
+    // A guide that stops learning at the first training (16 paths per pixel: more records
+    // than its bound): the later passes sample it and record nothing, on both integrators,
+    // with the same bits on one and three threads; the image is not the one of a guide that
+    // learns on
+    Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 64);
+    s.set_resolution(32, 24);
+    for (Integrator in : kIntegrators) {
+        SCOPED_TRACE(integrator_name(in));
+        RenderOptions o;
+        o.integrator = in;
+        o.progress = false;
+        o.guide_first_fraction = 0.5f;
+        o.threads = 1;
+        const RenderResult on = render(s, o);
+        o.guide_learn_records = 1000;
+        const RenderResult stopped = render(s, o);
+        o.threads = 3;
+        const RenderResult three = render(s, o);
+        ASSERT_TRUE(on.stats.guiding && stopped.stats.guiding);
+        EXPECT_TRUE(on.stats.guiding->learning);
+        EXPECT_FALSE(stopped.stats.guiding->learning);
+        // (the first pass's records alone: at most one a path)
+        EXPECT_GT(stopped.stats.guiding->records, 1000u);
+        EXPECT_LE(stopped.stats.guiding->records, uint64_t(32 * 24 * 16));
+        EXPECT_GT(on.stats.guiding->records, 3 * stopped.stats.guiding->records);
+        EXPECT_TRUE(same_bits(three.film, stopped.film));
+        EXPECT_FALSE(same_bits(on.film, stopped.film));
+        EXPECT_EQ(stopped.stats.nonfinite_samples, 0u);
+    }
 }
 
 TEST(GuidedRender, BandsOfPathLengthsAddUpToTheWholeImage) {

@@ -108,7 +108,7 @@ CIERZO_STAGE void compact_paths(Wave<A>& w, const TileJob& job, uint32_t fields)
 template <class A>
 void compact_paths(Wave<A>& w, const TileJob& job) {
     const FlatScene& s = w.scene;
-    if (w.guide) settle_records(w);
+    if (w.guide && w.guide->learner) settle_records(w);
     compact_paths(w, job,
                   path_fields(s) | kRadianceFields | field_bit(kFieldPixel) |
                       (s.path.nee ? field_bit(kFieldLobePdf) : 0u) | (w.guide ? kGuideFields : 0u));

@@ -6,7 +6,8 @@
 // sample and what the next segment hits with its density, and record what comes back along
 // the direction they left in. A record's light is what the path gathers after the vertex's
 // own shadow rays have landed: the record keeps the path's radiance then (at the compaction
-// that follows the shadow stage), and takes it from the path's radiance at its end.
+// that follows the shadow stage, or as it is made in the compacting pass, which traces the
+// vertex's shadow ray as it shades), and takes it from the path's radiance at its end.
 #pragma once
 
 #include "integrators/wavefront/wave.h"
@@ -75,19 +76,23 @@ struct RecordDensities {
 // material, nsf the shading normal on the arriving side): each appended to the thread's table
 // and linked to its path's last one, unless the path holds kMaxPathRecords. A diffuse
 // vertex with a guide to sample (kDiffuse and a guide) also records what the cell's share α
-// learns from.
+// learns from. `beta` and `rad`, where the vertex's shadow rays have landed (the compacting
+// pass, which traces them as it shades): the throughput after the vertex and the radiance so
+// far; otherwise settle_records writes them after the shadow stage.
 template <bool kDiffuse, class A>
 void make_records(Wave<A>& w, const typename Wave<A>::I& j, uint32_t bits,
                   const Vec3<typename Wave<A>::F>& pos, const Vec3<typename Wave<A>::F>& dir,
                   const Bsdf<typename Wave<A>::F>& m, const Vec3<typename Wave<A>::F>& nsf,
-                  const GuideLanes<A>& guide, const RecordDensities<A>& r) {
+                  const GuideLanes<A>& guide, const RecordDensities<A>& r,
+                  const Vec3<typename Wave<A>::F>* beta = nullptr,
+                  const Vec3<typename Wave<A>::F>* rad = nullptr) {
     using F = typename Wave<A>::F;
     constexpr int32_t K = Wave<A>::K;
     if (!bits) return;
     PathPool& p = w.pool;
     GuideRecordTable& table = *p.guide_records;
     const bool selection = kDiffuse && guide.at.exists();
-    alignas(64) float lane[14][K];
+    alignas(64) float lane[19][K];
     alignas(64) int32_t index[K];
     j.store_aligned(index);
     const F* values[] = {&pos.x, &pos.y, &pos.z, &dir.x, &dir.y, &dir.z, &r.density};
@@ -97,6 +102,10 @@ void make_records(Wave<A>& w, const typename Wave<A>::I& j, uint32_t bits,
         const F* more[] = {&f_cos.x,     &f_cos.y,    &f_cos.z,
                            &r.guide_pdf, &r.lobe_pdf, &guide.at.fraction};
         for (int k = 0; k < 6; ++k) more[k]->store_aligned(lane[7 + k]);
+    }
+    if (beta) {
+        const F* known[] = {&beta->x, &beta->y, &beta->z, &rad->x, &rad->y, &rad->z};
+        for (int k = 0; k < 6; ++k) known[k]->store_aligned(lane[13 + k]);
     }
     for (; bits; bits &= bits - 1) {
         const int32_t l = std::countr_zero(bits);
@@ -123,17 +132,46 @@ void make_records(Wave<A>& w, const typename Wave<A>::I& j, uint32_t bits,
             rec.guide_pdf = lane[10][l], rec.lobe_pdf = lane[11][l], rec.fraction = lane[12][l];
             rec.selection = 1;
         }
-        p.record[path] = p.made[path] = table.count++;
+        if (beta)
+            for (int c = 0; c < 3; ++c)
+                rec.throughput[c] = lane[13 + c][l], rec.gathered[c] = lane[16 + c][l];
+        p.record[path] = table.count++;
+        if (!beta) p.made[path] = p.record[path];
+    }
+}
+
+// A path that ended with radiance `final` hands its records, from its last (`last`) back,
+// to the guide: the light each gathered is the path's radiance now less what it had then.
+inline void hand_over_path(const WavefrontGuide& g, GuideRecordTable& table, int32_t last,
+                           const float final[3]) {
+    for (int32_t k = last; k >= 0;) {
+        GuideRecord& r = table.records[k];
+        for (int c = 0; c < 3; ++c) r.gathered[c] = final[c] - r.gathered[c];
+        g.deposit(g.learner, g.pass, r);
+        k = r.previous;
+    }
+}
+
+// The paths of batch i in `ended` (radiance rad) hand their records over.
+template <class A>
+void hand_over_records(Wave<A>& w, int32_t i, uint32_t ended,
+                       const Vec3<typename Wave<A>::F>& rad) {
+    constexpr int32_t K = Wave<A>::K;
+    PathPool& p = w.pool;
+    alignas(64) float lane[3][K];
+    rad.x.store_aligned(lane[0]), rad.y.store_aligned(lane[1]), rad.z.store_aligned(lane[2]);
+    for (; ended; ended &= ended - 1) {
+        const int32_t l = std::countr_zero(ended);
+        const float final[3] = {lane[0][l], lane[1][l], lane[2][l]};
+        hand_over_path(*w.guide, *p.guide_records, p.record[i + l], final);
     }
 }
 
 // After the shadow stage: each record made this bounce takes its path's throughput and the
-// radiance it has gathered so far; each path that ended hands its records to the guide, the
-// light each gathered being the path's radiance now less what it had at the record.
+// radiance it has gathered so far; each path that ended hands its records over.
 template <class A>
 CIERZO_STAGE void settle_records(Wave<A>& w) {
     PathPool& p = w.pool;
-    const WavefrontGuide& g = *w.guide;
     GuideRecordTable& table = *p.guide_records;
     for (int32_t l = 0; l < w.live; ++l) {
         if (p.made[l] >= 0) {
@@ -144,12 +182,7 @@ CIERZO_STAGE void settle_records(Wave<A>& w) {
         }
         if (p.alive[l]) continue;
         const float final[3] = {p.rad_r[l], p.rad_g[l], p.rad_b[l]};
-        for (int32_t k = p.record[l]; k >= 0;) {
-            GuideRecord& r = table.records[k];
-            for (int c = 0; c < 3; ++c) r.gathered[c] = final[c] - r.gathered[c];
-            g.deposit(g.learner, g.pass, r);
-            k = r.previous;
-        }
+        hand_over_path(*w.guide, table, p.record[l], final);
     }
 }
 

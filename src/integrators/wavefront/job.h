@@ -13,7 +13,8 @@ struct GuideRecord;
 
 // A guided render's camera paths (kernels/guiding.h): the guide they sample from (null before
 // the first training), the Phong vertices of each path it serves, and where the records go
-// when a path ends: deposit(learner, pass, record).
+// when a path ends: deposit(learner, pass, record) (learner null: the guide has stopped
+// learning, and no path records).
 struct WavefrontGuide {
     const GuideView* view = nullptr;
     int32_t served = 1;

@@ -251,14 +251,16 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, con
     } else {
         // The scene's one lobe: every surviving lane chose it. Lanes that did not survive
         // are written too; their rays are never read again.
+        const bool learn = w.guide && w.guide->learner;
         const LobeStep<kFused, A> step(c, m, sf.magnitude, d, pos, n, sf.ns, beta, probability, rng,
-                                       u_roulette, bounce, w.guide ? &guided : nullptr,
-                                       w.guide != nullptr);
-        if constexpr (!kCompact && (kFused == kLobeDiffuse || kFused == kLobeSpecular))
-            if (w.guide)
-                make_records<kFused == kLobeDiffuse>(w, Wave<A>::lane_ids(i),
-                                                     mask_bits(alive & guided.served), pos, step.d,
-                                                     m, step.nsf, guided, step.record);
+                                       u_roulette, bounce, w.guide ? &guided : nullptr, learn);
+        // (a guided render's served vertices record; in the compacting pass, whose vertex's
+        // shadow ray has landed, with the throughput and radiance their records keep)
+        if constexpr (kCarried && (kFused == kLobeDiffuse || kFused == kLobeSpecular))
+            if (learn)
+                make_records<kFused == kLobeDiffuse>(
+                    w, Wave<A>::lane_ids(i), mask_bits(alive & guided.served), pos, step.d, m,
+                    step.nsf, guided, step.record, kCompact ? &step.beta : nullptr, &rad);
         alive = alive & step.alive;
         w.counters.extension += uint64_t(std::popcount(mask_bits(alive)));
         if constexpr (kCompact) {
@@ -271,13 +273,17 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, con
             if constexpr (kInlineNee) {
                 const uint32_t ended = mask_bits(w.live_mask(i)) & ~bits;
                 compaction->done = queue_radiant<A>(p, i, ended, rad, compaction->done);
+                if (learn) hand_over_records(w, i, ended, rad);
             }
-            // (with kInlineNee, survivors keep their radiance and their lobe's density)
+            // (with kInlineNee, survivors keep their radiance and their lobe's density; a
+            // guided render's, their Phong vertices' count and last record)
             constexpr uint32_t kCarriedFields =
                 kInlineNee ? kRadianceFields | field_bit(kFieldLobePdf) : 0u;
             move_paths<A, kRayFields | kBetaFields | kCarriedFields>(
-                p, path_fields(s) | field_bit(kFieldPixel) | kCarriedFields, i, bits, at,
-                {&step.o, &step.d, &step.beta, &rad, &step.pdf});
+                p,
+                path_fields(s) | field_bit(kFieldPixel) | kCarriedFields |
+                    (w.guide ? kGuideFields : 0u),
+                i, bits, at, {&step.o, &step.d, &step.beta, &rad, &step.pdf});
             compaction->kept = at + std::popcount(bits);
         } else {
             store3(step.o, p.ox, p.oy, p.oz, i);
@@ -340,14 +346,15 @@ CIERZO_STAGE_LOOP void run_lobe_bucket(Wave<A>& w, const int32_t* list, int32_t 
         // (a guided render: the guide that served these vertices, and their records)
         GuideLanes<A> guided;
         if (w.guide) guided = served_vertices(w, j);
+        const bool learn = w.guide && w.guide->learner;
         const LobeStep<kLobe, A> step(
             w.scene.path, m, magnitude, gather3<A>(p.dx, p.dy, p.dz, j), pos, n,
             w.scene.path.smooth ? gather3<A>(p.snx, p.sny, p.snz, j) : n,
             gather3<A>(p.beta_r, p.beta_g, p.beta_b, j), gather_lanes<A>(p.probability, j), rng,
-            u_roulette, bounce, w.guide ? &guided : nullptr, w.guide != nullptr);
+            u_roulette, bounce, w.guide ? &guided : nullptr, learn);
         const int32_t lanes = std::min(K, size - i);
         if constexpr (kLobe == kLobeDiffuse || kLobe == kLobeSpecular)
-            if (w.guide)
+            if (learn)
                 make_records<kLobe == kLobeDiffuse>(w, j,
                                                     mask_bits(guided.served) & ((1u << lanes) - 1u),
                                                     pos, step.d, m, step.nsf, guided, step.record);

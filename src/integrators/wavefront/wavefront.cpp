@@ -271,7 +271,8 @@ void WavefrontRenderer::render_tile(const Tile& tile, FilmTile& film, RayCounts&
         if (!memory.guide_records) memory.guide_records = std::make_unique<GuideRecordMemory>();
         pool.guide_records = &memory.guide_records->table;
         const int32_t n = data_->scene.settings.estimator.guided_vertices;
-        guided = {guide->view(), n > 0 ? n : INT32_MAX, pass, guide, deposit_record};
+        guided = {guide->view(), n > 0 ? n : INT32_MAX, pass, guide->learning() ? guide : nullptr,
+                  deposit_record};
         job.guide = &guided;
     }
     WavefrontCounters c;

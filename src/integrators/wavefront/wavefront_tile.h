@@ -76,10 +76,9 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
         // One lobe, no point lights, no textures: shading compacts, no radiance is carried;
         // with nee or mis, shading also traces the emitter sample and carries radiance
         // (an environment is gathered by paths that miss: radiance is carried, shading does
-        // not compact; a guided render's paths take the general loop, whose compaction
-        // settles their records)
-        const bool general = has_environment(scene.path) || job.guide;
-        if (!f.lights && !f.textures && !scene.path.nee && !general) {
+        // not compact; a guided render's paths carry radiance for their records)
+        const bool escapes = has_environment(scene.path);
+        if (!f.lights && !f.textures && !scene.path.nee && !escapes && !job.guide) {
             for (;;) {
                 generate_camera_paths<false>(w, cursor);
                 if (w.live == 0) return;
@@ -88,7 +87,7 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
         }
         // (with many rays in flight, the emitter samples' shadow rays go to the shadow stage,
         // which groups them: the loop below)
-        if (!f.lights && !f.textures && scene.path.nee && !general && !grouped(scene)) {
+        if (!f.lights && !f.textures && scene.path.nee && !escapes && !grouped(scene)) {
             for (;;) {
                 generate_camera_paths<true>(w, cursor);
                 if (w.live == 0) return;
