@@ -177,30 +177,63 @@ struct GuideQuadrants {
     }
 };
 
+// One descent of the quadtree at `root` for each lane of `lanes`, which gives the density
+// (solid angle) on the way down: the lanes of `draw` choose their quadrants by (u1, u2) in
+// [0, 1)² (the column in proportion to its two quadrants, then the quadrant in it, each
+// number stretched back over [0, 1) for what follows) and leave the direction drawn in
+// `drawn`; the others follow unit direction d's point of the square. A sampled direction and
+// another's density thus cost one descent together.
+template <class T>
+T guide_descend(const GuideView& g, const I32<T>& root, const Mask<T>& lanes,
+                const Mask<T>& draw, T u1, T u2, const Vec3<T>& d, Vec3<T>& drawn) {
+    using I = I32<T>;
+    const int32_t* children = direction_children(g);
+    const T kBelowOne(0x1.fffffep-1f);
+    const Mask<T> point = !draw;  // (the lanes that follow d)
+    T x(0.0f), y(0.0f);
+    if (any(lanes & point)) direction_to_square(d, x, y);
+    T ox(0.0f), oy(0.0f), size(1.0f), density(1.0f);
+    I n = select(mask_i32(lanes), root, I(0));
+    for (Mask<T> go = lanes; any(go);) {
+        const GuideQuadrants<T> node(g, n);
+        const T* e = node.e;
+        go = go & (node.total > T(0.0f));  // (no energy: uniform from here)
+        const T left = (e[0] + e[2]) / node.total;
+        const Mask<T> qx = (draw & (u1 >= left)) | (point & (x >= T(0.5f)));
+        const T column = select(qx, e[1] + e[3], e[0] + e[2]);
+        const T lower = select(qx, e[1], e[0]) / column;
+        const Mask<T> qy = (draw & (u2 >= lower)) | (point & (y >= T(0.5f)));
+        density = select(go, density * (T(4.0f) * node.of(qx, qy) / node.total), density);
+        const Mask<T> drawing = go & draw;
+        if (any(drawing)) {
+            const T u1s = select(qx, (u1 - left) / (T(1.0f) - left), u1 / left);
+            const T u2s = select(qy, (u2 - lower) / (T(1.0f) - lower), u2 / lower);
+            u1 = select(drawing, min(max(u1s, T(0.0f)), kBelowOne), u1);
+            u2 = select(drawing, min(max(u2s, T(0.0f)), kBelowOne), u2);
+            const T half = size * T(0.5f);
+            ox = select(drawing & qx, ox + half, ox), oy = select(drawing & qy, oy + half, oy);
+            size = select(drawing, half, size);
+        }
+        const I q = select(mask_i32(qx), I(1), I(0)) + select(mask_i32(qy), I(2), I(0));
+        const I child = gather_table(children, n * I(8) + q);
+        // (a followed direction whose quadrant holds nothing: density 0 from here)
+        go = go & mask_f32(child != I(0)) & (draw | (density > T(0.0f)));
+        const Mask<T> deeper = go & point;
+        x = select(deeper, T(2.0f) * x - select(qx, T(1.0f), T(0.0f)), x);
+        y = select(deeper, T(2.0f) * y - select(qy, T(1.0f), T(0.0f)), y);
+        n = select(mask_i32(go), child, n);
+    }
+    if (any(draw)) drawn = square_to_direction(ox + u1 * size, oy + u2 * size);
+    return density * T(float(0.25 * kInvPi));
+}
+
 // The guide's density (solid angle) of unit direction d in the quadtree at `root`, on the
 // lanes of `lanes` (the others: 1/4π).
 template <class T>
 T guide_pdf(const GuideView& g, const I32<T>& root, const Vec3<T>& d,
             const Mask<T>& lanes = Mask<T>(true)) {
-    using I = I32<T>;
-    const int32_t* children = direction_children(g);
-    T x, y;
-    direction_to_square(d, x, y);
-    T density(1.0f);
-    I n = select(mask_i32(lanes), root, I(0));
-    for (Mask<T> go = lanes; any(go);) {
-        const GuideQuadrants<T> node(g, n);
-        go = go & (node.total > T(0.0f));  // (no energy: uniform from here)
-        const Mask<T> qx = x >= T(0.5f), qy = y >= T(0.5f);
-        density = select(go, density * (T(4.0f) * node.of(qx, qy) / node.total), density);
-        const I q = select(mask_i32(qx), I(1), I(0)) + select(mask_i32(qy), I(2), I(0));
-        const I child = gather_table(children, n * I(8) + q);
-        go = go & mask_f32(child != I(0)) & (density > T(0.0f));
-        x = select(go, T(2.0f) * x - select(qx, T(1.0f), T(0.0f)), x);
-        y = select(go, T(2.0f) * y - select(qy, T(1.0f), T(0.0f)), y);
-        n = select(mask_i32(go), child, n);
-    }
-    return density * T(float(0.25 * kInvPi));
+    Vec3<T> unused;
+    return guide_descend(g, root, lanes, Mask<T>(false), T(0.0f), T(0.0f), d, unused);
 }
 
 // A direction drawn from the quadtree at `root` with (u1, u2) in [0, 1)², on the lanes of
@@ -208,37 +241,9 @@ T guide_pdf(const GuideView& g, const I32<T>& root, const Vec3<T>& d,
 template <class T>
 Vec3<T> guide_sample(const GuideView& g, const I32<T>& root, T u1, T u2, T& pdf,
                      const Mask<T>& lanes = Mask<T>(true)) {
-    using I = I32<T>;
-    const int32_t* children = direction_children(g);
-    const T kBelowOne(0x1.fffffep-1f);
-    T ox(0.0f), oy(0.0f), size(1.0f), density(1.0f);
-    I n = select(mask_i32(lanes), root, I(0));
-    for (Mask<T> go = lanes; any(go);) {
-        const GuideQuadrants<T> node(g, n);
-        const T* e = node.e;
-        go = go & (node.total > T(0.0f));
-        // The column (x) in proportion to its two quadrants, then the quadrant in it; each
-        // number is stretched back over [0, 1) for what follows
-        const T left = (e[0] + e[2]) / node.total;
-        const Mask<T> qx = u1 >= left;
-        const T u1s = select(qx, (u1 - left) / (T(1.0f) - left), u1 / left);
-        const T column = select(qx, e[1] + e[3], e[0] + e[2]);
-        const T lower = select(qx, e[1], e[0]) / column;
-        const Mask<T> qy = u2 >= lower;
-        const T u2s = select(qy, (u2 - lower) / (T(1.0f) - lower), u2 / lower);
-        u1 = select(go, min(max(u1s, T(0.0f)), kBelowOne), u1);
-        u2 = select(go, min(max(u2s, T(0.0f)), kBelowOne), u2);
-        density = select(go, density * (T(4.0f) * node.of(qx, qy) / node.total), density);
-        const T half = size * T(0.5f);
-        ox = select(go & qx, ox + half, ox), oy = select(go & qy, oy + half, oy);
-        size = select(go, half, size);
-        const I q = select(mask_i32(qx), I(1), I(0)) + select(mask_i32(qy), I(2), I(0));
-        const I child = gather_table(children, n * I(8) + q);
-        go = go & mask_f32(child != I(0));
-        n = select(mask_i32(go), child, n);
-    }
-    pdf = density * T(float(0.25 * kInvPi));
-    return square_to_direction(ox + u1 * size, oy + u2 * size);
+    Vec3<T> drawn(T(0.0f));
+    pdf = guide_descend(g, root, lanes, lanes, u1, u2, Vec3<T>(T(0.0f)), drawn);
+    return drawn;
 }
 
 // The guide at one vertex (per lane), as the diffuse lobe's sampler and the MIS weights see
@@ -282,23 +287,23 @@ Scatter<T> sample_guided_diffuse(const Bsdf<T>& m, const Vec3<T>& nf, const Guid
                                  T& pdf, T& guide_pdf_out, T& lobe_pdf_out) {
     const T kBelowOne(0x1.fffffep-1f);
     const T a = guide.fraction;
+    const Mask<T> active = guide.active();
     const Mask<T> from_guide = u1 < a;
-    // (the density of the leaf it was drawn from: guide_pdf's, but for a direction that
-    // rounding puts across a leaf's edge)
-    T drawn_pdf(0.0f);
-    Vec3<T> dir(T(0.0f));
-    if (any(from_guide))
-        dir = guide_sample(*guide.view, guide.root, min(u1 / a, kBelowOne), u2, drawn_pdf,
-                           from_guide);
     const T ul = min((u1 - a) / (T(1.0f) - a), kBelowOne);
-    const Vec3<T> lobe_dir =
+    Vec3<T> dir =
         to_world(cosine ? sample_cosine_hemisphere(ul, u2) : sample_uniform_hemisphere(ul, u2), nf);
-    dir = select(from_guide, dir, lobe_dir);
-    const Mask<T> from_lobe = (!from_guide) & guide.active();
-    guide_pdf_out = select(from_guide, drawn_pdf, T(0.0f));
-    if (any(from_lobe))
-        guide_pdf_out = select(
-            from_lobe, cierzo::guide_pdf(*guide.view, guide.root, dir, from_lobe), guide_pdf_out);
+    // One descent: the guide's direction where it draws (and the density of the leaf it was
+    // drawn from: guide_pdf's, but for a direction that rounding puts across a leaf's edge),
+    // the guide's density of the lobe's direction elsewhere
+    guide_pdf_out = T(0.0f);
+    if (any(active)) {
+        Vec3<T> drawn = dir;
+        guide_pdf_out = select(active,
+                               guide_descend(*guide.view, guide.root, active, from_guide,
+                                             min(u1 / a, kBelowOne), u2, dir, drawn),
+                               T(0.0f));
+        dir = select(from_guide, drawn, dir);
+    }
     const T c = dot(dir, nf);
     const T pdf_diffuse =
         select(c > T(0.0f), cosine ? c * T(float(kInvPi)) : T(float(0.5 * kInvPi)), T(0.0f));
