@@ -200,11 +200,16 @@ TEST(Mpi, TwoThreeAndFourRanksGiveTheOneProcessImageByteForByte) {
          {"--spp", "6", "--width", "40", "--height", "32", "--estimator", "lt", "--sampler",
           "pmj02"}},
         // (path guiding: every rank's sums of an iteration are added up before each training,
-        // at 16, 32 and 64 paths per pixel, and every rank trains the same trees)
+        // at 16, 32 and 64 paths per pixel, and every rank trains the same trees; the
+        // wavefront's guided paths too, at every vertex, in its lobe buckets)
         {"small_emitter.json",
          "scalar",
          {"--spp", "80", "--width", "48", "--height", "40", "--estimator", "mis", "--guiding",
           "sdtree"}},
+        {"caustic.json",
+         "wavefront",
+         {"--spp", "80", "--width", "48", "--height", "40", "--estimator", "mis", "--guiding",
+          "sdtree", "--guided-vertices", "0"}},
     };
     // (with the lighter settings, in the sanitizer job, 3 ranks alone, whose bands are
     // uneven; the native run has compared 2, 3 and 4 by then)
