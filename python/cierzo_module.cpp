@@ -515,8 +515,9 @@ or be 'scalar'). Keywords left at None keep the scene's value:
   mis), roulette_depth (the vertex the throughput roulette starts at, 0..1024),
   triangle_sampling ('area', 'solid-angle': how nee and mis sample emitting triangles),
   sampler ('independent', 'sobol', 'zsobol', 'pmj02': where the random numbers come from),
-  guiding ('none', 'sdtree': nee and mis with the scalar integrator), guided_vertices (the
-  Phong vertices of a camera path the guide serves, from the camera; 0: every one),
+  guiding ('none', 'sdtree': nee and mis; with min_length or max_length, the scalar
+  integrator), guided_vertices (the Phong vertices of a camera path the guide serves, from
+  the camera; 0: every one),
   min_length, max_length (only paths of that many segments count: 1 is the camera seeing an
   emitter, 2 direct light; 1..1048576);
   strategy (bdpt: a pair (s, t), only the paths of s light and t camera vertices count, with
