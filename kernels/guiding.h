@@ -184,8 +184,8 @@ struct GuideQuadrants {
 // `drawn`; the others follow unit direction d's point of the square. A sampled direction and
 // another's density thus cost one descent together.
 template <class T>
-T guide_descend(const GuideView& g, const I32<T>& root, const Mask<T>& lanes,
-                const Mask<T>& draw, T u1, T u2, const Vec3<T>& d, Vec3<T>& drawn) {
+T guide_descend(const GuideView& g, const I32<T>& root, const Mask<T>& lanes, const Mask<T>& draw,
+                T u1, T u2, const Vec3<T>& d, Vec3<T>& drawn) {
     using I = I32<T>;
     const int32_t* children = direction_children(g);
     const T kBelowOne(0x1.fffffep-1f);
@@ -274,6 +274,13 @@ GuideAt<T> guide_at(const GuideView* g, const Vec3<T>& p, const Mask<T>& lanes =
     const I32<T> cell = guide_cell(*g, p, lanes);
     return {g, gather_table(reinterpret_cast<const int32_t*>(g->roots), cell),
             select(lanes, gather_table(g->fractions, cell), T(0.0f))};
+}
+
+// The diffuse lobe's f·cos θ towards wi (nsf: the shading normal on the arriving side), which
+// a diffuse record's share α learns from (PathGuide::SelectionSample).
+template <class T>
+Vec3<T> diffuse_f_cos(const Bsdf<T>& m, const Vec3<T>& wi, const Vec3<T>& nsf) {
+    return m.kd * (max(dot(wi, nsf), T(0.0f)) * T(float(kInvPi)));
 }
 
 // The diffuse lobe's continuation where the guide is active: u1 below α picks the guide,

@@ -144,7 +144,7 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                  -1,
                  recorded - 1};
             if (lobe == kLobeDiffuse && guide.exists()) {
-                const Vec3f f_cos = m.kd * (max(dot(next.d, v.nsf), 0.0f) * float(kInvPi));
+                const Vec3f f_cos = diffuse_f_cos(m, next.d, v.nsf);
                 r.selection = 1;
                 r.f_cos[0] = f_cos.x, r.f_cos[1] = f_cos.y, r.f_cos[2] = f_cos.z;
                 r.guide_pdf = guide_pdf, r.lobe_pdf = diffuse_pdf, r.fraction = guide.fraction;

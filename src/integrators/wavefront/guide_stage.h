@@ -33,7 +33,6 @@ struct GuideLanes {
 template <class A>
 GuideLanes<A> serve_vertices(Wave<A>& w, int32_t i, const Vec3<typename Wave<A>::F>& pos,
                              const typename Wave<A>::M& phong) {
-    using F = typename Wave<A>::F;
     using U = typename Wave<A>::U;
     using I = typename Wave<A>::I;
     PathPool& p = w.pool;
@@ -46,7 +45,6 @@ GuideLanes<A> serve_vertices(Wave<A>& w, int32_t i, const Vec3<typename Wave<A>:
     select(mask_i32(out.served), out.at.root, I(-1)).store_aligned(p.guide_root + i);
     out.at.fraction.store_aligned(p.guide_fraction + i);
     I(-1).store_aligned(p.made + i);
-    (void)sizeof(F);
     return out;
 }
 
@@ -98,7 +96,7 @@ void make_records(Wave<A>& w, const typename Wave<A>::I& j, uint32_t bits,
     const F* values[] = {&pos.x, &pos.y, &pos.z, &dir.x, &dir.y, &dir.z, &r.density};
     for (int k = 0; k < 7; ++k) values[k]->store_aligned(lane[k]);
     if (selection) {
-        const Vec3<F> f_cos = m.kd * (max(dot(dir, nsf), F(0.0f)) * F(float(kInvPi)));
+        const Vec3<F> f_cos = diffuse_f_cos(m, dir, nsf);
         const F* more[] = {&f_cos.x,     &f_cos.y,    &f_cos.z,
                            &r.guide_pdf, &r.lobe_pdf, &guide.at.fraction};
         for (int k = 0; k < 6; ++k) more[k]->store_aligned(lane[7 + k]);

@@ -196,16 +196,13 @@ void shade_batch(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray, con
     // (kInlineNee is chosen only with emitter samples and no point lights: known at compile
     // time there)
     const bool nee = c.nee;
+    const auto phong_hits = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
     // A guided render: the guide that serves the batch's Phong vertices (guide_stage.h)
     GuideLanes<A> guided;
-    if (w.guide) {
-        const auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
-        guided = serve_vertices(w, i, pos, phong);
-    }
+    if (w.guide) guided = serve_vertices(w, i, pos, phong_hits);
     const GuideAt<F>* guide = w.guide && w.guide->view ? &guided.at : nullptr;
     if (f.lights || nee) {
-        auto phong = mask_f32(lookup<A>(s.phong, s.material_count, mat) != I(0)) & alive;
-        phong = length_counts<F>(c.estimator, bounce + U(2u), phong);
+        const auto phong = length_counts<F>(c.estimator, bounce + U(2u), phong_hits);
         if (any(phong)) {
             const VertexFrame<F> v = vertex_frame(c.smooth, d, n, sf.ns);
             const Vec3<F> origin = shadow_origin(v, pos, sf.magnitude);
