@@ -249,12 +249,43 @@ GuidedScatter<T> continue_guided_diffuse(const PathContext& c, const Bsdf<T>& m,
     return g;
 }
 
+// What the record of a vertex the guide serves divides by (integrators/guide_record.h), where
+// lobe kLobe (diffuse or specular) continued the path in `dir`: `density`, the density `dir`
+// was drawn with, P(lobe) left out (the mixture's on the `guided` lanes, which the guided
+// continuation g drew; the lobe's own elsewhere); and for the diffuse lobe the mixture's two
+// parts, the guide's density of `dir` (g's where it drew; looked up on the `served` lanes
+// whose cell has a guide but drew from the lobe; 0 elsewhere) and the lobe's.
+template <class T>
+struct RecordDensities {
+    T density = T(0.0f), guide_pdf = T(0.0f), lobe_pdf = T(0.0f);
+};
+template <int kLobe, class T>
+RecordDensities<T> record_densities(const PathContext& c, const Bsdf<T>& m, const Vec3<T>& d0,
+                                    const Vec3<T>& nsf, const Vec3<T>& dir, const GuideAt<T>& guide,
+                                    const Mask<T>& served, const Mask<T>& guided,
+                                    const GuidedScatter<T>& g, const T& probability) {
+    RecordDensities<T> r;
+    const bool cosine = c.estimator.cosine_diffuse;
+    if constexpr (kLobe == kLobeDiffuse) {
+        const T own = sampled_lobe_pdf<kLobeDiffuse>(m, d0, nsf, dir, T(1.0f), cosine);
+        r.density = select(guided, g.pdf / probability, own);
+        r.lobe_pdf = select(guided, g.lobe_pdf, own);
+        r.guide_pdf = select(guided, g.guide_pdf, T(0.0f));
+        const Mask<T> unguided = served & !guided;
+        if (guide.exists() && any(unguided))
+            r.guide_pdf =
+                select(unguided, guide_pdf(*guide.view, guide.root, dir, unguided), r.guide_pdf);
+    } else if constexpr (kLobe == kLobeSpecular) {
+        r.density = sampled_lobe_pdf<kLobeSpecular>(m, d0, nsf, dir, T(1.0f), cosine);
+    }
+    return r;
+}
+
 // The same for one path (the scalar loop): the continuation, with `pdf` P_d·p where the
-// estimator samples emitters (as continuation_pdf), and the mixture's p (`density`).
+// estimator samples emitters (as continuation_pdf), and the guided draw itself (`g`).
 struct GuidedContinuation {
     ScalarContinuation next;
-    float density;
-    float guide_pdf, lobe_pdf;
+    GuidedScatter<float> g;
 };
 inline GuidedContinuation continue_guided_diffuse(const PathContext& c, const Bsdf<float>& m,
                                                   const VertexFrame<float>& v, const Vec3f& pos,
@@ -265,9 +296,7 @@ inline GuidedContinuation continue_guided_diffuse(const PathContext& c, const Bs
         continue_guided_diffuse<float>(c, m, v, probability, guide, rng, bounce);
     return {
         {leaving_origin(pos, n, g.sc.dir, magnitude), g.sc.dir, g.sc.weight, c.nee ? g.pdf : 0.0f},
-        g.pdf / probability,
-        g.guide_pdf,
-        g.lobe_pdf};
+        g};
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

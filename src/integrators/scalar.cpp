@@ -108,32 +108,31 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
         const bool recording = learn && (recorded > 0 || records_here || phong_vertices < served);
         if (lobe == kLobeAbsorbed || (!recording && !may_extend<float>(c.estimator, bounce))) break;
         ScalarContinuation next;
-        // (for the guide's record: the direction's density, and the mixture's parts)
-        float density = 0.0f, guide_pdf = 0.0f, diffuse_pdf = 0.0f;
-        if (lobe == kLobeDiffuse && guide.active()) {
+        GuidedScatter<float> drawn{};  // (where the guide drew the direction)
+        const bool guided = lobe == kLobeDiffuse && guide.active();
+        if (guided) {
             const GuidedContinuation g =
                 continue_guided_diffuse(c, m, v, hit.p, hit.n, magnitude, p, guide, rng, bounce);
-            next = g.next, density = g.density;
-            guide_pdf = g.guide_pdf, diffuse_pdf = g.lobe_pdf;
+            next = g.next, drawn = g.g;
         } else {
             next = continue_path(lobe, c, m, ray.d, v, hit.p, hit.n, hit.ns, magnitude, p, rng,
                                  bounce);
-            if (records_here && lobe == kLobeDiffuse) {
-                density = diffuse_pdf = sampled_lobe_pdf<kLobeDiffuse>(
-                    m, ray.d, v.nsf, next.d, 1.0f, c.estimator.cosine_diffuse);
-                if (guide.exists()) guide_pdf = cierzo::guide_pdf(*guide.view, guide.root, next.d);
-            } else if (records_here && lobe == kLobeSpecular) {
-                density = sampled_lobe_pdf<kLobeSpecular>(m, ray.d, v.nsf, next.d, 1.0f,
-                                                          c.estimator.cosine_diffuse);
-            }
         }
+        // (what the guide's record divides by)
+        RecordDensities<float> densities;
+        if (records_here && lobe == kLobeDiffuse)
+            densities = record_densities<kLobeDiffuse>(c, m, ray.d, v.nsf, next.d, guide, true,
+                                                       guided, drawn, p);
+        else if (records_here && lobe == kLobeSpecular)
+            densities = record_densities<kLobeSpecular>(c, m, ray.d, v.nsf, next.d, guide, true,
+                                                        guided, drawn, p);
         lobe_pdf = next.pdf;
         throughput = throughput_roulette(c.estimator, throughput * next.weight, u_roulette, bounce);
         if (records_here && lobe <= kLobeSpecular && recorded < kMaxGuideRecords) {
             GuideRecord& r = records[recorded++];
             r = {{hit.p.x, hit.p.y, hit.p.z},
                  {next.d.x, next.d.y, next.d.z},
-                 density,
+                 densities.density,
                  {throughput.x, throughput.y, throughput.z},
                  {0.0f, 0.0f, 0.0f},
                  {0.0f, 0.0f, 0.0f},
@@ -147,7 +146,8 @@ CIERZO_PATH_LOOP Vec3f trace_path(const Scene& scene, const PathContext& c,
                 const Vec3f f_cos = diffuse_f_cos(m, next.d, v.nsf);
                 r.selection = 1;
                 r.f_cos[0] = f_cos.x, r.f_cos[1] = f_cos.y, r.f_cos[2] = f_cos.z;
-                r.guide_pdf = guide_pdf, r.lobe_pdf = diffuse_pdf, r.fraction = guide.fraction;
+                r.guide_pdf = densities.guide_pdf, r.lobe_pdf = densities.lobe_pdf;
+                r.fraction = guide.fraction;
             }
         }
         if (!(max_component(throughput) > 0.0f)) break;

@@ -12,6 +12,7 @@
 
 #include "integrators/wavefront/wave.h"
 #include "kernels/guiding.h"
+#include "kernels/path_vertex.h"
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
@@ -62,14 +63,6 @@ GuideLanes<A> served_vertices(const Wave<A>& w, const typename Wave<A>::I& j) {
     return out;
 }
 
-// What a lobe's continuation tells the records of the vertices it leaves: the direction's
-// density, and at a diffuse vertex with a guide, the mixture's two densities.
-template <class A>
-struct RecordDensities {
-    using F = typename Wave<A>::F;
-    F density = F(0.0f), guide_pdf = F(0.0f), lobe_pdf = F(0.0f);
-};
-
 // The records of the lanes in `bits` (pool indices j, at points pos, leaving in dir; m their
 // material, nsf the shading normal on the arriving side): each appended to the thread's table
 // and linked to its path's last one, unless the path holds kMaxPathRecords. A diffuse
@@ -81,7 +74,7 @@ template <bool kDiffuse, class A>
 void make_records(Wave<A>& w, const typename Wave<A>::I& j, uint32_t bits,
                   const Vec3<typename Wave<A>::F>& pos, const Vec3<typename Wave<A>::F>& dir,
                   const Bsdf<typename Wave<A>::F>& m, const Vec3<typename Wave<A>::F>& nsf,
-                  const GuideLanes<A>& guide, const RecordDensities<A>& r,
+                  const GuideLanes<A>& guide, const RecordDensities<typename Wave<A>::F>& r,
                   const Vec3<typename Wave<A>::F>* beta = nullptr,
                   const Vec3<typename Wave<A>::F>* rad = nullptr) {
     using F = typename Wave<A>::F;

@@ -31,7 +31,7 @@ struct LobeStep {
         0.0f);  // nee/mis: the density the lobe sampled d with, P(lobe) included (0: a delta lobe)
     typename Wave<A>::M alive;
     // A guided render's vertices that record (guide_stage.h): what their records need
-    RecordDensities<A> record;
+    RecordDensities<F> record;
     Vec3<F> nsf;
 
     // magnitude: max(max_abs(pos), max_abs(ray origin)), for the origin's offset; n the
@@ -55,40 +55,30 @@ struct LobeStep {
     }
 
     // The guide's part (the scalar loop's rules, integrators/scalar.cpp): the diffuse lobe's
-    // lanes where the guide is active take the guided continuation instead; the densities
-    // the records of served vertices divide by, and where the diffuse lobe has a guide, the
-    // mixture's parts.
+    // lanes where the guide is active take the guided continuation instead; the served
+    // vertices' records take their densities (record_densities).
     void guided(const PathContext& c, const Bsdf<F>& m, const Vec3<F>& d0, const VertexFrame<F>& v,
                 const F& probability, const SampleStream<F>& rng, const U& bounce,
                 const GuideLanes<A>& guide, bool learn, Scatter<F>& sc) {
-        if constexpr (kLobe == kLobeDiffuse) {
-            const auto on = guide.at.active();
-            F guided_density(0.0f);
-            if (any(on)) {
-                const GuidedScatter<F> g =
-                    continue_guided_diffuse<F>(c, m, v, probability, guide.at, rng, bounce);
-                sc.dir = select(on, g.sc.dir, sc.dir);
-                sc.weight = select(on, g.sc.weight, sc.weight);
-                if (c.nee) pdf = select(on, g.pdf, pdf);
-                guided_density = g.pdf / probability;
-                record.guide_pdf = g.guide_pdf, record.lobe_pdf = g.lobe_pdf;
+        if constexpr (kLobe == kLobeDiffuse || kLobe == kLobeSpecular) {
+            GuidedScatter<F> g{};
+            auto on = guide.at.active();
+            if constexpr (kLobe == kLobeDiffuse) {
+                if (any(on)) {
+                    g = continue_guided_diffuse<F>(c, m, v, probability, guide.at, rng, bounce);
+                    sc.dir = select(on, g.sc.dir, sc.dir);
+                    sc.weight = select(on, g.sc.weight, sc.weight);
+                    if (c.nee) pdf = select(on, g.pdf, pdf);
+                }
+            } else {
+                on = decltype(on)(false);  // (the Phong specular lobe is not guided)
             }
-            if (!learn) return;
-            const F own = sampled_lobe_pdf<kLobeDiffuse>(m, d0, v.nsf, sc.dir, F(1.0f),
-                                                         c.estimator.cosine_diffuse);
-            record.density = select(on, guided_density, own);
-            record.lobe_pdf = select(on, record.lobe_pdf, own);
-            const auto unguided = guide.served & !on;
-            if (guide.at.exists() && any(unguided))
-                record.guide_pdf =
-                    select(unguided, guide_pdf(*guide.at.view, guide.at.root, sc.dir, unguided),
-                           record.guide_pdf);
-        } else if constexpr (kLobe == kLobeSpecular) {
             if (learn)
-                record.density = sampled_lobe_pdf<kLobeSpecular>(m, d0, v.nsf, sc.dir, F(1.0f),
-                                                                 c.estimator.cosine_diffuse);
+                record = record_densities<kLobe>(c, m, d0, v.nsf, sc.dir, guide.at, guide.served,
+                                                 on, g, probability);
         }
-        (void)guide, (void)rng, (void)bounce, (void)probability;
+        (void)c, (void)m, (void)d0, (void)v, (void)probability, (void)rng, (void)bounce,
+            (void)guide, (void)learn, (void)sc;
     }
 };
 
