@@ -388,6 +388,9 @@ uint32_t PathGuide::cell_box(const Vec3f& p, float lo[3], float size[3], float l
 void PathGuide::train(int64_t spp_end) {
     const auto start = std::chrono::steady_clock::now();
     commit_slot(0), commit_slot(1);
+    // A guide that has stopped learning keeps what it learnt: its iterations hold no records,
+    // and trained on none its cells would sample the whole sphere uniformly
+    if (!learning()) return;
     const int64_t spp_iteration = std::max<int64_t>(spp_end - last_end_, 1);
     last_end_ = spp_end;
     if (!box_set_) {

@@ -126,7 +126,8 @@ public:
 
     // Ends the iteration after the passes up to `spp_end` paths per pixel (no paths may be
     // rendered meanwhile, and none of a later pass has been): every deposit joins the
-    // iteration's sums, and the learnt trees become the sampled ones.
+    // iteration's sums, and the learnt trees become the sampled ones. Once the guide has
+    // stopped learning, the trees and shares stay as they are.
     void train(int64_t spp_end);
     // The paths per pixel of the last training (0: none yet).
     int64_t trained_through() const { return last_end_; }

@@ -293,6 +293,11 @@ DistributedOutcome render_as_rank(const RankRun& run, RankStats& mine, LaneStats
     int32_t committed = 0;  // passes whose deposits have joined the guide's sums
     std::map<int64_t, std::vector<mpi::Message>> early_sums;  // (of a later training)
     const auto train_guide = [&](int32_t pass) {
+        // (a guide that has stopped learning, on every rank alike, has no sums to share)
+        if (!run.guide->learning()) {
+            run.guide->train(bounds[size_t(pass)]);
+            return;
+        }
         const std::vector<char> mine = guide_message(pass, run.guide->sums());
         for (int r = 0; r < ranks; ++r)
             if (r != me) link.send(r, kTagGuideSums, mine);

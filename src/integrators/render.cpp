@@ -389,7 +389,10 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
         if (wavefront) st.light_store_bytes = wavefront->light_store_bytes();
         st.seconds = seconds_since(start);
     }
-    if (guide) st.guiding = guide->stats();
+    if (guide) {
+        st.guiding = guide->stats();
+        if (wavefront) st.guiding->record_table_bytes = wavefront->guide_record_bytes();
+    }
     st.paths = st.rays.camera + st.rays.light;
     st.nonfinite_samples = result.film.nonfinite_samples();
     st.mean_relative_error = result.film.mean_relative_error();

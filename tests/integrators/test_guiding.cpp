@@ -442,6 +442,18 @@ TEST(Guiding, LearningStopsAtTheTrainingThatReachesItsRecords) {
     EXPECT_FALSE(guide.learning());
     EXPECT_FALSE(guide.stats().learning);
     EXPECT_EQ(guide.stats().records, 400u);
+    // Later trainings (no records) keep the last guide: its density towards the light it
+    // learnt, many times the whole sphere's 1/4π that trees trained on nothing would give
+    const GuideView* g = guide.view();
+    ASSERT_NE(g, nullptr);
+    const float learnt = guide_pdf(*g, g->roots[0], Vec3f(0, 0, 1));
+    EXPECT_GT(learnt, 100.0f / (4.0f * float(kPi)));
+    guide.commit_pass(2), guide.commit_pass(3);
+    guide.train(4), guide.train(8);
+    g = guide.view();
+    EXPECT_EQ(guide_pdf(*g, g->roots[0], Vec3f(0, 0, 1)), learnt);
+    EXPECT_EQ(guide.stats().trained_at, (std::vector<int64_t>{1, 2}));
+    EXPECT_EQ(guide.trained_through(), 2);
     PathGuide again(true, true, kGuideFirstFraction, 250);
     again.restore(guide.save());
     EXPECT_FALSE(again.learning());
@@ -639,6 +651,12 @@ TEST(GuidedRender, PathsStopRecordingWhenTheGuideStopsLearning) {
         EXPECT_TRUE(same_bits(three.film, stopped.film));
         EXPECT_FALSE(same_bits(on.film, stopped.film));
         EXPECT_EQ(stopped.stats.nonfinite_samples, 0u);
+        // (--stats: the wavefront's records wait in its threads' tables, the scalar loop's
+        // on its stack)
+        if (in == Integrator::kWavefront)
+            EXPECT_GE(on.stats.guiding->record_table_bytes, 4096u * sizeof(GuideRecord));
+        else
+            EXPECT_EQ(on.stats.guiding->record_table_bytes, 0u);
     }
 }
 

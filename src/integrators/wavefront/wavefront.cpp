@@ -244,6 +244,14 @@ size_t WavefrontRenderer::light_store_bytes() const {
     return most;
 }
 
+size_t WavefrontRenderer::guide_record_bytes() const {
+    size_t most = 0;
+    for (const PoolMemory& m : data_->pools)
+        if (m.guide_records)
+            most = std::max(most, m.guide_records->records.capacity() * sizeof(GuideRecord));
+    return most;
+}
+
 size_t WavefrontRenderer::pool_bytes() const {
     return path_pool_bytes(pool_size_, shadow_rays_per_vertex(data_->scene),
                            int32_t(data_->scene.materials.size()), ray_group() > 1);

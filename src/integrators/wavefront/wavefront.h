@@ -39,6 +39,8 @@ public:
     size_t pool_bytes() const;
     // bdpt: the largest of the threads' light-vertex stores (bytes; 0 for other estimators)
     size_t light_store_bytes() const;
+    // A guided render's records awaiting their paths' ends: the largest thread's table
+    size_t guide_record_bytes() const;
     // Thread-safe: each calling thread uses its own path pool. A guided render's camera
     // tiles (nee, mis) sample `guide` and record for it as paths of pass `pass`.
     void render_tile(const Tile& tile, FilmTile& film, RayCounts& rays, LaneStats& lanes,
