@@ -124,14 +124,14 @@ using GuidingEntry = NamedEntry<Guiding>;
 inline constexpr GuidingEntry kGuidings[] = {
     {Guiding::kNone, "none",
      "directions from the material's lobes alone; the default of every estimator (sdtree "
-     "measured 0.57-0.81x the wavefront mis's efficiency at 30 s on small_emitter, caustic, "
-     "mesh_200k and guiding/lantern, 0.87-0.99x the scalar mis's)"},
+     "measured 0.58-0.77x the wavefront mis's efficiency at 30 s on small_emitter, caustic, "
+     "mesh_200k and guiding/lantern, 0.87-0.98x the scalar mis's)"},
     {Guiding::kSdTree, "sdtree",
      "nee and mis: a share of the diffuse directions (learnt per cell: 0, 1/4, 1/2 or 3/4) "
      "from an SD-tree of the incident light, learnt pass by pass from filtered deposits "
      "(Mueller et al. 2017, 2019), at the first --guided-vertices Phong vertices, until "
-     "its trainings have taken 2^25 records; both integrators (bands of lengths: scalar), "
-     "in one process or under MPI, with checkpoints"},
+     "its trainings have taken 2^25 records (then it keeps the last); both integrators "
+     "(bands of lengths: scalar), in one process or under MPI, with checkpoints"},
 };
 
 // How nee and mis sample emitting triangles (render.triangle_sampling, --triangle-sampling):
