@@ -625,8 +625,8 @@ TEST(GuidedRender, TheWavefrontRecordsWhatTheScalarLoopRecords) {
 TEST(GuidedRender, PathsStopRecordingWhenTheGuideStopsLearning) {
     // A guide that stops learning at the first training (16 paths per pixel: more records
     // than its bound): the later passes sample it and record nothing, on both integrators,
-    // with the same bits on one and three threads; the image is not the one of a guide that
-    // learns on
+    // with the same bits on one and three threads and after a resume; the image is not the
+    // one of a guide that learns on
     Scene s = guided(parse_scene(test::kLobes, "lobes.json"), Estimator::kMis, 64);
     s.set_resolution(32, 24);
     for (Integrator in : kIntegrators) {
@@ -651,6 +651,22 @@ TEST(GuidedRender, PathsStopRecordingWhenTheGuideStopsLearning) {
         EXPECT_TRUE(same_bits(three.film, stopped.film));
         EXPECT_FALSE(same_bits(on.film, stopped.film));
         EXPECT_EQ(stopped.stats.nonfinite_samples, 0u);
+        // A render of 96 paths stopped at 48 (after the training at 32, which the stopped
+        // guide skips) and resumed on two threads, through the training at 64: the bits of
+        // the render not stopped
+        Scene longer = s, part = s;
+        longer.settings.spp = 96;
+        part.settings.spp = 48;
+        RenderState st;
+        RenderOptions first = o;
+        first.threads = 1;
+        first.checkpoint = [&](const RenderState& state) { st = state; };
+        render(part, first);
+        ASSERT_EQ(st.spp_done, 48);
+        RenderOptions again = o;
+        again.threads = 2;
+        again.resume = &st;
+        EXPECT_TRUE(same_bits(render(longer, again).film, render(longer, o).film));
         // (--stats: the wavefront's records wait in its threads' tables, the scalar loop's
         // on its stack)
         if (in == Integrator::kWavefront)
