@@ -47,38 +47,37 @@ struct LobeStep {
         Scatter<F> sc = continue_path<kLobe>(c, m, d0, v, n, ns, probability, rng, bounce);
         continuation_pdf<kLobe>(c, m, d0, v, sc.dir, probability, pdf);
         nsf = v.nsf;
-        if (guide) guided(c, m, d0, v, probability, rng, bounce, *guide, learn, sc);
+        if constexpr (kLobe == kLobeDiffuse || kLobe == kLobeSpecular)
+            if (guide) guided(c, m, d0, v, probability, rng, bounce, *guide, learn, sc);
         beta = throughput_roulette(c.estimator, beta0 * sc.weight, u_roulette, bounce);
         alive = max_component(beta) > F(0.0f);
         o = leaving_origin(pos, n, sc.dir, magnitude);
         d = sc.dir;
     }
 
-    // The guide's part (the scalar loop's rules, integrators/scalar.cpp): the diffuse lobe's
-    // lanes where the guide is active take the guided continuation instead; the served
-    // vertices' records take their densities (record_densities).
+    // The guide's part (the scalar loop's rules, integrators/scalar.cpp), for the diffuse and
+    // specular lobes: the diffuse lobe's lanes where the guide is active take the guided
+    // continuation instead (the Phong specular lobe is not guided); the served vertices'
+    // records take their densities (record_densities).
     void guided(const PathContext& c, const Bsdf<F>& m, const Vec3<F>& d0, const VertexFrame<F>& v,
                 const F& probability, const SampleStream<F>& rng, const U& bounce,
                 const GuideLanes<A>& guide, bool learn, Scatter<F>& sc) {
-        if constexpr (kLobe == kLobeDiffuse || kLobe == kLobeSpecular) {
-            GuidedScatter<F> g{};
-            auto on = guide.at.active();
-            if constexpr (kLobe == kLobeDiffuse) {
-                if (any(on)) {
-                    g = continue_guided_diffuse<F>(c, m, v, probability, guide.at, rng, bounce);
-                    sc.dir = select(on, g.sc.dir, sc.dir);
-                    sc.weight = select(on, g.sc.weight, sc.weight);
-                    if (c.nee) pdf = select(on, g.pdf, pdf);
-                }
-            } else {
-                on = decltype(on)(false);  // (the Phong specular lobe is not guided)
+        static_assert(kLobe == kLobeDiffuse || kLobe == kLobeSpecular);
+        GuidedScatter<F> g{};
+        Mask<F> on(false);
+        if constexpr (kLobe == kLobeDiffuse) {
+            on = guide.at.active();
+            if (any(on)) {
+                g = continue_guided_diffuse<F>(c, m, v, probability, guide.at, rng, bounce);
+                sc.dir = select(on, g.sc.dir, sc.dir);
+                sc.weight = select(on, g.sc.weight, sc.weight);
+                if (c.nee) pdf = select(on, g.pdf, pdf);
             }
-            if (learn)
-                record = record_densities<kLobe>(c, m, d0, v.nsf, sc.dir, guide.at, guide.served,
-                                                 on, g, probability);
         }
-        (void)c, (void)m, (void)d0, (void)v, (void)probability, (void)rng, (void)bounce,
-            (void)guide, (void)learn, (void)sc;
+        if (learn)
+            record = record_densities<kLobe>(c, m, d0, v.nsf, sc.dir, guide.at, guide.served, on, g,
+                                             probability);
+        (void)rng, (void)bounce;
     }
 };
 
