@@ -13,6 +13,7 @@
 
 #include "integrators/wavefront/compact_stage.h"
 #include "integrators/wavefront/connection_stage.h"
+#include "integrators/wavefront/isa/parts.h"
 #include "integrators/wavefront/light_subpath_stage.h"
 #include "integrators/wavefront/merge_stage.h"
 #include "integrators/wavefront/shadow_stage.h"
@@ -70,6 +71,13 @@ CIERZO_STAGE_LOOP void render_bdpt_tile(Wave<A>& w, const TileJob& job) {
                       path_fields(s) | kRadianceFields | kMisFields | field_bit(kFieldPixel) |
                           field_bit(kFieldPathId));
     }
+}
+
+template <class A>
+void render_bdpt_job(const FlatScene& scene, PathPool& pool, const TileJob& job,
+                     WavefrontCounters& counters) {
+    Wave<A> w{scene, pool, counters};
+    render_bdpt_tile(w, job);
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

@@ -1,6 +1,7 @@
 // The per-ISA entry points of the wavefront kernels: one object file each, built with that
-// instruction set's flags (x86-64: isa_avx512.cpp, isa_avx2.cpp, isa_sse42.cpp; aarch64:
-// isa_neon.cpp). Only the entry of an ISA that isa_supported() accepts may be called.
+// instruction set's flags (isa/avx512.cpp, isa/avx2.cpp, isa/sse42.cpp on x86-64, isa/neon.cpp on
+// aarch64, with the parts of isa/parts.h). Only the entry of an ISA that isa_supported() accepts
+// may be called.
 #pragma once
 
 #include <cstddef>

@@ -4,6 +4,7 @@
 // splatted unweighted where nothing blocks the connection.
 #pragma once
 
+#include "integrators/wavefront/isa/parts.h"
 #include "integrators/wavefront/light_subpath_stage.h"
 
 namespace cierzo {
@@ -14,6 +15,13 @@ template <class A>
 CIERZO_STAGE_LOOP void render_light_paths(Wave<A>& w, const TileJob& job) {
     TileCursor cursor = tile_cursor(job);
     trace_light_subpaths<LightUse::kLightTracing>(w, job, cursor);
+}
+
+template <class A>
+void render_light_job(const FlatScene& scene, PathPool& pool, const TileJob& job,
+                      WavefrontCounters& counters) {
+    Wave<A> w{scene, pool, counters};
+    render_light_paths(w, job);
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE

@@ -3,7 +3,7 @@
 // every path of the tile has ended. Stages with no reordering between them run on the same
 // batch of K paths in registers, one pass over the pool: intersection and surfaces always;
 // shading too when there are no textures to sort; the lobe too when the scene has one lobe
-// kind. Included only by the per-ISA files, which instantiate it.
+// kind. Included only by the per-ISA parts tile_<lobe>.cpp (isa/parts.h), which instantiate it.
 #pragma once
 
 #include <type_traits>
@@ -11,6 +11,7 @@
 #include "integrators/wavefront/bdpt_stage.h"
 #include "integrators/wavefront/compact_stage.h"
 #include "integrators/wavefront/intersect_stage.h"
+#include "integrators/wavefront/isa/parts.h"
 #include "integrators/wavefront/light_stage.h"
 #include "integrators/wavefront/material_stage.h"
 #include "integrators/wavefront/shade_stage.h"
@@ -107,38 +108,6 @@ void render_tile_stages(const FlatScene& scene, PathPool& pool, const TileJob& j
         trace_shadow_rays(w);
         compact_paths(w, job);
     }
-}
-
-template <class A>
-void render_tile_isa(const FlatScene& scene, PathPool& pool, const TileJob& job,
-                     WavefrontCounters& counters) {
-    const FlatFeatures& f = scene.features;
-    auto run = [&](auto fused) {
-        render_tile_stages<decltype(fused)::value, A>(scene, pool, job, counters);
-    };
-    // A batch of light paths; a camera tile (with light tracing, only where some emitter is
-    // not sampled: the camera's paths bring nothing else)
-    if (job.light) {
-        Wave<A> w{scene, pool, counters};
-        render_light_paths(w, job);
-        return;
-    }
-    if (scene.path.bdpt) {
-        Wave<A> w{scene, pool, counters};
-        render_bdpt_tile(w, job);
-        return;
-    }
-    if (!scene.camera_paths) return;
-    if (f.lobe_kinds != 1)
-        run(std::integral_constant<int, kLobeCount>{});
-    else if (f.diffuse)
-        run(std::integral_constant<int, kLobeDiffuse>{});
-    else if (f.specular)
-        run(std::integral_constant<int, kLobeSpecular>{});
-    else if (f.mirror)
-        run(std::integral_constant<int, kLobeMirror>{});
-    else
-        run(std::integral_constant<int, kLobeRefract>{});
 }
 
 }  // namespace CIERZO_ISA_NAMESPACE
