@@ -24,6 +24,7 @@ for arg in "$@"; do
     if [ "$arg" = --per-isa ]; then marked=1; continue; fi
     IFS=';' read -ra parts <<<"$arg"
     for o in "${parts[@]}"; do
+        case "$o" in *.gch | *.pch) continue ;; esac  # (a precompiled header holds no code)
         objects+=("$o")
         targets+=("$(target_of "$o")")
         case "$o" in */isa_*) per_isa+=(1) ;; *) per_isa+=("$marked") ;; esac
