@@ -40,7 +40,9 @@ enum BvhLeafKind : uint8_t {
 
 // A node holds its children's boxes in SoA, so one ray tests all of them with a few SIMD
 // operations; 256 bytes, 4 cache lines (boxes in the first 3).
-//   bounds[0..2][i]  min x, y, z of child i; bounds[3..5][i] its max x, y, z
+//   bounds           six rows of kWideBvhWidth floats, row(k)[i]: rows 0..2 the min x, y, z
+//                    of child i, rows 3..5 its max x, y, z (one flat array, so an offset
+//                    into any row, as the traversal computes them, stays inside it)
 //   child[i]         inner child: its node index; leaf: where its primitives start (kind[i])
 //   count[i]         leaf: its primitives (1-16); inner child: 0
 //   kind[i]          leaf: a BvhLeafKind
@@ -48,12 +50,15 @@ enum BvhLeafKind : uint8_t {
 //                    (min +inf, max -inf) and are also masked off by the traversal
 //   leaves           bit i set: slot i is a leaf
 struct alignas(64) WideBvhNode {
-    float bounds[6][kWideBvhWidth];
+    float bounds[6 * kWideBvhWidth];
     uint32_t child[kWideBvhWidth];
     uint16_t count[kWideBvhWidth];
     uint8_t kind[kWideBvhWidth];
     uint32_t slots;
     uint32_t leaves;
+
+    const float* row(int k) const { return bounds + k * kWideBvhWidth; }
+    float* row(int k) { return bounds + k * kWideBvhWidth; }
 };
 static_assert(sizeof(WideBvhNode) == 256);
 

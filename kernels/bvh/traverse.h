@@ -60,8 +60,8 @@ inline uint32_t enter_children(const NodeRay<N>& n, const WideBvhNode& node, flo
     for (int at = 0; at < kWideBvhWidth; at += kLanes) {
         N t0(0.0f), t1(t);
         for (int k = 0; k < 3; ++k) {
-            const N near = load_lanes<N>(node.bounds[0] + n.near_at[k] + at);
-            const N far = load_lanes<N>(node.bounds[0] + n.far_at[k] + at);
+            const N near = load_lanes<N>(node.bounds + n.near_at[k] + at);
+            const N far = load_lanes<N>(node.bounds + n.far_at[k] + at);
             t0 = slab_max((near - n.org[k]) * n.inv[k], t0);
             t1 = slab_min((far - n.org[k]) * n.inv_far[k], t1);
         }
@@ -421,7 +421,8 @@ Mask<T> packet_traverse(const BvhView& bvh, const Ray<T>& ray, const Vec3<T>& in
             // The child's box over [0, t] for every ray, the robust slab test
             T t0(0.0f), t1 = t;
             for (int k = 0; k < 3; ++k) {
-                const T a = T(node.bounds[k][i]) - o[k], b = T(node.bounds[k + 3][i]) - o[k];
+                const T a = T(node.bounds[k * kWideBvhWidth + i]) - o[k];
+                const T b = T(node.bounds[(k + 3) * kWideBvhWidth + i]) - o[k];
                 const T near = select(forward[k], a, b) * r[k];
                 const T far = select(forward[k], b, a) * r_far[k];
                 t0 = select(near > t0, near, t0);

@@ -95,8 +95,10 @@ template <class N>
                 N t0(0.0f), t1(t[r]);
                 for (int k = 0; k < 3; ++k) {
                     const bool back = std::signbit(ray.inv[k]);
-                    const N near = load_lanes<N>(node.bounds[back ? k + 3 : k] + at);
-                    const N far = load_lanes<N>(node.bounds[back ? k : k + 3] + at);
+                    const float* near_row = node.bounds + (back ? k + 3 : k) * kWideBvhWidth;
+                    const float* far_row = node.bounds + (back ? k : k + 3) * kWideBvhWidth;
+                    const N near = load_lanes<N>(near_row + at);
+                    const N far = load_lanes<N>(far_row + at);
                     const N o(ray.o[k]);
                     t0 = slab_max((near - o) * N(ray.inv[k]), t0);
                     t1 = slab_min((far - o) * N(ray.inv[k] * kBvhFarScale), t1);

@@ -338,15 +338,15 @@ void Bvh::build(const BvhInput& in) {
         }
         WideBvhNode node{};
         for (int k = 0; k < 3; ++k) {
-            std::fill(node.bounds[k], node.bounds[k] + kWideBvhWidth, kInf);
-            std::fill(node.bounds[k + 3], node.bounds[k + 3] + kWideBvhWidth, -kInf);
+            std::fill(node.row(k), node.row(k) + kWideBvhWidth, kInf);
+            std::fill(node.row(k + 3), node.row(k + 3) + kWideBvhWidth, -kInf);
         }
         node.slots = uint32_t(kids.size());
         for (size_t i = 0; i < kids.size(); ++i) {
             const Node& kid = b.nodes[kids[i]];
             const float box[6] = {kid.box.lo.x, kid.box.lo.y, kid.box.lo.z,
                                   kid.box.hi.x, kid.box.hi.y, kid.box.hi.z};
-            for (int k = 0; k < 6; ++k) node.bounds[k][i] = box[k];
+            for (int k = 0; k < 6; ++k) node.row(k)[i] = box[k];
             if (c.plan[kids[i]].leaf) {
                 uint32_t count = 0;
                 node.child[i] = b.add_leaf(*this, in, kids[i], count);

@@ -524,7 +524,7 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
         EXPECT_LE(node.slots, W);
         slots += node.slots;
         for (uint32_t i = node.slots; i < W; ++i)
-            EXPECT_GT(node.bounds[0][i], node.bounds[3][i]) << "an unused slot's box";
+            EXPECT_GT(node.row(0)[i], node.row(3)[i]) << "an unused slot's box";
         // The leaf mask: exactly the used slots that hold triangles (the traversal tests
         // those at once and never descends into them)
         for (uint32_t i = 0; i < 32; ++i) {
@@ -548,14 +548,14 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
                         continue;
                     }
                     if (splits) continue;
-                    EXPECT_GE(v, node.bounds[k % 3][i]);
-                    EXPECT_LE(v, node.bounds[k % 3 + 3][i]);
+                    EXPECT_GE(v, node.row(k % 3)[i]);
+                    EXPECT_LE(v, node.row(k % 3 + 3)[i]);
                 }
                 if (j >= node.count[i]) continue;
                 const uint32_t t = bvh.view().triangle_index[lane];
                 ++seen[t];
-                boxes[t].push_back({node.bounds[0][i], node.bounds[1][i], node.bounds[2][i],
-                                    node.bounds[3][i], node.bounds[4][i], node.bounds[5][i]});
+                boxes[t].push_back({node.row(0)[i], node.row(1)[i], node.row(2)[i],
+                                    node.row(3)[i], node.row(4)[i], node.row(5)[i]});
             }
         }
     }
