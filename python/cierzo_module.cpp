@@ -76,8 +76,13 @@ py::object json_to_python(const nlohmann::json& j) {
 
 // ---- Scenes ---------------------------------------------------------------------------
 
-PyScene load(const py::object& source, const std::optional<fs::path>& base) {
+PyScene load(const py::object& source, const std::optional<fs::path>& base,
+             const std::vector<fs::path>& allow_paths = {},
+             const std::optional<uint64_t>& image_memory = std::nullopt) {
     if (py::isinstance<PyScene>(source)) return source.cast<PyScene>();
+    LoadOptions options;
+    options.allowed_paths = allow_paths;
+    if (image_memory) options.image_memory = *image_memory;
     if (py::isinstance<py::dict>(source)) {
         // The same JSON as a file; relative paths resolve against `base` (default: the
         // current folder), and messages name "<dict>"
@@ -85,14 +90,14 @@ PyScene load(const py::object& source, const std::optional<fs::path>& base) {
             py::module_::import("json").attr("dumps")(source).cast<std::string>();
         const fs::path path = base ? *base / "<dict>" : fs::path("<dict>");
         py::gil_scoped_release release;
-        return {std::make_shared<const Scene>(parse_scene(text, path))};
+        return {std::make_shared<const Scene>(parse_scene(text, path, options))};
     }
     if (base)
         throw py::type_error(
             "load_scene: base is for a dict; a file's paths resolve against its folder");
     const fs::path path = source.cast<fs::path>();
     py::gil_scoped_release release;
-    return {std::make_shared<const Scene>(load_scene(path))};
+    return {std::make_shared<const Scene>(load_scene(path, options))};
 }
 
 // ---- Running with the GIL released, stoppable by Ctrl-C or a Cancel --------------------
@@ -476,11 +481,16 @@ tonemap_operators, isas. Classes: Scene, Cancel, Error.)";
         .def("is_set", [](const Cancel& c) { return c.flag->load(); })
         .def("clear", [](Cancel& c) { c.flag->store(false); });
 
-    m.def("load_scene", &load, py::arg("source"), py::arg("base") = py::none(),
+    m.def("load_scene", &load, py::arg("source"), py::arg("base") = py::none(), py::kw_only(),
+          py::arg("allow_paths") = std::vector<fs::path>{},
+          py::arg("image_memory") = py::none(),
           R"(Reads a scene: a path to a scene file (str or os.PathLike), or a dict holding the
 same JSON as a file. Relative paths in a file (meshes, output) resolve against the file's
-folder; in a dict, against `base` if given, else the current folder. Messages about a dict
-name it '<dict>'. Raises cierzo.Error with the command line's message.)");
+folder; in a dict, against `base` if given, else the current folder. The files a scene
+names must lie beneath that folder or one of `allow_paths` (the command line's
+--allow-path), and its images may take at most `image_memory` bytes while decoded (the
+command line's --image-memory; default 4 GiB or half the machine's memory). Messages about a
+dict name it '<dict>'. Raises cierzo.Error with the command line's message.)");
 
     m.def("render", &py_render, py::arg("scene"), py::kw_only(), py::arg("spp") = py::none(),
           py::arg("width") = py::none(), py::arg("height") = py::none(),

@@ -1,11 +1,36 @@
 // Shared checks of the `cierzo` subcommands (see app_common.h).
 #include "apps/app_common.h"
 
+#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include "core/error.h"
 
 namespace cierzo {
+
+void InputOptions::add_to(CLI::App* command) {
+    command
+        ->add_option("--allow-path", allowed_paths,
+                     "A folder besides the scene's own that the files the scene names (meshes, "
+                     "MTL libraries, images) may come from; repeatable. By default a scene "
+                     "reads only beneath its own folder, links followed (docs/scene-format.md)")
+        ->check(CLI::ExistingDirectory);
+    command->add_option(
+        "--image-memory", image_memory,
+        fmt::format("The most memory the scene's images may take while decoded, their "
+                    "sampling tables included, e.g. 8G or 512M (powers of 1024); charged "
+                    "from each image's header before any is decoded. Default: 4G, or half "
+                    "this machine's memory where that is less (here {}): enough for an "
+                    "8192x4096 HDR environment and dozens of 4096^2 textures",
+                    format_bytes(default_image_memory())));
+}
+
+LoadOptions InputOptions::load_options() const {
+    LoadOptions o;
+    o.allowed_paths = allowed_paths;
+    if (!image_memory.empty()) o.image_memory = parse_bytes(image_memory, "--image-memory");
+    return o;
+}
 
 namespace fs = std::filesystem;
 

@@ -3,13 +3,30 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "io/image.h"
 #include "io/output_file.h"
+#include "scene/load_options.h"
 #include "scene/scene.h"
 
+namespace CLI {
+class App;
+}
+
 namespace cierzo {
+
+// What a subcommand that reads a scene lets the user widen: the folders the scene's inputs
+// may come from (--allow-path DIR, repeatable) and its images' memory (--image-memory SIZE).
+struct InputOptions {
+    std::vector<std::filesystem::path> allowed_paths;
+    std::string image_memory;  // as given; empty: the default
+    // The options, added to `command`
+    void add_to(CLI::App* command);
+    // As load_scene takes them; throws InputError for a malformed --image-memory
+    LoadOptions load_options() const;
+};
 
 // The files a scene was made from (the scene file, its meshes), as inputs that no output may
 // replace (check_outputs in io/output_file.h).

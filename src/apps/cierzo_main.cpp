@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "apps/app_common.h"
 #include "apps/converge_command.h"
 #include "apps/render_job.h"
 #include "apps/trace_command.h"
@@ -35,6 +36,7 @@ extern "C" void on_signal(int sig) {
 // The command line of `cierzo render`: the scene file and the job (apps/render_job.h).
 struct RenderArgs {
     fs::path scene;
+    InputOptions inputs;
     bool quiet = false;
     RenderJob job;
 };
@@ -50,7 +52,9 @@ int run_render(RenderArgs& args) {
         std::signal(SIGINT, on_signal);
         std::signal(SIGTERM, on_signal);
     };
-    Scene loaded = load_scene(args.scene);
+    LoadOptions load = args.inputs.load_options();
+    load.output_named = !a.out.empty();
+    Scene loaded = load_scene(args.scene, load);
     if (root)
         for (const std::string& w : loaded.warnings)
             std::fprintf(stderr, "cierzo: warning: %s\n", w.c_str());
@@ -136,6 +140,7 @@ int run_main(int argc, char** argv) {
          "name theirs")
         ->required()
         ->check(CLI::ExistingFile);
+    a.inputs.add_to(r);
     r->add_option("--spp", a.job.spp, "Paths per pixel (overrides render.spp)")
         ->check(CLI::Range(int64_t(1), int64_t(UINT32_MAX)));
     r->add_option("--threads", a.job.threads,

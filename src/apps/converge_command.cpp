@@ -184,6 +184,7 @@ CLI::App* add_converge_command(CLI::App& app) {
                   "Scene file (JSON; see docs/scene-format.md), or an OBJ or PLY model")
         ->required()
         ->check(CLI::ExistingFile);
+    a.inputs.add_to(c);
     CLI::Option* reference =
         c->add_option("--reference", a.reference,
                       "Reference image (.exr or .pfm) of the scene at the same resolution, e.g. "
@@ -333,7 +334,9 @@ CLI::App* add_converge_command(CLI::App& app) {
 }
 
 int run_converge_command() {
-    run_converge_job(load_scene(g_args.scene), g_args);
+    LoadOptions load = g_args.inputs.load_options();
+    load.output_named = true;  // (converge writes no image where the scene says)
+    run_converge_job(load_scene(g_args.scene, load), g_args);
     return 0;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/app_common.h"
 #include "scene/scene.h"
 
 namespace CLI {
@@ -21,6 +22,7 @@ namespace cierzo {
 // The options of `cierzo converge` (see its --help and the README).
 struct ConvergeArgs {
     std::filesystem::path scene;
+    InputOptions inputs;  // --allow-path, --image-memory
     std::filesystem::path reference;
     std::filesystem::path save_reference;
     int64_t reference_spp = 4096;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/app_common.h"
 #include "apps/render_job.h"
 #include "core/error.h"
 #include "integrators/light_pilot.h"
@@ -28,6 +29,7 @@ namespace fs = std::filesystem;
 
 struct TraceArgs {
     fs::path scene, rays;
+    InputOptions inputs;
     std::string integrator = "wavefront";
     std::string isa = "auto";
     int repeat = 1;
@@ -74,6 +76,7 @@ CLI::App* add_trace_command(CLI::App& app) {
     t->add_option("scene", g_args.scene, "Scene file (JSON; see docs/scene-format.md)")
         ->required()
         ->check(CLI::ExistingFile);
+    g_args.inputs.add_to(t);
     t->add_option("--rays", g_args.rays,
                   "Ray file: 'CZRAYS1\\0', uint64 count, count x 7 float32 (ox oy oz dx dy dz "
                   "tmax), little-endian; e.g. written by bench/peers' embree_pt --dump-rays")
@@ -123,7 +126,9 @@ int run_trace_command() {
             "--stream: the scalar integrator traces one ray at a time; streams are "
             "the wavefront's (--integrator wavefront)");
     const Scene scene = [&] {
-        Scene s = load_scene(a.scene);
+        LoadOptions load = a.inputs.load_options();
+        load.output_named = true;  // (trace writes no image)
+        Scene s = load_scene(a.scene, load);
         apply_spatial_splits(s, a.spatial_splits);
         return s;
     }();

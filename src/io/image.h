@@ -45,6 +45,13 @@ void write_hdr(const std::filesystem::path& path, const Image& image,
 Image read_exr(const std::filesystem::path& path, ImageMetadata* metadata = nullptr);
 // Also returns every channel other than R, G, B (converted to float) in `layers`.
 Image read_exr(const std::filesystem::path& path, ImageMetadata* metadata, ImageLayers* layers);
+// An EXR file's size and channels from its header alone (checked as read_exr checks it,
+// nothing decoded): what decoding it would cost.
+struct ExrShape {
+    int64_t width = 0, height = 0;
+    int channels = 0;
+};
+ExrShape read_exr_shape(const std::filesystem::path& path);
 Image read_pfm(const std::filesystem::path& path);
 Image read_hdr(const std::filesystem::path& path);  // by extension
 

@@ -362,6 +362,25 @@ Image read_exr(const fs::path& path, ImageMetadata* metadata, ImageLayers* layer
     return read_exr_file(path, metadata, layers);
 }
 
+ExrShape read_exr_shape(const fs::path& path) {
+    check_readable_file(path);
+    check_exr_header(path);
+    try {
+        Imf::InputFile file(path.c_str());
+        const Imath::Box2i window = file.header().dataWindow();
+        ExrShape shape;
+        shape.width = int64_t(window.max.x) - int64_t(window.min.x) + 1;
+        shape.height = int64_t(window.max.y) - int64_t(window.min.y) + 1;
+        const Imf::ChannelList& channels = file.header().channels();
+        for (auto it = channels.begin(); it != channels.end(); ++it) ++shape.channels;
+        return shape;
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::exception& e) {
+        read_error(path, std::string("invalid or truncated OpenEXR file: ") + e.what());
+    }
+}
+
 // ---- PFM ----------------------------------------------------------------------------------
 
 void write_pfm(const fs::path& path, const Image& image) {

@@ -6,14 +6,18 @@
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <memory>
 #include <string_view>
+#include <system_error>
 
 #include <fmt/format.h>
 #include <stb/stb_image.h>
 
 #include "core/error.h"
 #include "io/image.h"
+#include "io/input_file.h"
 #include "io/mesh_file.h"
 
 namespace cierzo {
@@ -125,26 +129,87 @@ const float* linear_decode_table() {
 namespace {
 
 // Which format the bytes are, by their signature (TGA, which has none, by the name's
-// extension); stb_image is only ever given these formats, never its others (GIF, PSD, PIC).
+// extension and a plausible header); stb_image is only ever given these formats, never its
+// others (GIF, PSD, PIC), and the name's extension must agree with the signature.
 enum class Format { kUnknown, kPng, kJpeg, kBmp, kPnm, kHdr, kTga };
 
-Format format_of(const std::string& bytes, const fs::path& name) {
-    const auto starts = [&](std::string_view magic) {
-        return bytes.compare(0, magic.size(), magic) == 0;
-    };
-    if (starts("\x89PNG\r\n\x1a\n")) return Format::kPng;
-    if (starts("\xff\xd8\xff")) return Format::kJpeg;
-    if (starts("BM")) return Format::kBmp;
-    if (starts("P5") || starts("P6")) return Format::kPnm;
-    if (starts("#?RADIANCE\n") || starts("#?RGBE\n")) return Format::kHdr;
-    if (lower_extension(name) == ".tga") return Format::kTga;
+const char* format_name(Format f) {
+    switch (f) {
+        case Format::kPng: return "PNG";
+        case Format::kJpeg: return "JPEG";
+        case Format::kBmp: return "BMP";
+        case Format::kPnm: return "PNM";
+        case Format::kHdr: return "Radiance HDR";
+        case Format::kTga: return "TGA";
+        default: return "unknown";
+    }
+}
+
+constexpr const char* kExtensions =
+    "image textures are .png, .jpg (.jpeg), .tga, .bmp, .ppm (.pgm, .pnm), .hdr and .exr "
+    "files";
+
+Format format_of_extension(const std::string& ext) {
+    if (ext == ".png") return Format::kPng;
+    if (ext == ".jpg" || ext == ".jpeg" || ext == ".jpe" || ext == ".jfif") return Format::kJpeg;
+    if (ext == ".bmp") return Format::kBmp;
+    if (ext == ".ppm" || ext == ".pgm" || ext == ".pnm") return Format::kPnm;
+    if (ext == ".hdr" || ext == ".rgbe") return Format::kHdr;
+    if (ext == ".tga") return Format::kTga;
     return Format::kUnknown;
+}
+
+// A TGA header (18 bytes: no signature) that stb_image reads as a TGA and nothing else: a
+// colour-mapped, true-colour or grey image, plain or run-length encoded, of a depth TGA has,
+// and not the signature of one of stb_image's undocumented formats.
+bool plausible_tga(std::string_view b) {
+    if (b.size() < 18) return false;
+    for (std::string_view other : {std::string_view("GIF8"), std::string_view("8BPS"),
+                                   std::string_view("\x53\x80\xf6\x34")})
+        if (b.substr(0, other.size()) == other) return false;
+    const int map = uint8_t(b[1]), type = uint8_t(b[2]), bits = uint8_t(b[16]);
+    const int map_bits = uint8_t(b[7]);
+    if (map > 1) return false;
+    if (!((type >= 1 && type <= 3) || (type >= 9 && type <= 11))) return false;
+    if ((type == 1 || type == 9) != (map == 1)) return false;
+    if (map == 1 && map_bits != 15 && map_bits != 16 && map_bits != 24 && map_bits != 32)
+        return false;
+    return bits == 8 || bits == 15 || bits == 16 || bits == 24 || bits == 32;
+}
+
+// The format of an image texture's first bytes, checked against its name: refused (naming
+// the file, never quoting it) when the signature is of no documented format, or the
+// extension says another.
+Format format_of(std::string_view bytes, const fs::path& name) {
+    const auto starts = [&](std::string_view magic) {
+        return bytes.substr(0, magic.size()) == magic;
+    };
+    const std::string ext = lower_extension(name);
+    const Format named = format_of_extension(ext);
+    if (named == Format::kUnknown)
+        fail(name, ext.empty() ? fmt::format("has no extension: {}", kExtensions)
+                               : fmt::format("has the extension '{}': {}", ext, kExtensions));
+    Format found = Format::kUnknown;
+    if (starts("\x89PNG\r\n\x1a\n")) found = Format::kPng;
+    else if (starts("\xff\xd8\xff")) found = Format::kJpeg;
+    else if (starts("BM")) found = Format::kBmp;
+    else if (starts("P5") || starts("P6")) found = Format::kPnm;
+    else if (starts("#?RADIANCE\n") || starts("#?RGBE\n")) found = Format::kHdr;
+    else if (named == Format::kTga && plausible_tga(bytes)) found = Format::kTga;
+    if (found == Format::kUnknown)
+        fail(name, fmt::format("is not a {} file (its first bytes are no {} header; {})",
+                               format_name(named), format_name(named), kExtensions));
+    if (found != named)
+        fail(name, fmt::format("is a {} file by its contents, but its name ends in '{}': the "
+                               "extension must say what the file is",
+                               format_name(found), ext));
+    return found;
 }
 
 // A binary PNM's header (P5 grey, P6 colour: width, height, maxval, then one whitespace
 // byte), checked against the data before stb_image reads it: 8 bits per sample only, and
 // as many bytes as the header promises.
-void check_pnm(const std::string& bytes, const fs::path& name) {
+void check_pnm(std::string_view bytes, uint64_t file_size, const fs::path& name) {
     size_t at = 2;
     int64_t values[3] = {0, 0, 0};
     for (int64_t& v : values) {
@@ -169,28 +234,29 @@ void check_pnm(const std::string& bytes, const fs::path& name) {
     check_size(name, values[0], values[1]);
     const int64_t channels = bytes[1] == '5' ? 1 : 3;
     const int64_t need = int64_t(at) + 1 + values[0] * values[1] * channels;
-    if (int64_t(bytes.size()) < need)
+    if (int64_t(file_size) < need)
         fail(name, fmt::format("is truncated: a {} x {} PNM needs {} bytes, the file has {}",
-                               values[0], values[1], need, bytes.size()));
+                               values[0], values[1], need, file_size));
 }
 
-uint32_t le16(const std::string& b, size_t at) {
+uint32_t le16(std::string_view b, size_t at) {
     return uint32_t(uint8_t(b[at])) | uint32_t(uint8_t(b[at + 1])) << 8;
 }
-int64_t le32s(const std::string& b, size_t at) {
+int64_t le32s(std::string_view b, size_t at) {
     return int32_t(le16(b, at) | le16(b, at + 2) << 16);
 }
 
 // An uncompressed TGA or BMP must hold the texels its header promises, and a run-length
 // encoded TGA at least one packet per 128 of them: checked before stb_image allocates the
 // image (a 30-byte file claiming 16384² texels would otherwise cost a gigabyte).
-void check_raw_size(const std::string& bytes, const fs::path& name, Format format) {
+void check_raw_size(std::string_view bytes, uint64_t file_size, const fs::path& name,
+                    Format format) {
     const auto need = [&](int64_t n, int64_t w, int64_t h) {
         check_size(name, w, h);
-        if (int64_t(bytes.size()) < n)
+        if (int64_t(file_size) < n)
             fail(name, fmt::format("is truncated: its {} x {} texels need at least {} bytes, "
                                    "the file has {}",
-                                   w, h, n, bytes.size()));
+                                   w, h, n, file_size));
     };
     if (format == Format::kTga && bytes.size() >= 18) {
         const int64_t w = le16(bytes, 12), h = le16(bytes, 14);
@@ -218,12 +284,8 @@ TextureImage decode_texture_image(const std::string& bytes, const fs::path& name
     if (bytes.size() > size_t(std::numeric_limits<int>::max()))
         fail(name, "is too large to be an image texture (over 2 GiB)");
     const Format format = format_of(bytes, name);
-    if (format == Format::kUnknown)
-        fail(name,
-             "is not an image texture cierzo can read (PNG, JPEG, TGA, BMP, PNM, HDR or "
-             "EXR, known by their contents; TGA and EXR by the extension .tga, .exr)");
-    if (format == Format::kPnm) check_pnm(bytes, name);
-    check_raw_size(bytes, name, format);
+    if (format == Format::kPnm) check_pnm(bytes, bytes.size(), name);
+    check_raw_size(bytes, bytes.size(), name, format);
     const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
     const int length = int(bytes.size());
     int w = 0, h = 0, channels = 0;
@@ -267,6 +329,60 @@ TextureImage decode_texture_image(const std::string& bytes, const fs::path& name
     }
     summarise(t);
     return t;
+}
+
+TextureShape probe_texture_image(const fs::path& path) {
+    TextureShape shape;
+    if (lower_extension(path) == ".exr") {
+        ExrShape exr;
+        try {
+            exr = read_exr_shape(path);
+        } catch (const InputError& e) {
+            throw InputError(std::string(e.what()) + " (as an image texture)");
+        }
+        check_size(path, exr.width, exr.height);
+        shape.width = int32_t(exr.width), shape.height = int32_t(exr.height);
+        shape.floats = true;
+        // (read_exr's RGB floats and a float layer per other channel, then RGBA floats)
+        const uint64_t n = shape.texels();
+        shape.kept_bytes = 16 * n;
+        shape.peak_bytes = n * (12 + 4 * uint64_t(std::max(exr.channels - 3, 0)) + 16);
+        return shape;
+    }
+    if (!input_file_exists(path)) fail(path, "file does not exist");
+    std::error_code ec;
+    const uint64_t size = fs::file_size(path, ec);
+    if (ec) fail(path, "cannot read: " + ec.message());
+    if (size > uint64_t(std::numeric_limits<int>::max()))
+        fail(path, "is too large to be an image texture (over 2 GiB)");
+    std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
+    if (!file) fail(path, "cannot open file for reading");
+    std::string head(size_t(std::min<uint64_t>(size, 4096)), '\0');
+    if (std::fread(head.data(), 1, head.size(), file.get()) != head.size())
+        fail(path, "read error");
+    const Format format = format_of(head, path);
+    if (format == Format::kPnm) check_pnm(head, size, path);
+    check_raw_size(head, size, path, format);
+    int w = 0, h = 0, channels = 0;
+    std::rewind(file.get());
+    if (!stbi_info_from_file(file.get(), &w, &h, &channels))
+        fail(path, fmt::format("is not a valid {} file: {}", format_name(format),
+                               stbi_failure_reason() ? stbi_failure_reason() : "a bad header"));
+    check_size(path, w, h);
+    shape.width = w, shape.height = h;
+    const uint64_t n = shape.texels(), c = uint64_t(std::clamp(channels, 1, 4));
+    if (format == Format::kHdr) {
+        // (stb_image's RGBA floats, then ours)
+        shape.floats = true;
+        shape.kept_bytes = 16 * n;
+        shape.peak_bytes = 32 * n;
+    } else {
+        // stb_image inflates (PNG) or decodes into the file's channels, converts to RGBA in a
+        // second buffer, and the texels are copied out of that
+        shape.kept_bytes = 4 * n;
+        shape.peak_bytes = n * std::max({2 * c + 1, c + 4, uint64_t(8)});
+    }
+    return shape;
 }
 
 TextureImage read_texture_image(const fs::path& path, bool srgb) {

@@ -2,11 +2,13 @@
 // (see scene_images.h).
 #include "scene/scene_images.h"
 
+#include <algorithm>
 #include <chrono>
 #include <exception>
 #include <memory>
 #include <new>
 
+#include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
@@ -15,10 +17,73 @@
 
 namespace cierzo {
 
-void load_images(Scene& scene, const ImageRequests& images, const std::filesystem::path& file) {
+namespace fs = std::filesystem;
+
+namespace {
+
+// What the environment's tables take per texel of its image while they are built (radiance
+// 12 bytes, column CDF 4, density 4, and a double per texel during the build): see
+// Scene::build_environment.
+constexpr uint64_t kEnvironmentBytesPerTexel = 28;
+
+// Refuses (naming the scene file, the place and the image) an image outside the roots, and
+// images whose decoding would take more than `budget` bytes at once, charged from their
+// headers: each image's peak while decoded (all may be decoded at the same time) and the
+// environment's tables.
+void check_images(const Scene& scene, const ImageRequests& images, const fs::path& file,
+                  const InputRoots& roots, uint64_t budget) {
+    const auto& requests = images.requests;
+    const auto refuse = [&](size_t i, const std::string& what) {
+        throw InputError(file.string() + ": " + requests[i].where + ": " + what);
+    };
+    for (size_t i = 0; i < requests.size(); ++i) {
+        const std::string why = roots.refusal(requests[i].path, requests[i].path.string());
+        if (!why.empty()) refuse(i, why);
+    }
+    const int32_t environment = scene.environment.emission.kind == TextureKind::kImage
+                                    ? scene.environment.emission.image
+                                    : -1;
+    std::vector<std::pair<uint64_t, size_t>> cost(requests.size());
+    uint64_t total = 0;
+    for (size_t i = 0; i < requests.size(); ++i) {
+        TextureShape shape;
+        try {
+            shape = probe_texture_image(requests[i].path);
+        } catch (const InputError& e) {
+            refuse(i, e.what());
+        }
+        uint64_t bytes = shape.peak_bytes;
+        if (int32_t(i) == environment) bytes += kEnvironmentBytesPerTexel * shape.texels();
+        cost[i] = {bytes, i};
+        total += bytes;
+    }
+    if (total <= budget) return;
+    // (the largest first; among equals, in the order the scene names them)
+    std::stable_sort(cost.begin(), cost.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::string largest;
+    for (size_t k = 0; k < std::min<size_t>(3, cost.size()); ++k)
+        largest += fmt::format("{}{} ({}{})", k ? ", " : "", requests[cost[k].second].path.string(),
+                               format_bytes(cost[k].first),
+                               int32_t(cost[k].second) == environment
+                                   ? " as the environment, with its sampling tables"
+                                   : "");
+    throw InputError(fmt::format(
+        "{}: its {} image{} would take {} of memory while decoded, over the budget of {}; "
+        "the largest: {}. --image-memory SIZE raises the budget (read from each image's "
+        "header: nothing was decoded)",
+        file.string(), requests.size(), requests.size() == 1 ? "" : "s", format_bytes(total),
+        format_bytes(budget), largest));
+}
+
+}  // namespace
+
+void load_images(Scene& scene, const ImageRequests& images, const fs::path& file,
+                 const InputRoots& roots, uint64_t budget) {
     const auto& requests = images.requests;
     if (requests.empty()) return;
     const auto start = std::chrono::steady_clock::now();
+    check_images(scene, images, file, roots, budget);
     std::vector<std::shared_ptr<const TextureImage>> decoded(requests.size());
     std::vector<std::exception_ptr> errors(requests.size());
     tbb::parallel_for(size_t(0), requests.size(), [&](size_t i) {

@@ -10,6 +10,8 @@
 #include <utility>
 #include <vector>
 
+#include "scene/load_options.h"
+
 namespace cierzo {
 
 class Scene;
@@ -35,8 +37,12 @@ struct ImageRequests {
 
 // Decodes every image texture named (in parallel; the first failing one in the order the
 // scene names them is reported), gives the materials' sources their largest values, and
-// refuses an image texture where there are no texture coordinates. `file` is the scene file,
-// for messages.
-void load_images(Scene& scene, const ImageRequests& images, const std::filesystem::path& file);
+// refuses an image texture where there are no texture coordinates. First, from the files'
+// headers alone, refuses an image outside `roots` and images that would take more than
+// `budget` bytes of memory at once while decoded (each image's peak, as all may be decoded
+// at the same time, and the environment's sampling tables). `file` is the scene file, for
+// messages.
+void load_images(Scene& scene, const ImageRequests& images, const std::filesystem::path& file,
+                 const InputRoots& roots, uint64_t budget);
 
 }  // namespace cierzo

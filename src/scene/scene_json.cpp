@@ -284,8 +284,19 @@ void Loader::render_settings(Reader& root) {
     if ((r.has("merge_radius") || r.has("merge_alpha")) && !merges(e.kind))
         r.fail("'merge_radius' and 'merge_alpha' are vcm's, bpm's and ppm's (the estimator is \"" +
                std::string(estimator_name(e.kind)) + "\")");
-    if (r.has("output"))
-        s.output = file.parent_path() / r.string("output");
+    if (r.has("output")) {
+        // (written only beneath the scene's own folder: a downloaded scene does not choose
+        // where files land; --out names any place)
+        const std::string named = r.string("output");
+        const fs::path out = file.parent_path() / named;
+        const InputRoots folder(file, {});
+        if (!options.output_named && !folder.allows(out))
+            r.fail("'output': '" + named + "' resolves to " + resolved_path(out).string() +
+                   ", outside the scene's folder " + folder.folder().string() +
+                   ": a scene writes its image only beneath its own folder; --out names "
+                   "another place");
+        s.output = out;
+    }
     else
         r.allow({"output"});
     r.finish();
@@ -348,7 +359,7 @@ Scene build_scene(Loader& l, const json& root) {
         l.environment(r.get("environment"));
     else
         r.allow({"environment"});
-    load_images(l.scene, l.images, l.file);
+    load_images(l.scene, l.images, l.file, l.roots, l.options.image_memory);
     l.check_alpha();
 
     // Point lights
@@ -382,8 +393,8 @@ using scene_file::build_scene;
 using scene_file::Loader;
 using scene_file::parse_document;
 
-Scene parse_scene(const std::string& text, const fs::path& path) {
-    Loader l(path);
+Scene parse_scene(const std::string& text, const fs::path& path, const LoadOptions& options) {
+    Loader l(path, options);
     const json root = parse_document(text, l);
     return build_scene(l, root);
 }
@@ -393,7 +404,7 @@ Scene parse_scene(const std::string& text, const fs::path& path) {
 // radiance 1, seen by a right-handed camera of 40 degrees that frames its bounding sphere
 // from the front, above and to the right; 512 × 512 pixels, 16 paths of the default
 // estimator (mis, with its defaults), written to STEM.exr in the current folder.
-Scene load_mesh_as_scene(const fs::path& path) {
+Scene load_mesh_as_scene(const fs::path& path, const LoadOptions& options) {
     std::string ext = path.extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     const bool obj = ext == ".obj";
@@ -408,13 +419,13 @@ Scene load_mesh_as_scene(const fs::path& path) {
     // (messages name the mesh file: it is the one the user gave)
     Scene scene;
     try {
-        scene = parse_scene(j.dump(), path);
+        scene = parse_scene(j.dump(), path, options);
     } catch (const InputError& e) {
         // An OBJ without 'usemtl': every face grey (read again: a rare case)
         const std::string m = e.what();
         if (!obj || m.find("names no materials of its own") == std::string::npos) throw;
         j["objects"][0]["material"] = "grey";
-        scene = parse_scene(j.dump(), path);
+        scene = parse_scene(j.dump(), path, options);
     }
     scene.source = path;
     scene.settings.output = path.stem().string() + ".exr";
@@ -439,24 +450,24 @@ bool is_model_file(const fs::path& path) {
 }
 
 namespace {
-Scene load_scene_untimed(const fs::path& path);
+Scene load_scene_untimed(const fs::path& path, const LoadOptions& options);
 }  // namespace
 
-Scene load_scene(const fs::path& path) {
+Scene load_scene(const fs::path& path, const LoadOptions& options) {
     const auto start = std::chrono::steady_clock::now();
-    Scene scene = load_scene_untimed(path);
+    Scene scene = load_scene_untimed(path, options);
     scene.load_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return scene;
 }
 
 namespace {
-Scene load_scene_untimed(const fs::path& path) {
-    if (is_model_file(path)) return load_mesh_as_scene(path);
+Scene load_scene_untimed(const fs::path& path, const LoadOptions& options) {
+    if (is_model_file(path)) return load_mesh_as_scene(path, options);
     std::ifstream in;
     if (input_file_exists(path)) in.open(path, std::ios::binary);
     if (!in.is_open()) throw InputError(path.string() + ": cannot open scene file");
-    Loader l(path);
+    Loader l(path, options);
     json root;
     {
         // Read at its size (no second copy), and freed before the scene is built

@@ -19,6 +19,7 @@
 
 #include "core/error.h"
 #include "io/mesh.h"
+#include "scene/load_options.h"
 #include "scene/mtl_materials.h"
 #include "scene/scene.h"
 #include "scene/scene_images.h"
@@ -135,6 +136,8 @@ Material read_material(const json& j, const std::string& where, const std::strin
 // requests, the mesh files read, and the first error met while the text was parsed.
 struct Loader {
     fs::path file;
+    LoadOptions options;
+    InputRoots roots;  // where the files it names may be (the scene's folder, --allow-path)
     Scene scene;
     std::map<std::string, int32_t> material_ids;
     std::map<int32_t, Mesh> loose_triangles;  // by material
@@ -145,9 +148,20 @@ struct Loader {
     bool materials_read = false;
     std::exception_ptr materials_error, objects_error;
 
-    explicit Loader(const fs::path& path) : file(path) {
+    explicit Loader(const fs::path& path, const LoadOptions& opts = {})
+        : file(path), options(opts), roots(path, opts.allowed_paths) {
         scene.source = path;
         scene.settings.output = path.parent_path() / (path.stem().string() + ".exr");
+    }
+
+    // A file the scene names under `key` of `r` (`named`, relative to `folder`), refused
+    // (through r) when it lies outside the roots.
+    fs::path input(Reader& r, const fs::path& folder, const std::string& key,
+                   const std::string& named) const {
+        const fs::path path = folder / named;
+        const std::string why = roots.refusal(path, named);
+        if (!why.empty()) r.fail("'" + key + "': " + why);
+        return path;
     }
 
     // "materials": each named material; and an object's "material"

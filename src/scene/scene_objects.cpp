@@ -180,7 +180,7 @@ void Loader::mesh(Reader& t) {
     } else {
         t.allow({"smooth"});
     }
-    const fs::path ply = file.parent_path() / t.string("file");
+    const fs::path ply = input(t, file.parent_path(), "file", t.string("file"));
     const fs::path key = ply.lexically_normal();
     auto raw = raw_meshes.find(key);
     if (raw == raw_meshes.end()) {
@@ -214,8 +214,12 @@ void Loader::mesh(Reader& t) {
         t.allow({"material"});
         std::vector<const MtlLibrary*> libs;
         for (const std::string& name : data.libraries) {
+            const fs::path lib = ply.parent_path() / name;
+            const std::string why = roots.refusal(lib, name);
+            if (!why.empty())
+                t.fail("'" + ply.string() + "': material library (mtllib): " + why);
             try {
-                libs.push_back(&mtl.library(ply.parent_path() / name, ply));
+                libs.push_back(&mtl.library(lib, ply));
             } catch (const InputError& e) {
                 t.fail(std::string("material library (mtllib): ") + e.what());
             }

@@ -544,6 +544,46 @@ TEST_F(cli, OutputWithABadExtension) {
     EXPECT_FALSE(fs::exists(out));
 }
 
+// A scene reads beneath its own folder unless --allow-path names another, and writes its
+// image beneath it unless --out names the place; --image-memory takes a size
+TEST_F(cli, AScenesFilesStayInItsFolderUnlessTheCommandLineSaysOtherwise) {
+    fs::create_directories(dir_ / "scene");
+    fs::create_directories(dir_ / "shared");
+    write("shared/tri.ply",
+          "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+          "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+          "end_header\n-1 -1 0\n1 -1 0\n0 1 0\n3 0 1 2\n");
+    json j = json::parse(kTinyScene);
+    j["objects"].push_back({{"type", "mesh"}, {"file", "../shared/tri.ply"}, {"material", "white"}});
+    const fs::path scene = write("scene/s.json", j.dump());
+    const Outcome refused = run(quote(scene) + kQuiet);
+    EXPECT_EQ(refused.exit_code, 1);
+    EXPECT_NE(refused.err.find("'../shared/tri.ply' resolves to"), std::string::npos) << refused.err;
+    EXPECT_NE(refused.err.find("--allow-path"), std::string::npos) << refused.err;
+    EXPECT_FALSE(fs::exists(dir_ / "scene" / "s.exr"));
+    const Outcome allowed = run(quote(scene) + kQuiet + " --allow-path " + quote(dir_ / "shared"));
+    EXPECT_EQ(allowed.exit_code, 0) << allowed.err;
+    EXPECT_TRUE(fs::exists(dir_ / "scene" / "s.exr"));
+    // "output" outside the folder: refused; --out anywhere is the user's choice
+    j["render"]["output"] = "../elsewhere.exr";
+    const fs::path scene2 = write("scene/s2.json", j.dump());
+    const std::string allow = " --allow-path " + quote(dir_ / "shared");
+    const Outcome out = run(quote(scene2) + kQuiet + allow);
+    EXPECT_EQ(out.exit_code, 1);
+    EXPECT_NE(out.err.find("'output': '../elsewhere.exr' resolves to"), std::string::npos)
+        << out.err;
+    EXPECT_FALSE(fs::exists(dir_ / "elsewhere.exr"));
+    const Outcome named = run(quote(scene2) + kQuiet + allow + " --out " + quote(dir_ / "o.exr"));
+    EXPECT_EQ(named.exit_code, 0) << named.err;
+    EXPECT_TRUE(fs::exists(dir_ / "o.exr"));
+    EXPECT_FALSE(fs::exists(dir_ / "elsewhere.exr"));
+    // A size that is not one
+    const Outcome bad = run(quote(scene) + kQuiet + allow + " --image-memory lots");
+    EXPECT_EQ(bad.exit_code, 1);
+    EXPECT_NE(bad.err.find("--image-memory: 'lots' is not a size"), std::string::npos) << bad.err;
+    EXPECT_EQ(run(quote(scene) + kQuiet + allow + " --image-memory 512M").exit_code, 0);
+}
+
 TEST_F(cli, TooManyPathsAreRefusedQuickly) {
     // 65536 x 4096 = 2^28 pixels (allowed) x 4e6 paths per pixel = 1.07e15 paths > 1e12
     const fs::path scene = write("tiny.json", kTinyScene);

@@ -208,6 +208,87 @@ TEST(Textures, BadImagesAreRefusedNamingTheFile) {
     EXPECT_NE(n.find(">= 0"), std::string::npos) << n;
 }
 
+// Only the documented formats are decoded, known by their signatures, and a file's
+// extension must name the format its bytes are: a GIF or a PSD named .tga (which stb_image
+// would decode, trying every format it has) is refused, as is a PNG named .jpg.
+TEST(Textures, OnlyDocumentedFormatsAreDecodedAndTheExtensionMustAgree) {
+    const fs::path dir = scratch();
+    // A 1 x 1 GIF (a white texel), which stb_image decodes given the chance
+    const std::string gif("GIF89a\x01\x00\x01\x00\x80\x00\x00\xff\xff\xff\x00\x00\x00"
+                          "\x2c\x00\x00\x00\x00\x01\x00\x01\x00\x00\x02\x02\x44\x01\x00\x3b",
+                          35);
+    for (const char* name : {"gif.tga", "gif.png", "gif.gif"}) {
+        SCOPED_TRACE(name);
+        const std::string m = refusal_of([&] { decode_texture_image(gif, name, true); });
+        EXPECT_NE(m.find(name), std::string::npos) << m;
+        EXPECT_EQ(m.find("GIF89a"), std::string::npos) << "the file's bytes are not quoted: " << m;
+        write_text(dir / name, gif);
+        EXPECT_NE(refusal_of([&] { read_texture_image(dir / name, true); }).find(name),
+                  std::string::npos);
+        EXPECT_NE(refusal_of([&] { probe_texture_image(dir / name); }).find(name),
+                  std::string::npos);
+    }
+    // A PSD signature with a header stb_image would read is no TGA either
+    std::string psd("8BPS\x00\x01\x00\x00\x00\x00\x00\x00\x00\x03\x00\x00\x00\x01"
+                    "\x00\x00\x00\x01\x00\x08\x00\x03", 26);
+    psd += std::string(64, '\0');
+    EXPECT_NE(refusal_of([&] { decode_texture_image(psd, "psd.tga", true); }).find("psd.tga"),
+              std::string::npos);
+    // A real PNG: decoded as .png, refused as .jpg, .tga or with an unknown extension
+    Image img(4, 3);
+    for (size_t i = 0; i < img.rgb.size(); ++i) img.rgb[i] = float(i % 5) / 4.0f;
+    write_ldr(dir / "real.png", img);
+    std::ifstream in(dir / "real.png", std::ios::binary);
+    const std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(decode_texture_image(png, "real.png", true).width, 4);
+    EXPECT_EQ(decode_texture_image(png, "REAL.PNG", true).height, 3);
+    const std::string as_jpg = refusal_of([&] { decode_texture_image(png, "real.jpg", true); });
+    EXPECT_NE(as_jpg.find("is a PNG file by its contents"), std::string::npos) << as_jpg;
+    EXPECT_NE(as_jpg.find("'.jpg'"), std::string::npos) << as_jpg;
+    EXPECT_NE(refusal_of([&] { decode_texture_image(png, "real.tga", true); }).find("real.tga"),
+              std::string::npos);
+    const std::string odd = refusal_of([&] { decode_texture_image(png, "real.img", true); });
+    EXPECT_NE(odd.find("'.img'"), std::string::npos) << odd;
+    // A real TGA (2 x 1, 24-bit, uncompressed) is read, and a TGA header with a depth TGA
+    // has not, refused
+    std::string tga(18, '\0');
+    tga[2] = 2, tga[12] = 2, tga[14] = 1, tga[16] = 24;
+    tga += std::string("\x00\x00\xff\xff\x00\x00", 6);  // (BGR: red, blue)
+    const TextureImage t = decode_texture_image(tga, "two.tga", false);
+    ASSERT_EQ(t.texels(), 2u);
+    EXPECT_EQ(uint32_t(t.bytes[0]) & 0xffffffu, 0x0000ffu);
+    EXPECT_EQ(uint32_t(t.bytes[1]) & 0xffffffu, 0xff0000u);
+    std::string deep = tga;
+    deep[16] = 7;
+    EXPECT_NE(refusal_of([&] { decode_texture_image(deep, "deep.tga", true); }).find("deep.tga"),
+              std::string::npos);
+}
+
+// What decoding an image costs is read from its header alone, without decoding it: a
+// 16384² greyscale PNG's header (a 57-byte file) costs 8 bytes a texel at the peak
+TEST(Textures, ProbeReadsTheCostFromTheHeaderAlone) {
+    const fs::path dir = scratch();
+    std::string png("\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x00\x00\x00\x40\x00"
+                    "\x08\x00\x00\x00\x00\x00\x00\x00\x00",
+                    33);
+    png += std::string("\x00\x00\x00\x00IEND\xae\x42\x60\x82", 12);
+    write_text(dir / "huge_grey.png", png);
+    const TextureShape shape = probe_texture_image(dir / "huge_grey.png");
+    EXPECT_EQ(shape.width, 16384);
+    EXPECT_EQ(shape.height, 16384);
+    EXPECT_FALSE(shape.floats);
+    EXPECT_EQ(shape.kept_bytes, uint64_t(4) << 28);
+    EXPECT_EQ(shape.peak_bytes, uint64_t(8) << 28);
+    // An EXR's cost counts its channels
+    Image e(8, 4);
+    write_exr(dir / "small.exr", e, {}, {{"A", std::vector<float>(32, 1.0f)}});
+    const TextureShape exr = probe_texture_image(dir / "small.exr");
+    EXPECT_TRUE(exr.floats);
+    EXPECT_EQ(exr.texels(), 32u);
+    EXPECT_EQ(exr.kept_bytes, 16u * 32u);
+    EXPECT_EQ(exr.peak_bytes, (12u + 4u + 16u) * 32u);
+}
+
 // ---- MTL ------------------------------------------------------------------------------
 
 TEST(Mtl, EveryKeyIsReadAndBadValuesNameTheLine) {
@@ -258,7 +339,11 @@ TEST(Mtl, EveryKeyIsReadAndBadValuesNameTheLine) {
     EXPECT_NE(refused("newmtl a\nKd -0.5\n").find(">= 0"), std::string::npos);
     EXPECT_NE(refused("newmtl a\nKd 1 2\n").find("1 or 3"), std::string::npos);
     EXPECT_NE(refused("newmtl a\nKd spectral x.rfl\n").find("spectral"), std::string::npos);
-    EXPECT_NE(refused("Kd 0.5\n").find("before the first 'newmtl'"), std::string::npos);
+    EXPECT_NE(refused("Kd 0.5\n").find("is not an MTL library"), std::string::npos);
+    // A file that is not an MTL library (any file an OBJ's mtllib names) is never quoted
+    const std::string secret = refused("root:x:0:0:root:/root:/bin/bash\nsecret 1\n");
+    EXPECT_NE(secret.find("bad.mtl: line 1: is not an MTL library"), std::string::npos) << secret;
+    EXPECT_EQ(secret.find("root:x"), std::string::npos) << secret;
     EXPECT_NE(refused("newmtl a\nNs -1\n").find("line 2"), std::string::npos);
     EXPECT_NE(refused("newmtl a\nNi -1\n").find("'Ni'"), std::string::npos);
     EXPECT_NE(refused("newmtl a\nd 1.5\n").find("'d'"), std::string::npos);

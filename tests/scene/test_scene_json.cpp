@@ -18,6 +18,7 @@
 
 #include "core/error.h"
 #include "integrators/render.h"
+#include "io/image.h"
 #include "scene/scene_json.h"
 
 namespace cierzo {
@@ -605,11 +606,11 @@ TEST(scene_json_values, RenderDefaultsAndOverrides) {
     EXPECT_EQ(s.scene_ior, 1.25f);
     // Output relative to the scene's folder, not the working directory
     EXPECT_EQ(s.settings.output, fs::path("/nonexistent-cierzo-folder/x/out/img.pfm"));
-    j["render"] = {{"output", "/abs/elsewhere.exr"},
+    j["render"] = {{"output", "/nonexistent-cierzo-folder/x/elsewhere.exr"},
                    {"diffuse_sampling", "uniform"},
                    {"width", 1.0e1}};  // an integral float counts as an integer
     const Scene a = parse(j);
-    EXPECT_EQ(a.settings.output, fs::path("/abs/elsewhere.exr"));
+    EXPECT_EQ(a.settings.output, fs::path("/nonexistent-cierzo-folder/x/elsewhere.exr"));
     EXPECT_FALSE(a.settings.estimator.cosine_diffuse);       // chosen, over mis's default
     EXPECT_TRUE(a.settings.estimator.triangle_solid_angle);  // mis's default
     EXPECT_EQ(a.settings.width, 10);
@@ -1407,6 +1408,199 @@ TEST(SceneResolution, LookAtCameraKeepsItsFieldOfViewAtANewAspect) {
                           "/tmp/res.json");
     e.set_resolution(300, 100);
     EXPECT_NEAR(length(e.camera.left), 1.0f, 1e-6f);
+}
+
+// ---- What a scene may read and write, and its images' memory ---------------------------
+
+// The message of the InputError that loading `scene` throws, or what happened instead
+std::string load_error(const fs::path& scene, const LoadOptions& options = {}) {
+    try {
+        load_scene(scene, options);
+    } catch (const InputError& e) {
+        return e.what();
+    } catch (const std::exception& e) {
+        return std::string("not an InputError: ") + e.what();
+    }
+    return "no error";
+}
+
+std::string mesh_scene(const std::string& file) {
+    return json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
+                {"objects", json::array({{{"type", "mesh"},
+                                          {"file", file},
+                                          {"material", {{"kd", 0.5}}}}})}}
+        .dump();
+}
+
+// A downloaded scene names files beneath its own folder only: a mesh, an OBJ's MTL library
+// or an image elsewhere (by "..", an absolute path or a link out of the folder) is refused
+// before it is read, unless the user allows the folder it is in
+TEST(scene_json_paths, InputsOutsideTheScenesFolderAreRefusedUnlessAllowed) {
+    TempDir dir;
+    const fs::path outside = dir.write("outside/tri.ply", kTrianglePly).parent_path();
+    dir.write("scene/inside/tri.ply", kTrianglePly);
+    EXPECT_EQ(load_scene(dir.write("scene/ok.json", mesh_scene("inside/tri.ply"))).meshes.size(),
+              1u);
+    EXPECT_EQ(load_scene(dir.write("scene/dots.json", mesh_scene("inside/../inside/tri.ply")))
+                  .meshes.size(),
+              1u);
+    fs::create_symlink(outside / "tri.ply", dir.path() / "scene/link.ply");
+    for (const std::string& named :
+         {std::string("../outside/tri.ply"), (outside / "tri.ply").string(),
+          std::string("link.ply"), std::string("inside/../../outside/tri.ply")}) {
+        SCOPED_TRACE(named);
+        const fs::path scene = dir.write("scene/out.json", mesh_scene(named));
+        const std::string m = load_error(scene);
+        EXPECT_NE(m.find("out.json: objects[0] (mesh): 'file': '" + named + "' resolves to "),
+                  std::string::npos)
+            << m;
+        EXPECT_NE(m.find("outside the scene's folder"), std::string::npos) << m;
+        EXPECT_NE(m.find("--allow-path"), std::string::npos) << m;
+        LoadOptions allowed;
+        allowed.allowed_paths = {outside};
+        EXPECT_EQ(load_scene(scene, allowed).meshes.size(), 1u);
+        allowed.allowed_paths = {"/"};
+        EXPECT_EQ(load_scene(scene, allowed).meshes.size(), 1u);
+    }
+    // An OBJ inside whose mtllib is outside; an image texture outside
+    dir.write("outside/m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n");
+    dir.write("scene/m.obj", "mtllib ../outside/m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
+    const std::string lib = load_error(dir.write(
+        "scene/obj.json",
+        json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
+             {"objects", json::array({{{"type", "mesh"}, {"file", "m.obj"}}})}}
+            .dump()));
+    EXPECT_NE(lib.find("material library (mtllib): '../outside/m.mtl' resolves to"),
+              std::string::npos)
+        << lib;
+    write_ldr(outside / "wood.png", Image(2, 2));
+    const std::string image = load_error(dir.write(
+        "scene/image.json",
+        json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
+             {"objects", json::array({{{"type", "sphere"},
+                                       {"center", {0, 0, 0}},
+                                       {"radius", 1},
+                                       {"material",
+                                        {{"kd", {{"texture", "image"},
+                                                 {"file", "../outside/wood.png"}}}}}}})}}
+            .dump()));
+    EXPECT_NE(image.find("image.json: objects[0] (sphere).material.kd.file: "), std::string::npos)
+        << image;
+    EXPECT_NE(image.find("outside the scene's folder"), std::string::npos) << image;
+}
+
+// A scene's "output" lands beneath its own folder: a scene does not choose where files are
+// written (--out on the command line does)
+TEST(scene_json_paths, TheOutputMustLieBeneathTheScenesFolder) {
+    TempDir dir;
+    const auto with_output = [&](const std::string& output) {
+        return dir.write("scene/s.json",
+                         json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
+                              {"objects", json::array()},
+                              {"render", {{"output", output}}}}
+                             .dump());
+    };
+    EXPECT_EQ(load_scene(with_output("renders/x.exr")).settings.output,
+              dir.path() / "scene/renders/x.exr");
+    for (const std::string& output : {std::string("../elsewhere/x.exr"),
+                                      (dir.path() / "elsewhere/x.exr").string(),
+                                      std::string("/tmp/x.exr")}) {
+        SCOPED_TRACE(output);
+        const std::string m = load_error(with_output(output));
+        EXPECT_NE(m.find("s.json: render: 'output': '" + output + "' resolves to"),
+                  std::string::npos)
+            << m;
+        EXPECT_NE(m.find("--out"), std::string::npos) << m;
+        // (allowing inputs from elsewhere does not let a scene write there)
+        LoadOptions allowed;
+        allowed.allowed_paths = {"/"};
+        EXPECT_NE(load_error(with_output(output), allowed).find("'output'"), std::string::npos);
+    }
+}
+
+// A PNG's header claiming 16384² grey texels: 45 bytes that would cost 2 GiB decoded
+std::string huge_png_header() {
+    std::string png("\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x00\x00\x00\x40\x00"
+                    "\x08\x00\x00\x00\x00\x00\x00\x00\x00",
+                    33);
+    return png + std::string("\x00\x00\x00\x00IEND\xae\x42\x60\x82", 12);
+}
+
+// The images a scene names are charged from their headers, before any is decoded, against
+// the budget: ten 16384² PNGs, or one as the environment (with its sampling tables), are
+// refused at once naming the files, the bytes and the option; within a budget raised by the
+// user, the same scene goes on to decode them
+TEST(scene_json_paths, ImagesAreChargedFromTheirHeadersAgainstTheBudget) {
+    TempDir dir;
+    json objects = json::array();
+    for (int i = 0; i < 10; ++i) {
+        const std::string name = "big" + std::to_string(i) + ".png";
+        dir.write("scene/" + name, huge_png_header());
+        objects.push_back({{"type", "sphere"},
+                           {"center", {3 * i, 0, 0}},
+                           {"radius", 1},
+                           {"material", {{"kd", {{"texture", "image"}, {"file", name}}}}}});
+    }
+    const json camera = {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}};
+    const fs::path ten = dir.write("scene/ten.json", json{{"camera", camera}, {"objects", objects}}.dump());
+    LoadOptions options;
+    options.image_memory = uint64_t(4) << 30;
+    const std::string m = load_error(ten, options);
+    EXPECT_NE(m.find("ten.json: its 10 images would take 20 GiB of memory while decoded, over "
+                     "the budget of 4 GiB"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("big0.png (2 GiB)"), std::string::npos) << m;
+    EXPECT_NE(m.find("--image-memory"), std::string::npos) << m;
+    // One as the environment: 2 GiB decoded and 7 GiB of tables
+    const fs::path sky = dir.write(
+        "scene/sky.json",
+        json{{"camera", camera},
+             {"objects", json::array()},
+             {"environment", {{"emission", {{"texture", "image"}, {"file", "big0.png"}}}}}}
+            .dump());
+    const std::string e = load_error(sky, options);
+    EXPECT_NE(e.find("big0.png (9 GiB as the environment, with its sampling tables)"),
+              std::string::npos)
+        << e;
+    // Within a budget that holds them, the headers pass and decoding the lying file fails
+    options.image_memory = uint64_t(64) << 30;
+    const std::string decoded = load_error(sky, options);
+    EXPECT_EQ(decoded.find("budget"), std::string::npos) << decoded;
+    EXPECT_NE(decoded.find("big0.png"), std::string::npos) << decoded;
+    // A real image against a tiny budget, and within the default one
+    write_ldr(dir.path() / "scene/small.png", Image(64, 32));
+    const fs::path small = dir.write(
+        "scene/small.json",
+        json{{"camera", camera},
+             {"objects", json::array()},
+             {"environment", {{"emission", {{"texture", "image"}, {"file", "small.png"}}}}}}
+            .dump());
+    options.image_memory = 1000;
+    EXPECT_NE(load_error(small, options).find("over the budget of 1000 bytes"), std::string::npos);
+    EXPECT_EQ(load_scene(small).images.size(), 1u);
+}
+
+TEST(scene_json_paths, SizesAreParsedAndPrinted) {
+    EXPECT_EQ(parse_bytes("4G", "--x"), uint64_t(4) << 30);
+    EXPECT_EQ(parse_bytes("512MiB", "--x"), uint64_t(512) << 20);
+    EXPECT_EQ(parse_bytes("1.5g", "--x"), uint64_t(3) << 29);
+    EXPECT_EQ(parse_bytes("1000", "--x"), 1000u);
+    EXPECT_EQ(parse_bytes("2KB", "--x"), 2048u);
+    for (const char* bad : {"", "G", "-1G", "4X", "nan", "inf", "2000T"}) {
+        SCOPED_TRACE(bad);
+        try {
+            parse_bytes(bad, "--image-memory");
+            ADD_FAILURE() << "accepted";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("--image-memory"), std::string::npos);
+        }
+    }
+    EXPECT_EQ(format_bytes(uint64_t(4) << 30), "4 GiB");
+    EXPECT_EQ(format_bytes(1536), "1.5 KiB");
+    EXPECT_EQ(format_bytes(1000), "1000 bytes");
+    EXPECT_GT(default_image_memory(), uint64_t(0));
+    EXPECT_LE(default_image_memory(), uint64_t(4) << 30);
 }
 
 }  // namespace
