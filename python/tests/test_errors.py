@@ -42,6 +42,29 @@ def test_bad_scene_has_the_programs_message(cierzo, tmp_path, monkeypatch, chang
     assert isinstance(e.value, ValueError) and isinstance(e.value, OSError)
 
 
+def test_a_scenes_files_stay_in_its_folder_unless_allowed(cierzo, tmp_path):
+    (tmp_path / "scene").mkdir()
+    (tmp_path / "shared").mkdir()
+    (tmp_path / "shared" / "tri.ply").write_text(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+        "end_header\n-1 -1 0\n1 -1 0\n0 1 0\n3 0 1 2\n")
+    d = base_scene()
+    d["objects"].append({"type": "mesh", "file": "../shared/tri.ply", "material": "white"})
+    path = tmp_path / "scene" / "s.json"
+    path.write_text(json.dumps(d))
+    with pytest.raises(cierzo.Error, match="outside the scene's folder"):
+        cierzo.load_scene(path)
+    assert cierzo.load_scene(path, allow_paths=[tmp_path / "shared"]).width > 0
+    # the images' budget, charged from their headers
+    d["environment"] = {"emission": {"texture": "image", "file": "sky.png"}}
+    path.write_text(json.dumps(d))
+    cierzo.write_ldr(tmp_path / "scene" / "sky.png", np.full((4, 8, 3), 0.5, np.float32))
+    with pytest.raises(cierzo.Error, match="over the budget of 100 bytes"):
+        cierzo.load_scene(path, allow_paths=[tmp_path / "shared"], image_memory=100)
+    assert cierzo.load_scene(path, allow_paths=[tmp_path / "shared"]).width > 0
+
+
 def test_missing_scene_file(cierzo, tmp_path):
     with pytest.raises(cierzo.Error, match="no_such.json: cannot open scene file"):
         cierzo.load_scene(tmp_path / "no_such.json")
