@@ -1,4 +1,5 @@
-// read_mesh: the mesh readers by file extension, and the file reading they share.
+// read_mesh: the mesh readers by file extension; and read_mesh_bytes, a whole file read into
+// memory (for image textures: the mesh readers map theirs, read_mapped in mesh_file.h).
 #include "io/mesh.h"
 
 #include <algorithm>

@@ -285,7 +285,7 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
 }
 
 MtlLibrary read_mtl(const std::filesystem::path& path) {
-    return parse_mtl(read_mesh_bytes(path), path);
+    return read_mapped(path, [&](std::string_view bytes) { return parse_mtl(bytes, path); });
 }
 
 }  // namespace cierzo

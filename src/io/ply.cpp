@@ -1,6 +1,8 @@
-// PLY mesh reader: parses the header, checks the claimed sizes against the file, then reads
-// ascii or binary (either byte order) vertices and faces into flat arrays, fanning polygons.
-// The header's parser and checks are in ply_header.cpp; here the body's readers.
+// PLY mesh reader: parses the header, checks the claimed sizes against the file and the
+// machine's memory, then reads ascii or binary (either byte order) vertices and faces into flat
+// arrays, fanning polygons. The header's parser and checks are in ply_header.cpp; here the
+// body's readers. The file is mapped (read_mapped): only the header and the elements it
+// declares are read, never what follows them.
 #include "io/ply.h"
 
 #include <bit>
@@ -20,12 +22,26 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "io/mapped_file.h"
 #include "io/mesh_file.h"
 #include "io/ply_header.h"
 
 namespace cierzo {
 namespace ply {
 namespace {
+
+// Whether a face of n corners can add its n - 2 triangles to the mesh's indices without
+// passing `max_indices` (the memory left after the vertex arrays: reader_memory_bound).
+bool fits_fan(const MeshData& mesh, int64_t n, uint64_t max_indices) {
+    return uint64_t(n - 2) * 3 <= max_indices - mesh.indices.size();
+}
+
+std::string too_many_triangles(uint64_t face, const MeshData& mesh) {
+    return fmt::format(
+        "face {}: the faces' {}+ triangles need more than the memory a file may "
+        "take (half this machine's)",
+        face, mesh.indices.size() / 3);
+}
 
 // ---- Binary body -------------------------------------------------------------------
 
@@ -102,6 +118,7 @@ struct BinaryReader {
     size_t pos = 0;
     bool swap = false;
     const Source* src = nullptr;
+    uint64_t max_indices = 0;  // what the triangles' indices may grow to (fits_fan)
 
     [[noreturn]] void truncated(uint64_t done, const Element& element) const {
         src->fail(fmt::format("binary data ends after {} of {} {} (file truncated?)", done,
@@ -192,6 +209,7 @@ struct BinaryReader {
                 if (n < 3) {
                     src->fail(fmt::format("face {} has {} vertices, at least 3 needed", i, n));
                 }
+                if (!fits_fan(mesh, n, max_indices)) src->fail(too_many_triangles(i, mesh));
                 size_t item = type_size(property.type);
                 const char* items = take(uint64_t(n) * item, i, element);
                 // Fan triangulation around the first corner.
@@ -223,15 +241,18 @@ struct AsciiReader {
     size_t line_no = 0;  // of the line last returned
     std::vector<std::string_view> tokens;
     const Source* src = nullptr;
+    uint64_t max_indices = 0;  // what the triangles' indices may grow to (fits_fan)
 
+    // (a line is looked at up to its end or a NUL byte, which is refused: nothing after the
+    // elements the header declares is read)
     bool next_line() {
         while (pos < body.size()) {
-            size_t eol = body.find('\n', pos);
-            size_t next = eol == std::string_view::npos ? body.size() : eol + 1;
-            std::string_view rest = body.substr(pos, next - pos);
-            if (!rest.empty() && rest.back() == '\n') rest.remove_suffix(1);
-            pos = next;
+            const size_t eol = line_end(body, pos);
             ++line_no;
+            if (eol < body.size() && body[eol] == '\0')
+                src->fail_at(line_no, "a NUL byte in the ascii data (an ascii PLY body is text)");
+            std::string_view rest = body.substr(pos, eol - pos);
+            pos = eol < body.size() ? eol + 1 : eol;
             tokens.clear();
             for (std::string_view t = next_token(rest); !t.empty(); t = next_token(rest)) {
                 tokens.push_back(t);
@@ -281,8 +302,8 @@ struct AsciiReader {
         auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), value);
         auto [lo, hi] = integer_range(type);
         if (ec != std::errc() || end != t.data() + t.size() || value < lo || value > hi) {
-            src->fail_at(line_no, fmt::format("{} {}: '{}' is not a valid {}", element.name, i, t,
-                                              type_name(type)));
+            src->fail_at(line_no, fmt::format("{} {}: '{}' is not a valid {}", element.name, i,
+                                              shown(t), type_name(type)));
         }
         return value;
     }
@@ -293,11 +314,12 @@ struct AsciiReader {
         double value = 0.0;
         auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), value);
         if (ec == std::errc::result_out_of_range) {
-            src->fail_at(line_no,
-                         fmt::format("{} {}: value '{}' is out of range", element.name, i, t));
+            src->fail_at(line_no, fmt::format("{} {}: value '{}' is out of range", element.name, i,
+                                              shown(t)));
         }
         if (ec != std::errc() || end != t.data() + t.size()) {
-            src->fail_at(line_no, fmt::format("{} {}: '{}' is not a number", element.name, i, t));
+            src->fail_at(line_no,
+                         fmt::format("{} {}: '{}' is not a number", element.name, i, shown(t)));
         }
         return value;
     }
@@ -313,8 +335,8 @@ struct AsciiReader {
         return n;
     }
 
+    // (an element without properties has a count of 0: parse_header)
     void skip_element(const Element& element) {
-        if (element.properties.empty()) return;
         for (uint64_t i = 0; i < element.count; ++i) need_line(i, element);
     }
 
@@ -362,6 +384,8 @@ struct AsciiReader {
                                                       i, n));
                 }
                 token(k + size_t(n) - 1, i, element);
+                if (!fits_fan(mesh, n, max_indices))
+                    src->fail_at(line_no, too_many_triangles(i, mesh));
                 // Fan triangulation around the first corner.
                 uint32_t corner[2] = {};
                 for (int64_t c = 0; c < n; ++c) {
@@ -399,8 +423,7 @@ void read_body(Reader& reader, const Header& header, const MeshLayout& layout, M
 }  // namespace ply
 
 MeshData read_ply(const std::filesystem::path& path) {
-    const std::string file = read_mesh_bytes(path);
-    return parse_ply(file, path);
+    return read_mapped(path, [&](std::string_view bytes) { return parse_ply(bytes, path); });
 }
 
 MeshData parse_ply(std::string_view file, const std::filesystem::path& name) {
@@ -409,9 +432,11 @@ MeshData parse_ply(std::string_view file, const std::filesystem::path& name) {
     Header header = parse_header(file, src);
     MeshLayout layout = find_mesh_layout(header, src);
     std::string_view body = file.substr(header.body_offset);
-    check_claimed_sizes(header, layout, body.size(), src);
+    const uint64_t memory = reader_memory_bound();
+    check_claimed_sizes(header, layout, body.size(), memory, src);
+    const uint64_t max_indices = (memory - vertex_memory(header, layout)) / sizeof(uint32_t);
 
-    // Sizes are now known to fit in the file, so the arrays can be allocated.
+    // Sizes are now known to fit in the file and in memory, so the arrays can be allocated.
     MeshData mesh;
     mesh.warnings = std::move(header.warnings);
     const Element& vertex = header.elements[layout.vertex_element];
@@ -422,12 +447,12 @@ MeshData parse_ply(std::string_view file, const std::filesystem::path& name) {
     mesh.indices.reserve(size_t(face.count) * 3);
 
     if (header.format == Format::Ascii) {
-        AsciiReader reader{body, 0, header.body_line - 1, {}, &src};
+        AsciiReader reader{body, 0, header.body_line - 1, {}, &src, max_indices};
         read_body(reader, header, layout, mesh);
     } else {
         bool file_big = header.format == Format::BinaryBigEndian;
         bool host_big = std::endian::native == std::endian::big;
-        BinaryReader reader{body, 0, file_big != host_big, &src};
+        BinaryReader reader{body, 0, file_big != host_big, &src, max_indices};
         read_body(reader, header, layout, mesh);
     }
     return mesh;

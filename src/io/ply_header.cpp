@@ -32,16 +32,17 @@ Element parse_element(std::string_view rest, size_t line_no, std::unordered_set<
         end != count.data() + count.size()) {
         src.fail_at(line_no, fmt::format("bad element line 'element {} {}' (expected a name "
                                          "and a non-negative count)",
-                                         element.name, count));
+                                         shown(element.name), shown(count)));
     }
     if (!names.insert(element.name).second) {
-        src.fail_at(line_no, fmt::format("second '{}' element", element.name));
+        src.fail_at(line_no, fmt::format("second '{}' element", shown(element.name)));
     }
     bool is_mesh = element.name == "vertex" || element.name == "face";
     if (is_mesh && element.count > max_vertices_or_faces) {
         src.fail_at(line_no, fmt::format("header claims {} {}, more than the limit of 2^31",
                                          element.count, plural(element.name)));
     }
+    element.line = line_no;
     return element;
 }
 
@@ -49,7 +50,8 @@ Element parse_element(std::string_view rest, size_t line_no, std::unordered_set<
 Property parse_property(std::string_view rest, size_t line_no, const Source& src) {
     auto type_of = [&](std::string_view name) {
         auto parsed = parse_type(name);
-        if (!parsed) src.fail_at(line_no, fmt::format("unsupported property type '{}'", name));
+        if (!parsed)
+            src.fail_at(line_no, fmt::format("unsupported property type '{}'", shown(name)));
         return *parsed;
     };
     Property property;
@@ -59,8 +61,8 @@ Property parse_property(std::string_view rest, size_t line_no, const Source& src
         std::string_view count_type = next_token(rest);
         property.count_type = type_of(count_type);
         if (!is_integer(property.count_type)) {
-            src.fail_at(line_no,
-                        fmt::format("list count type '{}' is not an integer type", count_type));
+            src.fail_at(line_no, fmt::format("list count type '{}' is not an integer type",
+                                             shown(count_type)));
         }
         type = next_token(rest);
     }
@@ -78,12 +80,15 @@ Header parse_header(std::string_view file, const Source& src) {
     bool ended = false;
     std::unordered_set<std::string> element_names;
     while (pos < file.size() && !ended) {
-        // One header line, without its '\n' (and any '\r').
-        size_t eol = file.find('\n', pos);
-        size_t next = eol == std::string_view::npos ? file.size() : eol + 1;
-        std::string_view rest = file.substr(pos, next - pos);
-        pos = next;
+        // One header line, without its '\n' (and any '\r'), up to a NUL byte at most.
+        const size_t eol = line_end(file, pos);
+        std::string_view rest = file.substr(pos, eol - pos);
+        pos = eol < file.size() ? eol + 1 : eol;
         ++line_no;
+        if (eol < file.size() && file[eol] == '\0') {
+            if (line_no == 1) src.fail("not a PLY file (the first line is not 'ply')");
+            src.fail_at(line_no, "a NUL byte in the header (not a PLY file, or one cut short)");
+        }
         std::string_view keyword = next_token(rest);
         if (line_no == 1) {
             if (keyword != "ply" || !next_token(rest).empty()) {
@@ -104,9 +109,10 @@ Header parse_header(std::string_view file, const Source& src) {
             else if (name == "binary_big_endian")
                 header.format = Format::BinaryBigEndian;
             else
-                src.fail_at(line_no, fmt::format("unknown format '{}'", name));
+                src.fail_at(line_no, fmt::format("unknown format '{}'", shown(name)));
             if (version != "1.0") {
-                src.fail_at(line_no, fmt::format("unsupported format version '{}'", version));
+                src.fail_at(line_no,
+                            fmt::format("unsupported format version '{}'", shown(version)));
             }
             have_format = true;
         } else if (keyword == "element") {
@@ -121,15 +127,23 @@ Header parse_header(std::string_view file, const Source& src) {
             // properties after it without one, which is refused): a line there is read as a
             // comment, as Blender 2.4x wrote 'Created by Blender3D ...' without the keyword
             if (!header.elements.empty())
-                src.fail_at(line_no, fmt::format("unknown header keyword '{}'", keyword));
+                src.fail_at(line_no, fmt::format("unknown header keyword '{}'", shown(keyword)));
             header.warnings.push_back(fmt::format(
                 "{}: line {}: '{}' is not a PLY header keyword; the line is read as a comment",
-                src.path, line_no, keyword));
+                src.path, line_no, shown(keyword)));
         }
     }
     if (line_no == 0) src.fail("file is empty");
     if (!ended) src.fail("header has no 'end_header' line (not a PLY file, or truncated)");
     if (!have_format) src.fail("header has no 'format' line");
+    for (const Element& element : header.elements) {
+        if (element.properties.empty() && element.count > 0) {
+            src.fail_at(element.line,
+                        fmt::format("element '{}' has no properties but a count of {} (such an "
+                                    "element holds nothing: only a count of 0 is read)",
+                                    shown(element.name), element.count));
+        }
+    }
     header.body_offset = pos;
     header.body_line = line_no + 1;
     return header;
@@ -224,24 +238,49 @@ uint64_t min_element_size(const Element& element, bool is_face, int face_indices
     return size;
 }
 
-// Refuses counts the file cannot hold before anything is allocated for them.
+uint64_t vertex_memory(const Header& header, const MeshLayout& layout) {
+    const uint64_t arrays =
+        1 + uint64_t(layout.vertex.has_colors()) + uint64_t(layout.vertex.has_normals());
+    return header.elements[layout.vertex_element].count * arrays * 3 * sizeof(float);
+}
+
 void check_claimed_sizes(const Header& header, const MeshLayout& layout, uint64_t body_bytes,
-                         const Source& src) {
-    bool binary = header.format != Format::Ascii;
-    // Each ascii value takes at least one character and one separator (bar the last).
-    uint64_t budget = binary ? body_bytes : (body_bytes + 1) / 2;
+                         uint64_t memory, const Source& src) {
+    // The file: each element's fewest bytes (binary) or values (ascii) after the elements
+    // before it. Each ascii value takes at least one character and one separator (bar the
+    // last).
+    const bool binary = header.format != Format::Ascii;
+    const char* const unit = binary ? "bytes" : "values";
+    const uint64_t room = binary ? body_bytes : (body_bytes + 1) / 2;
+    uint64_t used = 0;  // by the elements before
     for (size_t e = 0; e < header.elements.size(); ++e) {
         const Element& element = header.elements[e];
-        uint64_t min_size =
+        const uint64_t min_size =
             min_element_size(element, e == layout.face_element, layout.face_indices, binary);
         if (min_size == 0) continue;
-        if (element.count > budget / min_size) {
+        if (element.count > (room - used) / min_size) {
+            const std::string need = element.count > std::numeric_limits<uint64_t>::max() / min_size
+                                         ? std::string("more than 2^64")
+                                         : fmt::format("{}", element.count * min_size);
             src.fail(fmt::format(
-                "header claims {} '{}' elements, but the file is only {} bytes "
-                "after the header (needs at least {} {} each)",
-                element.count, element.name, body_bytes, min_size, binary ? "bytes" : "values"));
+                "header claims {} '{}' elements, but the file is only {} bytes after the "
+                "header{}: they need at least {} {} ({} each){}",
+                element.count, shown(element.name), body_bytes,
+                binary ? "" : fmt::format(" (room for {} values)", room), need, unit, min_size,
+                used ? fmt::format(", after the {} {} of the elements before them", used, unit)
+                     : ""));
         }
-        budget -= element.count * min_size;
+        used += element.count * min_size;
+    }
+
+    // Memory: the vertex arrays and one triangle per face, before a fan adds more
+    const uint64_t faces = header.elements[layout.face_element].count;
+    const uint64_t arrays = vertex_memory(header, layout) + faces * 3 * sizeof(uint32_t);
+    if (arrays > memory) {
+        src.fail(fmt::format(
+            "header claims {} vertices and {} faces: their arrays need at least {} bytes, "
+            "more than the {} bytes a file may take (half this machine's memory)",
+            header.elements[layout.vertex_element].count, faces, arrays, memory));
     }
 }
 

@@ -30,6 +30,7 @@ struct Element {
     std::string name;
     uint64_t count = 0;
     std::vector<Property> properties;
+    size_t line = 0;  // of its 'element' line in the header
 };
 
 struct Header {
@@ -164,12 +165,20 @@ struct MeshLayout {
     int face_indices = -1;  // the list property with the vertex indices
 };
 
-// The header of `file` up to end_header, every line checked.
+// The header of `file` up to end_header, every line checked (a NUL byte refused: the header
+// is text, and nothing after a NUL is looked at). An element without properties is refused
+// unless its count is 0: its instances would take no bytes (binary) or no line (ascii, where
+// blank lines are skipped), so nothing in the file could bound its count.
 Header parse_header(std::string_view file, const Source& src);
 // The vertex and face elements and where their properties sit; refuses a file without them.
 MeshLayout find_mesh_layout(const Header& header, const Source& src);
-// Refuses counts the file cannot hold before anything is allocated for them.
+// The bytes the vertex arrays take for the header's vertex count: positions, and the
+// colours and normals when the layout has them.
+uint64_t vertex_memory(const Header& header, const MeshLayout& layout);
+// Refuses counts the file cannot hold (`body_bytes` after the header), and counts whose arrays
+// (vertex_memory and one triangle per face) need more than `memory` bytes, before anything
+// is allocated for them.
 void check_claimed_sizes(const Header& header, const MeshLayout& layout, uint64_t body_bytes,
-                         const Source& src);
+                         uint64_t memory, const Source& src);
 
 }  // namespace cierzo::ply

@@ -28,6 +28,7 @@
 #include "support/emulator.h"
 #include "support/program_test.h"
 #include "support/scratch.h"
+#include "support/sparse_file.h"
 
 namespace {
 
@@ -593,6 +594,36 @@ TEST_F(cli, TooManyPathsAreRefusedQuickly) {
     EXPECT_NE(r.err.find("paths"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find(scene.string()), std::string::npos) << r.err;
     EXPECT_EQ(other_files({"tiny.json"}), std::vector<std::string>{});
+}
+
+TEST_F(cli, AHugeSparseMeshIsRefusedFromItsHeaderNotReadWhole) {
+    // 30 GiB whose header claims 2e9 vertices of nine doubles (144e9 bytes): refused from the
+    // header at once, with exit status 1 (an input error), never read into memory
+    std::string header = "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\n";
+    for (const char* name : {"x", "y", "z", "a", "b", "c", "d", "e", "f"})
+        header += std::string("property double ") + name + "\n";
+    header += "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    const fs::path mesh = dir_ / "huge.ply";
+    if (!cierzo::test::make_sparse_file(mesh, header, cierzo::test::k30GiB))
+        GTEST_SKIP() << cierzo::test::kNoSparseFiles;
+    const fs::path scene = write("huge.json", R"({
+        "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+        "materials": {"grey": {"kd": 0.5}},
+        "objects": [{"type": "mesh", "file": "huge.ply", "material": "grey"}]
+    })");
+    const Outcome r = run(quote(scene) + kQuiet + " --width 8 --height 8");
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find(mesh.string() + ": header claims 2000000000 'vertex' elements"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+    EXPECT_LT(r.seconds, 60.0);
+    // (the largest peak of any program this test program has run: a read of the file whole
+    // would take 30 GiB)
+    struct rusage children = {};
+    ::getrusage(RUSAGE_CHILDREN, &children);
+    EXPECT_LT(uint64_t(children.ru_maxrss) * 1024, uint64_t(1) << 30);
+    EXPECT_EQ(other_files({"huge.ply", "huge.json"}), std::vector<std::string>{});
 }
 
 TEST_F(cli, AModelRendersWithMisAndSaysHowToAskForMorePaths) {

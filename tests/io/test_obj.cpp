@@ -18,8 +18,11 @@
 #include "core/error.h"
 #include "io/mesh.h"
 #include "io/obj.h"
+#include "io/mtl.h"
 #include "io/ply.h"
 #include "support/assimp_models.h"
+#include "support/scratch.h"
+#include "support/sparse_file.h"
 
 namespace {
 
@@ -343,6 +346,29 @@ TEST_F(ObjFiles, ReadMeshChoosesTheReaderByExtension) {
             EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
         }
     }
+}
+
+TEST_F(ObjFiles, A30GiBSparseFileIsRefusedAtItsFirstNulByte) {
+    // OBJ and MTL files are text: the hole after their lines is refused at its first line
+    // and not read beyond its first byte
+    using namespace cierzo::test;
+    const fs::path obj = dir / "huge.obj";
+    if (!make_sparse_file(obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", k30GiB))
+        GTEST_SKIP() << kNoSparseFiles;
+    const ReadCost cost;
+    EXPECT_EQ(refusal_of([&] { cierzo::read_mesh(obj); }),
+              obj.string() + ": line 5: has a NUL byte (not a text OBJ file)");
+    EXPECT_LT(cost.seconds(), kGenerousSeconds);
+    EXPECT_LT(cost.peak_growth_bytes(), kGenerousGrowth);
+    fs::remove(obj);
+
+    const fs::path mtl = dir / "huge.mtl";
+    if (!make_sparse_file(mtl, "newmtl grey\nKd 0.5 0.5 0.5", k30GiB))
+        GTEST_SKIP() << kNoSparseFiles;
+    EXPECT_EQ(refusal_of([&] { cierzo::read_mtl(mtl); }),
+              mtl.string() + ": line 2: has a NUL byte (not a text MTL file)");
+    EXPECT_LT(cost.seconds(), kGenerousSeconds);
+    EXPECT_LT(cost.peak_growth_bytes(), kGenerousGrowth);
 }
 
 TEST(PlyNormals, VertexNormalsAreReadWhenAllThreeArePresent) {

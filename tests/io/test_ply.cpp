@@ -2,6 +2,7 @@
 // big-endian (bytes built with explicit byte order) must read back identically; bad files fail.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <chrono>
@@ -11,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
 #include <string>
@@ -19,7 +21,9 @@
 #include <vector>
 
 #include "core/error.h"
+#include "io/mapped_file.h"
 #include "io/ply.h"
+#include "support/sparse_file.h"
 
 namespace {
 
@@ -27,6 +31,12 @@ namespace fs = std::filesystem;
 using cierzo::InputError;
 using cierzo::MeshData;
 using cierzo::read_ply;
+using cierzo::test::k30GiB;
+using cierzo::test::kGenerousGrowth;
+using cierzo::test::kGenerousSeconds;
+using cierzo::test::kNoSparseFiles;
+using cierzo::test::make_sparse_file;
+using cierzo::test::ReadCost;
 
 enum class Fmt { Ascii, Le, Be };
 
@@ -841,6 +851,142 @@ TEST_F(PlyTest, AbsurdSizesFailFastWithoutAllocating) {
         "element blob 900000000000000\nproperty double d\nelement vertex 1\n" + tail;
     expect_input_error(write("blob.ply", ply_file(Fmt::Le, unknown, Body(Fmt::Le))),
                        "header claims 900000000000000 'blob' elements");
+}
+
+// ---- Huge files: the header is read first, and nothing after what it declares -------
+
+TEST_F(PlyTest, AnElementWithoutPropertiesNeedsACountOfZero) {
+    // Its instances would take no bytes (binary) and no line (ascii): nothing could bound
+    // its count, so only 0 is read
+    for (Fmt format : all_formats) {
+        SCOPED_TRACE(format_label(format));
+        const std::string blob = "element blob 18446744073709551615\n";
+        expect_input_error(
+            write("blob.ply", ply_file(format, plain_header + blob, plain_body(format))),
+            "line 9: element 'blob' has no properties but a count of 18446744073709551615");
+        expect_input_error(
+            write("blob1.ply", ply_file(format, "element blob 1\n" + std::string(plain_header),
+                                        plain_body(format))),
+            "line 3: element 'blob' has no properties but a count of 1");
+        const MeshData mesh = read_ply(write(
+            "blob0.ply",
+            ply_file(format, "element blob 0\n" + std::string(plain_header) + "element tail 0\n",
+                     plain_body(format))));
+        EXPECT_EQ(mesh.indices, reference_indices);
+    }
+}
+
+TEST_F(PlyTest, A30GiBSparseFileClaimingMoreIsRefusedFromItsHeader) {
+    // 2e9 vertices of nine doubles: 144e9 bytes, or 18e9 values (at least 36e9 bytes)
+    std::string vertex = "element vertex 2000000000\n";
+    for (const char* name : {"x", "y", "z", "a", "b", "c", "d", "e", "f"})
+        vertex += std::string("property double ") + name + "\n";
+    const std::string face = "element face 1\nproperty list uchar int vertex_indices\n";
+    for (Fmt format : all_formats) {
+        SCOPED_TRACE(format_label(format));
+        const fs::path path = dir_ / "huge.ply";
+        if (!make_sparse_file(path, ply_file(format, vertex + face, Body(format)), k30GiB))
+            GTEST_SKIP() << kNoSparseFiles;
+        const ReadCost cost;
+        expect_input_error(path,
+                           "header claims 2000000000 'vertex' elements, but the file is only "
+                           "32212254");  // (30 GiB less the header)
+        EXPECT_LT(cost.seconds(), kGenerousSeconds);
+        EXPECT_LT(cost.peak_growth_bytes(), kGenerousGrowth);
+    }
+}
+
+TEST_F(PlyTest, A30GiBSparseFileClaimingMoreThanMemoryIsRefusedBeforeAllocating) {
+    // 1.9e9 vertices (22.8e9 bytes or 5.7e9 values) and 2^31 triangles of one-byte indices
+    // (8.6e9 bytes or values) fit in 30 GiB, but their arrays take 48.6e9 bytes of memory,
+    // more than half of that of a machine of less than 97 GB
+    const uint64_t vertices = 1'900'000'000, faces = uint64_t(1) << 31;
+    const uint64_t memory = vertices * 12 + faces * 12;
+    if (cierzo::reader_memory_bound() >= memory)
+        GTEST_SKIP() << "a file may take " << cierzo::reader_memory_bound()
+                     << " bytes of memory here, enough for the header's claim";
+    const std::string header = "element vertex " + std::to_string(vertices) +
+                               "\nproperty float x\nproperty float y\nproperty float z\n"
+                               "element face " +
+                               std::to_string(faces) +
+                               "\nproperty list uchar uchar vertex_indices\n";
+    for (Fmt format : all_formats) {
+        SCOPED_TRACE(format_label(format));
+        const fs::path path = dir_ / "memory.ply";
+        if (!make_sparse_file(path, ply_file(format, header, Body(format)), k30GiB))
+            GTEST_SKIP() << kNoSparseFiles;
+        const ReadCost cost;
+        expect_input_error(path,
+                           "header claims 1900000000 vertices and 2147483648 faces: their "
+                           "arrays need at least " +
+                               std::to_string(memory) + " bytes, more than the " +
+                               std::to_string(cierzo::reader_memory_bound()) +
+                               " bytes a file may take");
+        EXPECT_LT(cost.seconds(), kGenerousSeconds);
+        EXPECT_LT(cost.peak_growth_bytes(), kGenerousGrowth);
+    }
+}
+
+TEST_F(PlyTest, A30GiBSparseFileIsReadNoFurtherThanItsHeaderDeclares) {
+    for (Fmt format : all_formats) {
+        SCOPED_TRACE(format_label(format));
+        const std::string file = reference_ply(format, Layout{});
+        const size_t body = file.find("end_header\n") + 11;
+        // The mesh, then 30 GiB of hole: the hole is never read
+        const fs::path whole = dir_ / "whole.ply";
+        if (!make_sparse_file(whole, file, k30GiB)) GTEST_SKIP() << kNoSparseFiles;
+        ReadCost cost;
+        const MeshData mesh = read_ply(whole);
+        expect_positions(mesh, float_positions);
+        EXPECT_EQ(mesh.indices, reference_indices);
+        EXPECT_LT(cost.seconds(), kGenerousSeconds);
+        EXPECT_LT(cost.peak_growth_bytes(), kGenerousGrowth);
+        fs::remove(whole);
+
+        // Two vertices, then the hole: ascii data stops at its first NUL byte, binary data
+        // reads the hole as zeros, but only as far as the header declares (the first face
+        // has 0 corners)
+        const fs::path cut = dir_ / "cut.ply";
+        const std::string two_vertices = file.substr(
+            0, format == Fmt::Ascii ? file.find('\n', file.find('\n', body) + 1) + 1 : body + 30);
+        const auto hole_line = std::count(two_vertices.begin(), two_vertices.end(), '\n') + 1;
+        if (!make_sparse_file(cut, two_vertices, k30GiB)) GTEST_SKIP() << kNoSparseFiles;
+        cost = ReadCost();
+        expect_input_error(
+            cut, format == Fmt::Ascii
+                     ? "line " + std::to_string(hole_line) + ": a NUL byte in the ascii data"
+                     : std::string("face 0 has 0 vertices, at least 3 needed"));
+        EXPECT_LT(cost.seconds(), kGenerousSeconds);
+        EXPECT_LT(cost.peak_growth_bytes(), kGenerousGrowth);
+        fs::remove(cut);
+    }
+    // A header cut short by the hole
+    const fs::path header = dir_ / "header.ply";
+    if (!make_sparse_file(header, "ply\nformat ascii 1.0\nelement vertex 1\n", k30GiB))
+        GTEST_SKIP() << kNoSparseFiles;
+    const ReadCost cost;
+    expect_input_error(header, "line 4: a NUL byte in the header");
+    EXPECT_LT(cost.seconds(), kGenerousSeconds);
+    EXPECT_LT(cost.peak_growth_bytes(), kGenerousGrowth);
+}
+
+TEST_F(PlyTest, AFileTheFileSystemWillNotMapIsReadInstead) {
+    // sysfs refuses mappings (ENODEV), and its files hold less than their size says
+    const fs::path sysfs = "/sys/kernel/mm/transparent_hugepage/enabled";
+    std::ifstream in(sysfs, std::ios::binary);
+    const std::string expected{std::istreambuf_iterator<char>(in), {}};
+    if (expected.empty()) GTEST_SKIP() << sysfs << " cannot be read here";
+    const cierzo::MappedFile file(sysfs);
+    EXPECT_FALSE(file.mapped());
+    EXPECT_EQ(file.bytes(), expected);
+
+    const cierzo::MappedFile empty(write("empty.ply", ""));
+    EXPECT_FALSE(empty.mapped());
+    EXPECT_TRUE(empty.bytes().empty());
+    const std::string ply = reference_ply(Fmt::Le, Layout{});
+    const cierzo::MappedFile mapped(write("mapped.ply", ply));
+    EXPECT_TRUE(mapped.mapped());
+    EXPECT_EQ(mapped.bytes(), ply);
 }
 
 // The real Stanford bunny, kept in scenes/meshes/.
