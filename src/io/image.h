@@ -55,6 +55,12 @@ ExrShape read_exr_shape(const std::filesystem::path& path);
 Image read_pfm(const std::filesystem::path& path);
 Image read_hdr(const std::filesystem::path& path);  // by extension
 
+// Refuses (InputError naming the file), from its bytes alone, an OpenEXR file whose header
+// would make OpenEXR allocate more than the file can hold: no EXR magic, deep or multi-part
+// data, an attribute declared larger than the rest of the file, or a data window of more
+// than 65536 pixels a side or kMaxImagePixels in all. The readers call it before OpenEXR.
+void check_exr_header(const std::filesystem::path& path);
+
 // 8-bit output of an already tone-mapped image with values in [0, 1] (clamped, then
 // quantised with rounding). Format from the extension: .png, .ppm, .bmp.
 void write_ldr(const std::filesystem::path& path, const Image& image);

@@ -84,11 +84,15 @@ void check_exr_name(const fs::path& path, const std::string& name, const char* w
     }
 }
 
+}  // namespace
+
 // The data window of an EXR file from its header, read here before OpenEXR opens the file:
 // OpenEXR sizes its line buffers and offset tables from the header alone, so a 100-byte
 // file claiming a row of 2^28 pixels would cost gigabytes before any check of ours. A
 // single-part scanline or tiled image is required; each side at most 65536 pixels (the
-// largest image cierzo renders) and the area at most kMaxImagePixels.
+// largest image cierzo renders) and the area at most kMaxImagePixels. Every attribute's
+// declared size, those after the data window too, must fit in the rest of the file (OpenEXR
+// allocates a string's or an unknown type's size as declared).
 void check_exr_header(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     std::error_code ec;
@@ -112,6 +116,7 @@ void check_exr_header(const fs::path& path) {
         if (!in) read_error(path, "truncated OpenEXR header");
         return t;
     };
+    bool window = false;
     for (int attributes = 0;; ++attributes) {
         const std::string name = token();
         if (name.empty()) break;
@@ -133,13 +138,16 @@ void check_exr_header(const fs::path& path) {
                                      " pixels (at most 65536 on a "
                                      "side and " +
                                      std::to_string(kMaxImagePixels) + " in all)");
-            return;
+            window = true;
+            continue;
         }
         in.seekg(size, std::ios::cur);
         if (attributes > 100000) read_error(path, "invalid OpenEXR header (too many attributes)");
     }
-    read_error(path, "invalid OpenEXR header (no dataWindow)");
+    if (!window) read_error(path, "invalid OpenEXR header (no dataWindow)");
 }
+
+namespace {
 
 Image read_exr_file(const fs::path& path, ImageMetadata* metadata, ImageLayers* layers) {
     check_readable_file(path);
