@@ -2,11 +2,15 @@
 #include "integrators/checkpoint.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
+#include <charconv>
 #include <cinttypes>
+#include <cmath>
 #include <cstring>
 #include <fstream>
-#include <sstream>
+#include <span>
+#include <string_view>
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -31,7 +35,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kFormat = "cierzo checkpoint 2";
+// (3: with cierzo:checksum, and the pass in progress always with the film added)
+constexpr const char* kFormat = "cierzo checkpoint 3";
 
 // FNV-1a, 64 bits, taken eight bytes at a time (a mesh of millions of triangles is
 // hundreds of megabytes: byte by byte took a second).
@@ -105,25 +110,194 @@ void words_to_film(const std::vector<uint32_t>& planes, Film& film) {
     }
 }
 
-std::string get(const Imf::Header& h, const fs::path& path, const std::string& key) {
-    const auto* a = h.findTypedAttribute<Imf::StringAttribute>(key);
-    if (!a)
-        throw InputError(path.string() + ": not a cierzo checkpoint (no '" + key +
-                         "' in its header)");
-    return a->value();
+// The checksum of a checkpoint (cierzo:checksum): a 64-bit hash of its size, its cierzo:
+// attributes and every word of its channels, so that damage anywhere in what a resume reads
+// is refused rather than resumed. 64-bit words go round four lanes; a lane takes a word by
+// an xor, a multiply by an odd constant and an xor-shift, each one-to-one, and the lanes are
+// folded together by the same step, so a change confined to one word (any one damaged byte)
+// always changes the checksum; other damage changes it but with odds of 2^-64.
+class Checksum {
+public:
+    void word(uint64_t w) {
+        uint64_t& lane = lanes_[words_++ & 3];
+        lane = step(lane, w);
+    }
+    // A byte string: its length, then its bytes eight to a word, the first in the low byte
+    void text(std::string_view s) {
+        word(s.size());
+        for (size_t i = 0; i < s.size(); i += 8) {
+            uint64_t w = 0;
+            for (size_t k = 0; k < 8 && i + k < s.size(); ++k)
+                w |= uint64_t(uint8_t(s[i + k])) << (8 * k);
+            word(w);
+        }
+    }
+    // 32-bit words: their count, then two to a word, the first in the low half
+    void words32(std::span<const uint32_t> v) {
+        word(v.size());
+        const auto pair = [&](size_t i) { return uint64_t(v[i]) | uint64_t(v[i + 1]) << 32; };
+        size_t i = 0;
+        for (; (words_ & 3) != 0 && i + 2 <= v.size(); i += 2) word(pair(i));
+        // (four words at a time, one to a lane, while they last)
+        uint64_t a = lanes_[0], b = lanes_[1], c = lanes_[2], d = lanes_[3];
+        const size_t start = i;
+        for (; i + 8 <= v.size(); i += 8) {
+            a = step(a, pair(i)), b = step(b, pair(i + 2));
+            c = step(c, pair(i + 4)), d = step(d, pair(i + 6));
+        }
+        lanes_ = {a, b, c, d};
+        words_ += (i - start) / 2;
+        for (; i + 2 <= v.size(); i += 2) word(pair(i));
+        if (i < v.size()) word(v[i]);
+    }
+    uint64_t value() const {
+        uint64_t h = step(0x6a09e667f3bcc909ull, words_);
+        for (uint64_t lane : lanes_) h = step(h, lane);
+        h = (h ^ (h >> 32)) * 0xd6e8feb86659fd93ull;
+        return h ^ (h >> 32);
+    }
+
+private:
+    static uint64_t step(uint64_t h, uint64_t w) {
+        h = (h ^ w) * 0x9e3779b97f4a7c15ull;
+        return h ^ (h >> 29);
+    }
+    std::array<uint64_t, 4> lanes_ = {0x243f6a8885a308d3ull, 0x13198a2e03707344ull,
+                                      0xa4093822299f31d0ull, 0x082efa98ec4e6c89ull};
+    uint64_t words_ = 0;
+};
+
+constexpr const char* kChecksumKey = "cierzo:checksum";
+
+// What the checksum covers: the data window, every cierzo: attribute but the checksum
+// (name and value, in the header's order), and the channels' words: the film's, the pass in
+// progress's (none without one) and the preview's R, G, B.
+uint64_t payload_checksum(const Imf::Header& header, std::span<const uint32_t> words,
+                          std::span<const uint32_t> pending_words,
+                          std::span<const uint32_t> preview) {
+    Checksum c;
+    const Imath::Box2i& win = header.dataWindow();
+    for (int v : {win.min.x, win.min.y, win.max.x, win.max.y}) c.word(uint32_t(v));
+    for (auto it = header.begin(); it != header.end(); ++it) {
+        const std::string_view name = it.name();
+        if (!name.starts_with("cierzo:") || name == kChecksumKey) continue;
+        c.text(name);
+        const auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute());
+        c.text(s ? std::string_view(s->value()) : std::string_view(it.attribute().typeName()));
+    }
+    c.words32(words);
+    c.words32(pending_words);
+    c.words32(preview);
+    return c.value();
 }
 
-int64_t get_int(const Imf::Header& h, const fs::path& path, const std::string& key) {
-    const std::string v = get(h, path, key);
-    try {
-        size_t used = 0;
-        const long long x = std::stoll(v, &used);
-        if (used != v.size()) throw std::invalid_argument(v);
-        return x;
-    } catch (const std::exception&) {
-        throw InputError(path.string() + ": checkpoint header '" + key + "' is not a number: '" +
-                         v + "'");
+// A checkpoint's header, read strictly: every value present, of its form and in its range,
+// or an InputError naming the file and the attribute.
+struct HeaderReader {
+    const Imf::Header& header;
+    const fs::path& path;
+
+    [[noreturn]] void fail(const std::string& what) const {
+        throw InputError(path.string() + ": " + what);
     }
+    [[noreturn]] void malformed(const std::string& key, const std::string& v) const {
+        fail("checkpoint header '" + key + "' is malformed: '" + v + "'");
+    }
+    std::string text(const std::string& key) const {
+        const auto* a = header.findTypedAttribute<Imf::StringAttribute>(key);
+        if (!a) fail("checkpoint header has no '" + key + "' (damaged file?)");
+        return a->value();
+    }
+    // Decimal integers separated by single spaces, each in [lo, hi]
+    template <typename T>
+    std::vector<T> integers(const std::string& key, size_t n, T lo, T hi) const {
+        const std::string v = text(key);
+        std::vector<T> out(n);
+        const char* p = v.data();
+        const char* end = v.data() + v.size();
+        for (size_t i = 0; i < n; ++i) {
+            if (i > 0 && (p == end || *p++ != ' ')) malformed(key, v);
+            const auto [next, ec] = std::from_chars(p, end, out[i]);
+            if (ec != std::errc() || next == p) malformed(key, v);
+            if (out[i] < lo || out[i] > hi)
+                fail(fmt::format("checkpoint header '{}' is {}, not in [{}, {}]", key, v, lo, hi));
+            p = next;
+        }
+        if (p != end) malformed(key, v);
+        return out;
+    }
+    int64_t integer(const std::string& key, int64_t lo, int64_t hi) const {
+        return integers<int64_t>(key, 1, lo, hi)[0];
+    }
+    // A finite number of seconds, at least 0
+    double seconds(const std::string& key) const {
+        const std::string v = text(key);
+        double x = 0.0;
+        const auto [next, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+        if (ec != std::errc() || next != v.data() + v.size() || !std::isfinite(x) || x < 0.0)
+            malformed(key, v);
+        return x;
+    }
+};
+
+// Radiance is never negative (every BSDF value, cosine, weight and splat is clamped at 0),
+// so neither is a sum of it nor of its squares; nor is any infinite or NaN (non-finite
+// samples are counted apart). -0 passes: it is 0.
+bool sums_valid(const PixelSums& p) {
+    for (int c = 0; c < 3; ++c)
+        if (!(p.sum[c] >= 0.0) || !(p.sum_sq[c] >= 0.0) || !std::isfinite(p.sum[c]) ||
+            !std::isfinite(p.sum_sq[c]))
+            return false;
+    return true;
+}
+
+// Whether a pixel holds exactly `paths` paths, finite and not (without wrapping around)
+bool holds(const PixelSums& p, uint64_t paths) {
+    return p.count <= paths && p.nonfinite == paths - p.count;
+}
+
+// The film's pixels: valid sums, and spp_done paths each.
+void check_film(const HeaderReader& r, const Film& film, int64_t spp_done) {
+    for (int y = 0; y < film.height(); ++y)
+        for (int x = 0; x < film.width(); ++x) {
+            const PixelSums& p = film.at(x, y);
+            if (!sums_valid(p))
+                r.fail(fmt::format(
+                    "checkpoint pixel ({}, {}) holds a sum that is negative or not finite: "
+                    "{} {} {}, squares {} {} {} (damaged file?)",
+                    x, y, p.sum[0], p.sum[1], p.sum[2], p.sum_sq[0], p.sum_sq[1], p.sum_sq[2]));
+            if (!holds(p, uint64_t(spp_done)))
+                r.fail(fmt::format(
+                    "checkpoint pixels do not all hold its {} paths: pixel ({}, {}) holds {} "
+                    "and {} not finite (damaged file?)",
+                    spp_done, x, y, p.count, p.nonfinite));
+        }
+}
+
+// The tiles of the pass in progress: each one done (every pixel at pending_end paths, with
+// valid sums) or not (every pixel empty). Returns which are done.
+std::vector<uint8_t> check_pending(const HeaderReader& r, const Film& pending,
+                                   int64_t pending_end) {
+    const std::vector<Tile> tiles = image_tiles(pending.width(), pending.height());
+    std::vector<uint8_t> done(tiles.size(), 0);
+    for (size_t t = 0; t < tiles.size(); ++t) {
+        const Tile& g = tiles[t];
+        const PixelSums& first = pending.at(g.x0, g.y0);
+        done[t] = first.count != 0 || first.nonfinite != 0;
+        const uint64_t paths = done[t] ? uint64_t(pending_end) : 0;
+        for (int y = g.y0; y < g.y1; ++y)
+            for (int x = g.x0; x < g.x1; ++x) {
+                const PixelSums& p = pending.at(x, y);
+                const bool empty = p.sum[0] == 0.0 && p.sum[1] == 0.0 && p.sum[2] == 0.0 &&
+                                   p.sum_sq[0] == 0.0 && p.sum_sq[1] == 0.0 && p.sum_sq[2] == 0.0;
+                if (!holds(p, paths) || !sums_valid(p) || (!done[t] && !empty))
+                    r.fail(fmt::format(
+                        "checkpoint tile {} of the pass in progress is damaged (pixel ({}, "
+                        "{}) holds {} paths and {} not finite, of {})",
+                        t, x, y, p.count, p.nonfinite, paths));
+            }
+    }
+    return done;
 }
 
 }  // namespace
@@ -252,9 +426,6 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id,
     put("cierzo:spp", std::to_string(id.spp));
     put("cierzo:spp_reached", std::to_string(state.spp_done));
     put("cierzo:pending_end", std::to_string(state.pending_end));
-    // (the pending tiles' sums hold the film's with the pass added; files written before
-    // this attribute hold the pass's own sums, and are read as such)
-    put("cierzo:pending_form", "added");
     put("cierzo:rays", fmt::format("{} {} {} {}", state.rays.camera, state.rays.extension,
                                    state.rays.shadow, state.rays.light));
     // (estimators that splat: the film's passes are batches; see Film::merge_batch)
@@ -272,33 +443,29 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id,
         if (pending) header.channels().insert(std::string("pending.") + n, Imf::Channel(Imf::UINT));
     }
     const Image mean = film.mean();
+    std::vector<uint32_t> preview(mean.rgb.size());  // (the floats' bits, for the checksum)
+    std::memcpy(preview.data(), mean.rgb.data(), preview.size() * sizeof(float));
     const std::vector<uint32_t> words = film_words(film);
     const std::vector<uint32_t> pending_words =
         pending ? film_words(state.pending) : std::vector<uint32_t>{};
+    put(kChecksumKey,
+        fmt::format("{:016x}", payload_checksum(header, words, pending_words, preview)));
     const size_t n = size_t(w) * size_t(h);
     write_output_stream(path, [&](std::ofstream& out) {
         Imf::StdOFStream stream(out, path.c_str());
         Imf::OutputFile file(stream, header);
         Imf::FrameBuffer frame;
-        const size_t stride = 3 * sizeof(float);
+        const auto slice = [&](Imf::PixelType type, const uint32_t* at, size_t step) {
+            return Imf::Slice(type, const_cast<char*>(reinterpret_cast<const char*>(at)),
+                              step * sizeof(uint32_t), step * sizeof(uint32_t) * size_t(w));
+        };
         const char* names[3] = {"R", "G", "B"};
-        for (int c = 0; c < 3; ++c)
-            frame.insert(
-                names[c],
-                Imf::Slice(Imf::FLOAT,
-                           const_cast<char*>(reinterpret_cast<const char*>(mean.rgb.data() + c)),
-                           stride, stride * size_t(w)));
+        for (int c = 0; c < 3; ++c) frame.insert(names[c], slice(Imf::FLOAT, &preview[c], 3));
         for (int k = 0; k < kWords; ++k) {
-            frame.insert(kWordNames[k], Imf::Slice(Imf::UINT,
-                                                   const_cast<char*>(reinterpret_cast<const char*>(
-                                                       words.data() + size_t(k) * n)),
-                                                   sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
+            frame.insert(kWordNames[k], slice(Imf::UINT, &words[size_t(k) * n], 1));
             if (pending)
                 frame.insert(std::string("pending.") + kWordNames[k],
-                             Imf::Slice(Imf::UINT,
-                                        const_cast<char*>(reinterpret_cast<const char*>(
-                                            pending_words.data() + size_t(k) * n)),
-                                        sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
+                             slice(Imf::UINT, &pending_words[size_t(k) * n], 1));
         }
         file.setFrameBuffer(frame);
         file.writePixels(h);
@@ -307,155 +474,162 @@ void write_checkpoint(const fs::path& path, const CheckpointIdentity& id,
 
 Checkpoint read_checkpoint(const fs::path& path) {
     if (!input_file_exists(path)) throw InputError(path.string() + ": no such checkpoint file");
+    // (OpenEXR sizes its buffers from the header as declared: checked before it reads it)
+    check_exr_header(path);
     try {
         Imf::InputFile file(path.c_str());
         const Imf::Header& header = file.header();
-        if (get(header, path, "cierzo:checkpoint") != kFormat)
-            throw InputError(path.string() + ": a checkpoint of another format ('" +
-                             get(header, path, "cierzo:checkpoint") + "', this cierzo reads '" +
-                             kFormat + "')");
-        if (!file.isComplete())
-            throw InputError(path.string() + ": truncated checkpoint (pixel data missing)");
+        const HeaderReader r{header, path};
+
+        // What it is: a checkpoint of this format, with its checksum
+        const auto* format = header.findTypedAttribute<Imf::StringAttribute>("cierzo:checkpoint");
+        if (!format) r.fail("not a cierzo checkpoint (no 'cierzo:checkpoint' in its header)");
+        if (format->value() == "cierzo checkpoint 1" || format->value() == "cierzo checkpoint 2")
+            r.fail("a checkpoint written by an older cierzo ('" + format->value() +
+                   "'), which has no checksum to verify it by: render again without --resume "
+                   "(this cierzo reads '" +
+                   std::string(kFormat) + "')");
+        if (format->value() != kFormat)
+            r.fail("a checkpoint of another format ('" + format->value() +
+                   "', this cierzo reads '" + kFormat + "')");
+        for (auto it = header.begin(); it != header.end(); ++it)
+            if (std::string_view(it.name()).starts_with("cierzo:") &&
+                std::strcmp(it.attribute().typeName(), "string") != 0)
+                r.fail(std::string("checkpoint header '") + it.name() + "' is of type '" +
+                       it.attribute().typeName() + "', not a string (damaged file?)");
+        const std::string checksum = r.text(kChecksumKey);
+        if (checksum.size() != 16 ||
+            checksum.find_first_not_of("0123456789abcdef") != std::string::npos)
+            r.malformed(kChecksumKey, checksum);
+        if (!file.isComplete()) r.fail("truncated checkpoint (pixel data missing)");
+
+        // Its size and channels: R, G, B as floats and the words of the film, and of the
+        // pass in progress if any, uncompressed (so the file holds every byte they need)
         const Imath::Box2i win = header.dataWindow();
         const int64_t w = int64_t(win.max.x) - win.min.x + 1,
                       h = int64_t(win.max.y) - win.min.y + 1;
         if (win.min.x != 0 || win.min.y != 0 || w <= 0 || h <= 0 || w * h > kMaxImagePixels)
-            throw InputError(path.string() + ": checkpoint of an invalid size " +
-                             std::to_string(w) + "x" + std::to_string(h));
+            r.fail("checkpoint of an invalid size " + std::to_string(w) + "x" + std::to_string(h));
+        const Imf::ChannelList& channels = header.channels();
+        const bool pending = channels.findChannel("pending.count.lo") != nullptr;
+        std::vector<std::string> expected = {"R", "G", "B"};
+        for (const char* n : kWordNames) {
+            expected.push_back(n);
+            if (pending) expected.push_back("pending." + std::string(n));
+        }
+        for (const std::string& name : expected) {
+            const Imf::Channel* ch = channels.findChannel(name);
+            if (!ch) r.fail("checkpoint channel '" + name + "' is missing");
+            const Imf::PixelType type = name.size() == 1 ? Imf::FLOAT : Imf::UINT;
+            if (ch->type != type || ch->xSampling != 1 || ch->ySampling != 1)
+                r.fail("checkpoint channel '" + name + "' is not a full-resolution " +
+                       (type == Imf::FLOAT ? "FLOAT" : "UINT") + " channel");
+        }
+        size_t channel_count = 0;
+        for (auto it = channels.begin(); it != channels.end(); ++it) ++channel_count;
+        if (channel_count != expected.size())
+            r.fail(
+                fmt::format("checkpoint of {} channels, not {}", channel_count, expected.size()));
+        if (header.compression() != Imf::NO_COMPRESSION)
+            r.fail("checkpoint compressed (cierzo writes them uncompressed)");
+        const size_t n = size_t(w) * size_t(h);
+        std::error_code ec;
+        const uintmax_t file_bytes = fs::file_size(path, ec);
+        if (ec || file_bytes / 4 / expected.size() < n) r.fail("truncated checkpoint");
+
+        // Every word, and the checksum over them and the header
+        std::vector<uint32_t> words(n * kWords), pending_words(pending ? n * kWords : 0);
+        std::vector<uint32_t> preview(n * 3);
+        Imf::FrameBuffer frame;
+        const auto slice = [&](Imf::PixelType type, uint32_t* at, size_t step) {
+            return Imf::Slice(type, reinterpret_cast<char*>(at), step * sizeof(uint32_t),
+                              step * sizeof(uint32_t) * size_t(w));
+        };
+        for (int c = 0; c < 3; ++c)
+            frame.insert(expected[size_t(c)], slice(Imf::FLOAT, &preview[size_t(c)], 3));
+        for (int k = 0; k < kWords; ++k) {
+            frame.insert(kWordNames[k], slice(Imf::UINT, &words[size_t(k) * n], 1));
+            if (pending)
+                frame.insert(std::string("pending.") + kWordNames[k],
+                             slice(Imf::UINT, &pending_words[size_t(k) * n], 1));
+        }
+        file.setFrameBuffer(frame);
+        file.readPixels(0, int(h) - 1);
+        if (fmt::format("{:016x}", payload_checksum(header, words, pending_words, preview)) !=
+            checksum)
+            r.fail(
+                "checksum mismatch: the file is damaged (its contents are not those "
+                "cierzo wrote); resume from another copy, or render again");
+
+        // What it belongs to
         Checkpoint c;
         CheckpointIdentity& id = c.id;
-        id.scene = get(header, path, "cierzo:scene");
-        id.fingerprint = get(header, path, "cierzo:fingerprint");
+        id.scene = r.text("cierzo:scene");
+        id.fingerprint = r.text("cierzo:fingerprint");
+        if (id.fingerprint.size() != 16 ||
+            id.fingerprint.find_first_not_of("0123456789abcdef") != std::string::npos)
+            r.malformed("cierzo:fingerprint", id.fingerprint);
         id.width = int(w), id.height = int(h);
-        id.seed = uint32_t(get_int(header, path, "cierzo:seed"));
-        id.estimator = get(header, path, "cierzo:estimator");
-        id.survival_cap = get(header, path, "cierzo:survival_cap");
-        id.diffuse_sampling = get(header, path, "cierzo:diffuse_sampling");
-        // (a checkpoint written before the throughput roulette existed used the lobe one)
-        id.roulette = header.findTypedAttribute<Imf::StringAttribute>("cierzo:roulette")
-                          ? get(header, path, "cierzo:roulette")
-                          : std::string("lobe");
-        id.triangle_sampling =
-            header.findTypedAttribute<Imf::StringAttribute>("cierzo:triangle_sampling")
-                ? get(header, path, "cierzo:triangle_sampling")
-                : std::string("area");
-        id.sampler = header.findTypedAttribute<Imf::StringAttribute>("cierzo:sampler")
-                         ? get(header, path, "cierzo:sampler")
-                         : std::string("independent");
-        id.lengths = header.findTypedAttribute<Imf::StringAttribute>("cierzo:path_lengths")
-                         ? get(header, path, "cierzo:path_lengths")
-                         : std::string("1..");
-        id.integrator = get(header, path, "cierzo:integrator");
-        id.isa = get(header, path, "cierzo:isa");
-        id.pool = int(get_int(header, path, "cierzo:pool"));
-        id.spp = get_int(header, path, "cierzo:spp");
-        if (get_int(header, path, "cierzo:tile_size") != kTileSize)
-            throw InputError(path.string() + ": checkpoint of another tile size");
+        id.seed = uint32_t(r.integer("cierzo:seed", 0, UINT32_MAX));
+        id.estimator = r.text("cierzo:estimator");
+        id.survival_cap = r.text("cierzo:survival_cap");
+        id.diffuse_sampling = r.text("cierzo:diffuse_sampling");
+        id.roulette = r.text("cierzo:roulette");
+        id.triangle_sampling = r.text("cierzo:triangle_sampling");
+        id.sampler = r.text("cierzo:sampler");
+        id.lengths = r.text("cierzo:path_lengths");
+        id.integrator = r.text("cierzo:integrator");
+        id.isa = r.text("cierzo:isa");
+        id.pool = int(r.integer("cierzo:pool", 0, INT32_MAX));
+        id.spp = r.integer("cierzo:spp", 1, UINT32_MAX);
+        r.integer("cierzo:tile_size", kTileSize, kTileSize);
+
+        // How far it got: every pixel of the film at spp_done paths, and the tiles done of
+        // the pass in progress [spp_done, pending_end) at pending_end
         RenderState& s = c.state;
-        s.spp_done = get_int(header, path, "cierzo:spp_reached");
+        s.spp_done = r.integer("cierzo:spp_reached", 0, id.spp);
+        s.pending_end = r.integer("cierzo:pending_end", 0, INT64_MAX);
+        if (pending ? s.pending_end <= s.spp_done
+                    : s.pending_end != 0 && s.pending_end <= s.spp_done)
+            r.fail(fmt::format("checkpoint of {} paths per pixel with a pass in progress to {}",
+                               s.spp_done, s.pending_end));
+        const std::vector<uint64_t> rays = r.integers<uint64_t>("cierzo:rays", 4, 0, UINT64_MAX);
+        s.rays.camera = rays[0], s.rays.extension = rays[1], s.rays.shadow = rays[2],
+        s.rays.light = rays[3];
+        const std::vector<uint64_t> batches =
+            r.integers<uint64_t>("cierzo:batches", 2, 0, UINT64_MAX);
+        if (batches[0] > uint64_t(s.spp_done))
+            r.fail(fmt::format("checkpoint of {} batches in {} paths per pixel", batches[0],
+                               s.spp_done));
+        s.seconds = r.seconds("cierzo:seconds");
+        s.film = Film(int(w), int(h));
+        words_to_film(words, s.film);
+        s.film.set_batches(int64_t(batches[0]), batches[1]);
+        check_film(r, s.film, s.spp_done);
+        if (pending) {
+            s.pending = Film(int(w), int(h));
+            words_to_film(pending_words, s.pending);
+            s.pending_tiles = check_pending(r, s.pending, s.pending_end);
+        }
+
+        // A guided render's guide: a state PathGuide takes, trained at most to spp_done,
+        // and in a checkpoint of whole passes (of a guided estimator)
         if (const auto* g = header.findTypedAttribute<Imf::StringAttribute>("cierzo:guide")) {
             s.guide.assign(g->value().begin(), g->value().end());
             try {
                 PathGuide check;
                 check.restore(s.guide);
+                if (check.trained_through() > s.spp_done)
+                    throw GuideStateError(fmt::format("trained to {} paths per pixel, of {}",
+                                                      check.trained_through(), s.spp_done));
             } catch (const GuideStateError& e) {
-                throw InputError(path.string() +
-                                 ": the checkpoint's path guide is damaged: " + e.what());
+                r.fail(std::string("the checkpoint's path guide is damaged: ") + e.what());
             }
+            if (pending) r.fail("checkpoint of a guided render with tiles of a pass in progress");
         }
-        s.pending_end = get_int(header, path, "cierzo:pending_end");
-        std::istringstream rays(get(header, path, "cierzo:rays"));
-        if (!(rays >> s.rays.camera >> s.rays.extension >> s.rays.shadow >> s.rays.light))
-            throw InputError(path.string() + ": checkpoint header 'cierzo:rays' is malformed");
-        std::istringstream batches(get(header, path, "cierzo:batches"));
-        int64_t batch_count = 0;
-        uint64_t nonfinite_splats = 0;
-        if (!(batches >> batch_count >> nonfinite_splats) || batch_count < 0)
-            throw InputError(path.string() + ": checkpoint header 'cierzo:batches' is malformed");
-        s.seconds = std::stod(get(header, path, "cierzo:seconds"));
-
-        const Imf::ChannelList& channels = header.channels();
-        const bool pending = channels.findChannel("pending.count.lo") != nullptr;
-        for (const char* n : kWordNames) {
-            for (const std::string& name : {std::string(n), "pending." + std::string(n)}) {
-                if (!pending && name.starts_with("pending.")) continue;
-                const Imf::Channel* ch = channels.findChannel(name);
-                if (!ch)
-                    throw InputError(path.string() + ": checkpoint channel '" + name +
-                                     "' is missing");
-                if (ch->type != Imf::UINT || ch->xSampling != 1 || ch->ySampling != 1)
-                    throw InputError(path.string() + ": checkpoint channel '" + name +
-                                     "' is not a full-resolution UINT channel");
-            }
-        }
-        const size_t n = size_t(w) * size_t(h);
-        std::vector<uint32_t> words(n * kWords), pending_words(pending ? n * kWords : 0);
-        Imf::FrameBuffer frame;
-        for (int k = 0; k < kWords; ++k) {
-            frame.insert(
-                kWordNames[k],
-                Imf::Slice(Imf::UINT, reinterpret_cast<char*>(words.data() + size_t(k) * n),
-                           sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
-            if (pending)
-                frame.insert(
-                    std::string("pending.") + kWordNames[k],
-                    Imf::Slice(Imf::UINT,
-                               reinterpret_cast<char*>(pending_words.data() + size_t(k) * n),
-                               sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
-        }
-        file.setFrameBuffer(frame);
-        file.readPixels(0, int(h) - 1);
-        s.film = Film(int(w), int(h));
-        words_to_film(words, s.film);
-        s.film.set_batches(batch_count, nonfinite_splats);
-
-        // Consistency: every pixel of the film has spp_done paths; a pending tile's pixels
-        // all have pending_end (pending_end - spp_done in an older file), the others none
-        if (s.spp_done < 0 || s.spp_done > id.spp)
-            throw InputError(path.string() + ": checkpoint claims " + std::to_string(s.spp_done) +
-                             " of " + std::to_string(id.spp) + " paths per pixel");
-        for (const PixelSums& p : s.film.pixels())
-            if (int64_t(p.count + p.nonfinite) != s.spp_done)
-                throw InputError(path.string() + ": checkpoint pixels do not all hold its " +
-                                 std::to_string(s.spp_done) + " paths (damaged file?)");
-        if (pending) {
-            if (s.pending_end <= s.spp_done)
-                throw InputError(path.string() +
-                                 ": checkpoint has tiles of a pass but no pass in progress");
-            s.pending = Film(int(w), int(h));
-            words_to_film(pending_words, s.pending);
-            const std::vector<Tile> tiles = image_tiles(int(w), int(h));
-            s.pending_tiles.assign(tiles.size(), 0);
-            const bool added =
-                header.findTypedAttribute<Imf::StringAttribute>("cierzo:pending_form") &&
-                get(header, path, "cierzo:pending_form") == "added";
-            const uint64_t paths = uint64_t(added ? s.pending_end : s.pending_end - s.spp_done);
-            for (size_t t = 0; t < tiles.size(); ++t) {
-                const Tile& g = tiles[t];
-                const PixelSums& first = s.pending.at(g.x0, g.y0);
-                const uint64_t have = first.count + first.nonfinite;
-                if (have != 0 && have != paths)
-                    throw InputError(path.string() + ": checkpoint tile " + std::to_string(t) +
-                                     " of the pass in progress is damaged");
-                for (int y = g.y0; y < g.y1; ++y)
-                    for (int x = g.x0; x < g.x1; ++x) {
-                        const PixelSums& p = s.pending.at(x, y);
-                        if (p.count + p.nonfinite != have)
-                            throw InputError(path.string() + ": checkpoint tile " +
-                                             std::to_string(t) +
-                                             " of the pass in progress is damaged");
-                    }
-                s.pending_tiles[t] = have != 0;
-                // (an older file's pass sums: the film's added first, as a render adds them)
-                if (!added && have != 0)
-                    for (int y = g.y0; y < g.y1; ++y)
-                        for (int x = g.x0; x < g.x1; ++x) {
-                            PixelSums p = s.film.at(x, y);
-                            p.merge(s.pending.at(x, y));
-                            s.pending.at(x, y) = p;
-                        }
-            }
-        }
+        if (s.guide.empty() != (id.estimator.find(" guided ") == std::string::npos))
+            r.fail("checkpoint of estimator '" + id.estimator + "' " +
+                   (s.guide.empty() ? "without" : "with") + " a path guide");
         return c;
     } catch (const InputError&) {
         throw;

@@ -6,8 +6,11 @@
 // patterns of their doubles and 64-bit integers in UINT channels (hi and lo words), for the
 // film of the passes done and for the tiles done of the pass in progress ("pending."), and
 // in its header what the state belongs to (the scene's fingerprint, resolution, seed,
-// estimator, integrator) and how far it got. Written atomically: a failed write leaves the
-// previous checkpoint as it was.
+// estimator, integrator), how far it got, a guided render's path guide, and a 64-bit checksum
+// of all of that and of every channel's words. Written atomically: a failed write leaves the
+// previous checkpoint as it was. Read as strictly as a scene: the header's sizes before
+// OpenEXR parses it, then the checksum, then every value (sums finite and >= 0, each pixel
+// holding the paths the header says, the guide within its bounds).
 #pragma once
 
 #include <filesystem>
@@ -54,8 +57,9 @@ struct Checkpoint {
     RenderState state;
 };
 
-// Reads a checkpoint; an InputError names the file and what is wrong (not a checkpoint,
-// truncated, inconsistent).
+// Reads a checkpoint; an InputError names the file and what is wrong (not a checkpoint, of
+// an older cierzo, truncated, a checksum mismatch, a value out of range, inconsistent
+// counts). A file read is the state written, bit for bit.
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 
 // Refuses (InputError naming the file and every difference) a checkpoint of another scene,
