@@ -123,7 +123,7 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
     // lanes at a time), on a mesh without colours and on a sphere (both: the scale alone),
     // as emission too; a procedural ks beside textured kd, so four lobes mix textured and
     // solid channels through the lobe buckets.
-    const std::string ico = CIERZO_SOURCE_DIR "/scenes/meshes/icosphere.ply";
+    const std::string ico = "meshes/icosphere.ply";  // (beneath the scene's folder, scenes/)
     Scene scene = test::parse_report_scene(R"({
         "render": {"width": 40, "height": 40, "spp": 16},
         "camera": {"position": [0, 0, -3.5], "forward": [0, 0, 3], "left": [-1, 0, 0],
@@ -151,7 +151,7 @@ TEST(Agreement, TexturesOnEveryKindOfHitAndLobe) {
              "translate": [0.5, -0.6, 0.2], "material": "painted"},
             {"type": "sphere", "center": [0.5, 0.3, 0.3], "radius": 0.25, "material": "nearest"},
             {"type": "sphere", "center": [-0.5, 0.5, 0.5], "radius": 0.2, "material": "glow"}]})",
-                                           "/tmp/textures_everywhere.json");
+                                           CIERZO_SOURCE_DIR "/scenes/textures_everywhere.json");
     // A tetrahedron without vertex colours, of material "nearest"
     Mesh plain;
     plain.source = "tetrahedron";
