@@ -1,6 +1,6 @@
-// libFuzzer entry point for the image-texture decoder (decode_texture_image: stb_image's
-// formats and OpenEXR); the body is fuzz_one_image in fuzz_targets.cpp. Build with
-// -DCIERZO_BUILD_FUZZERS=ON (clang); see docs/fuzzing.md.
+// libFuzzer entry point for the image-texture reader (probe_texture_image and
+// read_texture_image: stb_image's formats and OpenEXR); the body is fuzz_one_image in
+// fuzz_targets.cpp. Build with -DCIERZO_BUILD_FUZZERS=ON (clang); see docs/fuzzing.md.
 #include <cstddef>
 #include <cstdint>
 

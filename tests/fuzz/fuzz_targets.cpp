@@ -5,21 +5,22 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "io/mtl.h"
 #include "io/obj.h"
 #include "io/ply.h"
 #include "io/texture_image.h"
+#include "scene/load_options.h"
 #include "scene/scene_json.h"
 
 #ifndef CIERZO_FUZZ_SCENE_ROOT
@@ -31,12 +32,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// An accepted input that breaks an invariant is a bug, reported like a crash.
-void require(bool ok, const char* what) {
-    if (ok) return;
-    std::fprintf(stderr, "fuzz: accepted input breaks an invariant: %s\n", what);
-    std::abort();
-}
+void require(bool ok, const char* what) { fuzz_require(ok, what); }
+
+constexpr std::string_view kExrMagic = "\x76\x2f\x31\x01";
 
 bool finite(const Vec3f& v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
@@ -48,43 +46,97 @@ bool valid_colour(const ColorSource& c) {
            c.b.z >= 0;
 }
 
-// ---- Scene files -----------------------------------------------------------------------
-
-// Whether a mesh "file" value resolves inside the scene's folder: relative, without "..".
-// Anything else would let the fuzzer read arbitrary files (/dev/stdin, the growing corpus),
-// which makes runs depend on the machine; such inputs are skipped, not parsed.
-bool stays_inside(const std::string& name) {
-    const fs::path p(name);
-    if (p.has_root_name() || p.has_root_directory()) return false;
-    for (const fs::path& part : p)
-        if (part == "..") return false;
-    return true;
+// A decoded image texture: within the size limits, one RGBA texel per pixel, float texels
+// finite and >= 0, statistics finite with each mean at most its maximum.
+void check_texture(const TextureImage& t) {
+    require(t.width >= 1 && t.height >= 1 && t.width <= kMaxTextureSide &&
+                t.height <= kMaxTextureSide && int64_t(t.texels()) <= kMaxTextureTexels,
+            "image dimensions within limits");
+    require(t.bytes.size() == t.texels() || t.floats.size() == 4 * t.texels(),
+            "one RGBA texel per pixel");
+    require(t.bytes.empty() != t.floats.empty(), "bytes or floats, not both");
+    for (float f : t.floats) require(std::isfinite(f) && f >= 0.0f, "texel finite and >= 0");
+    bool opaque = true;
+    for (int32_t b : t.bytes) opaque &= (uint32_t(b) >> 24) == 255u;
+    for (size_t i = 0; i < t.floats.size(); i += 4) opaque &= t.floats[i + 3] >= 1.0f;
+    require(t.opaque == opaque, "opaque exactly when every alpha is 1");
+    for (int c = 0; c < 3; ++c)
+        require(std::isfinite(t.max_rgb[c]) && t.max_rgb[c] >= 0.0f &&
+                    std::isfinite(t.mean_rgb[c]) && t.mean_rgb[c] >= 0.0 &&
+                    t.mean_rgb[c] <= double(t.max_rgb[c]) * (1.0 + 1e-6) + 1e-30,
+                "image statistics finite, 0 <= mean <= max");
 }
 
-// Every string under a "file" key, anywhere in the document, must stay inside. The JSON is
-// read exactly as parse_scene reads it; a walk with an explicit stack copes with any depth.
-bool mesh_files_stay_inside(const std::string& text) {
-    nlohmann::json root;
-    try {
-        root = nlohmann::json::parse(text, nullptr, true, /*ignore_comments=*/true);
-    } catch (const nlohmann::json::exception&) {
-        return true;  // parse_scene refuses it before looking at any file
+// ---- Scene files -----------------------------------------------------------------------
+
+// Whether `p` resolves (links followed) to a file beneath `root`.
+bool beneath(const fs::path& p, const fs::path& root) {
+    std::error_code ec;
+    const fs::path r = fs::weakly_canonical(p, ec);
+    if (ec) return false;
+    const auto [end, _] = std::mismatch(root.begin(), root.end(), r.begin(), r.end());
+    return end == root.end();
+}
+
+// What the scene's images gave it: every image texture and mask an image of the scene, the
+// images decoded within the budget, the environment's tables finite, the textured meshes
+// with texture coordinates, and every file the scene read beneath its folder.
+void check_scene_images(const Scene& s) {
+    const auto image_ok = [&](int32_t i) { return i >= 0 && size_t(i) < s.images.size(); };
+    uint64_t memory = 0;
+    for (const auto& image : s.images) {
+        require(image != nullptr, "an image of the scene was decoded");
+        check_texture(*image);
+        memory += image->memory_bytes();
     }
-    std::vector<const nlohmann::json*> stack = {&root};
-    while (!stack.empty()) {
-        const nlohmann::json& j = *stack.back();
-        stack.pop_back();
-        if (j.is_object()) {
-            for (auto it = j.begin(); it != j.end(); ++it) {
-                if (it.key() == "file" && it->is_string() && !stays_inside(it->get<std::string>()))
-                    return false;
-                stack.push_back(&*it);
-            }
-        } else if (j.is_array()) {
-            for (const nlohmann::json& item : j) stack.push_back(&item);
-        }
+    require(memory <= kFuzzImageMemory, "the decoded images within the image budget");
+    std::vector<const ColorSource*> sources = {&s.environment.emission};
+    for (const Material& m : s.materials)
+        for (const ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt}) sources.push_back(c);
+    for (const ColorSource* c : sources)
+        if (c->kind == TextureKind::kImage)
+            require(image_ok(c->image) && std::isfinite(c->uv_scale[0]) &&
+                        std::isfinite(c->uv_scale[1]) && std::isfinite(c->uv_offset[0]) &&
+                        std::isfinite(c->uv_offset[1]),
+                    "an image texture names an image of the scene, with a finite map");
+    require(valid_colour(s.environment.emission), "environment colour finite and >= 0");
+    for (const Material& m : s.materials) {
+        const AlphaSource& a = m.alpha;
+        require(a.constant >= 0.0f && a.constant <= 1.0f, "alpha in [0, 1]");
+        require(a.image == -1 || image_ok(a.image), "an alpha mask names an image of the scene");
+        require(a.channel >= -1 && a.channel <= 3, "alpha channel r, g, b, a or auto");
     }
-    return true;
+    for (const Mesh& object : s.meshes) {
+        const Mesh& g = object.instanced() ? s.meshes[size_t(object.geometry)] : object;
+        const Material& m = s.materials[size_t(object.material)];
+        bool imaged = m.alpha.image >= 0;
+        for (const ColorSource* c : {&m.emission, &m.kd, &m.ks, &m.kr, &m.kt})
+            imaged |= c->kind == TextureKind::kImage;
+        require(g.uvs.empty() || g.uvs.size() == 2 * g.positions.size(),
+                "one texture coordinate per mesh vertex");
+        require(!imaged || !g.uvs.empty(), "a textured mesh has texture coordinates");
+        for (float t : g.uvs) require(std::isfinite(t), "texture coordinate finite");
+    }
+    const Emitters& e = s.emitters;
+    if (e.environment_width > 0) {
+        const size_t w = size_t(e.environment_width), h = size_t(e.environment_height);
+        require(e.environment_radiance.size() == 3 * w * h &&
+                    e.environment_row_cdf.size() == h + 1 &&
+                    e.environment_col_cdf.size() == h * (w + 1) &&
+                    e.environment_density.size() == w * h,
+                "environment tables of the environment's size");
+        for (float v : e.environment_radiance)
+            require(std::isfinite(v) && v >= 0.0f, "environment radiance finite and >= 0");
+        for (const std::vector<float>* cdf : {&e.environment_row_cdf, &e.environment_col_cdf})
+            for (float v : *cdf) require(v >= 0.0f && v <= 1.0f, "environment CDF in [0, 1]");
+        for (float v : e.environment_density)
+            require(std::isfinite(v) && v >= 0.0f, "environment density finite and >= 0");
+        require(std::isfinite(e.environment_mean) && e.environment_mean >= 0.0,
+                "environment mean finite and >= 0");
+    }
+    static const fs::path root = fs::canonical(CIERZO_FUZZ_SCENE_ROOT);
+    for (const fs::path& f : s.files)
+        require(beneath(f, root), "every file the scene read lies beneath its folder");
 }
 
 void check_scene(const Scene& s) {
@@ -164,6 +216,7 @@ void check_scene(const Scene& s) {
     }
     for (const PointLight& l : s.lights)
         require(finite(l.position) && finite(l.intensity), "light finite");
+    check_scene_images(s);
 }
 
 // ---- Mesh files (PLY, OBJ) ---------------------------------------------------------------
@@ -184,11 +237,15 @@ void check_mesh(const MeshData& m) {
 
 bool fuzz_one_scene(const uint8_t* data, size_t size) {
     const std::string text(reinterpret_cast<const char*>(data), size);
-    if (!mesh_files_stay_inside(text)) return false;
+    // (every name, however spelt, is the reader's to confine to scene_root: nothing else can
+    // be read, so every run is reproducible; the image budget keeps decoding small)
+    LoadOptions options;
+    options.image_memory = kFuzzImageMemory;
     try {
-        check_scene(parse_scene(text, fs::path(CIERZO_FUZZ_SCENE_ROOT) / "fuzz.json"));
+        check_scene(parse_scene(text, fs::path(CIERZO_FUZZ_SCENE_ROOT) / "fuzz.json", options));
         return true;
-    } catch (const InputError&) {
+    } catch (const InputError& e) {
+        fuzz_refused(e);
         return false;
     }
 }
@@ -198,7 +255,8 @@ bool fuzz_one_ply(const uint8_t* data, size_t size) {
         check_mesh(
             parse_ply(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.ply"));
         return true;
-    } catch (const InputError&) {
+    } catch (const InputError& e) {
+        fuzz_refused(e);
         return false;
     }
 }
@@ -224,7 +282,8 @@ bool fuzz_one_mtl(const uint8_t* data, size_t size) {
                             "a map names a file, with finite options");
         }
         return true;
-    } catch (const InputError&) {
+    } catch (const InputError& e) {
+        fuzz_refused(e);
         return false;
     }
 }
@@ -249,51 +308,97 @@ bool fuzz_one_obj(const uint8_t* data, size_t size) {
         for (uint32_t g : m.triangle_material)
             require(g < m.material_names.size(), "triangle material in range");
         return ok;
-    } catch (const InputError&) {
+    } catch (const InputError& e) {
+        fuzz_refused(e);
         return false;
     }
 }
 
 bool fuzz_one_image(const uint8_t* data, size_t size) {
-    const std::string bytes(reinterpret_cast<const char*>(data), size);
-    // An EXR is read from a file (OpenEXR's reader); anything else from memory, as a TGA
-    // where it has no other format's signature
-    const bool exr = bytes.compare(0, 4, "\x76\x2f\x31\x01") == 0;
-    static const fs::path exr_file =
-        fs::temp_directory_path() / ("cierzo-fuzz-" + std::to_string(::getpid()) + ".exr");
-    struct Removed {
-        bool on;
-        ~Removed() {
-            if (on) std::remove(exr_file.c_str());
-        }
-    } removed{exr};
-    if (exr) {
-        std::FILE* f = std::fopen(exr_file.c_str(), "wb");
-        require(f && std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() &&
-                    std::fclose(f) == 0,
-                "the EXR input can be written to a scratch file");
-    }
+    const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+    // Named by the signature, as the extension must agree with it: every decoder is
+    // reachable (TGA has none: any bytes without another's are named .tga)
+    const auto starts = [&](std::string_view magic) {
+        return bytes.substr(0, magic.size()) == magic;
+    };
+    const char* extension = ".tga";
+    if (starts("\x89PNG\r\n\x1a\n"))
+        extension = ".png";
+    else if (starts("\xff\xd8\xff"))
+        extension = ".jpg";
+    else if (starts("BM"))
+        extension = ".bmp";
+    else if (starts("P5") || starts("P6"))
+        extension = ".ppm";
+    else if (starts("#?RADIANCE\n") || starts("#?RGBE\n"))
+        extension = ".hdr";
+    else if (starts(kExrMagic))
+        extension = ".exr";
+    const fs::path file = fuzz_scratch_file(std::string("fuzz") + extension, bytes);
+    // What a scene charges the image from its header, and what decoding it gives
+    TextureShape shape;
+    bool probed = false;
     try {
-        for (const bool srgb : {true, false}) {
-            const TextureImage t = exr ? read_texture_image(exr_file, srgb)
-                                       : decode_texture_image(bytes, "fuzz.tga", srgb);
-            require(t.width >= 1 && t.height >= 1 && t.width <= kMaxTextureSide &&
-                        t.height <= kMaxTextureSide && int64_t(t.texels()) <= kMaxTextureTexels,
-                    "image dimensions within limits");
-            require(t.bytes.size() == t.texels() || t.floats.size() == 4 * t.texels(),
-                    "one RGBA texel per pixel");
-            require(t.bytes.empty() != t.floats.empty(), "bytes or floats, not both");
-            for (float f : t.floats)
-                require(std::isfinite(f) && f >= 0.0f, "texel finite and >= 0");
-            for (int c = 0; c < 3; ++c)
-                require(std::isfinite(t.max_rgb[c]) && std::isfinite(t.mean_rgb[c]) &&
-                            t.mean_rgb[c] <= double(t.max_rgb[c]) * (1.0 + 1e-6) + 1e-30,
-                        "image statistics finite, mean <= max");
-        }
-        return true;
-    } catch (const InputError&) {
-        return false;
+        shape = probe_texture_image(file);
+        probed = true;
+        require(shape.width >= 1 && shape.height >= 1 && shape.width <= kMaxTextureSide &&
+                    shape.height <= kMaxTextureSide && int64_t(shape.texels()) <= kMaxTextureTexels,
+                "probed dimensions within limits");
+        require(shape.kept_bytes == (shape.floats ? 16 : 4) * shape.texels() &&
+                    shape.peak_bytes >= shape.kept_bytes,
+                "probed cost at least the texels kept");
+    } catch (const InputError& e) {
+        fuzz_refused(e);
     }
+    bool accepted = false;
+    for (const bool srgb : {true, false}) {
+        try {
+            const TextureImage t = read_texture_image(file, srgb);
+            check_texture(t);
+            require(probed, "an image that decodes is probed");
+            require(shape.width == t.width && shape.height == t.height &&
+                        shape.floats == !t.floats.empty() && shape.kept_bytes == t.memory_bytes(),
+                    "an image decodes to the shape its probe gave");
+            accepted = true;
+        } catch (const InputError& e) {
+            fuzz_refused(e);
+        }
+    }
+    return accepted;
+}
+
+// ---- Shared by the bodies ------------------------------------------------------------------
+
+void fuzz_refused(const std::exception& e) {
+    static const bool verbose = std::getenv("CIERZO_FUZZ_VERBOSE") != nullptr;
+    if (verbose) std::fprintf(stderr, "fuzz: refused: %s\n", e.what());
+}
+
+void fuzz_require(bool ok, const char* what) {
+    if (ok) return;
+    std::fprintf(stderr, "fuzz: accepted input breaks an invariant: %s\n", what);
+    std::abort();
+}
+
+fs::path fuzz_scratch_file(std::string_view name, std::string_view bytes) {
+    // (one folder per process, made once and removed at exit)
+    static const struct Folder {
+        fs::path path;
+        Folder() {
+            path = fs::temp_directory_path() / ("cierzo-fuzz-" + std::to_string(::getpid()));
+            fs::create_directories(path);
+        }
+        ~Folder() {
+            std::error_code ec;
+            fs::remove_all(path, ec);
+        }
+    } folder;
+    const fs::path file = folder.path / name;
+    std::FILE* f = std::fopen(file.c_str(), "wb");
+    require(
+        f && std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() && std::fclose(f) == 0,
+        "the input can be written to a scratch file");
+    return file;
 }
 
 }  // namespace cierzo

@@ -5,14 +5,22 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <exception>
+#include <filesystem>
+#include <string_view>
 
 namespace cierzo {
 
-// Parses the bytes as a scene file whose folder is tests/fuzz/scene_root, so the PLY files a
-// scene names resolve inside that fixed folder. Returns true if the scene was accepted, false
-// if it was refused with an InputError (or names a mesh file outside that folder, which is
-// skipped). Anything else, including a parsed scene that breaks the Scene invariants
-// (non-finite geometry, out-of-range indices), aborts.
+// The memory the scenes the scene fuzzer parses may give their decoded images
+// (LoadOptions::image_memory): a fuzzed scene is refused, from its images' headers, before it
+// can make the fuzzer decode more.
+inline constexpr uint64_t kFuzzImageMemory = uint64_t(64) << 20;
+
+// Parses the bytes as a scene file whose folder is tests/fuzz/scene_root, so the files a scene
+// names (meshes, MTL libraries, images) resolve inside that fixed folder, with the image
+// budget above. Returns true if the scene was accepted, false if it was refused with an
+// InputError. Anything else, including a parsed scene that breaks the Scene invariants
+// (non-finite geometry, out-of-range indices, a file read from outside scene_root), aborts.
 bool fuzz_one_scene(const uint8_t* data, size_t size);
 
 // Parses the bytes as a PLY file (parse_ply). Returns true if accepted, false on InputError;
@@ -27,8 +35,22 @@ bool fuzz_one_obj(const uint8_t* data, size_t size);
 // Parses the bytes as an MTL library (parse_mtl), with the same contract.
 bool fuzz_one_mtl(const uint8_t* data, size_t size);
 
-// Decodes the bytes as an image texture (decode_texture_image: an EXR where they start with
-// its magic number, else whatever stb_image recognises), with the same contract.
+// Writes the bytes to a scratch file named by their signature (fuzz.png, .jpg, .bmp, .ppm,
+// .hdr, .exr; fuzz.tga for bytes without one), probes it (probe_texture_image) and reads it
+// as an image texture (read_texture_image), with the same contract; an image read must have
+// the shape its probe gave.
 bool fuzz_one_image(const uint8_t* data, size_t size);
+
+// ---- Shared by the bodies ------------------------------------------------------------------
+
+// Aborts, saying which invariant an accepted input broke, unless `ok`.
+void fuzz_require(bool ok, const char* what);
+
+// A reader's refusal, printed when CIERZO_FUZZ_VERBOSE is set (to see why a seed is refused).
+void fuzz_refused(const std::exception& e);
+
+// A scratch file of this process holding `bytes`, in a folder of its own under the temporary
+// folder (TMPDIR), removed at exit.
+std::filesystem::path fuzz_scratch_file(const std::string_view name, std::string_view bytes);
 
 }  // namespace cierzo

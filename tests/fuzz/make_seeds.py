@@ -2,11 +2,13 @@
 """Writes the seed files of the fuzz corpora (docs/fuzzing.md): small PLY files in every
 format and layout the reader supports, small OBJ files of every form the OBJ reader accepts
 and some it refuses (some with an MTL library after a "#%mtl" line), MTL libraries, small
-images in every format the texture decoder reads (and broken ones), the mesh fixtures that seed scenes refer to, and small
-scene files covering every key of docs/scene-format.md. The scenes of scenes/ are copied as
-well. Run from anywhere; files are (over)written in tests/fuzz/. The fuzzers' own finds are
-added later with -merge=1."""
+images in every format the texture decoder reads (and broken ones), the fixtures that seed
+scenes refer to (meshes, an OBJ with its MTL library, images of every format, an environment
+map), and small scene files covering every key of docs/scene-format.md. The scenes of scenes/
+are copied as well. Run from anywhere; files are (over)written in tests/fuzz/. The fuzzers'
+own finds are added later with -merge=1."""
 import math
+import os
 import pathlib
 import shutil
 import struct
@@ -20,6 +22,7 @@ SCENE_DIR = HERE / "corpus" / "scene"
 MTL_DIR = HERE / "corpus" / "mtl"
 IMAGE_DIR = HERE / "corpus" / "image"
 FIXTURES = HERE / "scene_root" / "meshes"
+TEXTURES = HERE / "scene_root" / "textures"
 
 TYPES = {"char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i", "uint": "I",
          "float": "f", "double": "d", "int8": "b", "uint8": "B", "int16": "h",
@@ -312,27 +315,171 @@ def png(w, h, channels, rows):
             + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 
-def exr(w, h, pixel):
-    """An uncompressed scanline OpenEXR of float R, G, B (stored B, G, R: sorted by name)."""
+UINT, HALF, FLOAT = 0, 1, 2
+EXR_FORMS = {UINT: "<I", HALF: "<e", FLOAT: "<f"}
+
+
+def exr_zip(raw):
+    """OpenEXR's ZIP coding of a block: bytes split even / odd, deltas, then zlib (kept raw
+    where that is not smaller, as OpenEXR does)."""
+    t = bytearray(raw[0::2] + raw[1::2])
+    for i in range(len(t) - 1, 0, -1):
+        t[i] = (t[i] - t[i - 1] + 128 + 256) & 0xFF
+    packed = zlib.compress(bytes(t), 9)
+    return packed if len(packed) < len(raw) else raw
+
+
+def exr_file(w, h, channels, compression=0, attrs=(), tile=None, origin=(0, 0)):
+    """A single-part OpenEXR file: `channels` is [(name, type, value(x, y))], stored sorted by
+    name; compression 0 (none), 2 (ZIP, a line a block) or 3 (ZIP, 16 lines a block);
+    `attrs` more attributes (name, type, bytes); `tile` (w, h) makes it tiled, one level;
+    `origin` is the data window's corner."""
     def attr(name, kind, value):
         return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
-    chlist = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
-    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
-    header = (b"\x76\x2f\x31\x01" + struct.pack("<I", 2) + attr("channels", "chlist", chlist)
-              + attr("compression", "compression", b"\0") + attr("dataWindow", "box2i", box)
-              + attr("displayWindow", "box2i", box) + attr("lineOrder", "lineOrder", b"\0")
+    channels = sorted(channels)
+    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", t, 0, 1, 1) for n, t, _ in channels) + b"\0"
+    x0, y0 = origin
+    box = struct.pack("<iiii", x0, y0, x0 + w - 1, y0 + h - 1)
+    header = (b"\x76\x2f\x31\x01" + struct.pack("<I", 2 | (0x200 if tile else 0))
+              + attr("channels", "chlist", chlist)
+              + attr("compression", "compression", bytes([compression]))
+              + attr("dataWindow", "box2i", box) + attr("displayWindow", "box2i", box)
+              + attr("lineOrder", "lineOrder", b"\0")
               + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
               + attr("screenWindowCenter", "v2f", struct.pack("<ff", 0, 0))
-              + attr("screenWindowWidth", "float", struct.pack("<f", 1.0)) + b"\0")
-    chunks, offset = [], len(header) + 8 * h
-    offsets = b""
-    for y in range(h):
-        data = b"".join(struct.pack("<f", pixel(x, y)[c]) for c in (2, 1, 0) for x in range(w))
-        chunk = struct.pack("<ii", y, len(data)) + data
+              + attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
+              + (attr("tiles", "tiledesc", struct.pack("<IIB", tile[0], tile[1], 0)) if tile else b"")
+              + b"".join(attr(*a) for a in attrs) + b"\0")
+
+    def lines(ys, xs):
+        return b"".join(struct.pack(EXR_FORMS[t], f(x, y)) for y in ys for _, t, f in channels
+                        for x in xs)
+    blocks = []
+    if tile:
+        for ty in range(0, h, tile[1]):
+            for tx in range(0, w, tile[0]):
+                data = lines(range(ty, min(ty + tile[1], h)), range(tx, min(tx + tile[0], w)))
+                data = exr_zip(data) if compression else data
+                blocks.append(struct.pack("<iiiii", tx // tile[0], ty // tile[1], 0, 0, len(data)) + data)
+    else:
+        step = 16 if compression == 3 else 1
+        for y in range(0, h, step):
+            data = lines(range(y, min(y + step, h)), range(w))
+            data = exr_zip(data) if compression else data
+            blocks.append(struct.pack("<ii", y0 + y, len(data)) + data)
+    offsets, offset = b"", len(header) + 8 * len(blocks)
+    for b in blocks:
         offsets += struct.pack("<Q", offset)
-        offset += len(chunk)
-        chunks.append(chunk)
-    return header + offsets + b"".join(chunks)
+        offset += len(b)
+    return header + offsets + b"".join(blocks)
+
+
+def exr(w, h, pixel):
+    """An uncompressed scanline OpenEXR of float R, G, B."""
+    return exr_file(w, h, [(n, FLOAT, lambda x, y, c=c: pixel(x, y)[c]) for c, n in enumerate("RGB")])
+
+
+ZIGZAG = [0, 1, 8, 16, 9, 2, 3, 10, 17, 24, 32, 25, 18, 11, 4, 5, 12, 19, 26, 33, 40, 48,
+          41, 34, 27, 20, 13, 6, 7, 14, 21, 28, 35, 42, 49, 56, 57, 50, 43, 36, 29, 22, 15, 23,
+          30, 37, 44, 51, 58, 59, 52, 45, 38, 31, 39, 46, 53, 60, 61, 54, 47, 55, 62, 63]
+
+
+def jpeg_category(v):
+    """A coefficient's size in bits and its bits (a negative v as v - 1 in them: T.81 F.1.2)."""
+    size = abs(v).bit_length()
+    return size, (v if v >= 0 else v + (1 << size) - 1), size
+
+
+def jpeg(w, h, pixel, grey=False, subsample=False, quantiser=4):
+    """A baseline JPEG (ITU T.81): YCbCr or grey, luma sampled 2 x 2 against the chroma when
+    `subsample`, every coefficient quantised by `quantiser`, one Huffman table per class of
+    equal-length codes for exactly the symbols used (2^length > their count: no code is all
+    ones)."""
+    comps = [(1, 2, 2) if subsample else (1, 1, 1)] + ([] if grey else [(2, 1, 1), (3, 1, 1)])
+    hmax, vmax = max(c[1] for c in comps), max(c[2] for c in comps)
+    mw, mh = 8 * hmax, 8 * vmax
+    W, H = -(-w // mw) * mw, -(-h // mh) * mh
+
+    def plane(k):  # Y, Cb or Cr of every pixel of the MCUs, edges repeated, level-shifted
+        out = []
+        for y in range(H):
+            row = []
+            for x in range(W):
+                r, g, b = pixel(min(x, w - 1), min(y, h - 1))
+                row.append([0.299 * r + 0.587 * g + 0.114 * b,
+                            -0.168736 * r - 0.331264 * g + 0.5 * b + 128,
+                            0.5 * r - 0.418688 * g - 0.081312 * b + 128][k] - 128)
+            out.append(row)
+        return out
+
+    def block(p, bx, by, step):  # 8 x 8 samples, each the mean of step x step pixels
+        return [[sum(p[(by + y) * step + j][(bx + x) * step + i] for i in range(step)
+                     for j in range(step)) / step ** 2 for x in range(8)] for y in range(8)]
+
+    def dct(b):  # quantised, in zigzag order
+        c = [math.sqrt(0.5)] + [1.0] * 7
+        out = [0] * 64
+        for v in range(8):
+            for u in range(8):
+                t = sum(b[y][x] * math.cos((2 * x + 1) * u * math.pi / 16)
+                        * math.cos((2 * y + 1) * v * math.pi / 16) for y in range(8) for x in range(8))
+                out[8 * v + u] = int(round(0.25 * c[u] * c[v] * t / quantiser))
+        return [out[z] for z in ZIGZAG]
+
+    planes = [plane(k) for k in range(len(comps))]
+    symbols, predictions = [], [0] * len(comps)  # (class, symbol, bits, size)
+    for my in range(H // mh):
+        for mx in range(W // mw):
+            for k, (_, hs, vs) in enumerate(comps):
+                for j in range(vs):
+                    for i in range(hs):
+                        z = dct(block(planes[k], (mx * hs + i) * 8, (my * vs + j) * 8, hmax // hs))
+                        diff, predictions[k] = z[0] - predictions[k], z[0]
+                        symbols.append((0,) + jpeg_category(diff))
+                        last = max([n for n in range(1, 64) if z[n]] or [0])
+                        run = 0
+                        for a in z[1:last + 1]:
+                            if a == 0:
+                                run += 1
+                                continue
+                            while run > 15:
+                                symbols.append((1, 0xF0, 0, 0))
+                                run -= 16
+                            size, bits, _ = jpeg_category(a)
+                            symbols.append((1, run << 4 | size, bits, size))
+                            run = 0
+                        if last < 63:
+                            symbols.append((1, 0x00, 0, 0))
+    tables, codes = [], {}
+    for cls in (0, 1):
+        used = sorted({sym for c, sym, _, _ in symbols if c == cls})
+        length = max(1, len(used).bit_length())
+        counts = [0] * 16
+        counts[length - 1] = len(used)
+        tables.append(bytes([cls << 4]) + bytes(counts) + bytes(used))
+        codes.update({(cls, sym): (n, length) for n, sym in enumerate(used)})
+    bits = []
+    for cls, sym, value, size in symbols:
+        code, length = codes[cls, sym]
+        bits += [(code >> (length - 1 - i)) & 1 for i in range(length)]
+        bits += [(value >> (size - 1 - i)) & 1 for i in range(size)]
+    bits += [1] * (-len(bits) % 8)
+    data = bytearray()
+    for i in range(0, len(bits), 8):
+        data.append(int("".join(map(str, bits[i:i + 8])), 2))
+        if data[-1] == 0xFF:
+            data.append(0)  # (stuffed)
+
+    def segment(marker, payload):
+        return bytes([0xFF, marker]) + struct.pack(">H", len(payload) + 2) + payload
+    return (b"\xff\xd8" + segment(0xE0, b"JFIF\0\x01\x01\0\0\x01\0\x01\0\0")
+            + segment(0xDB, b"\0" + bytes([quantiser] * 64))
+            + segment(0xC0, struct.pack(">BHHB", 8, h, w, len(comps))
+                      + b"".join(bytes([cid, hs << 4 | vs, 0]) for cid, hs, vs in comps))
+            + segment(0xC4, tables[0]) + segment(0xC4, tables[1])
+            + segment(0xDA, bytes([len(comps)]) + b"".join(bytes([cid, 0]) for cid, _, _ in comps)
+                      + b"\0\x3f\0")
+            + bytes(data) + b"\xff\xd9")
 
 
 def image_seeds():
@@ -378,8 +525,149 @@ def image_seeds():
                                            struct.pack("<iiii", 0, 0, 99999, 99999)),
         "negative.exr": exr(w, h, lambda x, y: (-1.0 if x == 2 else 0.5, 0.5, 0.5)),
         "not_an_image.txt": b"this is not an image\n",
+        "photo.jpg": jpeg(12, 10, photo),
+        "photo_420.jpg": jpeg(20, 18, photo, subsample=True, quantiser=6),
+        "grey.jpg": jpeg(9, 7, lambda x, y: (x * 25, x * 25, x * 25), grey=True),
+        "rgba_half.exr": exr_file(w, h, [(c, HALF, lambda x, y, k=k: [0.25 * x, 0.5, 1.5, 0.2 * y][k])
+                                         for k, c in enumerate("RGBA")]),
+        "zip.exr": exr_file(5, 20, [(c, FLOAT, lambda x, y, k=k: 0.1 * (x + y + k)) for k, c in enumerate("RGB")],
+                            compression=3),
+        "tiled.exr": exr_file(6, 5, [(c, HALF, lambda x, y, k=k: 0.3 * (x + k)) for k, c in enumerate("BGR")],
+                              tile=(4, 4)),
+        "window.exr": exr_file(w, h, [(c, FLOAT, lambda x, y: 0.5) for c in "RGB"], origin=(3, -2)),
+        "palette.png": png_chunks(w, h, 8, 3, [bytes([x % 3 for x in range(w)]) for y in range(h)],
+                                  [(b"PLTE", bytes([255, 0, 0, 0, 255, 0, 0, 0, 255])),
+                                   (b"tRNS", bytes([255, 128]))]),
+        "rgb16.png": png_chunks(w, h, 16, 2, [b"".join(struct.pack(">HHH", 4000 * x, 9000 * y, 65535)
+                                                      for x in range(w)) for y in range(h)]),
+        "interlaced.png": png_chunks(9, 9, 8, 0, [bytes((x * 28 + y) % 256 for x in range(9)) for y in range(9)],
+                                     interlace=True),
+        "rle.tga": tga_rle(w, h),
+        "palette.bmp": bmp_palette(w, h),
     }
     return seeds
+
+
+def photo(x, y):
+    return ((x * 21) % 256, (y * 27) % 256, (128 + 40 * ((x + y) % 3)) % 256)
+
+
+def png_chunks(w, h, depth, colour, rows, chunks=(), interlace=False):
+    """A PNG of raw rows (unfiltered) with more chunks before IDAT; Adam7-interlaced passes
+    taken from the same rows when `interlace`."""
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    size = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}[colour] * depth // 8
+    if interlace:
+        raw = b""
+        for x0, y0, dx, dy in [(0, 0, 8, 8), (4, 0, 8, 8), (0, 4, 4, 8), (2, 0, 4, 4), (0, 2, 2, 4),
+                               (1, 0, 2, 2), (0, 1, 1, 2)]:
+            for y in range(y0, h, dy):
+                if x0 < w:
+                    raw += b"\0" + b"".join(rows[y][x * size:(x + 1) * size] for x in range(x0, w, dx))
+    else:
+        raw = b"".join(b"\0" + r for r in rows)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, colour, 0, 0, int(interlace)))
+            + b"".join(chunk(k, d) for k, d in chunks) + chunk(b"IDAT", zlib.compress(raw))
+            + chunk(b"IEND", b""))
+
+
+def tga_rle(w, h):
+    """A run-length encoded true-colour TGA (type 10), bottom-up: a row is a run of w - 1
+    texels and a raw packet of one."""
+    out = bytearray(18)
+    out[2], out[16] = 10, 24
+    out[12:16] = struct.pack("<HH", w, h)
+    for y in range(h):
+        out += bytes([0x80 | (w - 2)]) + bytes((10 * y, 200, 30))
+        out += bytes([0]) + bytes((255, 0, 0))
+    return bytes(out)
+
+
+def bmp_palette(w, h):
+    """An 8-bit BMP with a palette of four colours."""
+    row = (w + 3) // 4 * 4
+    pixels = b"".join(bytes((x + y) % 4 for x in range(w)) + b"\0" * (row - w) for y in range(h))
+    palette = bytes([0, 0, 0, 0, 0, 0, 255, 0, 0, 255, 0, 0, 255, 0, 0, 0])
+    offset = 54 + len(palette)
+    return (b"BM" + struct.pack("<IHHI", offset + len(pixels), 0, 0, offset)
+            + struct.pack("<IiiHHIIiiII", 40, w, h, 1, 8, 0, len(pixels), 2835, 2835, 4, 0)
+            + palette + pixels)
+
+
+TEXTURED_OBJ = b"""# a quad and a fan of triangles, with texture coordinates, in the materials of textured.mtl
+mtllib textured.mtl
+mtllib missing.mtl
+v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+v 0 0 1
+v 0 2 0.5
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+vt 0.5 0.5
+vn 0 0 1
+usemtl wood
+f 1/1/1 2/2/1 3/3/1
+usemtl leaf
+f 1/1/1 3/3/1 4/4/1
+usemtl lamp
+f 1/1 2/2 5/5
+usemtl mirror
+f 2/2 3/3 5/5
+usemtl glass
+f 3/3 4/4 5/5
+usemtl decal
+f 4/4 1/1 5/5
+usemtl fog
+f 3/3 6/5 4/4
+usemtl exr
+f 1/1 5/5 6/3
+usemtl ppm
+f 2/2 6/4 5/5
+usemtl undefined
+f 1/1 6/2 2/3
+"""
+
+TEXTURED_MTL = b"""# every map cierzo reads, of every image format, in the textures folder beside this one
+newmtl wood
+Kd 0.8 0.7 0.6
+map_Kd -s 2 2 1 -o 0.5 0 0 ../textures/rgb.png
+Ks 0.2 0.2 0.2
+Ns 20
+map_Ks -colorspace linear ../textures/grey.png
+newmtl leaf
+Kd 0.3 0.6 0.2
+map_Kd ../textures/photo.jpg
+map_d -imfchan m ../textures/rgba.png
+newmtl lamp
+Ke 1 1 1
+map_Ke ../textures/sky.hdr
+newmtl mirror
+illum 3
+Ks 0.9 0.9 0.9
+map_Ks -clamp on ../textures/rgb.bmp
+newmtl glass
+illum 7
+Ni 1.5
+Tf 0.9 0.9 0.9
+d 0.5
+newmtl decal
+map_Kd ../textures/rgba.tga
+map_d -imfchan r ../textures/grey_alpha.png
+d 0.8
+newmtl fog
+Tr 1
+newmtl exr
+map_Kd ../textures/rgba_half.exr
+map_d ../textures/rgba_half.exr
+newmtl ppm
+map_Kd ..\\textures\\rgb.ppm
+map_Ks ../textures/grey.pgm
+"""
 
 
 def fixtures():
@@ -391,15 +679,164 @@ def fixtures():
                                        ("face", TRI, faces(ico_f))]),
         "tetra_be.ply": ply("binary_big_endian", [("vertex", XYZ, TETRA_V), ("face", TRI, faces(TETRA_F))]),
         "icosphere.obj": obj_seeds()["ico_normals.obj"],
+        "textured.obj": TEXTURED_OBJ,
+        "textured.mtl": TEXTURED_MTL,
+        # (an MTL library, and a map, outside the scene's folder: refused)
+        "escapes.obj": (b"mtllib ../../corpus/mtl/full.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\n"
+                        b"usemtl stone\nf 1/1 2/1 3/1\n"),
+        "escapes_map.obj": (b"mtllib escapes_map.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl m\n"
+                            b"f 1/1 2/1 3/1\n"),
+        "escapes_map.mtl": b"newmtl m\nmap_Kd ../../corpus/image/rgb.png\n",
+        # (glass without an index: refused)
+        "glass_without_ni.obj": (b"mtllib glass_without_ni.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                                 b"usemtl glass\nf 1 2 3\n"),
+        "glass_without_ni.mtl": b"newmtl glass\nillum 4\nKs 1 1 1\nNi 0\n",
     }
 
 
+def hdr_header(w, h):
+    return f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode()
+
+
+def png_header_only(w, h):
+    """A PNG's signature and IHDR (8-bit RGB) with no image data: its size can be probed,
+    it cannot be decoded."""
+    return png_chunks(w, h, 8, 2, [])[:33] + png_chunks(1, 1, 8, 2, [b"\0\0\0"])[-12:]
+
+
+def texture_fixtures():
+    """The images fuzzed scenes and textured.mtl name: one of every format, environment maps,
+    and headers whose images would take more than the fuzzer's budget (they are refused from
+    the header: their texels are not there)."""
+    images = image_seeds()
+    env = hdr_header(8, 4) + b"".join(bytes((128, 64 + 8 * x, 32 * y, 136 if (x, y) == (3, 1) else 129))
+                                      for y in range(4) for x in range(8))
+    files = {name: images[name] for name in ("rgb.png", "rgba.png", "grey.png", "grey_alpha.png",
+                                             "photo.jpg", "rgba.tga", "rgb.bmp", "rgb.ppm",
+                                             "grey.pgm", "sky.hdr", "float.exr", "rgba_half.exr")}
+    files.update({
+        "env.hdr": env,
+        "env.exr": exr(8, 4, lambda x, y: (0.5 + x, 0.25 * y, 100.0 if (x, y) == (5, 2) else 1.0)),
+        "big_header.png": png_header_only(3000, 2000),  # 46 MB decoding: within the budget once
+        "huge_header.png": png_header_only(16384, 16384),  # 2 GB
+        "env_over_budget.hdr": hdr_header(4096, 2048),  # 480 MB as an environment
+        "png_named.tga": images["rgb.png"],  # (the extension must agree with the signature)
+        "tiny.gif": b"GIF89a\x01\0\x01\0\0\0\0;",  # (a format cierzo does not read)
+    })
+    return files
+
+
+# Symbolic links in the textures folder: one inside it, one out of the scene's folder.
+TEXTURE_LINKS = {"link_in.png": "rgb.png", "link_out.png": "../../corpus/image/rgb.png"}
+
+CAM_Z = '"camera": {"position": [0, 0.5, -4], "look_at": [0, 0, 0]}'
+
+
+def image_scene_seeds():
+    """Scenes that use image textures, alpha masks, environment maps and OBJ + MTL materials
+    of the fixtures in scene_root, and refusals of each (outside the folder, over the budget,
+    of the wrong format)."""
+    s = {}
+    s["images.json"] = scene("""
+{"render": {"width": 8, "height": 8, "spp": 1},
+ "camera": {"position": [0, 0.5, -4], "look_at": [0, 0, 0]},
+ "materials": {
+   "png": {"kd": {"texture": "image", "file": "textures/rgb.png", "wrap": "clamp", "scale": [2, 1], "offset": 0.5}},
+   "jpg": {"kd": {"texture": "image", "file": "textures/photo.jpg", "factor": 0.8}},
+   "tga": {"kd": 0.2, "ks": {"texture": "image", "file": "textures/rgba.tga"}, "shininess": 10},
+   "bmp": {"kr": {"texture": "image", "file": "textures/rgb.bmp", "srgb": false}},
+   "ppm": {"kt": {"texture": "image", "file": "textures/rgb.ppm", "factor": [0.9, 0.8, 0.7]}, "ior": 1.5},
+   "pgm": {"kd": {"texture": "image", "file": "textures/grey.pgm"}},
+   "hdr": {"emission": {"texture": "image", "file": "textures/sky.hdr", "factor": 2}},
+   "exr": {"kd": {"texture": "image", "file": "textures/float.exr", "factor": 0.1}},
+   "half": {"kd": {"texture": "image", "file": "textures/rgba_half.exr", "factor": 0.5}}},
+ "objects": [
+   {"type": "sphere", "center": [-1.5, 0, 0], "radius": 0.5, "material": "png"},
+   {"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "jpg"},
+   {"type": "sphere", "center": [1.5, 0, 0], "radius": 0.5, "material": "tga"},
+   {"type": "sphere", "center": [-1.5, 1.5, 0], "radius": 0.5, "material": "bmp"},
+   {"type": "sphere", "center": [0, 1.5, 0], "radius": 0.5, "material": "ppm"},
+   {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": "pgm"},
+   {"type": "plane", "normal": [0, 0, -1], "distance": 5, "material": "hdr"},
+   {"type": "triangle", "vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1]], "uvs": [[0, 0], [1, 0], [0.5, 1]], "material": "exr"},
+   {"type": "triangle", "vertices": [[0, 0, 2], [1, 0, 2], [0, 1, 2]], "material": "half"}]}""")
+    s["alpha.json"] = scene("{" + CAM_Z + """, "objects": [
+   {"type": "triangle", "vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1]], "material": {"kd": 0.5, "alpha": 0.5}},
+   {"type": "triangle", "vertices": [[0, 0, 2], [1, 0, 2], [0, 1, 2]], "material": {"kd": 0.5,
+    "alpha": {"texture": "image", "file": "textures/grey_alpha.png", "channel": "a"}}},
+   {"type": "triangle", "vertices": [[0, 0, 3], [1, 0, 3], [0, 1, 3]], "material": {"kd": 0.5,
+    "alpha": {"texture": "image", "file": "textures/rgba.png"}}},
+   {"type": "triangle", "vertices": [[0, 0, 4], [1, 0, 4], [0, 1, 4]], "material": {"kd": 0.5,
+    "alpha": {"texture": "image", "file": "textures/grey.png", "channel": "r", "factor": 0.5,
+              "wrap": "clamp", "scale": 3, "offset": [0.25, 0.5]}}},
+   {"type": "mesh", "file": "meshes/textured.obj", "translate": [0, 0, 5]}]}""")
+    s["environment_exr.json"] = scene("{" + CAM_Z + """, "environment": {"emission":
+   {"texture": "image", "file": "textures/env.exr", "factor": 2}, "rotate": [0, 90, 0]},
+ "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kd": 0.5}}]}""")
+    s["environment_hdr.json"] = scene("{" + CAM_Z + """, "environment": {"emission":
+   {"texture": "image", "file": "textures/env.hdr", "factor": [1, 0.5, 0.25], "srgb": false}},
+ "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kr": 0.9}}]}""")
+    s["environment_png.json"] = scene("{" + CAM_Z + """, "environment": {"emission":
+   {"texture": "image", "file": "textures/rgb.png"}}, "objects": []}""")
+    s["environment_colour.json"] = scene("{" + CAM_Z + """, "environment": {"emission": [0.5, 0.6, 0.7],
+ "rotate": [10, 20, 30]}, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kd": 0.5}}]}""")
+    s["obj_mtl.json"] = scene("{" + CAM_Z + """, "objects": [
+   {"type": "mesh", "file": "meshes/textured.obj"},
+   {"type": "mesh", "file": "meshes/textured.obj", "translate": [2, 0, 0], "smooth": true,
+    "materials": {"wood": {"kd": {"texture": "image", "file": "textures/photo.jpg"}}, "glass": {"kt": 1, "ior": 1.33}}},
+   {"type": "mesh", "file": "meshes/textured.obj", "instance": true, "scale": 0.5, "rotate": [0, 45, 0]}]}""")
+    s["images_dotdot.json"] = scene("{" + CAM_Z + """, "objects": [
+   {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kd": {"texture": "image", "file": "textures/../textures/rgb.png"}}},
+   {"type": "sphere", "center": [2, 0, 0], "radius": 1, "material": {"kd": {"texture": "image", "file": "../scene_root/textures/rgba.png"}}},
+   {"type": "sphere", "center": [4, 0, 0], "radius": 1, "material": {"kd": {"texture": "image", "file": "textures/link_in.png"}}}]}""")
+
+    def image(name, extra=""):
+        return scene("{" + CAM_Z + ', "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, '
+                     '"material": {"kd": {"texture": "image", "file": "' + name + '"' + extra + "}}}]}")
+    s["images_over_budget.json"] = image("textures/huge_header.png")
+    s["image_within_budget_undecodable.json"] = image("textures/big_header.png")
+    s["image_twice_over_budget.json"] = scene("{" + CAM_Z + """, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1,
+   "material": {"kd": {"texture": "image", "file": "textures/big_header.png"},
+                "ks": {"texture": "image", "file": "textures/big_header.png", "srgb": false}}}]}""")
+    s["environment_over_budget.json"] = scene("{" + CAM_Z + """, "environment": {"emission":
+   {"texture": "image", "file": "textures/env_over_budget.hdr"}}, "objects": []}""")
+    s["err_image_outside.json"] = image("../corpus/image/rgb.png")
+    s["err_image_absolute.json"] = image("/dev/stdin")
+    s["err_image_link_out.json"] = image("textures/link_out.png")
+    s["err_image_wrong_extension.json"] = image("textures/png_named.tga")
+    s["err_image_missing.json"] = image("textures/missing.png")
+    s["err_image_gif.json"] = image("textures/tiny.gif")
+    s["err_image_srgb.json"] = image("textures/rgb.png", ', "srgb": 1')
+    s["err_image_on_ply.json"] = scene("{" + CAM_Z + """, "objects": [{"type": "mesh", "file": "meshes/quad.ply",
+   "material": {"kd": {"texture": "image", "file": "textures/rgb.png"}}}]}""")
+    s["err_image_on_quadric.json"] = scene("{" + CAM_Z + """, "objects": [{"type": "quadric",
+   "coefficients": [1, 0, 1, 0, 0, 0, 0, 0, 0, -0.04], "material": {"kd": {"texture": "image", "file": "textures/rgb.png"}}}]}""")
+    s["err_alpha_on_sphere.json"] = scene("{" + CAM_Z + """, "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1,
+   "material": {"kd": 0.5, "alpha": {"texture": "image", "file": "textures/grey.png"}}}]}""")
+    s["err_mtl_outside.json"] = scene("{" + CAM_Z + ', "objects": [{"type": "mesh", "file": "meshes/escapes.obj"}]}')
+    s["err_mtl_map_outside.json"] = scene("{" + CAM_Z + ', "objects": [{"type": "mesh", "file": "meshes/escapes_map.obj"}]}')
+    s["err_mask_on_ply.json"] = scene("{" + CAM_Z + """, "objects": [{"type": "mesh", "file": "meshes/quad.ply",
+   "material": {"kd": 0.5, "alpha": {"texture": "image", "file": "textures/grey_alpha.png"}}}]}""")
+    s["err_mtl_glass_without_ni.json"] = scene("{" + CAM_Z + ', "objects": [{"type": "mesh", "file": "meshes/glass_without_ni.obj"}]}')
+    s["err_mesh_absolute.json"] = scene("{" + CAM_Z + ', "objects": [{"type": "mesh", "file": "/dev/zero", "material": {"kd": 1}}]}')
+    return s
+
+
 def main():
-    for folder, files in [(PLY_DIR, ply_seeds()), (OBJ_DIR, obj_seeds()), (SCENE_DIR, scene_seeds()),
-                          (MTL_DIR, mtl_seeds()), (IMAGE_DIR, image_seeds()), (FIXTURES, fixtures())]:
+    scenes = scene_seeds()
+    scenes.update(image_scene_seeds())
+    folders = [(PLY_DIR, ply_seeds()), (OBJ_DIR, obj_seeds()), (SCENE_DIR, scenes),
+               (MTL_DIR, mtl_seeds()), (IMAGE_DIR, image_seeds()),
+               (FIXTURES, fixtures()), (TEXTURES, texture_fixtures())]
+    for folder, files in folders:
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in files.items():
             (folder / name).write_bytes(data)
+    for name, target in TEXTURE_LINKS.items():
+        link = TEXTURES / name
+        if link.is_symlink() or link.exists():
+            link.unlink()
+        os.symlink(target, link)
     for json_file in sorted((ROOT / "scenes").glob("*.json")):
         shutil.copy(json_file, SCENE_DIR / ("scenes_" + json_file.name))
 
