@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -16,12 +17,14 @@
 #include <vector>
 
 #include "core/error.h"
+#include "io/image.h"
 #include "io/mtl.h"
 #include "io/obj.h"
 #include "io/ply.h"
 #include "io/texture_image.h"
 #include "scene/load_options.h"
 #include "scene/scene_json.h"
+#include "tonemap/tonemap.h"
 
 #ifndef CIERZO_FUZZ_SCENE_ROOT
 #error "CIERZO_FUZZ_SCENE_ROOT must name tests/fuzz/scene_root"
@@ -365,6 +368,64 @@ bool fuzz_one_image(const uint8_t* data, size_t size) {
         }
     }
     return accepted;
+}
+
+bool fuzz_one_hdr_image(const uint8_t* data, size_t size) {
+    const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+    const bool exr = bytes.substr(0, kExrMagic.size()) == kExrMagic;
+    const fs::path file = fuzz_scratch_file(exr ? "fuzz.exr" : "fuzz.pfm", bytes);
+    Image image;
+    try {
+        image = read_hdr(file);
+    } catch (const InputError& e) {
+        fuzz_refused(e);
+        return false;
+    }
+    const size_t pixels = size_t(image.width) * size_t(image.height);
+    require(image.width >= 1 && image.height >= 1 && int64_t(pixels) <= kMaxImagePixels,
+            "HDR image dimensions within limits");
+    require(image.rgb.size() == 3 * pixels, "three floats per pixel");
+    if (exr) {
+        // The same file read with its metadata and layers (as converge reads a reference and
+        // a scene an EXR texture), and its shape from the header alone (a scene's budget)
+        try {
+            ImageMetadata metadata;
+            ImageLayers layers;
+            const Image again = read_exr(file, &metadata, &layers);
+            require(again.width == image.width && again.height == image.height &&
+                        std::memcmp(again.rgb.data(), image.rgb.data(),
+                                    image.rgb.size() * sizeof(float)) == 0,
+                    "an EXR reads to the same pixels with its layers");
+            for (const auto& [name, layer] : layers)
+                require(name != "R" && name != "G" && name != "B" && layer.size() == pixels,
+                        "one float per pixel in each layer other than R, G, B");
+            const ExrShape shape = read_exr_shape(file);
+            require(shape.width == image.width && shape.height == image.height &&
+                        size_t(shape.channels) == 3 + layers.size(),
+                    "an EXR's shape is the image read");
+        } catch (const InputError&) {
+            require(false, "an EXR read_hdr accepts is read with its layers and its shape");
+        }
+    }
+    // cierzo-tonemap's every operator: display values in [0, 1], whatever the pixels
+    size_t non_finite = 0, negative = 0;
+    for (float v : image.rgb) {
+        non_finite += !std::isfinite(v);
+        negative += std::isfinite(v) && v < 0.0f;
+    }
+    for (const std::string& op : tonemap_operator_names()) {
+        TonemapOptions options;
+        options.op = op;
+        TonemapStats stats;
+        const Image out = tonemap(image, options, &stats);
+        require(out.width == image.width && out.height == image.height &&
+                    out.rgb.size() == image.rgb.size(),
+                "a tone-mapped image of the input's size");
+        for (float v : out.rgb) require(v >= 0.0f && v <= 1.0f, "display values in [0, 1]");
+        require(stats.non_finite == non_finite && stats.negative == negative,
+                "non-finite and negative values counted");
+    }
+    return true;
 }
 
 // ---- Shared by the bodies ------------------------------------------------------------------

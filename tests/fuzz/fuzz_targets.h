@@ -1,6 +1,6 @@
 // The bodies of the fuzz targets, shared by the libFuzzer programs (fuzz_scene.cpp,
-// fuzz_ply.cpp, fuzz_obj.cpp, fuzz_image.cpp) and the fuzz_regressions test, which replays every
-// corpus and regression file through them. See docs/fuzzing.md.
+// fuzz_ply.cpp, fuzz_obj.cpp, fuzz_image.cpp, fuzz_hdr_image.cpp) and the fuzz_regressions
+// test, which replays every corpus and regression file through them. See docs/fuzzing.md.
 #pragma once
 
 #include <cstddef>
@@ -40,6 +40,11 @@ bool fuzz_one_mtl(const uint8_t* data, size_t size);
 // as an image texture (read_texture_image), with the same contract; an image read must have
 // the shape its probe gave.
 bool fuzz_one_image(const uint8_t* data, size_t size);
+
+// Writes the bytes to a scratch file named fuzz.exr (OpenEXR's signature) or fuzz.pfm (any
+// other) and reads it as cierzo-tonemap does (read_hdr; an EXR also with its metadata and
+// layers, and its shape), then tone-maps what was accepted with every operator.
+bool fuzz_one_hdr_image(const uint8_t* data, size_t size);
 
 // ---- Shared by the bodies ------------------------------------------------------------------
 

@@ -2,11 +2,12 @@
 """Writes the seed files of the fuzz corpora (docs/fuzzing.md): small PLY files in every
 format and layout the reader supports, small OBJ files of every form the OBJ reader accepts
 and some it refuses (some with an MTL library after a "#%mtl" line), MTL libraries, small
-images in every format the texture decoder reads (and broken ones), the fixtures that seed
-scenes refer to (meshes, an OBJ with its MTL library, images of every format, an environment
-map), and small scene files covering every key of docs/scene-format.md. The scenes of scenes/
-are copied as well. Run from anywhere; files are (over)written in tests/fuzz/. The fuzzers'
-own finds are added later with -merge=1."""
+images in every format the texture decoder reads (and broken ones), HDR images as
+cierzo-tonemap reads them (OpenEXR and PFM), the fixtures that seed scenes refer to (meshes,
+an OBJ with its MTL library, images of every format, an environment map), and small scene
+files covering every key of docs/scene-format.md. The scenes of scenes/ are copied as well.
+Run from anywhere; files are (over)written in tests/fuzz/. The fuzzers' own finds are added
+later with -merge=1."""
 import math
 import os
 import pathlib
@@ -21,6 +22,7 @@ OBJ_DIR = HERE / "corpus" / "obj"
 SCENE_DIR = HERE / "corpus" / "scene"
 MTL_DIR = HERE / "corpus" / "mtl"
 IMAGE_DIR = HERE / "corpus" / "image"
+HDR_DIR = HERE / "corpus" / "hdr_image"
 FIXTURES = HERE / "scene_root" / "meshes"
 TEXTURES = HERE / "scene_root" / "textures"
 
@@ -822,11 +824,64 @@ def image_scene_seeds():
     return s
 
 
+# ---- HDR images (cierzo-tonemap) -------------------------------------------------------
+
+def pfm(w, h, values, grey=False, scale=-1.0, eol=b"\n", comment=b""):
+    """A PFM: 'PF' (RGB) or 'Pf' (grey), rows bottom to top, little-endian for a negative
+    scale; values(x, y) gives a pixel's floats."""
+    order = "<" if scale < 0 else ">"
+    head = (b"Pf" if grey else b"PF") + eol + comment + f"{w} {h}".encode() + eol + repr(scale).encode() + eol
+    body = b"".join(struct.pack(order + "f", v) for y in reversed(range(h)) for x in range(w)
+                    for v in values(x, y)[:1 if grey else 3])
+    return head + body
+
+
+def hdr_seeds():
+    w, h = 5, 3
+
+    def value(x, y):
+        return (0.5 * x, 0.25 * y + 0.1, 3.0 - x)
+    good_exr = exr(w, h, value)
+    strings = [("cierzo:spp", "string", b"64"), ("cierzo:estimator", "string", b"mis"),
+               ("owner", "string", b"fuzz")]
+    rgb = lambda f, t=FLOAT, names="RGB": [(c, t, lambda x, y, k=k: f(x, y)[k]) for k, c in enumerate(names)]
+    return {
+        "rgb_le.pfm": pfm(w, h, value),
+        "rgb_be.pfm": pfm(w, h, value, scale=1.0),
+        "grey.pfm": pfm(w, h, value, grey=True),
+        "scaled.pfm": pfm(w, h, value, scale=-2.5),
+        "crlf.pfm": pfm(w, h, value, eol=b"\r\n"),
+        "comment.pfm": pfm(w, h, value, comment=b"# written for the fuzzer\n"),
+        "nonfinite.pfm": pfm(w, h, lambda x, y: (float("nan"), float("inf"), -1.0)),
+        "truncated.pfm": pfm(w, h, value)[:-5],
+        "extra_bytes.pfm": pfm(w, h, value) + b"\0\0\0\0",
+        "lying_size.pfm": b"PF\n100000 100000\n-1.0\n" + b"\0" * 64,
+        "zero_scale.pfm": b"PF\n1 1\n0\n" + b"\0" * 12,
+        "float.exr": good_exr,
+        "zip.exr": exr_file(7, 18, rgb(lambda x, y: (0.1 * x, 0.1 * y, 0.2)), compression=3),
+        "zips_half.exr": exr_file(w, h, rgb(value, HALF), compression=2),
+        "layers.exr": exr_file(w, h, rgb(lambda x, y: (1.0, 0.5, 0.25))
+                               + [("variance.R", FLOAT, lambda x, y: 0.01 * x),
+                                  ("count", UINT, lambda x, y: x + y), ("A", HALF, lambda x, y: 1.0)],
+                               attrs=strings),
+        "tiled.exr": exr_file(w, h, rgb(lambda x, y: (0.5, 0.5, 0.5)), tile=(2, 2)),
+        "tiled_zip.exr": exr_file(9, 9, rgb(lambda x, y: (0.1 * x, 0.2, 0.3), HALF), tile=(4, 8),
+                                  compression=3),
+        "window.exr": exr_file(w, h, rgb(lambda x, y: (0.5, 0.5, 0.5)), origin=(-3, 7)),
+        "nonfinite.exr": exr(w, h, lambda x, y: (float("nan"), float("-inf"), -2.0)),
+        "no_blue.exr": exr_file(w, h, rgb(lambda x, y: (0.5, 0.5), names="RG")),
+        "truncated.exr": good_exr[:-10],
+        "lying_size.exr": good_exr.replace(struct.pack("<iiii", 0, 0, w - 1, h - 1),
+                                           struct.pack("<iiii", 0, 0, 99999, 99999)),
+        "not_hdr.txt": b"PF\n",
+    }
+
+
 def main():
     scenes = scene_seeds()
     scenes.update(image_scene_seeds())
     folders = [(PLY_DIR, ply_seeds()), (OBJ_DIR, obj_seeds()), (SCENE_DIR, scenes),
-               (MTL_DIR, mtl_seeds()), (IMAGE_DIR, image_seeds()),
+               (MTL_DIR, mtl_seeds()), (IMAGE_DIR, image_seeds()), (HDR_DIR, hdr_seeds()),
                (FIXTURES, fixtures()), (TEXTURES, texture_fixtures())]
     for folder, files in folders:
         folder.mkdir(parents=True, exist_ok=True)

@@ -135,6 +135,12 @@ TEST(FuzzRegressions, MtlCorpus) {
     EXPECT_GE(accepted, 3u) << "the seeds include valid libraries";
 }
 
+TEST(FuzzRegressions, HdrImageCorpus) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "corpus" / "hdr_image", fuzz_one_hdr_image, &accepted), 10u);
+    EXPECT_GE(accepted, 10u) << "the seeds include valid EXR and PFM files of every layout";
+}
+
 // The seeds that bring the scene fuzzer to the image textures, masks, environment maps and
 // MTL materials of tests/fuzz/scene_root are read (not refused: a fixture that rots would
 // leave that code unreached without a word).
