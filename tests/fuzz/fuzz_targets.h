@@ -1,6 +1,7 @@
 // The bodies of the fuzz targets, shared by the libFuzzer programs (fuzz_scene.cpp,
-// fuzz_ply.cpp, fuzz_obj.cpp, fuzz_image.cpp, fuzz_hdr_image.cpp) and the fuzz_regressions
-// test, which replays every corpus and regression file through them. See docs/fuzzing.md.
+// fuzz_ply.cpp, fuzz_obj.cpp, fuzz_image.cpp, fuzz_hdr_image.cpp, fuzz_checkpoint.cpp,
+// fuzz_rank_messages.cpp) and the fuzz_regressions test, which replays every corpus and
+// regression file through them. See docs/fuzzing.md.
 #pragma once
 
 #include <cstddef>
@@ -45,6 +46,18 @@ bool fuzz_one_image(const uint8_t* data, size_t size);
 // other) and reads it as cierzo-tonemap does (read_hdr; an EXR also with its metadata and
 // layers, and its shape), then tone-maps what was accepted with every operator.
 bool fuzz_one_hdr_image(const uint8_t* data, size_t size);
+
+// Reads the bytes as a checkpoint (read_checkpoint). Bytes that start with OpenEXR's
+// signature are the file itself; any others describe a render state that write_checkpoint
+// writes and read_checkpoint reads back (so the checks behind the file's checksum are
+// reached). An accepted checkpoint must hold a valid state, and the state written.
+bool fuzz_one_checkpoint(const uint8_t* data, size_t size);
+
+// Decodes the bytes as a message from another MPI rank, by every decoder of
+// integrators/rank_messages.h (at most the one of the message's kind may accept it; a refusal
+// is a MessageError); what was accepted must be in range and encode to the same bytes, and a
+// band's state is gathered into a film as rank 0 does.
+bool fuzz_one_rank_message(const uint8_t* data, size_t size);
 
 // ---- Shared by the bodies ------------------------------------------------------------------
 

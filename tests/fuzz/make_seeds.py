@@ -3,16 +3,24 @@
 format and layout the reader supports, small OBJ files of every form the OBJ reader accepts
 and some it refuses (some with an MTL library after a "#%mtl" line), MTL libraries, small
 images in every format the texture decoder reads (and broken ones), HDR images as
-cierzo-tonemap reads them (OpenEXR and PFM), the fixtures that seed scenes refer to (meshes,
-an OBJ with its MTL library, images of every format, an environment map), and small scene
-files covering every key of docs/scene-format.md. The scenes of scenes/ are copied as well.
-Run from anywhere; files are (over)written in tests/fuzz/. The fuzzers' own finds are added
-later with -merge=1."""
+cierzo-tonemap reads them (OpenEXR and PFM), render states for the checkpoint reader, the
+messages between MPI ranks, the fixtures that seed scenes refer to (meshes, an OBJ with its
+MTL library, images of every format, an environment map), and small scene files covering
+every key of docs/scene-format.md. The scenes of scenes/ are copied as well. Run from
+anywhere; files are (over)written in tests/fuzz/. The fuzzers' own finds are added later
+with -merge=1.
+
+With --cierzo PATH (a built `cierzo` program), it also renders a tiny scene and keeps what
+cierzo itself writes: a checkpoint and a guided render's path guide for the checkpoint
+corpus, and a float EXR with variance layers and a PFM for the HDR corpus."""
+import argparse
 import math
 import os
 import pathlib
 import shutil
 import struct
+import subprocess
+import tempfile
 import zlib
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -23,6 +31,8 @@ SCENE_DIR = HERE / "corpus" / "scene"
 MTL_DIR = HERE / "corpus" / "mtl"
 IMAGE_DIR = HERE / "corpus" / "image"
 HDR_DIR = HERE / "corpus" / "hdr_image"
+CHECKPOINT_DIR = HERE / "corpus" / "checkpoint"
+RANK_DIR = HERE / "corpus" / "rank_messages"
 FIXTURES = HERE / "scene_root" / "meshes"
 TEXTURES = HERE / "scene_root" / "textures"
 
@@ -877,12 +887,146 @@ def hdr_seeds():
     }
 
 
+# ---- Rank messages (integrators/rank_messages.cpp) -------------------------------------
+# Each message starts with its kind (a uint32), then its fields as they lie in memory
+# (x86-64 and aarch64: little-endian, no padding in these): the harness's render is a
+# 24 x 20 image, its units a batch of light paths then four tiles (16 x 16, 8 x 16, 16 x 4,
+# 8 x 4), its bands one tile each.
+KIND = {name: 0x52455131 + i for i, name in enumerate(["request", "control", "report", "splats",
+                                                       "state", "results"])}
+RAYS = struct.pack("<4Q", 100, 200, 50, 7)
+
+
+def pixel_sums(n, paths):
+    """n PixelSums (3 sums, 3 sums of squares as doubles, then the finite and non-finite path
+    counts), each holding `paths` paths of a small radiance."""
+    return b"".join(struct.pack("<6d2Q", *(0.5 * paths * (1 + (i + c) % 3) for c in range(3)),
+                                *(0.25 * paths * (1 + (i + c) % 3) ** 2 for c in range(3)), paths, 0)
+                    for i in range(n))
+
+
+def rank_seeds():
+    def kind(name):
+        return struct.pack("<I", KIND[name])
+
+    def unit(tile, pass_, s0, s1):
+        return struct.pack("<iiqq", tile, pass_, s0, s1)
+
+    def result(tile, pixels):
+        return unit(tile, 1, 1, 2) + RAYS + struct.pack("<Q", pixels) + pixel_sums(pixels, 1)
+    return {
+        "request.bin": kind("request") + struct.pack("<ii", 4, 1),
+        "request_idle.bin": kind("request") + struct.pack("<ii", 0, 0),
+        "control_answer.bin": (kind("control") + struct.pack("<iiiiqQ", 1, 2, 3, 0, 0, 2)
+                               + unit(1, 2, 2, 4) + unit(4, 3, 4, 8)),
+        "control_news.bin": kind("control") + struct.pack("<iiiiqQ", 0, 5, 4, 1, 7, 0),
+        "report.bin": kind("report") + struct.pack("<ii2QQQ", 2, 0, 12345, 0, 10, 20) + RAYS,
+        "splats.bin": (kind("splats") + struct.pack("<ii", 1, 0) + RAYS + struct.pack("<Q", 3)
+                       + struct.pack("<Ifff", 5, 0.5, 0.25, 0.0) + struct.pack("<Ifff", 479, 1e30, 0, 0)
+                       + struct.pack("<Ifff", 480, float("nan"), 1, 2)),
+        "splats_none.bin": kind("splats") + struct.pack("<ii", 0, 0) + RAYS + struct.pack("<Q", 0),
+        "state_fresh.bin": kind("state") + struct.pack("<qqQQQ", -1, 0, 0, 0, 0),
+        "state_final.bin": kind("state") + struct.pack("<qqQQQ", -2, 3, 1, 256, 0) + pixel_sums(256, 8),
+        "state_pending.bin": (kind("state") + struct.pack("<qqQQQ", 2, 0, 0, 256, 1) + pixel_sums(256, 4)
+                              + b"\1" + pixel_sums(256, 8)),
+        "results_one.bin": kind("results") + result(4, 32),
+        "results_two.bin": kind("results") + result(3, 64) + result(4, 32),
+        "results_light_unit.bin": kind("results") + unit(0, 0, 0, 1) + RAYS + struct.pack("<Q", 0),
+        "truncated_control.bin": (kind("control") + struct.pack("<iiiiqQ", 1, 2, 3, 0, 0, 5)
+                                  + unit(1, 2, 2, 4)),
+        "wrong_kind.bin": struct.pack("<I", 0x12345678) + struct.pack("<ii", 4, 1),
+        "empty.bin": b"",
+    }
+
+
+# ---- Checkpoints ------------------------------------------------------------------------
+# A checkpoint seed that does not start with OpenEXR's signature describes a render state
+# (fuzz_render_targets.cpp, described_checkpoint): width - 1 and height - 1 (a byte each),
+# flags (1: a pass in progress, 2: a guided estimator, 4: the guide's bytes end the input),
+# the done tiles of the pass in progress (a bit each), spp, spp done, the pass's end, seed
+# (uint32 each), rays (4 uint64), batches and non-finite splats (uint32), seconds (double),
+# a count of edits, each a pixel (uint16), a field (uint8) and 64 bits; then the guide.
+
+def described(w, h, flags=0, done=0, spp=16, spp_done=8, pending_end=0, batches=0, nonfinite=0,
+              seconds=1.5, edits=(), guide=b""):
+    return (struct.pack("<BBBBIIII4QIIdB", w - 1, h - 1, flags, done, spp, spp_done, pending_end, 7,
+                        1000, 2000, 300, 0, batches, nonfinite, seconds, len(edits))
+            + b"".join(struct.pack("<HBQ", *e) for e in edits) + guide)
+
+
+def checkpoint_seeds():
+    return {
+        "state_whole.bin": described(8, 6),
+        "state_pending.bin": described(24, 20, flags=1, done=0b0101, spp=64, spp_done=16, pending_end=32),
+        "state_pending_none_done.bin": described(17, 3, flags=1, done=0, spp=8, spp_done=4, pending_end=8),
+        "state_batches.bin": described(5, 5, spp=8, spp_done=8, batches=4, nonfinite=3),
+        "state_nonfinite_paths.bin": described(4, 4, edits=[(3, 7, 2), (3, 6, 6)]),
+        "state_pixel_short.bin": described(4, 4, edits=[(5, 6, 7)]),
+        "state_done_over_spp.bin": described(3, 2, spp=4, spp_done=8),
+        "state_fresh.bin": described(1, 1, spp=1, spp_done=0),
+        "not_a_checkpoint.txt": b"not a checkpoint\n",
+    }
+
+
+def exr_attribute(data, name):
+    """The value of one header attribute of an OpenEXR file (None if it has none)."""
+    at = 8
+    while data[at] != 0:
+        key_end = data.index(b"\0", at)
+        type_end = data.index(b"\0", key_end + 1)
+        size = struct.unpack_from("<i", data, type_end + 1)[0]
+        if data[at:key_end] == name:
+            return data[type_end + 5:type_end + 5 + size]
+        at = type_end + 5 + size
+    return None
+
+
+def rendered_seeds(cierzo):
+    """Renders a tiny scene with cierzo twice and keeps what it writes: a checkpoint, the path
+    guide of a guided render's checkpoint in a described state, and a float EXR with
+    variance layers and a PFM."""
+    ckpt, hdr = {}, {}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        (tmp / "tiny.json").write_text("""{"render": {"width": 12, "height": 10, "spp": 4},
+ "camera": {"position": [0, 0, -3], "look_at": [0, 0, 0]},
+ "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kd": 0.5}},
+             {"type": "plane", "normal": [0, 1, 0], "distance": 1, "material": {"emission": 1}}]}
+""")
+
+        def render(*args):
+            subprocess.run([str(cierzo), "render", str(tmp / "tiny.json"), "--quiet", "--threads", "1",
+                            *args], check=True, cwd=tmp)
+        render("--checkpoint", str(tmp / "plain.exr"), "--out", str(tmp / "plain_out.exr"), "--variance")
+        render("--checkpoint", str(tmp / "guided.exr"), "--out", str(tmp / "guided_out.pfm"),
+               "--estimator", "mis", "--guiding", "sdtree", "--spp", "16")
+        plain, guided = (tmp / "plain.exr").read_bytes(), (tmp / "guided.exr").read_bytes()
+        ckpt["rendered.exr"] = plain
+        ckpt["rendered_truncated.exr"] = plain[:len(plain) // 2]
+        # (the guided file itself is not kept: 100 KB of guide whose every change its checksum
+        # refuses; the described state reaches the guide's reader with the same bytes)
+        guide = exr_attribute(guided, b"cierzo:guide")
+        if guide:
+            ckpt["state_guided.bin"] = described(4, 3, flags=6, spp=16, spp_done=16, guide=guide)
+        hdr["rendered_variance.exr"] = (tmp / "plain_out.exr").read_bytes()
+        hdr["rendered.pfm"] = (tmp / "guided_out.pfm").read_bytes()
+    return ckpt, hdr
+
+
 def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cierzo", type=pathlib.Path, help="a built cierzo program: also "
+                        "write the seeds it renders (checkpoints, an EXR with layers, a PFM)")
+    args = parser.parse_args()
     scenes = scene_seeds()
     scenes.update(image_scene_seeds())
     folders = [(PLY_DIR, ply_seeds()), (OBJ_DIR, obj_seeds()), (SCENE_DIR, scenes),
                (MTL_DIR, mtl_seeds()), (IMAGE_DIR, image_seeds()), (HDR_DIR, hdr_seeds()),
+               (CHECKPOINT_DIR, checkpoint_seeds()), (RANK_DIR, rank_seeds()),
                (FIXTURES, fixtures()), (TEXTURES, texture_fixtures())]
+    if args.cierzo:
+        ckpt, hdr = rendered_seeds(args.cierzo.resolve())
+        folders += [(CHECKPOINT_DIR, ckpt), (HDR_DIR, hdr)]
     for folder, files in folders:
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in files.items():

@@ -141,6 +141,25 @@ TEST(FuzzRegressions, HdrImageCorpus) {
     EXPECT_GE(accepted, 10u) << "the seeds include valid EXR and PFM files of every layout";
 }
 
+TEST(FuzzRegressions, CheckpointCorpus) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "corpus" / "checkpoint", fuzz_one_checkpoint, &accepted), 5u);
+    EXPECT_GE(accepted, 4u) << "the seeds include render states that are written and read back";
+}
+
+TEST(FuzzRegressions, CheckpointCrashers) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "regressions" / "checkpoint", fuzz_one_checkpoint, &accepted), 5u)
+        << "the kept crashers are missing";
+    EXPECT_EQ(accepted, 0u) << "each is a state a checkpoint must not hold";
+}
+
+TEST(FuzzRegressions, RankMessageCorpus) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "corpus" / "rank_messages", fuzz_one_rank_message, &accepted), 10u);
+    EXPECT_GE(accepted, 12u) << "the seeds include a valid message of every kind";
+}
+
 // The seeds that bring the scene fuzzer to the image textures, masks, environment maps and
 // MTL materials of tests/fuzz/scene_root are read (not refused: a fixture that rots would
 // leave that code unreached without a word).
