@@ -14,6 +14,7 @@
 #include <OpenEXR/ImfStdIO.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <stb/stb_image_write.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <bit>
@@ -93,6 +94,25 @@ void check_exr_name(const fs::path& path, const std::string& name, const char* w
 // largest image cierzo renders) and the area at most kMaxImagePixels. Every attribute's
 // declared size, those after the data window too, must fit in the rest of the file (OpenEXR
 // allocates a string's or an unknown type's size as declared).
+namespace {
+
+// The size of an EXR attribute type of fixed size, or -1 (strings, channel lists, opaque
+// types: their declared size is theirs).
+int32_t exr_type_size(const std::string& type) {
+    static const std::pair<const char*, int32_t> kSizes[] = {
+        {"box2i", 16},  {"box2f", 16},       {"int", 4},         {"float", 4},
+        {"double", 8},  {"v2i", 8},          {"v2f", 8},         {"v2d", 16},
+        {"v3i", 12},    {"v3f", 12},         {"v3d", 24},        {"m33f", 36},
+        {"m33d", 72},   {"m44f", 64},        {"m44d", 128},      {"compression", 1},
+        {"lineOrder", 1}, {"envmap", 1},     {"deepImageState", 1}, {"rational", 8},
+        {"timecode", 8}, {"keycode", 28},    {"tiledesc", 9},    {"chromaticities", 32}};
+    for (const auto& [name, bytes] : kSizes)
+        if (type == name) return bytes;
+    return -1;
+}
+
+}  // namespace
+
 void check_exr_header(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     std::error_code ec;
@@ -125,6 +145,14 @@ void check_exr_header(const fs::path& path) {
         if (!in.read(reinterpret_cast<char*>(&size), 4) || size < 0 || size > bytes_left())
             read_error(path, "invalid OpenEXR header (attribute '" + name + "' of " +
                                  std::to_string(size) + " bytes)");
+        // A type of a fixed size must declare that size: OpenEXR reads the type's bytes
+        // whatever the size says and parses what follows as more attributes, which this
+        // check would otherwise skip unseen
+        const int32_t fixed = exr_type_size(type);
+        if (fixed >= 0 && size != fixed)
+            read_error(path, "invalid OpenEXR header (attribute '" + name + "' of type " + type +
+                                 " declares " + std::to_string(size) + " bytes, not " +
+                                 std::to_string(fixed) + ")");
         if (name == "dataWindow" && type == "box2i" && size == 16) {
             int32_t box[4];
             if (!in.read(reinterpret_cast<char*>(box), 16))
@@ -148,6 +176,42 @@ void check_exr_header(const fs::path& path) {
 }
 
 namespace {
+
+// A scanline file's ZIP blocks must inflate to exactly the bytes their lines need: OpenEXR
+// 3.1 accepts a block that inflates to fewer and fills the rest of its lines from a buffer
+// it never wrote (uninitialised memory in the pixels). Each block is inflated here first
+// (zlib), before OpenEXR reads it; a block of the lines' size is stored raw.
+void check_zip_blocks(const fs::path& path, Imf::InputFile& file) {
+    const Imf::Header& header = file.header();
+    const Imf::Compression compression = header.compression();
+    if (compression != Imf::ZIP_COMPRESSION && compression != Imf::ZIPS_COMPRESSION) return;
+    if (header.hasTileDescription()) return;  // (tiled: read by tiles, not checked here)
+    const Imath::Box2i window = header.dataWindow();
+    const int64_t width = int64_t(window.max.x) - window.min.x + 1;
+    int64_t bytes_per_line = 0;
+    for (auto it = header.channels().begin(); it != header.channels().end(); ++it) {
+        if (it.channel().xSampling != 1 || it.channel().ySampling != 1) return;  // (refused later)
+        bytes_per_line += width * (it.channel().type == Imf::HALF ? 2 : 4);
+    }
+    const int lines = compression == Imf::ZIP_COMPRESSION ? 16 : 1;
+    std::vector<unsigned char> inflated;
+    for (int64_t y = window.min.y; y <= window.max.y; y += lines) {
+        const int64_t last = std::min<int64_t>(y + lines - 1, window.max.y);
+        const int64_t need = bytes_per_line * (last - y + 1);
+        const char* data = nullptr;
+        int size = 0;
+        file.rawPixelData(int(y), data, size);
+        if (size == need) continue;  // (stored raw: deflating did not make it smaller)
+        inflated.resize(size_t(need) + 1);
+        uLongf got = uLongf(inflated.size());
+        const int z = uncompress(inflated.data(), &got, reinterpret_cast<const Bytef*>(data),
+                                 uLong(size));
+        if (z != Z_OK || int64_t(got) != need)
+            read_error(path, "invalid OpenEXR file: the ZIP block of lines " + std::to_string(y) +
+                                 " to " + std::to_string(last) + " does not inflate to the " +
+                                 std::to_string(need) + " bytes its lines need");
+    }
+}
 
 Image read_exr_file(const fs::path& path, ImageMetadata* metadata, ImageLayers* layers) {
     check_readable_file(path);
@@ -178,6 +242,7 @@ Image read_exr_file(const fs::path& path, ImageMetadata* metadata, ImageLayers* 
         if (!file.isComplete()) {
             read_error(path, "truncated OpenEXR file (pixel data missing)");
         }
+        check_zip_blocks(path, file);
 
         Image image(static_cast<int>(width), static_cast<int>(height));
         Imf::FrameBuffer frame;

@@ -141,6 +141,13 @@ TEST(FuzzRegressions, HdrImageCorpus) {
     EXPECT_GE(accepted, 10u) << "the seeds include valid EXR and PFM files of every layout";
 }
 
+TEST(FuzzRegressions, HdrImageCrashers) {
+    size_t accepted = 0;
+    EXPECT_GE(replay(kFuzzDir / "regressions" / "hdr_image", fuzz_one_hdr_image, &accepted), 2u)
+        << "the kept crashers are missing";
+    EXPECT_EQ(accepted, 0u) << "an attribute hidden in a box, ZIP blocks short of the window";
+}
+
 TEST(FuzzRegressions, CheckpointCorpus) {
     size_t accepted = 0;
     EXPECT_GE(replay(kFuzzDir / "corpus" / "checkpoint", fuzz_one_checkpoint, &accepted), 5u);
