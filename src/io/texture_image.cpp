@@ -206,10 +206,17 @@ Format format_of(std::string_view bytes, const fs::path& name) {
     return found;
 }
 
+// The longest PNM header read (its comments included), and so the bytes of a file the probe
+// reads before the image's decoder
+constexpr size_t kMaxPnmHeader = 65536;
+
 // A binary PNM's header (P5 grey, P6 colour: width, height, maxval, then one whitespace
 // byte), checked against the data before stb_image reads it: 8 bits per sample only, and
 // as many bytes as the header promises.
 void check_pnm(std::string_view bytes, uint64_t file_size, const fs::path& name) {
+    // (a header of comments over kMaxPnmHeader bytes is refused alike from a file's first
+    // bytes, as probe_texture_image reads it, and from the whole file)
+    bytes = bytes.substr(0, kMaxPnmHeader);
     size_t at = 2;
     int64_t values[3] = {0, 0, 0};
     for (int64_t& v : values) {
@@ -225,6 +232,10 @@ void check_pnm(std::string_view bytes, uint64_t file_size, const fs::path& name)
         while (at < bytes.size() && std::isdigit(static_cast<unsigned char>(bytes[at])) &&
                digits < 10)
             v = v * 10 + (bytes[at++] - '0'), ++digits;
+        if (at >= kMaxPnmHeader)
+            fail(name, fmt::format("is a PNM file whose header (with its comments) runs past {} "
+                                   "bytes: it is not read",
+                                   kMaxPnmHeader));
         if (digits == 0 || digits == 10) fail(name, "is not a valid PNM file (a bad header)");
     }
     if (values[2] < 1 || values[2] > 255)
@@ -357,7 +368,7 @@ TextureShape probe_texture_image(const fs::path& path) {
         fail(path, "is too large to be an image texture (over 2 GiB)");
     std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
     if (!file) fail(path, "cannot open file for reading");
-    std::string head(size_t(std::min<uint64_t>(size, 4096)), '\0');
+    std::string head(size_t(std::min<uint64_t>(size, kMaxPnmHeader)), '\0');
     if (std::fread(head.data(), 1, head.size(), file.get()) != head.size())
         fail(path, "read error");
     const Format format = format_of(head, path);

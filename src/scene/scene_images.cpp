@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <exception>
 #include <memory>
 #include <new>
@@ -118,6 +119,14 @@ void load_images(Scene& scene, const ImageRequests& images, const fs::path& file
         if (c->kind == TextureKind::kImage) {
             const TextureImage& im = *scene.images[size_t(c->image)];
             c->b = {c->a.x * im.max_rgb[0], c->a.y * im.max_rgb[1], c->a.z * im.max_rgb[2]};
+            // (the largest texel times the factor bounds every value the texture gives: finite
+            // here, so is every colour and every table built from them)
+            for (int k = 0; k < 3; ++k)
+                if (!std::isfinite(c->b[k]))
+                    throw InputError(fmt::format(
+                        "{}: {}: the image's largest value {} times its factor {} overflows a "
+                        "float: lower the factor",
+                        file.string(), requests[size_t(c->image)].where, im.max_rgb[k], c->a[k]));
         }
     const auto imaged = [&](int32_t material) {
         const Material& m = scene.materials[size_t(material)];
