@@ -1,8 +1,6 @@
 // Where a scene's inputs may come from, and its image memory budget (see load_options.h).
 #include "scene/load_options.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -11,16 +9,14 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "io/mapped_file.h"
 
 namespace cierzo {
 
 namespace fs = std::filesystem;
 
 uint64_t default_image_memory() {
-    constexpr uint64_t kDefault = uint64_t(4) << 30;
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-    if (pages <= 0 || page <= 0) return kDefault;
-    return std::min(kDefault, uint64_t(pages) * uint64_t(page) / 2);
+    return std::min(uint64_t(4) << 30, physical_memory_bytes() / 2);
 }
 
 std::string format_bytes(uint64_t bytes) {
