@@ -153,6 +153,31 @@ void check_exr_header(const fs::path& path) {
             read_error(path, "invalid OpenEXR header (attribute '" + name + "' of type " + type +
                                  " declares " + std::to_string(size) + " bytes, not " +
                                  std::to_string(fixed) + ")");
+        // A channel list is read by OpenEXR up to its empty name, not by its declared size:
+        // it must end exactly there
+        if (type == "chlist") {
+            if (size > 65536)
+                read_error(path, "invalid OpenEXR header (a channel list of " +
+                                     std::to_string(size) + " bytes)");
+            std::string list(size_t(size), '\0');
+            if (!in.read(list.data(), size)) read_error(path, "truncated OpenEXR header");
+            size_t at = 0;
+            for (;;) {
+                const size_t end = list.find('\0', at);
+                if (end == std::string::npos)
+                    read_error(path, "invalid OpenEXR header (a channel list without its end)");
+                if (end == at) {
+                    if (end + 1 != list.size())
+                        read_error(path, "invalid OpenEXR header (attribute '" + name +
+                                             "': the channel list ends before its declared size)");
+                    break;
+                }
+                at = end + 1 + 16;  // (pixel type, linear, reserved, x and y sampling)
+                if (at > list.size())
+                    read_error(path, "invalid OpenEXR header (a channel list cut short)");
+            }
+            continue;
+        }
         if (name == "dataWindow" && type == "box2i" && size == 16) {
             int32_t box[4];
             if (!in.read(reinterpret_cast<char*>(box), 16))
