@@ -202,14 +202,17 @@ void check_exr_header(const fs::path& path) {
 
 namespace {
 
-// A scanline file's ZIP blocks must inflate to exactly the bytes their lines need: OpenEXR
-// 3.1 accepts a block that inflates to fewer and fills the rest of its lines from a buffer
-// it never wrote (uninitialised memory in the pixels). Each block is inflated here first
-// (zlib), before OpenEXR reads it; a block of the lines' size is stored raw.
+// A scanline file's ZIP blocks must inflate to exactly the bytes their lines need, and an
+// uncompressed file's lines hold exactly theirs: OpenEXR 3.1 accepts a shorter block and
+// fills the rest of its lines from a buffer it never wrote (uninitialised memory in the
+// pixels). Each block is inflated here first (zlib), before OpenEXR reads it; a block of the
+// lines' size is stored raw.
 void check_zip_blocks(const fs::path& path, Imf::InputFile& file) {
     const Imf::Header& header = file.header();
     const Imf::Compression compression = header.compression();
-    if (compression != Imf::ZIP_COMPRESSION && compression != Imf::ZIPS_COMPRESSION) return;
+    const bool raw = compression == Imf::NO_COMPRESSION;
+    if (!raw && compression != Imf::ZIP_COMPRESSION && compression != Imf::ZIPS_COMPRESSION)
+        return;
     if (header.hasTileDescription()) return;  // (tiled: read by tiles, not checked here)
     const Imath::Box2i window = header.dataWindow();
     const int64_t width = int64_t(window.max.x) - window.min.x + 1;
@@ -227,6 +230,10 @@ void check_zip_blocks(const fs::path& path, Imf::InputFile& file) {
         int size = 0;
         file.rawPixelData(int(y), data, size);
         if (size == need) continue;  // (stored raw: deflating did not make it smaller)
+        if (raw)
+            read_error(path, "invalid OpenEXR file: the uncompressed line " + std::to_string(y) +
+                                 " holds " + std::to_string(size) + " bytes, not the " +
+                                 std::to_string(need) + " it needs");
         inflated.resize(size_t(need) + 1);
         uLongf got = uLongf(inflated.size());
         const int z = uncompress(inflated.data(), &got, reinterpret_cast<const Bytef*>(data),
