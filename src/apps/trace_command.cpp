@@ -3,7 +3,9 @@
 // hit distances) so another program tracing the same file can be checked against it.
 #include "apps/trace_command.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -64,6 +66,26 @@ std::vector<float> read_rays(const fs::path& path) {
             throw InputError(path.string() + ": ray " + std::to_string(i / 7) +
                              " has a non-finite origin or direction");
     return rays;
+}
+
+// The rays as the wavefront's trace entry reads them (job.h, trace_stride): seven columns,
+// the last ray repeated to fill them, 64-byte aligned (in `memory`, from `data`). Made
+// before the clock starts, as a renderer's rays are already laid out when they are traced.
+struct RayColumns {
+    std::vector<float> memory;
+    const float* data = nullptr;
+};
+RayColumns ray_columns(const std::vector<float>& rays) {
+    const size_t count = rays.size() / 7, stride = trace_stride(count);
+    RayColumns c;
+    c.memory.resize(7 * stride + 16);
+    float* out = c.memory.data();
+    while (reinterpret_cast<uintptr_t>(out) % 64 != 0) ++out;
+    c.data = out;
+    for (size_t i = 0; i < stride; ++i)
+        for (size_t k = 0; k < 7; ++k)
+            out[k * stride + i] = count ? rays[7 * std::min(i, count - 1) + k] : 0.0f;
+    return c;
 }
 
 }  // namespace
@@ -140,9 +162,11 @@ int run_trace_command() {
         wavefront =
             std::make_unique<WavefrontRenderer>(scene, isa, 0, true, kLightStoreLimit, a.ray_group);
     }
+    const auto columns = ray_columns(rays);
     const auto pass = [&](TraceTotals& totals) {
         if (wavefront)
-            return wavefront->trace(rays.data(), count, {a.stream_rays, a.single_below}, totals);
+            return wavefront->trace(columns.data, count, {a.stream_rays, a.single_below},
+                                    totals);
         for (size_t i = 0; i < count; ++i) {
             const float* r = &rays[7 * i];
             Hit hit;

@@ -267,18 +267,16 @@ void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) 
                        [&](int l, const BvhHit& hit) { record_tree_hit(p, bvh, i + l, hit); });
 }
 
-// Ray records first, first + 1, ... (7 floats: origin, direction, tmax; `lanes` of them, the
-// last repeated to fill K) as K rays, their tmax, and their closest hits among the unbounded
-// primitives: t and prim (-1: none) updated.
+// Rays i .. i + K - 1 of the columns `rays` (trace_stride(count) floats each: job.h) as K
+// rays, their tmax, and their closest hits among the unbounded primitives: t and prim (-1:
+// none) updated.
 template <class A>
-Ray<typename Wave<A>::F> record_batch(const FlatScene& s, const float* first, int lanes,
-                                      typename Wave<A>::F& t, typename Wave<A>::I& prim) {
+Ray<typename Wave<A>::F> record_batch(const FlatScene& s, const float* rays, size_t count,
+                                      size_t i, typename Wave<A>::F& t,
+                                      typename Wave<A>::I& prim) {
     using F = typename Wave<A>::F;
-    constexpr int K = Wave<A>::K;
-    alignas(64) float c[7][K];
-    for (int l = 0; l < K; ++l)
-        for (int k = 0; k < 7; ++k) c[k][l] = first[7 * std::min(l, lanes - 1) + k];
-    const auto at = [&](int k) { return F::load_aligned(c[k]); };
+    const size_t stride = trace_stride(count);
+    const auto at = [&](int k) { return F::load_aligned(rays + size_t(k) * stride + i); };
     const Ray<F> ray{{at(0), at(1), at(2)}, {at(3), at(4), at(5)}};
     t = at(6);
     prim = typename Wave<A>::I(-1);
@@ -319,7 +317,7 @@ void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
             F tt;
             I prim;
             const Ray<F> ray =
-                record_batch<A>(s, rays + 7 * (c0 + size_t(i)), std::min(K, n - i), tt, prim);
+                record_batch<A>(s, rays, count, c0 + size_t(i), tt, prim);
             tt.store_aligned(t.data() + i);
             alignas(64) int32_t p[K];
             prim.store_aligned(p);
@@ -378,7 +376,7 @@ void trace_rays_grouped(const FlatScene& s, const float* rays, size_t count, Tra
             const int lanes = std::min(K, m - i);
             F tt;
             I prim;
-            const Ray<F> ray = record_batch<A>(s, rays + 7 * (c0 + size_t(i)), lanes, tt, prim);
+            const Ray<F> ray = record_batch<A>(s, rays, count, c0 + size_t(i), tt, prim);
             tt.store_aligned(t.data() + i);
             alignas(64) int32_t pr[K];
             prim.store_aligned(pr);
@@ -406,7 +404,7 @@ void trace_rays_grouped(const FlatScene& s, const float* rays, size_t count, Tra
     }
 }
 
-// Closest hits of `count` rays (7 floats each: origin, direction, tmax) through the whole
+// Closest hits of `count` rays (columns: trace_stride, job.h) through the whole
 // scene: the traversal alone, for measuring it (`cierzo trace`). K at a time as the
 // extension stage traces them, or in ordered streams (options). Adds the rays, hits and
 // the sum of hit distances.
@@ -428,7 +426,7 @@ void trace_rays_isa(const FlatScene& s, const float* rays, size_t count,
         const int lanes = int(std::min<size_t>(K, count - i));
         F t;
         I prim;
-        const Ray<F> ray = record_batch<A>(s, rays + 7 * i, lanes, t, prim);
+        const Ray<F> ray = record_batch<A>(s, rays, count, i, t, prim);
         alignas(64) float tt[K];
         t.store_aligned(tt);
         uint32_t hit = mask_bits(mask_f32(prim >= I(0)));

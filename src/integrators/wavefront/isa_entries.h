@@ -15,8 +15,8 @@ namespace cierzo {
 
 using RenderTileEntry = void (*)(const FlatScene&, PathPool&, const TileJob&, WavefrontCounters&);
 
-// Closest hits of ray records (7 floats: origin, direction, tmax) through the scene: the
-// traversal alone (`cierzo trace`).
+// Closest hits of rays (seven columns: origin, direction, tmax; job.h, trace_stride) through
+// the scene: the traversal alone (`cierzo trace`).
 using TraceRaysEntry = void (*)(const FlatScene&, const float*, size_t, const TraceOptions&,
                                 TraceTotals&);
 

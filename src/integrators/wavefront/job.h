@@ -51,6 +51,12 @@ struct TraceOptions {
     int single_below = 4;
 };
 
+// The rays `cierzo trace` hands the kernels, laid out before anything is timed: seven
+// columns (origin x, y, z, direction x, y, z, tmax) of trace_stride(count) floats each,
+// 64-byte aligned, the last ray repeated to fill a column, so a batch of K rays is seven
+// aligned loads.
+inline size_t trace_stride(size_t count) { return (count + 15) / 16 * 16; }
+
 // What `cierzo trace` counts: rays, hits and the sum of the hits' distances, and the rays
 // traced as streams.
 struct TraceTotals {

@@ -45,8 +45,9 @@ public:
     // tiles (nee, mis) sample `guide` and record for it as paths of pass `pass`.
     void render_tile(const Tile& tile, FilmTile& film, RayCounts& rays, LaneStats& lanes,
                      PathGuide* guide = nullptr, int32_t pass = 0) const;
-    // Closest hits of `count` ray records (7 floats: origin, direction, tmax) through the
-    // scene, with this ISA's traversal alone; adds to `totals`.
+    // Closest hits of `count` rays (seven columns: origin, direction, tmax, laid out as
+    // job.h's trace_stride says) through the scene, with this ISA's traversal alone; adds
+    // to `totals`.
     void trace(const float* rays, size_t count, const TraceOptions& options,
                TraceTotals& totals) const;
 
