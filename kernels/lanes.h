@@ -119,6 +119,20 @@ inline xsimd::batch_bool<To, A> mask_cast_to(const xsimd::batch_bool<From, A>& m
         return TB(xsimd::bitwise_cast<xsimd::batch<To, A>>(xsimd::batch<From, A>(m.data)).data);
     }
 }
+// Not of a mask. In a vector register (SSE, AVX, NEON) it is one xor with all ones (xsimd
+// 8.1's own `!` on AVX compares the two halves as integers, six instructions); AVX-512's
+// k-registers keep xsimd's `!`, as its `^` on them is wrong (it returns all ones for
+// all-ones ^ all-ones).
+inline bool mask_not(bool m) { return !m; }
+template <class T, class A>
+inline xsimd::batch_bool<T, A> mask_not(const xsimd::batch_bool<T, A>& m) {
+    using M = xsimd::batch_bool<T, A>;
+    if constexpr (std::is_integral_v<typename M::register_type>) {
+        return !m;
+    } else {
+        return m ^ M(true);
+    }
+}
 inline bool mask_u32(bool m) { return m; }
 inline bool mask_i32(bool m) { return m; }
 inline bool mask_f32(bool m) { return m; }

@@ -135,7 +135,7 @@ Mask<T> intersect_triangle(const Ray<T>& ray, const RayShear<T>& s, const Vec3<T
     const T zero(0.0f);
     const Mask<T> has_neg = (u < zero) | (v < zero) | (w < zero);
     const Mask<T> has_pos = (u > zero) | (v > zero) | (w > zero);
-    const Mask<T> one_sign = !(has_neg & has_pos);
+    const Mask<T> one_sign = mask_not(has_neg & has_pos);
     const T det = u + v + w;
     const Mask<T> inside = one_sign & (det != zero);
     if (none(inside)) {

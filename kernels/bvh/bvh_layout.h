@@ -47,8 +47,10 @@ enum BvhLeafKind : uint8_t {
 //   count[i]         leaf: its primitives (1-16); inner child: 0
 //   kind[i]          leaf: a BvhLeafKind
 //   slots            children in use, in slots [0, slots); unused slots have an empty box
-//                    (min +inf, max -inf) and are also masked off by the traversal
-//   leaves           bit i set: slot i is a leaf
+//                    (min +inf, max -inf), which no ray with a finite origin and direction
+//                    enters, and are empty leaves (count 0), so that one that does (a NaN
+//                    direction keeps every interval) tests nothing
+//   leaves           bit i set: slot i is a leaf (or unused)
 struct alignas(64) WideBvhNode {
     float bounds[6 * kWideBvhWidth];
     uint32_t child[kWideBvhWidth];

@@ -178,24 +178,32 @@ uint32_t alpha_filter(const BvhView& bvh, const AlphaTable& table, int32_t objec
 }
 
 // ---- Leaves --------------------------------------------------------------------------------
-// A ray in every lane, as the leaf kernels read it: for triangles the origin with its axes
-// already permuted (kx, ky, kz) and the shear's factors, and the plain ray for spheres.
+// A ray in every lane, as the triangle leaves read it: the origin with its axes already
+// permuted (kx, ky, kz), the shear's factors, and where in a block the rows of the permuted axes start (`row_at[j]`: axis[j] rows in, as
+// a byte offset, so a block's vertex k, axis j is one load at block + row_at[j] + 3k rows:
+// the permutation costs no address arithmetic per block). (Sphere leaves broadcast the
+// plain ray when they are entered.)
 template <class N>
 struct LeafRay {
     Ray<N> tri;
     N sx, sy, sz;
-    Ray<N> ray;
+    size_t row_at[3];
 };
 
 template <class N>
 inline LeafRay<N> make_leaf_ray(const TraversalRay& r) {
     const int32_t* axis = r.axis;
+    constexpr size_t kRow = sizeof(TriangleBlock::v[0]);
     return {{{N(r.o[axis[0]]), N(r.o[axis[1]]), N(r.o[axis[2]])}, Vec3<N>(N(0.0f))},
             N(r.shear[0]),
             N(r.shear[1]),
             N(r.shear[2]),
-            {{N(r.o[0]), N(r.o[1]), N(r.o[2])}, {N(r.d[0]), N(r.d[1]), N(r.d[2])}}};
+            {size_t(axis[0]) * kRow, size_t(axis[1]) * kRow, size_t(axis[2]) * kRow}};
 }
+
+// The ray a traversal was given, whole (for the leaves that read it: spheres, quadrics,
+// instances, alpha masks); a batch's lane view has its own overload beside it.
+inline const TraversalRay& traversal_ray(const TraversalRay& r) { return r; }
 
 // Lanes `hits` of a block tested at distances th: the nearest below t (t and lane updated;
 // the first on a tie).
@@ -218,21 +226,22 @@ inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r, const L
                               const AlphaTable* alpha = nullptr, int32_t object = -1,
                               const TraversalRay* world = nullptr) {
     constexpr int kLanes = kNodeLanes<N>;
-    const int32_t* axis = r.axis;
-    // The vertices are handed to the kernel with their axes permuted as the origin is, so
-    // its per-lane picks are the identity, built here as constants that fold away (it
-    // computes exactly what it would unpermuted: it reads no direction)
+    // (the vertices are handed to the kernel with their axes permuted as the origin is, so
+    // its per-lane picks are the identity, built here as constants that fold away)
     const Mask<N> yes(true), no(false);
     const RayShear<N> shear{I32<N>(0), I32<N>(1), I32<N>(2), {yes, no}, {no, yes},
                             {no, no},  lr.sx,     lr.sy,     lr.sz};
     bool any = false;
     const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
     for (uint32_t j = start; j < start + blocks; ++j) {
-        const float(*v)[kWideBvhWidth] = bvh.triangles[j].v;
+        const char* block = reinterpret_cast<const char*>(bvh.triangles + j);
+        const float* x = reinterpret_cast<const float*>(block + lr.row_at[0]);
+        const float* y = reinterpret_cast<const float*>(block + lr.row_at[1]);
+        const float* z = reinterpret_cast<const float*>(block + lr.row_at[2]);
         for (int at = 0; at < kWideBvhWidth; at += kLanes) {
             const auto vertex = [&](int k) {
-                return Vec3<N>(row<N>(v, 3 * k + axis[0], at), row<N>(v, 3 * k + axis[1], at),
-                               row<N>(v, 3 * k + axis[2], at));
+                const int r = 3 * k * kWideBvhWidth + at;
+                return Vec3<N>(load_lanes<N>(x + r), load_lanes<N>(y + r), load_lanes<N>(z + r));
             };
             N th(0.0f), b1(0.0f), b2(0.0f);
             uint32_t hits = mask_bits(intersect_triangle(lr.tri, shear, vertex(0), vertex(1),
@@ -253,9 +262,10 @@ inline bool hit_triangle_leaf(const BvhView& bvh, const TraversalRay& r, const L
 
 // A leaf of sphere blocks, likewise.
 template <bool kAnyHit, class N>
-inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t start,
+inline bool hit_sphere_leaf(const BvhView& bvh, const TraversalRay& r, uint32_t start,
                             uint32_t count, float& t, uint32_t& lane) {
     constexpr int kLanes = kNodeLanes<N>;
+    const Ray<N> ray{{N(r.o[0]), N(r.o[1]), N(r.o[2])}, {N(r.d[0]), N(r.d[1]), N(r.d[2])}};
     bool any = false;
     const uint32_t blocks = (count + kWideBvhWidth - 1) / kWideBvhWidth;
     for (uint32_t j = start; j < start + blocks; ++j) {
@@ -264,7 +274,7 @@ inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t s
             const Vec3<N> centre(row<N>(c, 0, at), row<N>(c, 1, at), row<N>(c, 2, at));
             N th(0.0f);
             const uint32_t hits =
-                mask_bits(intersect_sphere(lr.ray, centre, row<N>(c, 3, at), N(t), th));
+                mask_bits(intersect_sphere(ray, centre, row<N>(c, 3, at), N(t), th));
             if (hits == 0) continue;
             if constexpr (kAnyHit) return true;
             any = true;
@@ -274,30 +284,49 @@ inline bool hit_sphere_leaf(const BvhView& bvh, const LeafRay<N>& lr, uint32_t s
     return any;
 }
 
-template <bool kAnyHit, class N, bool kTop = true>
-[[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax, BvhHit& hit,
-                               const AlphaTable* alpha = nullptr, int32_t object = -1,
-                               const TraversalRay* world = nullptr, uint32_t root = 0);
+// An entry of a traversal stack: an inner node and where the ray enters its box.
+struct TraversalEntry {
+    uint32_t node;
+    float t;
+};
+
+// A single-ray traversal's memory, sized once and kept by its caller (a thread's batch of
+// rays, a group of rays in flight), so that tracing a ray sets up no stack frame of its own:
+// the node test's entry distances and the stack, of the tree [0] and of an instance's tree
+// entered from it [1].
+struct alignas(64) TraversalScratch {
+    float entry[2][kWideBvhWidth];
+    TraversalEntry stack[2][kWideBvhStackSize];
+};
+
+template <bool kAnyHit, class N, bool kTop = true, class R = TraversalRay>
+[[gnu::flatten]] bool traverse_in(const BvhView& bvh, const R& ray, float& tmax, BvhHit& hit,
+                                  TraversalScratch& scratch, const AlphaTable* alpha = nullptr,
+                                  int32_t object = -1, const TraversalRay* world = nullptr,
+                                  uint32_t root = 0);
 
 // One leaf of any kind (kind, start, count: a node's slot) for ray r (lr: in every lane):
 // whether it is hit below t; closest hit: t and `best` updated to the nearest, the first on a
 // tie. The one leaf test of every traverser: triangle and sphere blocks as above, quadrics
 // one at a time, an instance by mapping the ray into its space (t is unchanged there) and
-// traversing its mesh's tree (kTop = false: a mesh's tree holds triangles only).
+// traversing its mesh's tree (kTop = false: a mesh's tree holds triangles only) in
+// `scratch`'s second half.
 template <bool kAnyHit, class N, bool kTop>
 inline bool hit_leaf(const BvhView& bvh, const TraversalRay& r, const LeafRay<N>& lr, uint32_t kind,
                      uint32_t start, uint32_t count, float& t, BvhHit& best,
-                     const AlphaTable* alpha, int32_t object, const TraversalRay* world) {
+                     const AlphaTable* alpha, int32_t object, const TraversalRay* world,
+                     TraversalScratch& scratch) {
     uint32_t lane = best.lane;
     if (kind == kLeafTriangles) {
-        if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object, world))
+        if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object,
+                                        world))
             return false;
         if constexpr (!kAnyHit) best = {kLeafTriangles, lane, -1};
         return true;
     }
     if constexpr (kTop) {
         if (kind == kLeafSpheres) {
-            if (!hit_sphere_leaf<kAnyHit>(bvh, lr, start, count, t, lane)) return false;
+            if (!hit_sphere_leaf<kAnyHit, N>(bvh, r, start, count, t, lane)) return false;
             if constexpr (!kAnyHit) best = {kLeafSpheres, lane, -1};
             return true;
         }
@@ -322,8 +351,8 @@ inline bool hit_leaf(const BvhView& bvh, const TraversalRay& r, const LeafRay<N>
                 const Vec3f d = linear_map(inst.to_object, 4, r.d);
                 const TraversalRay local = make_traversal_ray(o, d);
                 BvhHit h;
-                if (!traverse<kAnyHit, N, false>(*inst.geometry, local, t, h, alpha,
-                                                 int32_t(inst.mesh), &r))
+                if (!traverse_in<kAnyHit, N, false>(*inst.geometry, local, t, h, scratch, alpha,
+                                                    int32_t(inst.mesh), &r))
                     continue;
                 if constexpr (kAnyHit) return true;
                 any = true;

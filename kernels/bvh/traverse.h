@@ -50,8 +50,9 @@ inline NodeRay<N> make_node_ray(const TraversalRay& r) {
 // The node test, the one of every single-ray traverser: the robust slab test of a node's
 // children over [0, t] (a NaN distance leaves the interval as it was; far distances scaled
 // by kBvhFarScale). Returns the slots entered (bit i: child i) and writes each child's entry
-// distance. Unused slots have empty boxes (min +inf, max -inf), which no ray enters, but a
-// NaN direction leaves every interval as it was: they are masked off too.
+// distance. Unused slots have empty boxes (min +inf, max -inf), which no ray with a finite
+// origin and direction enters; a NaN one enters them, and finds empty leaves there
+// (kernels/bvh/bvh_layout.h), so no per-visit mask of the slots in use is needed.
 template <class N>
 inline uint32_t enter_children(const NodeRay<N>& n, const WideBvhNode& node, float t,
                                float entry[kWideBvhWidth]) {
@@ -68,7 +69,7 @@ inline uint32_t enter_children(const NodeRay<N>& n, const WideBvhNode& node, flo
         enter |= mask_bits(t0 <= t1) << at;
         store_lanes(t0, entry + at);
     }
-    return enter & ((1u << node.slots) - 1u);
+    return enter;
 }
 
 // Every cache line of `bytes` from p, into the caches.
@@ -129,12 +130,6 @@ inline bool push_children(const WideBvhNode& node, uint32_t enter, const float e
     return true;
 }
 
-// An entry of a traversal stack: an inner node and where the ray enters its box.
-struct TraversalEntry {
-    uint32_t node;
-    float t;
-};
-
 // ---- Traversal -----------------------------------------------------------------------------
 // (kPrefetchAbove, kernels/bvh/bvh_layout.h: skipping the prefetch in small trees made renders of
 // a 36-node tree up to 7% faster on a Xeon, AVX-512, a 22-node one unchanged, and of a
@@ -153,25 +148,31 @@ struct TraversalEntry {
 // `root`: the node to start from (a ray stream's subtree, kernels/bvh/traverse_stream.h).
 // The interleaved traversal of many rays (kernels/bvh/traverse_group.h) takes each ray through
 // exactly these steps, and so finds the same hits.
+// The stack and entry distances live in `scratch` (the tree's half; an instance's tree, with
+// kTop = false, the other).
 // (flatten: the kernels are inlined, so the identity picks below fold away.)
-template <bool kAnyHit, class N, bool kTop>
-[[gnu::flatten]] bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax, BvhHit& hit,
-                               const AlphaTable* alpha, int32_t object, const TraversalRay* world,
-                               uint32_t root) {
+// `ray`: a TraversalRay, or a view of one set up with others in a batch (the wavefront's
+// LaneRay), which gives its node and leaf lanes (make_node_ray, make_leaf_ray) and the whole
+// ray (traversal_ray) by overloads of its own.
+template <bool kAnyHit, class N, bool kTop, class R>
+[[gnu::flatten]] bool traverse_in(const BvhView& bvh, const R& ray, float& tmax, BvhHit& hit,
+                                  TraversalScratch& scratch, const AlphaTable* alpha,
+                                  int32_t object, const TraversalRay* world, uint32_t root) {
     if (bvh.node_count == 0) return false;
-    const NodeRay<N> nr = make_node_ray<N>(r);
-    const LeafRay<N> lr = make_leaf_ray<N>(r);
+    const NodeRay<N> nr = make_node_ray<N>(ray);
+    const LeafRay<N> lr = make_leaf_ray<N>(ray);
+    const auto& r = traversal_ray(ray);
     float t = tmax;  // the closest hit so far (a local: the stack cannot alias it)
     BvhHit best{0, 0, -1};
     bool found = false;
 
-    TraversalEntry stack[kWideBvhStackSize];
+    TraversalEntry* const stack = scratch.stack[kTop ? 0 : 1];
+    float* const entry = scratch.entry[kTop ? 0 : 1];
     int size = 0;
     TraversalEntry e{root, 0.0f};
     const bool prefetch = uint32_t(bvh.node_count) > kPrefetchAbove;
     for (;;) {
         const WideBvhNode& node = bvh.nodes[e.node];
-        alignas(32) float entry[kWideBvhWidth];
         uint32_t enter = enter_children(nr, node, t, entry);
         // What the ray goes on to read is fetched now (a traversal of a big tree waits
         // mostly on memory; a small one stays in the caches, where the prefetches only cost)
@@ -181,8 +182,9 @@ template <bool kAnyHit, class N, bool kTop>
             const int i = std::countr_zero(leaves);
             if constexpr (!kAnyHit)
                 if (entry[i] > t) continue;
-            if (hit_leaf<kAnyHit, N, kTop>(bvh, r, lr, node.kind[i], node.child[i], node.count[i],
-                                           t, best, alpha, object, world)) {
+            if (hit_leaf<kAnyHit, N, kTop>(bvh, r, lr, node.kind[i], node.child[i],
+                                           node.count[i], t, best, alpha, object, world,
+                                           scratch)) {
                 if constexpr (kAnyHit) return true;
                 found = true;
             }
@@ -199,6 +201,16 @@ template <bool kAnyHit, class N, bool kTop>
             e = stack[--size];
         } while (e.t > t);
     }
+}
+
+// traverse_in with its memory on the stack, for callers that trace a ray now and then (the
+// scalar reference, tests); a thread that traces many keeps one TraversalScratch.
+template <bool kAnyHit, class N, bool kTop = true>
+bool traverse(const BvhView& bvh, const TraversalRay& r, float& tmax, BvhHit& hit,
+              const AlphaTable* alpha = nullptr, int32_t object = -1,
+              const TraversalRay* world = nullptr, uint32_t root = 0) {
+    TraversalScratch scratch;
+    return traverse_in<kAnyHit, N, kTop>(bvh, r, tmax, hit, scratch, alpha, object, world, root);
 }
 
 // ---- Unbounded primitives ------------------------------------------------------------------

@@ -47,6 +47,7 @@ struct alignas(64) GroupRay {
 struct TraversalGroupScratch {
     GroupRay rays[kMaxTraversalGroup];
     TraversalEntry stacks[kMaxTraversalGroup][kWideBvhStackSize];
+    TraversalScratch instance;  // an instance's traversal, inside one step
 };
 
 // One step of ray g (its stack at g.stack): the leaves entered at its last node, then its next
@@ -55,7 +56,8 @@ struct TraversalGroupScratch {
 // (The state is worked on in locals and written back once: through `g`, every store to the
 // stack would be taken to change it.)
 template <bool kAnyHit, class N>
-inline bool group_step(const BvhView& bvh, GroupRay& g, const AlphaTable* alpha) {
+inline bool group_step(const BvhView& bvh, GroupRay& g, const AlphaTable* alpha,
+                       TraversalScratch& instance) {
     float t = g.t;
     TraversalEntry next = g.next;
     TraversalEntry* const stack = g.stack;
@@ -72,7 +74,7 @@ inline bool group_step(const BvhView& bvh, GroupRay& g, const AlphaTable* alpha)
             if constexpr (!kAnyHit)
                 if (g.entry[i] > t) continue;
             if (hit_leaf<kAnyHit, N, true>(bvh, g.r, lr, node.kind[i], node.child[i], node.count[i],
-                                           t, best, alpha, -1, nullptr)) {
+                                           t, best, alpha, -1, nullptr, instance)) {
                 found = true;
                 if constexpr (kAnyHit) break;
             }
@@ -147,7 +149,7 @@ template <bool kAnyHit, class N>
     while (active > 0) {
         for (int s = 0; s < active;) {
             GroupRay& g = slots[s];
-            if (!group_step<kAnyHit, N>(bvh, g, alpha)) {
+            if (!group_step<kAnyHit, N>(bvh, g, alpha, scratch.instance)) {
                 ++s;
                 continue;
             }

@@ -116,8 +116,8 @@ template <class N>
                     const bool h = node.kind[i] == kLeafTriangles
                                        ? hit_triangle_leaf<false>(bvh, ray, lr, node.child[i],
                                                                   node.count[i], t[r], lane)
-                                       : hit_sphere_leaf<false>(bvh, lr, node.child[i],
-                                                                node.count[i], t[r], lane);
+                                       : hit_sphere_leaf<false, N>(bvh, ray, node.child[i],
+                                                                   node.count[i], t[r], lane);
                     if (h) hit[r] = {node.kind[i], lane, -1}, found[r] = 1;
                 }
             }

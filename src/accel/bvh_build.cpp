@@ -359,6 +359,9 @@ void Bvh::build(const BvhInput& in) {
                 todo.push_back({node.child[i], kids[i]});
             }
         }
+        // Unused slots: empty boxes, and empty leaves, so a ray that enters one anyway (a NaN
+        // direction keeps every interval) tests nothing there
+        node.leaves |= (~0u << kids.size()) & ((1u << kWideBvhWidth) - 1u);
         nodes_[t.wide] = node;
     }
     stats_.nodes = nodes_.size();

@@ -331,6 +331,52 @@ std::vector<Ray<float>> random_rays(size_t n, float extent, uint32_t seed) {
     return rays;
 }
 
+// The wavefront's batch traversal (closest_in_tree: a batch's rays one after another, the
+// traversal inlined, its stack and an instance's in one TraversalScratch) lets no ray out of
+// closed meshes, one instanced and one not, through their shared vertices and edges.
+TEST(Accel, NoRayLeaksOutOfClosedMeshesThroughTheWavefrontBatchTraversal) {
+    const TempDir dir;
+    dir.write("ball.ply", sphere_ply(16, 24));
+    const Scene s = scene_of(
+        R"({"type": "mesh", "file": "ball.ply", "instance": true, "scale": [1, 0.5, 2], "rotate": [30, 40, 50],
+            "translate": [1, 2, 3], "material": {"kd": 0.5}},
+           {"type": "mesh", "file": "ball.ply", "translate": [-5, 0, 0], "material": {"kd": 0.5}})",
+        dir.path / "closed.json");
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), frac(0.0f, 1.0f);
+    std::vector<Ray<float>> rays;
+    for (int r = 0; r < 8000; ++r) {
+        // (an instance's geometry is in its own space; the other mesh's is in the world's,
+        // centred on the translation)
+        const Mesh& m = s.meshes[size_t(r % 2)];
+        const Mesh& g = s.geometry_of(m);
+        ASSERT_EQ(m.instanced(), r % 2 == 0);
+        const auto world = [&](const Vec3f& p) {
+            return m.instanced() ? to_world(m, p) : p + Vec3f(-5.0f, 0.0f, 0.0f);
+        };
+        std::uniform_int_distribution<size_t> pick(0, g.triangle_count() - 1);
+        const size_t tri = pick(rng);
+        const auto vertex = [&](size_t k) {
+            const Vec3f p = g.positions[g.indices[3 * tri + k]];
+            return m.instanced() ? to_world(m, p) : p;
+        };
+        const Vec3f a = vertex(size_t(r % 3)), b = vertex(size_t((r + 1) % 3));
+        const Vec3f o = world(Vec3f(unit(rng), unit(rng), unit(rng)) * 0.4f);
+        const Vec3f target = r % 3 == 0 ? a : fma(b - a, r % 3 == 1 ? 0.5f : frac(rng), a);
+        rays.push_back({o, normalize(target - o)});
+    }
+    const BvhView bvh = s.bvh.view();
+    ASSERT_GT(bvh.instance_count, 0);
+    for (size_t i = 0; i < rays.size(); i += K) {
+        alignas(64) float t[K];
+        std::fill(t, t + K, kRayFar);
+        uint32_t hit = 0;
+        closest_in_tree<TestArch>(bvh, nullptr, false, batch_of(rays, i), F(0.0f) == F(0.0f), t,
+                                  [&](int l, const BvhHit&) { hit |= 1u << l; });
+        ASSERT_EQ(hit, (1u << K) - 1u) << "a ray of batch " << i / K << " leaks";
+    }
+}
+
 // The SIMD node lanes, ray by ray, find exactly what the float lanes find.
 TEST(Accel, SimdNodeLanesMatchTheScalarTraversal) {
     const TempDir dir;

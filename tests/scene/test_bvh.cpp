@@ -523,12 +523,16 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
         EXPECT_GE(node.slots, 1u);
         EXPECT_LE(node.slots, W);
         slots += node.slots;
-        for (uint32_t i = node.slots; i < W; ++i)
+        for (uint32_t i = node.slots; i < W; ++i) {
             EXPECT_GT(node.row(0)[i], node.row(3)[i]) << "an unused slot's box";
+            EXPECT_EQ(node.count[i], 0u) << "an unused slot is an empty leaf";
+        }
         // The leaf mask: exactly the used slots that hold triangles (the traversal tests
-        // those at once and never descends into them)
+        // those at once and never descends into them) and the unused ones (empty leaves, so
+        // that a NaN ray, which enters every box, tests nothing there and never loops back
+        // to the root through child 0)
         for (uint32_t i = 0; i < 32; ++i) {
-            const bool leaf = i < std::min(node.slots, W) && node.count[i] != 0;
+            const bool leaf = i < W && (i >= node.slots || node.count[i] != 0);
             EXPECT_EQ((node.leaves >> i) & 1u, uint32_t(leaf)) << "node " << n << " slot " << i;
         }
         for (uint32_t i = 0; i < std::min(node.slots, W); ++i) {

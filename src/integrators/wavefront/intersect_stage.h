@@ -53,21 +53,42 @@ using WideArch =
 
 // K rays set up for the traversal, in SIMD: origins, directions, reciprocal directions
 // (zero components give +-inf) and the watertight kernel's shear (kernels/triangle.h: the
-// axes kx, ky, kz and sx, sy, sz), each ray then traversed on its own.
+// axes kx, ky, kz and sx, sy, sz), each ray then traversed on its own; and what the node
+// and leaf tests derive from them (make_node_ray, make_leaf_ray), for all K rays at once:
+// the far planes' scaled reciprocals, where each axis' near and far rows start in a node,
+// the origin in the shear's axis order and where those axes' rows start in a triangle
+// block. A ray taken from here (LaneRay) costs its traversal only broadcasts.
 template <class A>
 struct WideRays {
-    alignas(64) float o[3][Wave<A>::K], d[3][Wave<A>::K], inv[3][Wave<A>::K], shear[3][Wave<A>::K];
-    alignas(64) int32_t axis[3][Wave<A>::K];
+    static constexpr int K = Wave<A>::K;
+    alignas(64) float o[3][K], d[3][K], inv[3][K], shear[3][K];
+    alignas(64) int32_t axis[3][K];
+    alignas(64) float inv_far[3][K], o_sheared[3][K];
+    alignas(64) int32_t near_at[3][K], far_at[3][K], row_at[3][K];
 
     explicit WideRays(const Ray<typename Wave<A>::F>& ray) {
         using F = typename Wave<A>::F;
+        using I = typename Wave<A>::I;
         const RayShear<F> s = make_ray_shear(ray.d);
         store3(ray.o, o[0], o[1], o[2], 0);
         store3(ray.d, d[0], d[1], d[2], 0);
-        store3(Vec3<F>(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z), inv[0], inv[1],
-               inv[2], 0);
+        const Vec3<F> r(F(1.0f) / ray.d.x, F(1.0f) / ray.d.y, F(1.0f) / ray.d.z);
+        store3(r, inv[0], inv[1], inv[2], 0);
+        store3(r * F(kBvhFarScale), inv_far[0], inv_far[1], inv_far[2], 0);
         store3(Vec3<F>(s.sx, s.sy, s.sz), shear[0], shear[1], shear[2], 0);
         s.kx.store_aligned(axis[0]), s.ky.store_aligned(axis[1]), s.kz.store_aligned(axis[2]);
+        store3(Vec3<F>(pick(ray.o, s.px), pick(ray.o, s.py), pick(ray.o, s.pz)), o_sheared[0],
+               o_sheared[1], o_sheared[2], 0);
+        const F rk[3] = {r.x, r.y, r.z};
+        const I ks[3] = {s.kx, s.ky, s.kz};
+        for (int k = 0; k < 3; ++k) {
+            // (make_node_ray's rows: a negative reciprocal, sign bit set, swaps near and far)
+            const auto negative = as_int(rk[k]) < I(0);
+            const I lo(k * kWideBvhWidth), hi((k + 3) * kWideBvhWidth);
+            select(negative, hi, lo).store_aligned(near_at[k]);
+            select(negative, lo, hi).store_aligned(far_at[k]);
+            (ks[k] * I(int32_t(sizeof(TriangleBlock::v[0])))).store_aligned(row_at[k]);
+        }
     }
 
     // Ray l as the traversal takes it.
@@ -80,6 +101,40 @@ struct WideRays {
         return r;
     }
 };
+
+// Ray l of a WideRays, for traverse_in: its node and leaf lanes broadcast from the batch's
+// set-up (the overloads below, which traverse_in finds by argument-dependent lookup), the
+// whole TraversalRay made only where a leaf needs it.
+template <class A>
+struct LaneRay {
+    const WideRays<A>* rays;
+    int l;
+};
+template <class N, class A>
+inline NodeRay<N> make_node_ray(const LaneRay<A>& lr) {
+    const WideRays<A>& w = *lr.rays;
+    const int l = lr.l;
+    NodeRay<N> n;
+    for (int k = 0; k < 3; ++k) {
+        n.org[k] = N(w.o[k][l]), n.inv[k] = N(w.inv[k][l]), n.inv_far[k] = N(w.inv_far[k][l]);
+        n.near_at[k] = size_t(w.near_at[k][l]), n.far_at[k] = size_t(w.far_at[k][l]);
+    }
+    return n;
+}
+template <class N, class A>
+inline LeafRay<N> make_leaf_ray(const LaneRay<A>& lr) {
+    const WideRays<A>& w = *lr.rays;
+    const int l = lr.l;
+    LeafRay<N> r;
+    r.tri = {{N(w.o_sheared[0][l]), N(w.o_sheared[1][l]), N(w.o_sheared[2][l])}, Vec3<N>(N(0.0f))};
+    r.sx = N(w.shear[0][l]), r.sy = N(w.shear[1][l]), r.sz = N(w.shear[2][l]);
+    for (int k = 0; k < 3; ++k) r.row_at[k] = size_t(w.row_at[k][l]);
+    return r;
+}
+template <class A>
+inline TraversalRay traversal_ray(const LaneRay<A>& lr) {
+    return lr.rays->lane(lr.l);
+}
 
 // The robust slab test of the K rays against a box (min x, y, z, max x, y, z) over [0, t], as
 // in the BVH traversals: a NaN distance leaves the interval as it was; far distances are
@@ -121,23 +176,45 @@ inline void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const Bv
     }
 }
 
-// The closest hits of the `live` lanes of K rays in the scene BVH below their t (K floats at
-// `t`, updated), the rays whose interval [0, t] meets the tree's box one by one; on_hit(l,
-// hit) for each lane hit. (Not inlined: the traversal of a deep tree costs far more than the
-// call, and a copy of it in every stage loop that intersects would only grow the per-ISA
-// objects; a one-node tree's packet test, cheap, stays inlined.)
-template <class A, class OnHit>
-[[gnu::noinline]] void closest_in_tree_by_ray(const BvhView& bvh, const AlphaTable* alpha,
-                                              const Ray<typename Wave<A>::F>& ray,
-                                              typename Wave<A>::M live, float* t,
-                                              const OnHit& on_hit) {
-    using F = typename Wave<A>::F;
-    const WideRays<A> rays(ray);
-    uint32_t enter = mask_bits(live & slab_hits<A>(bvh.bounds, rays, F::load_aligned(t)));
+// The closest hits of the lanes `enter` of K rays set up in `rays` in the scene BVH below
+// their t (K floats at `t`, updated): the lanes hit, their hits in `hits`. One ray after
+// another, the traversal inlined into this loop (flatten), so that a frame, its registers
+// and the traversal's memory are set up once a batch, not once a ray. (Not inlined itself:
+// the traversal of a deep tree costs far more than the call, and a copy of it in every
+// stage loop that intersects would only grow the per-ISA objects.)
+template <class A>
+[[gnu::noinline, gnu::flatten]] uint32_t closest_lanes(const BvhView& bvh,
+                                                       const AlphaTable* alpha,
+                                                       const WideRays<A>& rays, uint32_t enter,
+                                                       float* t, BvhHit* hits) {
+    TraversalScratch scratch;
+    uint32_t found = 0;
     for (; enter; enter &= enter - 1) {
         const int l = std::countr_zero(enter);
-        BvhHit hit;
-        if (traverse<false, NodeLanes<A>>(bvh, rays.lane(l), t[l], hit, alpha)) on_hit(l, hit);
+        if (traverse_in<false, NodeLanes<A>>(bvh, LaneRay<A>{&rays, l}, t[l], hits[l], scratch,
+                                             alpha))
+            found |= 1u << l;
+    }
+    return found;
+}
+
+// The closest hits of the `live` lanes of K rays in the scene BVH below their t (K floats at
+// `t`, updated), the rays whose interval [0, t] meets the tree's box one by one
+// (closest_lanes); on_hit(l, hit) for each lane hit. (A one-node tree's packet test, cheap,
+// stays inlined in closest_in_tree.)
+template <class A, class OnHit>
+void closest_in_tree_by_ray(const BvhView& bvh, const AlphaTable* alpha,
+                            const Ray<typename Wave<A>::F>& ray, typename Wave<A>::M live,
+                            float* t, const OnHit& on_hit) {
+    using F = typename Wave<A>::F;
+    const WideRays<A> rays(ray);
+    const uint32_t enter = mask_bits(live & slab_hits<A>(bvh.bounds, rays, F::load_aligned(t)));
+    if (enter == 0) return;
+    BvhHit hits[Wave<A>::K];
+    for (uint32_t found = closest_lanes<A>(bvh, alpha, rays, enter, t, hits); found;
+         found &= found - 1) {
+        const int l = std::countr_zero(found);
+        on_hit(l, hits[l]);
     }
 }
 
@@ -482,9 +559,10 @@ void batch_closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ra
 }
 
 // Whether the scene BVH blocks K shadow rays within tmax, ray by ray, for the lanes `live`
-// that nothing unbounded has `blocked`. (Not inlined, as closest_in_tree_by_ray.)
+// that nothing unbounded has `blocked`. (Not inlined, and the traversal inlined into it, as
+// closest_lanes.)
 template <class A>
-[[gnu::noinline]] typename Wave<A>::M occluded_by_ray(const FlatScene& s,
+[[gnu::noinline, gnu::flatten]] typename Wave<A>::M occluded_by_ray(const FlatScene& s,
                                                       const Ray<typename Wave<A>::F>& ray,
                                                       const typename Wave<A>::F& tmax,
                                                       typename Wave<A>::M live,
@@ -496,10 +574,13 @@ template <class A>
     alignas(64) int32_t hit[Wave<A>::K] = {};
     tmax.store_aligned(tm);
     uint32_t open = mask_bits(live & !blocked & slab_hits<A>(s.bvh->bounds, rays, tmax));
+    TraversalScratch scratch;
     for (; open; open &= open - 1) {
         const int l = std::countr_zero(open);
         BvhHit unused;
-        if (traverse<true, NodeLanes<A>>(*s.bvh, rays.lane(l), tm[l], unused, s.alpha)) hit[l] = 1;
+        if (traverse_in<true, NodeLanes<A>>(*s.bvh, LaneRay<A>{&rays, l}, tm[l], unused, scratch,
+                                            s.alpha))
+            hit[l] = 1;
     }
     return blocked | mask_f32(I::load_aligned(hit) != I(0));
 }
