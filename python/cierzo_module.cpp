@@ -482,8 +482,7 @@ tonemap_operators, isas. Classes: Scene, Cancel, Error.)";
         .def("clear", [](Cancel& c) { c.flag->store(false); });
 
     m.def("load_scene", &load, py::arg("source"), py::arg("base") = py::none(), py::kw_only(),
-          py::arg("allow_paths") = std::vector<fs::path>{},
-          py::arg("image_memory") = py::none(),
+          py::arg("allow_paths") = std::vector<fs::path>{}, py::arg("image_memory") = py::none(),
           R"(Reads a scene: a path to a scene file (str or os.PathLike), or a dict holding the
 same JSON as a file. Relative paths in a file (meshes, output) resolve against the file's
 folder; in a dict, against `base` if given, else the current folder. The files a scene

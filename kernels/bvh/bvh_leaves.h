@@ -179,10 +179,10 @@ uint32_t alpha_filter(const BvhView& bvh, const AlphaTable& table, int32_t objec
 
 // ---- Leaves --------------------------------------------------------------------------------
 // A ray in every lane, as the triangle leaves read it: the origin with its axes already
-// permuted (kx, ky, kz), the shear's factors, and where in a block the rows of the permuted axes start (`row_at[j]`: axis[j] rows in, as
-// a byte offset, so a block's vertex k, axis j is one load at block + row_at[j] + 3k rows:
-// the permutation costs no address arithmetic per block). (Sphere leaves broadcast the
-// plain ray when they are entered.)
+// permuted (kx, ky, kz), the shear's factors, and where in a block the rows of the permuted axes
+// start (`row_at[j]`: axis[j] rows in, as a byte offset, so a block's vertex k, axis j is one load
+// at block + row_at[j] + 3k rows: the permutation costs no address arithmetic per block). (Sphere
+// leaves broadcast the plain ray when they are entered.)
 template <class N>
 struct LeafRay {
     Ray<N> tri;
@@ -318,8 +318,7 @@ inline bool hit_leaf(const BvhView& bvh, const TraversalRay& r, const LeafRay<N>
                      TraversalScratch& scratch) {
     uint32_t lane = best.lane;
     if (kind == kLeafTriangles) {
-        if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object,
-                                        world))
+        if (!hit_triangle_leaf<kAnyHit>(bvh, r, lr, start, count, t, lane, alpha, object, world))
             return false;
         if constexpr (!kAnyHit) best = {kLeafTriangles, lane, -1};
         return true;

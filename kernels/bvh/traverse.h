@@ -182,9 +182,8 @@ template <bool kAnyHit, class N, bool kTop, class R>
             const int i = std::countr_zero(leaves);
             if constexpr (!kAnyHit)
                 if (entry[i] > t) continue;
-            if (hit_leaf<kAnyHit, N, kTop>(bvh, r, lr, node.kind[i], node.child[i],
-                                           node.count[i], t, best, alpha, object, world,
-                                           scratch)) {
+            if (hit_leaf<kAnyHit, N, kTop>(bvh, r, lr, node.kind[i], node.child[i], node.count[i],
+                                           t, best, alpha, object, world, scratch)) {
                 if constexpr (kAnyHit) return true;
                 found = true;
             }

@@ -165,8 +165,7 @@ int run_trace_command() {
     const auto columns = ray_columns(rays);
     const auto pass = [&](TraceTotals& totals) {
         if (wavefront)
-            return wavefront->trace(columns.data, count, {a.stream_rays, a.single_below},
-                                    totals);
+            return wavefront->trace(columns.data, count, {a.stream_rays, a.single_below}, totals);
         for (size_t i = 0; i < count; ++i) {
             const float* r = &rays[7 * i];
             Hit hit;

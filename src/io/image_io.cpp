@@ -99,13 +99,30 @@ namespace {
 // The size of an EXR attribute type of fixed size, or -1 (strings, channel lists, opaque
 // types: their declared size is theirs).
 int32_t exr_type_size(const std::string& type) {
-    static const std::pair<const char*, int32_t> kSizes[] = {
-        {"box2i", 16},  {"box2f", 16},       {"int", 4},         {"float", 4},
-        {"double", 8},  {"v2i", 8},          {"v2f", 8},         {"v2d", 16},
-        {"v3i", 12},    {"v3f", 12},         {"v3d", 24},        {"m33f", 36},
-        {"m33d", 72},   {"m44f", 64},        {"m44d", 128},      {"compression", 1},
-        {"lineOrder", 1}, {"envmap", 1},     {"deepImageState", 1}, {"rational", 8},
-        {"timecode", 8}, {"keycode", 28},    {"tiledesc", 9},    {"chromaticities", 32}};
+    static const std::pair<const char*, int32_t> kSizes[] = {{"box2i", 16},
+                                                             {"box2f", 16},
+                                                             {"int", 4},
+                                                             {"float", 4},
+                                                             {"double", 8},
+                                                             {"v2i", 8},
+                                                             {"v2f", 8},
+                                                             {"v2d", 16},
+                                                             {"v3i", 12},
+                                                             {"v3f", 12},
+                                                             {"v3d", 24},
+                                                             {"m33f", 36},
+                                                             {"m33d", 72},
+                                                             {"m44f", 64},
+                                                             {"m44d", 128},
+                                                             {"compression", 1},
+                                                             {"lineOrder", 1},
+                                                             {"envmap", 1},
+                                                             {"deepImageState", 1},
+                                                             {"rational", 8},
+                                                             {"timecode", 8},
+                                                             {"keycode", 28},
+                                                             {"tiledesc", 9},
+                                                             {"chromaticities", 32}};
     for (const auto& [name, bytes] : kSizes)
         if (type == name) return bytes;
     return -1;
@@ -211,8 +228,7 @@ void check_zip_blocks(const fs::path& path, Imf::InputFile& file) {
     const Imf::Header& header = file.header();
     const Imf::Compression compression = header.compression();
     const bool raw = compression == Imf::NO_COMPRESSION;
-    if (!raw && compression != Imf::ZIP_COMPRESSION && compression != Imf::ZIPS_COMPRESSION)
-        return;
+    if (!raw && compression != Imf::ZIP_COMPRESSION && compression != Imf::ZIPS_COMPRESSION) return;
     if (header.hasTileDescription()) return;  // (tiled: read by tiles, not checked here)
     const Imath::Box2i window = header.dataWindow();
     const int64_t width = int64_t(window.max.x) - window.min.x + 1;
@@ -236,8 +252,8 @@ void check_zip_blocks(const fs::path& path, Imf::InputFile& file) {
                                  std::to_string(need) + " it needs");
         inflated.resize(size_t(need) + 1);
         uLongf got = uLongf(inflated.size());
-        const int z = uncompress(inflated.data(), &got, reinterpret_cast<const Bytef*>(data),
-                                 uLong(size));
+        const int z =
+            uncompress(inflated.data(), &got, reinterpret_cast<const Bytef*>(data), uLong(size));
         if (z != Z_OK || int64_t(got) != need)
             read_error(path, "invalid OpenEXR file: the ZIP block of lines " + std::to_string(y) +
                                  " to " + std::to_string(last) + " does not inflate to the " +

@@ -239,8 +239,9 @@ MtlLibrary parse_mtl(std::string_view bytes, const std::filesystem::path& name) 
         // (before the first 'newmtl': not an MTL library, and nothing of it is quoted, as the
         // file may be any file of the user's that an OBJ named)
         if (!m)
-            r.fail("is not an MTL library: its first statement is not 'newmtl' (an MTL "
-                   "library starts with 'newmtl NAME')");
+            r.fail(
+                "is not an MTL library: its first statement is not 'newmtl' (an MTL "
+                "library starts with 'newmtl NAME')");
         if (key == "Kd") {
             r.colour(rest, m->kd_rgb), m->has_kd = true;
         } else if (key == "Ks") {

@@ -164,8 +164,8 @@ Format format_of_extension(const std::string& ext) {
 // and not the signature of one of stb_image's undocumented formats.
 bool plausible_tga(std::string_view b) {
     if (b.size() < 18) return false;
-    for (std::string_view other : {std::string_view("GIF8"), std::string_view("8BPS"),
-                                   std::string_view("\x53\x80\xf6\x34")})
+    for (std::string_view other :
+         {std::string_view("GIF8"), std::string_view("8BPS"), std::string_view("\x53\x80\xf6\x34")})
         if (b.substr(0, other.size()) == other) return false;
     const int map = uint8_t(b[1]), type = uint8_t(b[2]), bits = uint8_t(b[16]);
     const int map_bits = uint8_t(b[7]);
@@ -190,12 +190,18 @@ Format format_of(std::string_view bytes, const fs::path& name) {
         fail(name, ext.empty() ? fmt::format("has no extension: {}", kExtensions)
                                : fmt::format("has the extension '{}': {}", ext, kExtensions));
     Format found = Format::kUnknown;
-    if (starts("\x89PNG\r\n\x1a\n")) found = Format::kPng;
-    else if (starts("\xff\xd8\xff")) found = Format::kJpeg;
-    else if (starts("BM")) found = Format::kBmp;
-    else if (starts("P5") || starts("P6")) found = Format::kPnm;
-    else if (starts("#?RADIANCE\n") || starts("#?RGBE\n")) found = Format::kHdr;
-    else if (named == Format::kTga && plausible_tga(bytes)) found = Format::kTga;
+    if (starts("\x89PNG\r\n\x1a\n"))
+        found = Format::kPng;
+    else if (starts("\xff\xd8\xff"))
+        found = Format::kJpeg;
+    else if (starts("BM"))
+        found = Format::kBmp;
+    else if (starts("P5") || starts("P6"))
+        found = Format::kPnm;
+    else if (starts("#?RADIANCE\n") || starts("#?RGBE\n"))
+        found = Format::kHdr;
+    else if (named == Format::kTga && plausible_tga(bytes))
+        found = Format::kTga;
     if (found == Format::kUnknown)
         fail(name, fmt::format("is not a {} file (its first bytes are no {} header; {})",
                                format_name(named), format_name(named), kExtensions));

@@ -15,9 +15,7 @@ namespace cierzo {
 
 namespace fs = std::filesystem;
 
-uint64_t default_image_memory() {
-    return std::min(uint64_t(4) << 30, physical_memory_bytes() / 2);
-}
+uint64_t default_image_memory() { return std::min(uint64_t(4) << 30, physical_memory_bytes() / 2); }
 
 std::string format_bytes(uint64_t bytes) {
     static const char* const kUnits[] = {"bytes", "KiB", "MiB", "GiB", "TiB", "PiB"};
@@ -31,10 +29,10 @@ std::string format_bytes(uint64_t bytes) {
 
 uint64_t parse_bytes(const std::string& text, const std::string& option) {
     const auto bad = [&] {
-        throw InputError(fmt::format(
-            "{}: '{}' is not a size: a number of bytes with an optional K, M, G or T "
-            "(powers of 1024), e.g. 8G or 1536M, at most 1024T",
-            option, text));
+        throw InputError(
+            fmt::format("{}: '{}' is not a size: a number of bytes with an optional K, M, G or T "
+                        "(powers of 1024), e.g. 8G or 1536M, at most 1024T",
+                        option, text));
     };
     size_t end = 0;
     double value = 0.0;
@@ -52,11 +50,16 @@ uint64_t parse_bytes(const std::string& text, const std::string& option) {
             break;
         }
     double scale = 1.0;
-    if (unit == "K") scale = 0x1p10;
-    else if (unit == "M") scale = 0x1p20;
-    else if (unit == "G") scale = 0x1p30;
-    else if (unit == "T") scale = 0x1p40;
-    else if (!unit.empty() && unit != "B") bad();
+    if (unit == "K")
+        scale = 0x1p10;
+    else if (unit == "M")
+        scale = 0x1p20;
+    else if (unit == "G")
+        scale = 0x1p30;
+    else if (unit == "T")
+        scale = 0x1p40;
+    else if (!unit.empty() && unit != "B")
+        bad();
     const double bytes = value * scale;
     if (!std::isfinite(bytes) || bytes < 0.0 || bytes > 0x1p50 || text.empty()) bad();
     return uint64_t(bytes);

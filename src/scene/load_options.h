@@ -13,9 +13,9 @@ namespace cierzo {
 
 // The default budget of a scene's decoded images: 4 GiB, or half the machine's memory where
 // that is less. 4 GiB holds an 8192 × 4096 HDR environment map with its sampling tables
-// (charged 2.0 GB: 60 bytes a texel) and dozens of 4096² 8-bit textures (128 MB each while decoded);
-// a 16384² image, the largest accepted, is charged 2 GiB as an 8-bit texture and 9 GiB as an
-// environment, where it needs the budget raised.
+// (charged 2.0 GB: 60 bytes a texel) and dozens of 4096² 8-bit textures (128 MB each while
+// decoded); a 16384² image, the largest accepted, is charged 2 GiB as an 8-bit texture and 9 GiB as
+// an environment, where it needs the budget raised.
 uint64_t default_image_memory();
 
 struct LoadOptions {

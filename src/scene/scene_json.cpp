@@ -296,8 +296,7 @@ void Loader::render_settings(Reader& root) {
                    ": a scene writes its image only beneath its own folder; --out names "
                    "another place");
         s.output = out;
-    }
-    else
+    } else
         r.allow({"output"});
     r.finish();
 }

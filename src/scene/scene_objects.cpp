@@ -216,8 +216,7 @@ void Loader::mesh(Reader& t) {
         for (const std::string& name : data.libraries) {
             const fs::path lib = ply.parent_path() / name;
             const std::string why = roots.refusal(lib, name);
-            if (!why.empty())
-                t.fail("'" + ply.string() + "': material library (mtllib): " + why);
+            if (!why.empty()) t.fail("'" + ply.string() + "': material library (mtllib): " + why);
             try {
                 libs.push_back(&mtl.library(lib, ply));
             } catch (const InputError& e) {

@@ -555,11 +555,13 @@ TEST_F(cli, AScenesFilesStayInItsFolderUnlessTheCommandLineSaysOtherwise) {
           "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
           "end_header\n-1 -1 0\n1 -1 0\n0 1 0\n3 0 1 2\n");
     json j = json::parse(kTinyScene);
-    j["objects"].push_back({{"type", "mesh"}, {"file", "../shared/tri.ply"}, {"material", "white"}});
+    j["objects"].push_back(
+        {{"type", "mesh"}, {"file", "../shared/tri.ply"}, {"material", "white"}});
     const fs::path scene = write("scene/s.json", j.dump());
     const Outcome refused = run(quote(scene) + kQuiet);
     EXPECT_EQ(refused.exit_code, 1);
-    EXPECT_NE(refused.err.find("'../shared/tri.ply' resolves to"), std::string::npos) << refused.err;
+    EXPECT_NE(refused.err.find("'../shared/tri.ply' resolves to"), std::string::npos)
+        << refused.err;
     EXPECT_NE(refused.err.find("--allow-path"), std::string::npos) << refused.err;
     EXPECT_FALSE(fs::exists(dir_ / "scene" / "s.exr"));
     const Outcome allowed = run(quote(scene) + kQuiet + " --allow-path " + quote(dir_ / "shared"));

@@ -214,9 +214,10 @@ TEST(Textures, BadImagesAreRefusedNamingTheFile) {
 TEST(Textures, OnlyDocumentedFormatsAreDecodedAndTheExtensionMustAgree) {
     const fs::path dir = scratch();
     // A 1 x 1 GIF (a white texel), which stb_image decodes given the chance
-    const std::string gif("GIF89a\x01\x00\x01\x00\x80\x00\x00\xff\xff\xff\x00\x00\x00"
-                          "\x2c\x00\x00\x00\x00\x01\x00\x01\x00\x00\x02\x02\x44\x01\x00\x3b",
-                          35);
+    const std::string gif(
+        "GIF89a\x01\x00\x01\x00\x80\x00\x00\xff\xff\xff\x00\x00\x00"
+        "\x2c\x00\x00\x00\x00\x01\x00\x01\x00\x00\x02\x02\x44\x01\x00\x3b",
+        35);
     for (const char* name : {"gif.tga", "gif.png", "gif.gif"}) {
         SCOPED_TRACE(name);
         const std::string m = refusal_of([&] { decode_texture_image(gif, name, true); });
@@ -229,8 +230,10 @@ TEST(Textures, OnlyDocumentedFormatsAreDecodedAndTheExtensionMustAgree) {
                   std::string::npos);
     }
     // A PSD signature with a header stb_image would read is no TGA either
-    std::string psd("8BPS\x00\x01\x00\x00\x00\x00\x00\x00\x00\x03\x00\x00\x00\x01"
-                    "\x00\x00\x00\x01\x00\x08\x00\x03", 26);
+    std::string psd(
+        "8BPS\x00\x01\x00\x00\x00\x00\x00\x00\x00\x03\x00\x00\x00\x01"
+        "\x00\x00\x00\x01\x00\x08\x00\x03",
+        26);
     psd += std::string(64, '\0');
     EXPECT_NE(refusal_of([&] { decode_texture_image(psd, "psd.tga", true); }).find("psd.tga"),
               std::string::npos);
@@ -268,9 +271,10 @@ TEST(Textures, OnlyDocumentedFormatsAreDecodedAndTheExtensionMustAgree) {
 // 16384² greyscale PNG's header (a 57-byte file) costs 8 bytes a texel at the peak
 TEST(Textures, ProbeReadsTheCostFromTheHeaderAlone) {
     const fs::path dir = scratch();
-    std::string png("\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x00\x00\x00\x40\x00"
-                    "\x08\x00\x00\x00\x00\x00\x00\x00\x00",
-                    33);
+    std::string png(
+        "\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x00\x00\x00\x40\x00"
+        "\x08\x00\x00\x00\x00\x00\x00\x00\x00",
+        33);
     png += std::string("\x00\x00\x00\x00IEND\xae\x42\x60\x82", 12);
     write_text(dir / "huge_grey.png", png);
     const TextureShape shape = probe_texture_image(dir / "huge_grey.png");

@@ -558,8 +558,8 @@ double expect_valid_wide_layout(const Mesh& mesh, const Bvh& bvh, size_t degener
                 if (j >= node.count[i]) continue;
                 const uint32_t t = bvh.view().triangle_index[lane];
                 ++seen[t];
-                boxes[t].push_back({node.row(0)[i], node.row(1)[i], node.row(2)[i],
-                                    node.row(3)[i], node.row(4)[i], node.row(5)[i]});
+                boxes[t].push_back({node.row(0)[i], node.row(1)[i], node.row(2)[i], node.row(3)[i],
+                                    node.row(4)[i], node.row(5)[i]});
             }
         }
     }

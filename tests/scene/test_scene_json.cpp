@@ -1425,10 +1425,9 @@ std::string load_error(const fs::path& scene, const LoadOptions& options = {}) {
 }
 
 std::string mesh_scene(const std::string& file) {
-    return json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
-                {"objects", json::array({{{"type", "mesh"},
-                                          {"file", file},
-                                          {"material", {{"kd", 0.5}}}}})}}
+    return json{
+        {"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
+        {"objects", json::array({{{"type", "mesh"}, {"file", file}, {"material", {{"kd", 0.5}}}}})}}
         .dump();
 }
 
@@ -1464,12 +1463,12 @@ TEST(scene_json_paths, InputsOutsideTheScenesFolderAreRefusedUnlessAllowed) {
     }
     // An OBJ inside whose mtllib is outside; an image texture outside
     dir.write("outside/m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n");
-    dir.write("scene/m.obj", "mtllib ../outside/m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
+    dir.write("scene/m.obj",
+              "mtllib ../outside/m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
     const std::string lib = load_error(dir.write(
-        "scene/obj.json",
-        json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
-             {"objects", json::array({{{"type", "mesh"}, {"file", "m.obj"}}})}}
-            .dump()));
+        "scene/obj.json", json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
+                               {"objects", json::array({{{"type", "mesh"}, {"file", "m.obj"}}})}}
+                              .dump()));
     EXPECT_NE(lib.find("material library (mtllib): '../outside/m.mtl' resolves to"),
               std::string::npos)
         << lib;
@@ -1477,12 +1476,12 @@ TEST(scene_json_paths, InputsOutsideTheScenesFolderAreRefusedUnlessAllowed) {
     const std::string image = load_error(dir.write(
         "scene/image.json",
         json{{"camera", {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}}},
-             {"objects", json::array({{{"type", "sphere"},
-                                       {"center", {0, 0, 0}},
-                                       {"radius", 1},
-                                       {"material",
-                                        {{"kd", {{"texture", "image"},
-                                                 {"file", "../outside/wood.png"}}}}}}})}}
+             {"objects",
+              json::array({{{"type", "sphere"},
+                            {"center", {0, 0, 0}},
+                            {"radius", 1},
+                            {"material",
+                             {{"kd", {{"texture", "image"}, {"file", "../outside/wood.png"}}}}}}})}}
             .dump()));
     EXPECT_NE(image.find("image.json: objects[0] (sphere).material.kd.file: "), std::string::npos)
         << image;
@@ -1502,9 +1501,9 @@ TEST(scene_json_paths, TheOutputMustLieBeneathTheScenesFolder) {
     };
     EXPECT_EQ(load_scene(with_output("renders/x.exr")).settings.output,
               dir.path() / "scene/renders/x.exr");
-    for (const std::string& output : {std::string("../elsewhere/x.exr"),
-                                      (dir.path() / "elsewhere/x.exr").string(),
-                                      std::string("/tmp/x.exr")}) {
+    for (const std::string& output :
+         {std::string("../elsewhere/x.exr"), (dir.path() / "elsewhere/x.exr").string(),
+          std::string("/tmp/x.exr")}) {
         SCOPED_TRACE(output);
         const std::string m = load_error(with_output(output));
         EXPECT_NE(m.find("s.json: render: 'output': '" + output + "' resolves to"),
@@ -1520,9 +1519,10 @@ TEST(scene_json_paths, TheOutputMustLieBeneathTheScenesFolder) {
 
 // A PNG's header claiming 16384² grey texels: 45 bytes that would cost 2 GiB decoded
 std::string huge_png_header() {
-    std::string png("\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x00\x00\x00\x40\x00"
-                    "\x08\x00\x00\x00\x00\x00\x00\x00\x00",
-                    33);
+    std::string png(
+        "\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x40\x00\x00\x00\x40\x00"
+        "\x08\x00\x00\x00\x00\x00\x00\x00\x00",
+        33);
     return png + std::string("\x00\x00\x00\x00IEND\xae\x42\x60\x82", 12);
 }
 
@@ -1542,7 +1542,8 @@ TEST(scene_json_paths, ImagesAreChargedFromTheirHeadersAgainstTheBudget) {
                            {"material", {{"kd", {{"texture", "image"}, {"file", name}}}}}});
     }
     const json camera = {{"position", {0, 0, -3}}, {"look_at", {0, 0, 0}}};
-    const fs::path ten = dir.write("scene/ten.json", json{{"camera", camera}, {"objects", objects}}.dump());
+    const fs::path ten =
+        dir.write("scene/ten.json", json{{"camera", camera}, {"objects", objects}}.dump());
     LoadOptions options;
     options.image_memory = uint64_t(4) << 30;
     const std::string m = load_error(ten, options);

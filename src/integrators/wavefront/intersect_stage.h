@@ -183,8 +183,7 @@ inline void record_tree_hit(PathPool& p, const BvhView& bvh, int32_t q, const Bv
 // the traversal of a deep tree costs far more than the call, and a copy of it in every
 // stage loop that intersects would only grow the per-ISA objects.)
 template <class A>
-[[gnu::noinline, gnu::flatten]] uint32_t closest_lanes(const BvhView& bvh,
-                                                       const AlphaTable* alpha,
+[[gnu::noinline, gnu::flatten]] uint32_t closest_lanes(const BvhView& bvh, const AlphaTable* alpha,
                                                        const WideRays<A>& rays, uint32_t enter,
                                                        float* t, BvhHit* hits) {
     TraversalScratch scratch;
@@ -204,8 +203,8 @@ template <class A>
 // stays inlined in closest_in_tree.)
 template <class A, class OnHit>
 void closest_in_tree_by_ray(const BvhView& bvh, const AlphaTable* alpha,
-                            const Ray<typename Wave<A>::F>& ray, typename Wave<A>::M live,
-                            float* t, const OnHit& on_hit) {
+                            const Ray<typename Wave<A>::F>& ray, typename Wave<A>::M live, float* t,
+                            const OnHit& on_hit) {
     using F = typename Wave<A>::F;
     const WideRays<A> rays(ray);
     const uint32_t enter = mask_bits(live & slab_hits<A>(bvh.bounds, rays, F::load_aligned(t)));
@@ -348,9 +347,8 @@ void intersect_tree(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ray) 
 // rays, their tmax, and their closest hits among the unbounded primitives: t and prim (-1:
 // none) updated.
 template <class A>
-Ray<typename Wave<A>::F> record_batch(const FlatScene& s, const float* rays, size_t count,
-                                      size_t i, typename Wave<A>::F& t,
-                                      typename Wave<A>::I& prim) {
+Ray<typename Wave<A>::F> record_batch(const FlatScene& s, const float* rays, size_t count, size_t i,
+                                      typename Wave<A>::F& t, typename Wave<A>::I& prim) {
     using F = typename Wave<A>::F;
     const size_t stride = trace_stride(count);
     const auto at = [&](int k) { return F::load_aligned(rays + size_t(k) * stride + i); };
@@ -393,8 +391,7 @@ void trace_ray_streams(const FlatScene& s, const float* rays, size_t count,
         for (int i = 0; i < n; i += K) {
             F tt;
             I prim;
-            const Ray<F> ray =
-                record_batch<A>(s, rays, count, c0 + size_t(i), tt, prim);
+            const Ray<F> ray = record_batch<A>(s, rays, count, c0 + size_t(i), tt, prim);
             tt.store_aligned(t.data() + i);
             alignas(64) int32_t p[K];
             prim.store_aligned(p);
@@ -562,11 +559,9 @@ void batch_closest_hit(Wave<A>& w, int32_t i, const Ray<typename Wave<A>::F>& ra
 // that nothing unbounded has `blocked`. (Not inlined, and the traversal inlined into it, as
 // closest_lanes.)
 template <class A>
-[[gnu::noinline, gnu::flatten]] typename Wave<A>::M occluded_by_ray(const FlatScene& s,
-                                                      const Ray<typename Wave<A>::F>& ray,
-                                                      const typename Wave<A>::F& tmax,
-                                                      typename Wave<A>::M live,
-                                                      typename Wave<A>::M blocked) {
+[[gnu::noinline, gnu::flatten]] typename Wave<A>::M occluded_by_ray(
+    const FlatScene& s, const Ray<typename Wave<A>::F>& ray, const typename Wave<A>::F& tmax,
+    typename Wave<A>::M live, typename Wave<A>::M blocked) {
     using I = typename Wave<A>::I;
     // The open rays that enter the tree's box through it, one by one
     const WideRays<A> rays(ray);
