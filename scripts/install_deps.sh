@@ -3,7 +3,8 @@
 # libraries (tinyobjloader for OBJ meshes); Open MPI (distributed renders); assimp-testmodels (real OBJ, MTL and JPEG files the tests read); matplotlib for the
 # plots; Python's headers, pybind11, NumPy and pytest for the Python module and its tests,
 # and venv, pip, setuptools and wheel for `pip install .`; clang and its runtime libraries
-# for the sanitizer job (clang's array-bounds checks) and the fuzzers (libFuzzer).
+# for the sanitizer job (clang's array-bounds checks) and the fuzzers (libFuzzer);
+# clang-format for the format check (tests/check_format.sh).
 # With --render, only what the two programs need (scripts/render_default.sh): the compiler,
 # CMake, Ninja and the libraries. Skips what is installed.
 set -euo pipefail
@@ -11,7 +12,7 @@ render=(g++ cmake ninja-build pkg-config libxsimd-dev libopenexr-dev libimath-de
         libcli11-dev nlohmann-json3-dev libfmt-dev libstb-dev libtinyobjloader-dev)
 rest=(libgtest-dev libgmock-dev libbenchmark-dev python3-matplotlib openmpi-bin libopenmpi-dev
       python3-dev pybind11-dev python3-numpy python3-pytest python3-venv python3-pip
-      python3-setuptools python3-wheel assimp-testmodels clang libclang-rt-14-dev)
+      python3-setuptools python3-wheel assimp-testmodels clang libclang-rt-14-dev clang-format)
 case "${1:-}" in
     --render) packages=("${render[@]}") ;;
     "") packages=("${render[@]}" "${rest[@]}") ;;
