@@ -36,13 +36,26 @@ struct NodeRay {
     size_t near_at[3], far_at[3];
 };
 
+// Where axis k's near and far planes' row starts in a node's bounds (float offsets), for
+// one ray (T = float) or K rays (a batch, the wavefront's WideRays) of reciprocal direction
+// `inv`: the min row, or the max row where inv's sign bit is set.
+template <class T>
+inline I32<T> near_row(const T& inv, int k) {
+    return select(as_int(inv) < I32<T>(0), I32<T>((k + 3) * kWideBvhWidth),
+                  I32<T>(k * kWideBvhWidth));
+}
+template <class T>
+inline I32<T> far_row(const T& inv, int k) {
+    return select(as_int(inv) < I32<T>(0), I32<T>(k * kWideBvhWidth),
+                  I32<T>((k + 3) * kWideBvhWidth));
+}
+
 template <class N>
 inline NodeRay<N> make_node_ray(const TraversalRay& r) {
     NodeRay<N> n;
     for (int k = 0; k < 3; ++k) {
         n.org[k] = N(r.o[k]), n.inv[k] = N(r.inv[k]), n.inv_far[k] = N(r.inv[k] * kBvhFarScale);
-        n.near_at[k] = size_t(std::signbit(r.inv[k]) ? k + 3 : k) * kWideBvhWidth;
-        n.far_at[k] = size_t(std::signbit(r.inv[k]) ? k : k + 3) * kWideBvhWidth;
+        n.near_at[k] = size_t(near_row(r.inv[k], k)), n.far_at[k] = size_t(far_row(r.inv[k], k));
     }
     return n;
 }

@@ -82,11 +82,8 @@ struct WideRays {
         const F rk[3] = {r.x, r.y, r.z};
         const I ks[3] = {s.kx, s.ky, s.kz};
         for (int k = 0; k < 3; ++k) {
-            // (make_node_ray's rows: a negative reciprocal, sign bit set, swaps near and far)
-            const auto negative = as_int(rk[k]) < I(0);
-            const I lo(k * kWideBvhWidth), hi((k + 3) * kWideBvhWidth);
-            select(negative, hi, lo).store_aligned(near_at[k]);
-            select(negative, lo, hi).store_aligned(far_at[k]);
+            near_row(rk[k], k).store_aligned(near_at[k]);
+            far_row(rk[k], k).store_aligned(far_at[k]);
             (ks[k] * I(int32_t(sizeof(TriangleBlock::v[0])))).store_aligned(row_at[k]);
         }
     }
