@@ -7,6 +7,12 @@
 // templates find these overloads only if they are declared before xsimd's headers are read.
 #pragma once
 
+// (read first, or a unit would mix the two: its code before this header would divide by
+// estimates, and two units of one build could compute the same function differently)
+#if defined(XSIMD_HPP) && defined(__aarch64__)
+#error "xsimd/xsimd.hpp was read before kernels/xsimd_neon_ieee.h: include kernels/lanes.h"
+#endif
+
 #include <cstddef>
 
 #include <xsimd/config/xsimd_config.hpp>

@@ -3,9 +3,7 @@
 // CMakeLists.txt): so the flags are the one place an object's ISA is named.
 #pragma once
 
-#include <xsimd/xsimd.hpp>
-
-#include "kernels/lanes.h"
+#include "kernels/lanes.h"  // (xsimd through it, never directly: xsimd_neon_ieee.h says why)
 
 namespace cierzo {
 inline namespace CIERZO_ISA_NAMESPACE {
