@@ -428,16 +428,18 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     // (a guided render, by the scalar integrator: past the trainings at 16 and 32 paths per
     // pixel, and natively a few more)
     const bool guided = std::find(estimator.begin(), estimator.end(), "sdtree") != estimator.end();
-    // (under an emulator a bidirectional path costs seconds per pass already: 100 paths
-    // per pixel outlast the first checkpoint many times over)
+    // (under an emulator or a sanitizer a 32x24 pass of bidirectional paths takes a tenth of
+    // a second or more: 48 paths per pixel outlast the first checkpoint many times over)
     const std::string spp = guided       ? (emulated() ? "48" : "256")
-                            : emulated() ? (heavy ? "100" : "300")
+                            : emulated() ? (heavy ? "48" : "300")
                             : heavy      ? "800"
                                          : "2000";
     const bool small = emulated() || heavy || guided;
-    std::vector<std::string> scene = {
-        "--spp",     spp, "--width", small ? "64" : "160", "--height", small ? "48" : "120",
-        "--variance"};
+    const bool smaller = emulated() && heavy;
+    const char* width = smaller ? "32" : small ? "64" : "160";
+    const char* height = smaller ? "24" : small ? "48" : "120";
+    std::vector<std::string> scene = {"--spp",    spp,    "--width",   width,
+                                      "--height", height, "--variance"};
     scene.insert(scene.end(), estimator.begin(), estimator.end());
     ASSERT_EQ(run({render_args(scene_file, full, scene)}, "full"), 0);
     fs::remove(ck), fs::remove(part);

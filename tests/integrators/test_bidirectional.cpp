@@ -652,9 +652,9 @@ TEST(Bidirectional, ScalarAndWavefrontAgree) {
 // vertices, changes its weights: WeightsOfEveryStrategyOfAPathSumToOne checks them with
 // other counts, and the whole estimator's agreement with mis checks its own).
 TEST(Bidirectional, LightVertexCacheAgreesWithThePairing) {
-    // (the lighter settings, under sanitizers and emulation: an eighth of the paths, the same
-    // tests at less resolution)
-    const int n = spp(1024, 128);
+    // (the lighter settings, under sanitizers and emulation: a sixteenth of the paths, the
+    // same tests at less resolution)
+    const int n = spp(1024, 64);
     const Variant v = variants().back();
     for (const auto& [s, t] : {std::pair{2, 2}, std::pair{3, 2}, std::pair{2, 3}}) {
         Scene pairing = scene_of(kBox, Estimator::kBdpt, n);

@@ -527,6 +527,10 @@ TEST(GuidedRender, IsTheSameOnOneTwoAndThreeThreads) {
                     if (std::string(scene) == "small_emitter" &&
                         (in == Integrator::kScalar || e == Estimator::kNee || vertices == 0))
                         continue;
+                    // (the lighter settings, under emulation and sanitizers, check mis
+                    // alone: nee's guided paths are the same code without its light hits,
+                    // checked here natively)
+                    if (lighter() && e == Estimator::kNee) continue;
                     SCOPED_TRACE(std::string(integrator_name(in)) + " " + scene + " " +
                                  estimator_name(e) + " " + std::to_string(vertices));
                     // (trainings after 16 and 32 paths per pixel, and after 64 natively)

@@ -108,7 +108,8 @@ TEST(Samplers, TheSameBitsOnAnyThreadCountAndResumed) {
             for (Estimator e : {Estimator::kMis, Estimator::kLt}) {
                 SCOPED_TRACE(v.integrator + " " + v.isa + " " + sampler_name(s) + " " +
                              estimator_name(e));
-                Scene scene = with_sampler(test::kLobes, e, s, 24);
+                // (the lighter settings, under emulation and sanitizers: half the passes)
+                Scene scene = with_sampler(test::kLobes, e, s, spp(24, 12));
                 scene.settings.width = 40, scene.settings.height = 32;
                 RenderOptions o;
                 o.integrator = integrator_of(v.integrator);
