@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs every libFuzzer program built in BUILD_FOLDER/tests/fuzz for SECONDS each (default 20),
-# one after another, from a copy of its corpus in a temporary folder (the repository's corpus
+# as many at a time as the machine has cores (CIERZO_FUZZ_JOBS to choose), from a copy of its corpus in a temporary folder (the repository's corpus
 # is never written), with the limits of docs/fuzzing.md (-rss_limit_mb=2048 -timeout=10) and
 # its dictionary. Prints each fuzzer's executions and coverage; fails if any fuzzer finds a
 # crash, a sanitizer report, a leak, a timeout or an allocation past the limit, and keeps what
@@ -42,30 +42,47 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # A number of libFuzzer's final statistics (-print_final_stats=1) in a log
 final_stat() { sed -n "s/^stat::$1: *\([0-9]*\).*/\1/p" "$2" | tail -1; }
 
-ran=0
-failed=()
-printf '%-20s %12s %10s %8s %8s  %s\n' fuzzer executions "per s" cov ft result
-for name in "${fuzzers[@]}"; do
-    program=$bin_dir/fuzz_$name
-    if [ ! -x "$program" ]; then
-        printf '%-20s %12s %10s %8s %8s  %s\n' "fuzz_$name" - - - - "not built"
-        continue
-    fi
-    run=$work/$name
+# One fuzzer's run, in its own folder: its log, and its exit status in a file
+fuzz_one() {
+    local name=$1 run=$work/$1 corpus status=0
     mkdir -p "$run/corpus" "$run/artifacts" "$run/tmp"
     for corpus in ${corpora[$name]}; do
         cp -R "$fuzz_dir/corpus/$corpus/." "$run/corpus/"
     done
-    args=(-max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1
-          -artifact_prefix="$run/artifacts/")
+    local args=(-max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1
+                -artifact_prefix="$run/artifacts/")
     if [ -n "${dictionaries[$name]:-}" ]; then
         args+=(-dict="$fuzz_dir/${dictionaries[$name]}")
     fi
-    status=0
     # (the fuzzers' scratch files go to the run's own folder; a fuzzer that outlives its time
     # by far, hung outside any one input, is killed)
     TMPDIR=$run/tmp timeout --kill-after=30 $((seconds + 600)) \
-        "$program" "${args[@]}" "$run/corpus" >"$run/log" 2>&1 || status=$?
+        "$bin_dir/fuzz_$name" "${args[@]}" "$run/corpus" >"$run/log" 2>&1 || status=$?
+    echo "$status" >"$run/status"
+}
+
+# (each fuzzer is one process on one core: they run side by side, a job a core)
+jobs_max=${CIERZO_FUZZ_JOBS:-$(nproc)}
+for name in "${fuzzers[@]}"; do
+    [ -x "$bin_dir/fuzz_$name" ] || continue
+    while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do wait -n || true; done
+    fuzz_one "$name" &
+done
+wait
+
+ran=0
+failed=()
+printf '%-20s %12s %10s %8s %8s  %s\n' fuzzer executions "per s" cov ft result
+for name in "${fuzzers[@]}"; do
+    run=$work/$name
+    if [ ! -x "$bin_dir/fuzz_$name" ]; then
+        printf '%-20s %12s %10s %8s %8s  %s\n' "fuzz_$name" - - - - "not built"
+        continue
+    fi
+    # (no status: its run could not be set up, e.g. a full disk; its log may say why)
+    status=$(cat "$run/status" 2>/dev/null || echo "none")
+    [ -f "$run/log" ] || echo "(no log: the run could not be set up)" >"$run/log"
+    mkdir -p "$run/artifacts"
     ran=$((ran + 1))
     executions=$(final_stat number_of_executed_units "$run/log")
     per_second=$(final_stat average_exec_per_sec "$run/log")
@@ -75,7 +92,7 @@ for name in "${fuzzers[@]}"; do
     found=$(find "$run/artifacts" -type f \( -name 'crash-*' -o -name 'leak-*' -o -name 'timeout-*' \
         -o -name 'oom-*' \) | wc -l)
     result=ok
-    if [ "$status" -ne 0 ] || [ "$found" -ne 0 ]; then
+    if [ "$status" != 0 ] || [ "$found" -ne 0 ]; then
         result="FAILED (exit status $status, $found input(s) kept)"
         failed+=("fuzz_$name")
         mkdir -p "$kept/$name"
@@ -105,4 +122,4 @@ if [ ${#failed[@]} -ne 0 ]; then
     echo "$0: ${failed[*]} found a bug; the inputs are in $kept (docs/fuzzing.md: adding a crasher)" >&2
     exit 1
 fi
-echo "$0: $ran fuzzers, $seconds s each: nothing found"
+echo "$0: $ran fuzzers, $seconds s each, $jobs_max at a time: nothing found"
