@@ -27,91 +27,41 @@ Usage: /usr/bin/python3 bench/accel.py [--rounds N] [--out OUT_DIR] [--baseline 
 The CPU is named in the output; say which one a number came from.
 """
 import argparse
-import json
 import pathlib
-import re
 import statistics
-import struct
-import subprocess
 import sys
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-BUILD = ROOT / "build"
-CIERZO = BUILD / "cierzo"
-EMBREE = BUILD / "bench" / "peers" / "embree" / "embree_pt"
-# Embree's APIs (embree_pt --api) on its trees of build quality high and medium
-EMBREE_TRACES = [(api, quality) for quality in ("high", "medium") for api in ("1", "16", "1M")]
-GENERATED = ROOT / "scenes" / "generated"
+import benchlib
 
-
-def run(cmd):
-    return subprocess.run([str(c) for c in cmd], check=True, capture_output=True, text=True).stdout
-
-
-def keys(text):
-    """key: value lines as a dict of strings."""
-    return dict(m.groups() for m in re.finditer(r"^(\w+): (.*)$", text, re.M))
-
-
-def pfm_mean(path):
-    """Mean RGB of a PFM image."""
-    data = pathlib.Path(path).read_bytes()
-    header = data.split(b"\n", 3)
-    w, h = map(int, header[1].split())
-    scale = float(header[2])
-    n = w * h * 3
-    floats = struct.unpack(("<" if scale < 0 else ">") + f"{n}f", header[3][: 4 * n])
-    return [sum(floats[c::3]) / (w * h) for c in range(3)]
-
-
-def cierzo_render(tmp, scene, integrator, size, spp, binary=CIERZO):
-    out, stats = pathlib.Path(tmp) / "img.pfm", pathlib.Path(tmp) / "stats.json"
-    run([binary, "render", scene, "--width", size, "--height", size, "--spp", spp,
-         "--threads", 1, "--integrator", integrator, "--quiet", "--out", out, "--stats", stats])
-    s = json.loads(stats.read_text())
-    return {"rays_per_s": s["rays_per_second_per_thread"], "mean": pfm_mean(out),
-            "bvh": s.get("bvh")}
-
-
-def embree_render(tmp, scene, size, spp):
-    out = pathlib.Path(tmp) / "embree.pfm"
-    k = keys(run([EMBREE, scene, "--width", size, "--height", size, "--spp", spp, "--out", out]))
-    return {"rays_per_s": float(k["rays_per_second"]), "mean": [float(x) for x in k["mean_rgb"].split()]}
-
-
-def median_ratio(a, b):
-    return statistics.median(x / y for x, y in zip(a, b))
+EMBREE, EMBREE_TRACES = benchlib.EMBREE, benchlib.EMBREE_TRACES
+GENERATED, ROOT = benchlib.GENERATED, benchlib.ROOT
+cierzo_render, median_ratio = benchlib.cierzo_render, benchlib.median_ratio
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--rounds", type=int, default=5)
-    ap.add_argument("--out", type=pathlib.Path, default=BUILD / "bench-results")
+    ap.add_argument("--out", type=pathlib.Path, default=benchlib.BUILD / "bench-results")
     ap.add_argument("--baseline", type=pathlib.Path, help="an earlier cierzo, for part 5")
     a = ap.parse_args()
     if not (GENERATED / "spheres_10000.json").exists() or not (GENERATED / "mesh_1m.json").exists():
-        run([sys.executable, ROOT / "scripts" / "make_scenes.py"])
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
-    flags = open("/proc/cpuinfo").read()
-    isa = "AVX-512" if "avx512f" in flags else ("AVX2" if "avx2" in flags else "other")
+        benchlib.run([sys.executable, ROOT / "scripts" / "make_scenes.py"])
+    cpu, isa = benchlib.cpu_name("?"), benchlib.cpu_isa()
     print(f"CPU: {cpu} ({isa}); best ISA as `cierzo isas` says; {a.rounds} interleaved rounds\n")
     have_embree = EMBREE.exists()
     spheres = {n: GENERATED / f"spheres_{n}.json" for n in (10, 10000)}
     triangles = {"box": ROOT / "scenes" / "box.json", "mesh_200k": GENERATED / "mesh_200k.json"}
-    samples = {}
-
-    def add(key, value):
-        samples.setdefault(key, []).append(value)
+    samples = benchlib.Samples()
+    add = samples.add
 
     with tempfile.TemporaryDirectory() as tmp:
         rays = {}
         if have_embree:
             for name, scene in triangles.items():
                 rays[name] = pathlib.Path(tmp) / f"{name}.rays"
-                run([EMBREE, scene, "--dump-rays", rays[name], "--count", 1000000])
-        for r in range(a.rounds):
-            print(f"round {r + 1}/{a.rounds}", file=sys.stderr)
+                benchlib.dump_rays(scene, rays[name], 1000000)
+        for r in benchlib.rounds(a.rounds):
             for n, scene in spheres.items():
                 add(("spheres", n, "wavefront"), cierzo_render(tmp, scene, "wavefront", 200, 8))
                 add(("spheres", n, "scalar"), cierzo_render(tmp, scene, "scalar", 200, 2))
@@ -119,40 +69,28 @@ def main():
                 spp = 16 if name == "box" else 8
                 add(("render", name, "cierzo"), cierzo_render(tmp, scene, "wavefront", 300, spp))
                 if have_embree:
-                    add(("render", name, "embree"), embree_render(tmp, scene, 300, spp))
-                    k = keys(run([CIERZO, "trace", scene, "--rays", rays[name]]))
-                    add(("trace", name, "cierzo"), {"rays_per_s": float(k["rays_per_second"]),
-                                                    "hits": int(k["hits"])})
-                    k = keys(run([CIERZO, "trace", scene, "--rays", rays[name], "--stream", 1024,
-                                  "--single-below", 16]))
-                    add(("trace", name, "stream"), {"rays_per_s": float(k["rays_per_second"]),
-                                                    "hits": int(k["hits"])})
+                    add(("render", name, "embree"), benchlib.embree_render(tmp, scene, 300, spp))
+                    add(("trace", name, "cierzo"), benchlib.cierzo_trace(scene, rays[name]))
+                    add(("trace", name, "stream"), benchlib.cierzo_trace(
+                        scene, rays[name], ["--stream", 1024, "--single-below", 16]))
                     for api, quality in EMBREE_TRACES:
-                        k = keys(run([EMBREE, scene, "--trace-rays", rays[name], "--api", api,
-                                      "--quality", quality]))
                         add(("trace", name, "embree", api, quality),
-                            {"rays_per_s": float(k["rays_per_second"]), "hits": int(k["hits"])})
+                            benchlib.embree_trace(scene, rays[name], api, quality))
             if a.baseline:
                 cornell = ROOT / "scenes" / "cornell.json"
                 add(("cornell", "now"), cierzo_render(tmp, cornell, "wavefront", 250, 16))
                 add(("cornell", "baseline"), cierzo_render(tmp, cornell, "wavefront", 250, 16, a.baseline))
         # Build: one 1M-triangle mesh, 2 threads
         mesh_1m = GENERATED / "mesh_1m.json"
-        builds = []
-        for _ in range(3):
-            stats = pathlib.Path(tmp) / "build.json"
-            run([CIERZO, "render", mesh_1m, "--width", 1, "--height", 1, "--spp", 1, "--threads", 2,
-                 "--quiet", "--out", pathlib.Path(tmp) / "b.pfm", "--stats", stats])
-            builds.append(json.loads(stats.read_text())["bvh"])
+        builds = [benchlib.cierzo_build(tmp, mesh_1m) for _ in range(3)]
         embree_builds = []
         if have_embree:
             for _ in range(3):
-                k = keys(run([EMBREE, mesh_1m, "--width", 1, "--height", 1, "--spp", 1,
-                              "--embree-config", "threads=2"]))
+                k = benchlib.keys(benchlib.run([EMBREE, mesh_1m, "--width", 1, "--height", 1,
+                                                "--spp", 1, "--embree-config", "threads=2"]))
                 embree_builds.append(float(k["build_seconds"]))
 
-    rays = lambda key: [s["rays_per_s"] for s in samples[key]]
-    med = lambda key: statistics.median(rays(key)) / 1e6
+    rays, med = samples.rates, samples.mrays
     result = {"cpu": cpu, "isa": isa, "rounds": a.rounds}
     print("| sphere field | 10 spheres, M rays/s | 10,000 spheres | 10,000 / 10 (median of rounds) |")
     print("|---|---|---|---|")
@@ -178,7 +116,7 @@ def main():
             fastest = [max(samples[("trace", name, "embree") + t][r]["rays_per_s"] for t in EMBREE_TRACES)
                        for r in range(a.rounds)]
             best = max(EMBREE_TRACES, key=lambda t: statistics.median(rays(("trace", name, "embree") + t)))
-            ratio_fastest = statistics.median(x / y for x, y in zip(rays(c), fastest))
+            ratio_fastest = median_ratio(rays(c), fastest)
             result[f"trace_{name}"] = {"cierzo": med(c), "embree": med(e), "ratio": ratio,
                                        "embree_fastest": statistics.median(fastest) / 1e6,
                                        "embree_best_median": "rtcIntersect%s, %s" % best,
@@ -213,8 +151,7 @@ def main():
         result["cornell"] = {"now": med(("cornell", "now")), "baseline": med(("cornell", "baseline")), "ratio": ratio}
         print(f"\ncornell.json wavefront: now {med(('cornell', 'now')):.2f} M rays/s, baseline "
               f"{med(('cornell', 'baseline')):.2f}, now / baseline {ratio:.2f}")
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "accel.json").write_text(json.dumps(result, indent=2) + "\n")
+    benchlib.write_json(a.out / "accel.json", result)
 
 
 if __name__ == "__main__":

@@ -20,50 +20,28 @@ Usage: /usr/bin/python3 bench/atrium.py [--rounds N] [--size W H] [--spp N]
 The CPU is named in the output; say which one a number came from.
 """
 import argparse
-import json
 import pathlib
-import statistics
 import subprocess
 import sys
 import tempfile
 import time
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-CIERZO = ROOT / "build" / "cierzo"
-ATRIUM = ROOT / "scenes" / "generated" / "atrium"
+import benchlib
 
-
-def run(cmd):
-    return subprocess.run([str(c) for c in cmd], check=True, capture_output=True, text=True)
-
-
-def cpu_name():
-    for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown CPU"
-
-
-def isas():
-    """The ISAs this build has and this CPU runs, widest first."""
-    out = run([CIERZO, "isas"]).stdout
-    found = []
-    for name in ("avx512", "avx2", "sse4.2", "neon"):
-        for line in out.splitlines():
-            words = line.split()
-            if words and words[0] == name and "yes" in line:
-                found.append(name)
-    return found
+ROOT, CIERZO, ATRIUM = benchlib.ROOT, benchlib.CIERZO, benchlib.ATRIUM
 
 
 def render(tmp, scene, integrator, isa, estimator, size, spp, threads=1):
+    """One render of the atrium: rays/s per thread, the whole process's wall time, and the
+    --stats load and render seconds."""
     stats = pathlib.Path(tmp) / "stats.json"
     start = time.monotonic()
-    run([CIERZO, "render", ATRIUM / scene, "--spp", spp, "--width", size[0], "--height", size[1],
-         "--threads", threads, "--integrator", integrator, "--isa", isa, "--estimator", estimator,
-         "--quiet", "--out", pathlib.Path(tmp) / "img.exr", "--stats", stats])
+    benchlib.run([CIERZO, "render", ATRIUM / scene, "--spp", spp, "--width", size[0],
+                  "--height", size[1], "--threads", threads, "--integrator", integrator,
+                  "--isa", isa, "--estimator", estimator, "--quiet",
+                  "--out", pathlib.Path(tmp) / "img.exr", "--stats", stats])
     wall = time.monotonic() - start
-    s = json.loads(stats.read_text())
+    s = benchlib.read_stats(stats)
     return {"rays_per_s": s["rays_per_second_per_thread"], "wall": wall, "load": s["load"],
             "render_seconds": s["seconds"]}
 
@@ -76,8 +54,8 @@ def main():
     a = p.parse_args()
     if not (ATRIUM / "atrium.json").exists():
         subprocess.run([sys.executable, ROOT / "scripts" / "make_atrium.py"], check=True)
-    have = isas()
-    print(f"CPU: {cpu_name()}; ISAs run: {', '.join(have)}; {a.size[0]}x{a.size[1]}, "
+    have = benchlib.runnable_isas(CIERZO)
+    print(f"CPU: {benchlib.cpu_name()}; ISAs run: {', '.join(have)}; {a.size[0]}x{a.size[1]}, "
           f"{a.spp} spp, one thread, {a.rounds} rounds\n")
     jobs = []
     for estimator in ("report", "mis"):
@@ -87,7 +65,7 @@ def main():
     for scene in ("atrium_flat.json", "atrium_plain.json"):
         jobs.append((scene, "scalar", "auto", "mis"))
         jobs.append((scene, "wavefront", have[0], "mis"))
-    results = {j: [] for j in jobs}
+    results = benchlib.Samples({j: [] for j in jobs})
     first = []
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(a.rounds):
@@ -96,12 +74,7 @@ def main():
             first.append(render(tmp, "atrium.json", "wavefront", "auto", "report",
                                 [640, 360], 1, threads=2))
 
-    def rate(j):
-        return statistics.median(x["rays_per_s"] for x in results[j]) / 1e6
-
-    def ratio(j, k):
-        return statistics.median(x["rays_per_s"] / y["rays_per_s"]
-                                 for x, y in zip(results[j], results[k]))
+    rate, ratio = results.mrays, results.ratio
 
     print("| estimator | scalar Mrays/s/core | " + " | ".join(
         f"wavefront {i} Mrays/s/core (× scalar)" for i in have) + " |")

@@ -27,47 +27,25 @@ Usage: /usr/bin/python3 bench/bidirectional.py [--scenes caustic,PATH.json,...] 
 The CPU is named in the output; say which one a number came from.
 """
 import argparse
-import json
 import pathlib
 import statistics
-import subprocess
 import sys
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-CIERZO = ROOT / "build" / "cierzo"
-sys.path.insert(0, str(ROOT / "build" / "python" / "module"))
+import benchlib
 
-
-def cpu_name():
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown CPU"
-
-
-def scene_path(name):
-    p = pathlib.Path(name)
-    return p if p.suffix == ".json" else ROOT / "scenes" / (name + ".json")
+CIERZO = benchlib.CIERZO
+# (the cierzo module, for reading EXR images: not a sibling script)
+sys.path.insert(0, str(benchlib.BUILD / "python" / "module"))
 
 
 def render(scene, out, args, stats=None, binary=CIERZO):
-    cmd = [str(binary), "render", str(scene), "--out", str(out), "--quiet"] + args
+    """`cierzo render scene --out out --quiet args`; its --stats when stats is given."""
+    cmd = [binary, "render", scene, "--out", out, "--quiet"] + args
     if stats:
-        cmd += ["--stats", str(stats)]
-    subprocess.run(cmd, check=True, capture_output=True, text=True)
-    return json.load(open(stats)) if stats else None
-
-
-def rel_mse(img, ref, region=None):
-    import numpy as np
-    a, r = img[..., :3], ref[..., :3]
-    if region:
-        h, w = r.shape[:2]
-        x0, y0, x1, y1 = region
-        a = a[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)]
-        r = r[int(y0 * h):int(y1 * h), int(x0 * w):int(x1 * w)]
-    return float(((a - r) ** 2 / (r * r + 0.01)).mean())
+        cmd += ["--stats", stats]
+    benchlib.run(cmd)
+    return benchlib.read_stats(stats) if stats else None
 
 
 def main():
@@ -90,21 +68,21 @@ def main():
     a = ap.parse_args()
     if a.speed_repeat < 1:
         ap.error("--speed-repeat: expected at least 1")
-    import numpy as np
-    import cierzo
-    print(f"CPU: {cpu_name()}")
+    import numpy  # noqa: F401  (benchlib.read_exr's: missing, fail now rather than after a render)
+    import cierzo  # noqa: F401
+    print(f"CPU: {benchlib.cpu_name()}")
     region = tuple(float(v) for v in a.region.split(","))
     estimators = a.estimators.split(",")
     size = ["--width", str(a.size), "--height", str(a.size)]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
         for name in [s for s in a.scenes.split(",") if s]:
-            scene = scene_path(name)
+            scene = benchlib.scene_path(name)
             ref_path = pathlib.Path(a.reference) if a.reference else tmp / "ref.exr"
             if not a.reference:
                 render(scene, ref_path, size + ["--estimator", "bdpt", "--spp", str(a.reference_spp),
                                                 "--threads", "2"])
-            ref = np.asarray(cierzo.read_exr(str(ref_path)))
+            ref = benchlib.read_exr(ref_path)
             rows = {e: [] for e in estimators}
             for rnd in range(a.rounds):
                 for e in estimators:
@@ -122,9 +100,9 @@ def main():
                     s = render(scene, out, size + extra + ["--estimator", name_e, "--threads", "1", "--spp", "1000000",
                                                    "--time-budget", str(a.seconds),
                                                    "--seed", str(1000 + rnd)], st, binary)
-                    img = np.asarray(cierzo.read_exr(str(out)))
+                    img = benchlib.read_exr(out)
                     secs = s["seconds"]
-                    whole, part = rel_mse(img, ref), rel_mse(img, ref, region)
+                    whole, part = benchlib.rel_mse(img, ref), benchlib.rel_mse(img, ref, region)
                     rows[e].append((secs, s["spp_reached"], whole, part, 1 / (whole * secs), 1 / (part * secs)))
             print(f"\n{name} ({a.size}x{a.size}, {a.seconds:g} s per render, 1 thread, {a.rounds} rounds; "
                   f"reference bdpt {a.reference_spp} spp; region {a.region})")
@@ -134,19 +112,19 @@ def main():
             for e in estimators:
                 r = rows[e]
                 med = lambda k: statistics.median(x[k] for x in r)
-                ratio = lambda k: (statistics.median(x[k] / m[k] for x, m in zip(r, rows[a.base]))
+                ratio = lambda k: (benchlib.median_ratio([x[k] for x in r],
+                                                         [m[k] for m in rows[a.base]])
                                    if a.base in rows else float("nan"))
                 print(f"{e:10s} {med(1):6.0f} {med(2):10.5f} {med(4):9.1f} {ratio(4):9.2f} "
                       f"{med(3):10.5f} {med(5):9.1f} {ratio(5):9.2f}")
         speed = [s for s in a.speed_scenes.split(",") if s]
         if speed:
-            isas = [l.split()[0] for l in subprocess.run([str(CIERZO), "isas"], capture_output=True,
-                                                         text=True).stdout.splitlines() if "yes" in l]
+            isas = benchlib.runnable_isas(CIERZO)
             print(f"\nbdpt wavefront over scalar, rays/s per core, 1 thread, {a.rounds} rounds "
                   f"of the fastest of {a.speed_repeat} ({a.size}x{a.size}, {a.speed_spp} spp)")
             print(f"{'scene':22s} {'scalar Mrays/s':>14s} " + " ".join(f"{i:>8s}" for i in isas))
             for name in speed:
-                scene = scene_path(name)
+                scene = benchlib.scene_path(name)
                 per = {"scalar": []} | {i: [] for i in isas}
                 for rnd in range(a.rounds):
                     for key in per:
@@ -154,7 +132,7 @@ def main():
                         args += ["--integrator", "scalar"] if key == "scalar" else ["--isa", key]
                         per[key].append(max(render(scene, tmp / "s.exr", args, tmp / "s.json")
                                             ["rays_per_second"] for _ in range(a.speed_repeat)))
-                ratios = [statistics.median(w / s for w, s in zip(per[i], per["scalar"])) for i in isas]
+                ratios = [benchlib.median_ratio(per[i], per["scalar"]) for i in isas]
                 print(f"{name:22s} {statistics.median(per['scalar']) / 1e6:14.2f} " +
                       " ".join(f"{r:8.2f}" for r in ratios))
 

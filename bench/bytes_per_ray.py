@@ -20,33 +20,23 @@ scripts/make_scenes.py.
 import argparse
 import pathlib
 import re
-import struct
-import subprocess
-import sys
 import tempfile
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from accel import EMBREE, GENERATED, ROOT, run  # noqa: E402
+import benchlib
 
-CIERZO = ROOT / "build" / "cierzo"
+CIERZO, EMBREE = benchlib.CIERZO, benchlib.EMBREE
 EVENTS = ["Ir", "Dr", "D1mr", "DLmr"]
 
 
 def cachegrind(cmd, tmp):
     """Program totals of EVENTS for cmd under cachegrind."""
     out = pathlib.Path(tmp) / "cg.out"
-    subprocess.run(["valgrind", "--tool=cachegrind", "--cache-sim=yes", f"--cachegrind-out-file={out}",
-                    *map(str, cmd)], check=True, capture_output=True)
+    benchlib.run(["valgrind", "--tool=cachegrind", "--cache-sim=yes",
+                  f"--cachegrind-out-file={out}", *cmd])
     text = out.read_text()
     names = re.search(r"^events: (.*)$", text, re.M).group(1).split()
     totals = [int(x) for x in re.search(r"^summary: (.*)$", text, re.M).group(1).split()]
     return {n: totals[names.index(n)] for n in EVENTS}
-
-
-def head_of(src, dst, count):
-    """The first `count` rays of ray file src into dst (magic, uint64 count, 7 floats a ray)."""
-    data = pathlib.Path(src).read_bytes()
-    pathlib.Path(dst).write_bytes(data[:8] + struct.pack("<Q", count) + data[16:16 + 28 * count])
 
 
 def main():
@@ -55,21 +45,19 @@ def main():
     ap.add_argument("--rays", type=int, default=20000)
     ap.add_argument("--ray-group", type=int, default=1, help="cierzo trace --ray-group")
     a = ap.parse_args()
-    if not EMBREE.exists():
-        sys.exit(f"{EMBREE} is needed (bench/peers/README.md builds it)")
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
+    benchlib.require(EMBREE, f"{EMBREE} is needed (bench/peers/README.md builds it)")
+    cpu = benchlib.cpu_name("?")
     print(f"CPU: {cpu}; cachegrind's simulated caches; {a.rays} rays traced twice\n")
     print("| scene | tracer | instructions / ray | data reads / ray | L1 misses / ray | bytes / ray (L1 lines) | last-level misses / ray |")
     print("|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for name in filter(None, a.scenes.split(",")):
-            scene = GENERATED / f"{name}.json"
-            if not scene.exists():
-                run([sys.executable, ROOT / "scripts" / "make_scenes.py", "--only", name])
+            benchlib.ensure_scenes([name])
+            scene = benchlib.generated_scene(name)
             full, some, none = (pathlib.Path(tmp) / f for f in ("all.rays", "some.rays", "none.rays"))
-            run([EMBREE, scene, "--dump-rays", full, "--count", a.rays])
-            head_of(full, some, a.rays)
-            head_of(full, none, 0)
+            benchlib.dump_rays(scene, full, a.rays)
+            benchlib.head_of(full, some, a.rays)
+            benchlib.head_of(full, none, 0)
             tracers = {
                 "cierzo": lambda rays: [CIERZO, "trace", scene, "--rays", rays, "--ray-group", a.ray_group],
                 "Embree rtcIntersect1": lambda rays: [EMBREE, scene, "--trace-rays", rays, "--api", "1"],

@@ -15,12 +15,9 @@ Needs a build with MPI (mpirun on the PATH). As root it sets Open MPI's allow-ru
 variables. On a machine of 2 cores, more than 2 threads in all only share those 2 cores:
 the figures measure the overhead of ranks, not a speed-up.
 """
-import argparse, json, os, statistics, subprocess, sys, tempfile, time
+import argparse, json, os, statistics, tempfile
 
-def run(cmd, env):
-    t = time.time()
-    subprocess.run(cmd, check=True, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    return time.time() - t
+import benchlib
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -35,7 +32,7 @@ def main():
     ap.add_argument("--out", default="")
     a = ap.parse_args()
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    cierzo = os.path.join(a.build, "cierzo")
+    cierzo = str(benchlib.cierzo_in(a.build))
     tmp = tempfile.mkdtemp(prefix="cierzo_dist_bench_")
     base = [cierzo, "render", a.scene, "--quiet", "--width", str(a.width), "--height", str(a.height),
             "--spp", str(a.spp), "--out", os.path.join(tmp, "img.exr")]
@@ -52,9 +49,7 @@ def main():
             cmd = base + ["--threads", str(threads), "--stats", stats]
             if ranks:
                 cmd = ["mpirun", "-np", str(ranks), "--oversubscribe", "--bind-to", "none"] + cmd
-            run(cmd, env)
-            with open(stats) as f:
-                results[label].append(json.load(f))
+            results[label].append(benchlib.render_stats(cmd, stats, env=env))
     table = []
     one = statistics.median(s["rays_per_second"] for s in results[configs[0][0]])
     for label, ranks, threads in configs:
@@ -85,12 +80,12 @@ def main():
     # A checkpoint of this film: size and write time (the final write of a short render)
     ck = os.path.join(tmp, "ck.exr")
     stats = os.path.join(tmp, "ck.json")
-    run(base[:0] + [cierzo, "render", a.scene, "--quiet", "--width", str(a.width), "--height", str(a.height),
-         "--spp", "2", "--out", os.path.join(tmp, "c.exr"), "--checkpoint", ck, "--stats", stats], env)
-    with open(stats) as f:
-        c = json.load(f)["checkpoint"]
+    c = benchlib.render_stats([cierzo, "render", a.scene, "--quiet", "--width", str(a.width),
+                               "--height", str(a.height), "--spp", "2",
+                               "--out", os.path.join(tmp, "c.exr"), "--checkpoint", ck,
+                               "--stats", stats], stats, env=env)["checkpoint"]
     out = {"scene": a.scene, "estimator": a.estimator or "the scene's", "width": a.width, "height": a.height, "spp": a.spp, "rounds": a.rounds,
-           "cpu": open("/proc/cpuinfo").read().split("model name")[1].split("\n")[0].strip(": \t"),
+           "cpu": benchlib.cpu_name(),
            "cores": os.cpu_count(), "configs": table, "checkpoint": c}
     text = json.dumps(out, indent=2)
     print(text)
@@ -119,13 +114,9 @@ def main():
                          f"--spp {a.spp}: 2 and 4 ranks x 1 thread, " + out["cpu"]}
         if splat > 0:
             cal["splat_bytes_per_unit"] = splat * per16
-        with open(a.calibration, "w") as f:
-            json.dump(cal, f, indent=2)
-            f.write("\n")
+        benchlib.write_json(a.calibration, cal)
     if a.out:
-        os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
-        with open(a.out, "w") as f:
-            f.write(text + "\n")
+        benchlib.write_json(a.out, out)
 
 if __name__ == "__main__":
     main()

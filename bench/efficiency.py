@@ -24,11 +24,11 @@ import argparse
 import csv
 import json
 import pathlib
-import subprocess
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-CIERZO = ROOT / "build" / "cierzo"
+import benchlib
+
+CIERZO = benchlib.CIERZO
 # nee and mis default to the four knobs' best settings; every configuration below names all
 # four, so that "lobe" is the report's settings whatever the defaults are
 BASE = {"--roulette": "lobe", "--diffuse-sampling": "uniform", "--triangle-sampling": "area",
@@ -60,16 +60,17 @@ def options(config):
 
 
 def converge(scene, args, extra, tmp, reference=None, save=None):
+    """`cierzo converge` of one configuration: its CSV rows."""
     out = pathlib.Path(tmp) / "run.csv"
-    cmd = [str(CIERZO), "converge", str(scene), "--integrator", "wavefront", "--threads", "1",
-           "--estimator", args.estimator, "--width", str(args.size), "--height", str(args.size),
-           "--spp", args.spp, "--repeats", str(args.repeats), "--out", str(out), "--quiet"]
+    cmd = [CIERZO, "converge", scene, "--integrator", "wavefront", "--threads", "1",
+           "--estimator", args.estimator, "--width", args.size, "--height", args.size,
+           "--spp", args.spp, "--repeats", args.repeats, "--out", out, "--quiet"]
     if reference:
-        cmd += ["--reference", str(reference)]
+        cmd += ["--reference", reference]
     else:
-        cmd += ["--reference-spp", str(args.reference_spp), "--reference-estimator", "mis",
-                "--save-reference", str(save)]
-    subprocess.run(cmd + extra, check=True, capture_output=True)
+        cmd += ["--reference-spp", args.reference_spp, "--reference-estimator", "mis",
+                "--save-reference", save]
+    benchlib.run(cmd + extra)
     with open(out) as f:
         return list(csv.DictReader(f))
 
@@ -92,7 +93,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for name in a.scenes.split(","):
             # (a name of scenes/, or a path such as build/scenes-generated/mesh_200k.json)
-            scene = pathlib.Path(name) if name.endswith(".json") else ROOT / "scenes" / f"{name}.json"
+            scene = benchlib.scene_path(name)
             name = scene.stem
             ref = pathlib.Path(tmp) / f"{name}_ref.exr"
             rows = {}
@@ -118,7 +119,7 @@ def main():
         print(f"| {e['scene']} | {e['spp']} | " +
               " | ".join(f"{e[l]['efficiency'] / base:.2f}" for l in labels[1:]) + " |")
     if a.out:
-        pathlib.Path(a.out).write_text(json.dumps(results, indent=1) + "\n")
+        benchlib.write_json(a.out, results, indent=1)
 
 
 if __name__ == "__main__":

@@ -33,13 +33,12 @@ Usage: PYTHONPATH=build/python/module /usr/bin/python3 bench/error_by_length.py
 """
 import argparse
 import json
-import pathlib
 
 import numpy as np
 
+import benchlib
 import cierzo
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
 BANDS = {"direct": (1, 2), "first": (3, 3), "rest": (4, None)}
 BASE = {"roulette": "lobe", "diffuse_sampling": "uniform", "triangle_sampling": "area",
         "sampler": "independent"}
@@ -48,7 +47,6 @@ ALL = {"roulette": "throughput", "roulette_depth": 1, "diffuse_sampling": "cosin
 CONFIGS = {"lobe": {}, "all": ALL, "all+sobol": {**ALL, "sampler": "sobol"}}
 GUIDED = {"defaults": {**ALL, "sampler": "sobol", "integrator": "scalar"},
           "sdtree": {**ALL, "sampler": "sobol", "integrator": "scalar", "guiding": "sdtree"}}
-EPSILON = 1e-2  # as cierzo converge's relative MSE
 
 
 def band_kwargs(band):
@@ -75,7 +73,7 @@ def main():
     configs = GUIDED if a.guiding else CONFIGS
     results = []
     for name in a.scenes.split(","):
-        scene = pathlib.Path(name) if name.endswith(".json") else ROOT / "scenes" / f"{name}.json"
+        scene = benchlib.scene_path(name)
         common = {"width": a.size, "height": a.size}
         ref, ref_var = {}, {}
         for band in BANDS:
@@ -83,7 +81,7 @@ def main():
                                         threads=0, variance=True, **common, **band_kwargs(band))
             ref[band], ref_var[band] = img.astype(np.float64), var.astype(np.float64)
         whole = sum(ref.values())
-        scale = 1.0 / (whole * whole + EPSILON)
+        scale = benchlib.rel_weights(whole)
         for label, config in configs.items():
             entry = {"scene": scene.stem, "config": label, "spp": a.spp}
             for band in BANDS:
@@ -101,7 +99,7 @@ def main():
         shares = " | ".join(f"{100 * e[b] / e['sum']:.0f}%" for b in BANDS)
         print(f"| {e['scene']} | {e['config']} | {e['sum']:.3g} | {shares} |")
     if a.out:
-        pathlib.Path(a.out).write_text(json.dumps(results, indent=1) + "\n")
+        benchlib.write_json(a.out, results, indent=1)
 
 
 if __name__ == "__main__":

@@ -21,27 +21,28 @@ import json
 import pathlib
 import re
 import statistics
-import subprocess
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-CIERZO = ROOT / "build" / "cierzo"
+import benchlib
+
+CIERZO = benchlib.CIERZO
 
 
 def rays_per_second(program, scene, estimator, integrator, size, spp):
+    """One render's rays/s (its --stats), one thread."""
     with tempfile.TemporaryDirectory() as tmp:
         stats = pathlib.Path(tmp) / "stats.json"
-        subprocess.run([str(program), "render", str(scene), "--width", str(size), "--height",
-                        str(size), "--spp", str(spp), "--threads", "1", "--quiet",
-                        "--estimator", estimator, "--integrator", integrator,
-                        "--out", str(pathlib.Path(tmp) / "image.exr"), "--stats", str(stats)],
-                       check=True, capture_output=True)
-        return json.loads(stats.read_text())["rays_per_second"]
+        return benchlib.render_stats(
+            [program, "render", scene, "--width", size, "--height", size, "--spp", spp,
+             "--threads", "1", "--quiet", "--estimator", estimator, "--integrator", integrator,
+             "--out", pathlib.Path(tmp) / "image.exr", "--stats", stats],
+            stats)["rays_per_second"]
 
 
 def scenes(pattern):
+    """The scenes of scenes/ whose names match pattern, bunny's left out."""
     out = []
-    for p in sorted((ROOT / "scenes").glob("*.json")):
+    for p in sorted(benchlib.SCENES.glob("*.json")):
         if re.search(pattern, p.stem) and "bunny" not in p.stem:
             out.append(p)
     return out
@@ -72,10 +73,10 @@ def main():
             for integrator in ("scalar", "wavefront"):
                 row[integrator] = statistics.median(runs[(integrator, "new")])
                 if a.baseline:
-                    row[integrator + "_vs_old"] = statistics.median(
-                        n / o for n, o in zip(runs[(integrator, "new")], runs[(integrator, "old")]))
-            row["wavefront_vs_scalar"] = statistics.median(
-                w / s for w, s in zip(runs[("wavefront", "new")], runs[("scalar", "new")]))
+                    row[integrator + "_vs_old"] = benchlib.median_ratio(
+                        runs[(integrator, "new")], runs[(integrator, "old")])
+            row["wavefront_vs_scalar"] = benchlib.median_ratio(
+                runs[("wavefront", "new")], runs[("scalar", "new")])
             rows.append(row)
             print(json.dumps(row), flush=True)
     head = "| scene | estimator | scalar Mrays/s | wavefront Mrays/s | wavefront/scalar |"
@@ -90,7 +91,7 @@ def main():
             line += f" {r['scalar_vs_old']:.3f} | {r['wavefront_vs_old']:.3f} |"
         print(line)
     if a.out:
-        pathlib.Path(a.out).write_text(json.dumps(rows, indent=1) + "\n")
+        benchlib.write_json(a.out, rows, indent=1)
 
 
 if __name__ == "__main__":

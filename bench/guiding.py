@@ -37,15 +37,13 @@ Usage: PYTHONPATH=build/python/module /usr/bin/python3 bench/guiding.py
 """
 import argparse
 import json
-import pathlib
 import platform
 
 import numpy as np
 
+import benchlib
 import cierzo
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-EPSILON = 1e-2  # as cierzo converge's relative MSE
 CONFIGS = {
     "scalar": {"integrator": "scalar"},
     "wavefront": {"integrator": "wavefront"},
@@ -55,16 +53,6 @@ CONFIGS = {
 }
 # The configurations whose error may be derived, and what from (the module's docstring)
 DERIVED_FROM = {"wavefront": "scalar", "wavefront_sdtree1": "sdtree1"}
-
-
-def cpu_name():
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor()
 
 
 def main():
@@ -85,17 +73,18 @@ def main():
     for c in configs:
         if c not in CONFIGS:
             ap.error(f"--configs: unknown configuration {c!r} (known: {', '.join(CONFIGS)})")
-    results = {"cpu": cpu_name(), "width": a.width, "height": a.height, "budget": a.budget,
-               "repeats": a.repeats, "reference_spp": a.reference_spp, "scenes": []}
+    results = {"cpu": benchlib.cpu_name(None) or platform.processor(), "width": a.width,
+               "height": a.height, "budget": a.budget, "repeats": a.repeats,
+               "reference_spp": a.reference_spp, "scenes": []}
     for name in a.scenes.split(","):
-        scene = pathlib.Path(name) if name.endswith(".json") else ROOT / "scenes" / f"{name}.json"
+        scene = benchlib.scene_path(name)
         if not scene.is_file():
             ap.error(f"{scene}: no such scene (scenes/generated/: scripts/make_scenes.py)")
         size = {"width": a.width, "height": a.height}
         ref, ref_var, _ = cierzo.render(str(scene), spp=a.reference_spp, estimator="mis",
                                         seed=a.seed + 1000, variance=True, **size)
         ref, ref_var = ref.astype(np.float64), ref_var.astype(np.float64)
-        scale = 1.0 / (ref * ref + EPSILON)
+        scale = benchlib.rel_weights(ref)
         ref_noise = float(np.mean(ref_var * scale))
         if "wavefront" in configs:
             # (the two integrators draw the same paths: their images at equal paths agree far
@@ -149,11 +138,10 @@ def main():
                       ", ".join(f"{c} {entry['configs'][c][f'efficiency_over_{base}']:.3g}x"
                                 for c in configs), flush=True)
         results["scenes"].append(entry)
-    text = json.dumps(results, indent=1)
     if a.out:
-        pathlib.Path(a.out).write_text(text + "\n")
+        benchlib.write_json(a.out, results, indent=1)
     else:
-        print(text)
+        print(json.dumps(results, indent=1))
 
 
 if __name__ == "__main__":

@@ -28,64 +28,24 @@ Usage: /usr/bin/python3 bench/in_flight.py [--rounds N] [--skip PART,...] [--out
 The CPU is named in the output; say which one a number came from.
 """
 import argparse
-import json
 import pathlib
 import statistics
 import sys
 import tempfile
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from accel import (EMBREE, EMBREE_TRACES, GENERATED, ROOT, embree_render, keys,  # noqa: E402
-                   pfm_mean, run)
+import benchlib
 
-CIERZO = ROOT / "build" / "cierzo"
+CIERZO, EMBREE, EMBREE_TRACES = benchlib.CIERZO, benchlib.EMBREE, benchlib.EMBREE_TRACES
+ROOT = benchlib.ROOT
+scene_path = benchlib.generated_scene
 BIG = ["mesh_200k", "sticks_100k", "mesh_1m", "mesh_10m"]
 LADDER = ["mesh_10k", "mesh_200k", "mesh_1m", "mesh_10m"]
 GROUPS = [1, 2, 4, 8, 16, 32, 64]
 
 
-def scene_path(name):
-    return GENERATED / f"{name}.json"
-
-
-def ensure_scenes(names):
-    missing = [n for n in names if not scene_path(n).exists()]
-    if missing:
-        run([sys.executable, ROOT / "scripts" / "make_scenes.py", "--only", ",".join(missing)])
-
-
-def cpu():
-    name = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
-                 if l.startswith("model name")), "?")
-    flags = open("/proc/cpuinfo").read()
-    return name, "AVX-512" if "avx512f" in flags else ("AVX2" if "avx2" in flags else "other")
-
-
-def isas(binary):
-    """The ISAs this build has and this CPU runs, widest first (`cierzo isas`)."""
-    out = run([binary, "isas"])
-    return [l.split("\t")[0] for l in out.splitlines() if "\tyes" in l]
-
-
 def render(tmp, scene, size, spp, integrator="wavefront", isa="auto", extra=(), binary=CIERZO):
-    out, stats = pathlib.Path(tmp) / "img.pfm", pathlib.Path(tmp) / "stats.json"
-    run([binary, "render", scene, "--width", size, "--height", size, "--spp", spp, "--threads", 1,
-         "--integrator", integrator, "--isa", isa, "--quiet", "--out", out, "--stats", stats,
-         *extra])
-    s = json.loads(stats.read_text())
-    return {"rays_per_s": s["rays_per_second_per_thread"], "mean": pfm_mean(out),
-            "ray_group": s.get("ray_group")}
-
-
-def trace(scene, rays, extra=()):
-    k = keys(run([CIERZO, "trace", scene, "--rays", rays, *extra]))
-    return {"rays_per_s": float(k["rays_per_second"]), "hits": int(k["hits"]),
-            "sum_t": float(k["sum_t"])}
-
-
-def embree_trace(scene, rays, api, quality):
-    k = keys(run([EMBREE, scene, "--trace-rays", rays, "--api", api, "--quality", quality]))
-    return {"rays_per_s": float(k["rays_per_second"]), "hits": int(k["hits"])}
+    """benchlib.cierzo_render, always naming the ISA."""
+    return benchlib.cierzo_render(tmp, scene, integrator, size, spp, binary, isa, extra)
 
 
 def main():
@@ -98,7 +58,7 @@ def main():
     ap.add_argument("--group", type=int, default=16, help="the rays in flight set beside one at a time")
     ap.add_argument("--baseline", type=pathlib.Path,
                     help="an earlier cierzo: its wavefront renders of the big scenes beside today's")
-    ap.add_argument("--out", type=pathlib.Path, default=ROOT / "build" / "bench-results")
+    ap.add_argument("--out", type=pathlib.Path, default=benchlib.BUILD / "bench-results")
     a = ap.parse_args()
     skip = set(filter(None, a.skip.split(",")))
     big = [s for s in a.scenes.split(",") if s]
@@ -108,14 +68,13 @@ def main():
         print(f"(no {EMBREE}: the Embree columns and the parts that trace its rays, groups and "
               "trace, are left out; bench/peers/README.md builds it)")
         skip |= {"groups", "trace"}
-    ensure_scenes(sorted(set(big + (LADDER if "render" not in skip else [])
-                             + ["mesh_200k", "spheres_10", "spheres_10000"])))
-    name, isa = cpu()
+    benchlib.ensure_scenes(sorted(set(big + (LADDER if "render" not in skip else [])
+                                      + ["mesh_200k", "spheres_10", "spheres_10000"])))
+    name, isa = benchlib.cpu_name("?"), benchlib.cpu_isa()
     print(f"CPU: {name} ({isa}); {a.rounds} interleaved rounds, 1 thread\n")
-    samples = {}
-
-    def add(key, value):
-        samples.setdefault(key, []).append(value)
+    samples = benchlib.Samples()
+    add = samples.add
+    trace, embree_trace = benchlib.cierzo_trace, benchlib.embree_trace
 
     with tempfile.TemporaryDirectory() as tmp:
         rays = {}
@@ -123,14 +82,12 @@ def main():
         trace_scenes += big if "trace" not in skip else []
         for s in dict.fromkeys(trace_scenes):
             rays[s] = pathlib.Path(tmp) / f"{s}.rays"
-            run([EMBREE, scene_path(s), "--dump-rays", rays[s],
-                 "--count", 1000000])
-        atrium = ROOT / "scenes" / "generated" / "atrium" / "atrium.json"
+            benchlib.dump_rays(scene_path(s), rays[s], 1000000)
+        atrium = benchlib.ATRIUM / "atrium.json"
         if "atrium" not in skip and not atrium.exists():
-            run([sys.executable, ROOT / "scripts" / "make_atrium.py"])
-        widths = isas(CIERZO)
-        for r in range(a.rounds):
-            print(f"round {r + 1}/{a.rounds}", file=sys.stderr)
+            benchlib.run([sys.executable, ROOT / "scripts" / "make_atrium.py"])
+        widths = benchlib.runnable_isas(CIERZO)
+        for r in benchlib.rounds(a.rounds):
             if "groups" not in skip:
                 for g in GROUPS:
                     add(("groups", g), trace(scene_path("mesh_200k"), rays["mesh_200k"],
@@ -151,7 +108,7 @@ def main():
                     if a.baseline:
                         add(("render", s, "baseline"), render(tmp, p, a.size, a.spp, binary=a.baseline))
                     if have_embree:
-                        add(("render", s, "embree"), embree_render(tmp, p, a.size, a.spp))
+                        add(("render", s, "embree"), benchlib.embree_render(tmp, p, a.size, a.spp))
             if "spheres" not in skip:
                 for n in (10, 10000):
                     p = scene_path(f"spheres_{n}")
@@ -163,9 +120,7 @@ def main():
                     add(("atrium", w), render(tmp, atrium, 160, 8, "wavefront", w,
                                               extra=["--estimator", "mis"]))
 
-    rate = lambda key: [s["rays_per_s"] for s in samples[key]]
-    med = lambda key: statistics.median(rate(key)) / 1e6
-    ratio = lambda a_, b_: statistics.median(x / y for x, y in zip(rate(a_), rate(b_)))
+    rate, med, ratio = samples.rates, samples.mrays, samples.ratio
     result = {"cpu": name, "isa": isa, "rounds": a.rounds}
     if "groups" not in skip:
         print("| rays in flight (mesh_200k, cierzo trace) | M rays/s | / one at a time |")
@@ -190,7 +145,7 @@ def main():
                 e1 = ("trace", s, "embree", "1", "high")
                 fastest = [max(samples[("trace", s, "embree") + t][r]["rays_per_s"]
                                for t in EMBREE_TRACES) for r in range(a.rounds)]
-                vs_fastest = statistics.median(x / y for x, y in zip(rate(c), fastest))
+                vs_fastest = benchlib.median_ratio(rate(c), fastest)
                 row.update({"rtcIntersect1": med(e1), "ratio_1": ratio(c, e1),
                             "fastest": statistics.median(fastest) / 1e6, "ratio_fastest": vs_fastest,
                             "embree_all": {"rtcIntersect%s, %s" % t: med(("trace", s, "embree") + t)
@@ -243,8 +198,7 @@ def main():
         for w in widths:
             result[f"atrium_{w}"] = {"mrays": med(("atrium", w)), "ratio": ratio(("atrium", w), ("atrium", "scalar"))}
             print(f"| wavefront {w} | {med(('atrium', w)):.2f} | {ratio(('atrium', w), ('atrium', 'scalar')):.2f} |")
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "in_flight.json").write_text(json.dumps(result, indent=2) + "\n")
+    benchlib.write_json(a.out / "in_flight.json", result)
 
 
 if __name__ == "__main__":

@@ -33,15 +33,15 @@ valgrind has no AVX-512: the default ISA here is AVX2.
 """
 import argparse
 import collections
-import json
 import pathlib
 import re
 import struct
-import subprocess
 import sys
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+import benchlib
+
+ROOT = benchlib.ROOT
 
 # The innermost function of an address's inline chain that matches decides its part
 # (patterns are tried on each frame, innermost first).
@@ -63,10 +63,6 @@ CIERZO_PARTS = [
 ]
 
 
-def run(cmd, **kw):
-    return subprocess.run([str(c) for c in cmd], check=True, capture_output=True, text=True, **kw)
-
-
 def first_ray(rays, out):
     """A ray file of the first ray of `rays`."""
     data = pathlib.Path(rays).read_bytes()
@@ -75,7 +71,7 @@ def first_ray(rays, out):
     count = struct.unpack_from("<Q", data, 8)[0]
     if count < 2:
         sys.exit(f"{rays}: {count} rays; at least 2 are needed")
-    pathlib.Path(out).write_bytes(data[:8] + struct.pack("<Q", 1) + data[16:16 + 28])
+    benchlib.head_of(rays, out, 1)
     return count
 
 
@@ -132,7 +128,7 @@ def load_base(binary, costs):
     but other versions or set-ups may not; the base under which most executed addresses
     are some symbol's is taken."""
     symbols = set()
-    for line in run(["nm", "--defined-only", binary]).stdout.splitlines():
+    for line in benchlib.run(["nm", "--defined-only", binary]).splitlines():
         parts = line.split()
         if len(parts) == 3 and parts[1] in "tTwW":
             symbols.add(int(parts[0], 16))
@@ -149,7 +145,7 @@ def load_base(binary, costs):
 def inline_chains(binary, addresses):
     """{address: [function names, innermost first]} by addr2line -i."""
     text = "\n".join(hex(a) for a in addresses)
-    out = run(["addr2line", "-e", binary, "-f", "-C", "-i", "-a"], input=text).stdout.splitlines()
+    out = benchlib.run(["addr2line", "-e", binary, "-f", "-C", "-i", "-a"], input=text).splitlines()
     chains, current = {}, None
     i = 0
     while i < len(out):
@@ -194,13 +190,13 @@ def traverse_loop_line(root=ROOT):
 
 
 def callgrind(cmd, out):
-    run(["valgrind", "--tool=callgrind", "--dump-instr=yes", "--dump-line=no",
-         f"--callgrind-out-file={out}"] + cmd)
+    benchlib.run(["valgrind", "--tool=callgrind", "--dump-instr=yes", "--dump-line=no",
+                  f"--callgrind-out-file={out}"] + cmd)
     return parse_callgrind(out)
 
 
 def cierzo_parts(args, rays, one, tmp):
-    binary = pathlib.Path(args.build) / "cierzo"
+    binary = benchlib.cierzo_in(args.build)
     cmd = [binary, "trace", args.scene, "--rays", None, "--integrator", args.integrator,
            "--ray-group", args.ray_group]
     if args.integrator == "wavefront":
@@ -244,7 +240,7 @@ def short_name(function):
 
 
 def embree_parts(args, rays, one, tmp):
-    binary = pathlib.Path(args.build) / "bench" / "peers" / "embree" / "embree_pt"
+    binary = benchlib.embree_in(args.build)
     totals = {}
     for name, file in (("all", rays), ("one", one)):
         totals[name] = callgrind([binary, args.scene, "--trace-rays", file, "--api", "1",
@@ -292,15 +288,14 @@ def main():
         per_ray = 1.0 / (2 * (count - 1))
         results = {}
         results["cierzo"], functions = cierzo_parts(args, args.rays, one, tmp)
-        embree = pathlib.Path(args.build) / "bench" / "peers" / "embree" / "embree_pt"
+        embree = benchlib.embree_in(args.build)
         if not args.no_embree and embree.exists():
             results["embree"] = embree_parts(args, args.rays, one, tmp)
     report = {}
     for who, parts in results.items():
         report[who] = {k: v * per_ray for k, v in sorted(parts.items())}
         report[who]["total"] = sum(parts.values()) * per_ray
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
-                if l.startswith("model name")), "unknown")
+    cpu = benchlib.cpu_name("unknown")
     print(f"instructions per ray, {count} rays of {args.rays} through {args.scene}")
     print(f"cierzo: {args.integrator}, isa {args.isa}, ray group {args.ray_group}; CPU: {cpu}")
     print("(counts, not times: the CPU changes nothing but the ISA valgrind may run)\n")
@@ -321,9 +316,9 @@ def main():
                 if abs(n * per_ray) >= 0.5:
                     print(f"  {n * per_ray:7.1f}  {w}")
     if args.json:
-        pathlib.Path(args.json).write_text(json.dumps(
-            {"scene": args.scene, "rays": args.rays, "count": count, "isa": args.isa,
-             "integrator": args.integrator, "cpu": cpu, "per_ray": report}, indent=2) + "\n")
+        benchlib.write_json(args.json, {
+            "scene": args.scene, "rays": args.rays, "count": count, "isa": args.isa,
+            "integrator": args.integrator, "cpu": cpu, "per_ray": report})
 
 
 if __name__ == "__main__":

@@ -58,6 +58,8 @@ import argparse, heapq, json, math, random, sys, time
 from collections import deque
 from types import SimpleNamespace
 
+import benchlib
+
 TILE, PIXEL_BYTES = 16, 64       # a film pixel's sums are 64 bytes
 MIN_PASS_PATHS = 1 << 20         # kMinPassPaths, src/integrators/render.h
 DEFAULTS = dict(width=3840, height=2160, spp=4096, threads=64, estimator="mis", empty="answer",
@@ -551,9 +553,10 @@ def main():
               f"{r['floor_rank0_seconds']:.3g} | {r['rank0_cpu_seconds']:.3g} | {r['floor_window_seconds']:.3g} | "
               f"{r['gather_seconds']:.3g} | {r['run_seconds']:.1f} |", flush=True)
     if a.json:
-        with open(a.json, "w") as f:
-            json.dump({"settings": vars(cfg), "total_passes": work.total_passes, "simulated_passes": len(work.window),
-                       "extrapolated_passes": work.extra, "units": work.units, "rows": rows}, f, indent=1)
+        benchlib.write_json(a.json, {"settings": vars(cfg), "total_passes": work.total_passes,
+                                     "simulated_passes": len(work.window),
+                                     "extrapolated_passes": work.extra, "units": work.units,
+                                     "rows": rows}, indent=1)
     return 0
 
 

@@ -12,27 +12,23 @@ Usage: /usr/bin/python3 bench/one_process.py --old DIR --new DIR [--rounds 3]
 Run it on an otherwise idle machine.
 """
 import argparse
-import json
 import math
 import os
-import pathlib
 import statistics
-import subprocess
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+import benchlib
 
 
 def rays_per_second(build, scene, a, tmp):
+    """One render by the cierzo of build folder `build`: its rays/s (--stats)."""
     stats = os.path.join(tmp, "s.json")
-    cmd = [os.path.join(build, "cierzo"), "render", str(scene), "--quiet", "--width",
-           str(a.width), "--height", str(a.height), "--spp", str(a.spp), "--threads",
-           str(a.threads), "--out", os.path.join(tmp, "img.exr"), "--stats", stats]
+    cmd = [benchlib.cierzo_in(build), "render", scene, "--quiet", "--width",
+           a.width, "--height", a.height, "--spp", a.spp, "--threads",
+           a.threads, "--out", os.path.join(tmp, "img.exr"), "--stats", stats]
     if a.target_error:
-        cmd += ["--target-error", str(a.target_error)]
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    with open(stats) as f:
-        return json.load(f)["rays_per_second"]
+        cmd += ["--target-error", a.target_error]
+    return benchlib.render_stats(cmd, stats)["rays_per_second"]
 
 
 def main():
@@ -50,18 +46,17 @@ def main():
     a = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="cierzo_one_process_")
     rows = []
-    for scene in sorted((ROOT / "scenes").glob("*.json")):
-        ratios, old, new = [], [], []
+    for scene in sorted(benchlib.SCENES.glob("*.json")):
+        old, new = [], []
         for r in range(a.rounds):
             order = [("old", a.old), ("new", a.new)]
             if r % 2:
                 order.reverse()
             got = {name: rays_per_second(build, scene, a, tmp) for name, build in order}
             old.append(got["old"]), new.append(got["new"])
-            ratios.append(got["new"] / got["old"])
         row = {"scene": scene.name, "old_rays_per_second": statistics.median(old),
                "new_rays_per_second": statistics.median(new),
-               "new_over_old": statistics.median(ratios)}
+               "new_over_old": benchlib.median_ratio(new, old)}
         rows.append(row)
         print(f"{scene.name:28s} {row['old_rays_per_second'] / 1e6:9.2f} "
               f"{row['new_rays_per_second'] / 1e6:9.2f} Mrays/s  {row['new_over_old']:.3f}")
@@ -69,11 +64,8 @@ def main():
     worst = min(rows, key=lambda r: r["new_over_old"])
     print(f"geometric mean new/old {geo:.3f}; lowest {worst['new_over_old']:.3f} ({worst['scene']})")
     if a.out:
-        cpu = open("/proc/cpuinfo").read().split("model name")[1].split("\n")[0].strip(": \t")
-        with open(a.out, "w") as f:
-            json.dump({"cpu": cpu, "settings": vars(a), "scenes": rows,
-                       "geometric_mean": geo}, f, indent=2)
-            f.write("\n")
+        benchlib.write_json(a.out, {"cpu": benchlib.cpu_name(), "settings": vars(a), "scenes": rows,
+                                    "geometric_mean": geo})
 
 
 if __name__ == "__main__":

@@ -14,13 +14,12 @@ Usage: /usr/bin/python3 bench/small_renders.py [--build NAME=DIR ...] [--rounds 
 (default: the one build in build/). Run it on an otherwise idle machine.
 """
 import argparse
-import json
 import os
-import pathlib
 import statistics
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+import benchlib
+
 # (width, height, paths per pixel, threads)
 CONFIGS = [(250, 250, 16, 1), (250, 250, 16, 2), (500, 500, 128, 1), (960, 540, 64, 2)]
 
@@ -40,8 +39,7 @@ def run(program, scene, config, integrator, tmp):
     _, status, usage = os.wait4(pid, 0)
     if os.waitstatus_to_exitcode(status) != 0:
         raise SystemExit(f"{' '.join(args)} failed")
-    with open(stats) as f:
-        return json.load(f)["rays_per_second"], usage.ru_nvcsw
+    return benchlib.read_stats(stats)["rays_per_second"], usage.ru_nvcsw
 
 
 def main():
@@ -49,12 +47,12 @@ def main():
     parser.add_argument("--build", action="append", default=[],
                         help="NAME=DIR: a build folder holding the cierzo program (repeatable)")
     parser.add_argument("--rounds", type=int, default=5)
-    parser.add_argument("--scene", default=str(ROOT / "scenes" / "cornell.json"))
+    parser.add_argument("--scene", default=str(benchlib.SCENES / "cornell.json"))
     parser.add_argument("--integrator", default="wavefront")
     parser.add_argument("--out", help="write the table as JSON here")
     a = parser.parse_args()
-    builds = [b.split("=", 1) for b in a.build] or [["this", str(ROOT / "build")]]
-    programs = {name: str(pathlib.Path(d) / "cierzo") for name, d in builds}
+    builds = [b.split("=", 1) for b in a.build] or [["this", str(benchlib.BUILD)]]
+    programs = {name: str(benchlib.cierzo_in(d)) for name, d in builds}
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for config in CONFIGS:
@@ -67,12 +65,11 @@ def main():
                     switches[name].append(s)
             first = builds[0][0]
             for name in programs:
-                ratios = [x / y for x, y in zip(rates[name], rates[first])]
                 rows.append({"width": config[0], "height": config[1], "spp": config[2],
                              "threads": config[3], "build": name,
                              "rays_per_second": statistics.median(rates[name]),
                              "per_thread": statistics.median(rates[name]) / config[3],
-                             "ratio_to_first": statistics.median(ratios),
+                             "ratio_to_first": benchlib.median_ratio(rates[name], rates[first]),
                              "voluntary_switches": statistics.median(switches[name])})
     print(f"| size x spp | threads | build | Mrays/s | per thread | vs {builds[0][0]} "
           "| voluntary switches |")
@@ -82,8 +79,7 @@ def main():
               f"| {r['rays_per_second'] / 1e6:.1f} | {r['per_thread'] / 1e6:.1f} "
               f"| {r['ratio_to_first']:.2f} | {r['voluntary_switches']:.0f} |")
     if a.out:
-        with open(a.out, "w") as f:
-            json.dump(rows, f, indent=2)
+        benchlib.write_json(a.out, rows)
 
 
 if __name__ == "__main__":

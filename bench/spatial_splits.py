@@ -18,17 +18,13 @@ Usage: /usr/bin/python3 bench/spatial_splits.py [--rounds N] [--scenes a,b] [--b
 The CPU is named in the output; say which one a number came from.
 """
 import argparse
-import json
 import pathlib
 import statistics
-import subprocess
-import sys
 import tempfile
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import accel  # noqa: E402  (run, keys, cierzo_render, embree_render, median_ratio)
+import benchlib
 
-GENERATED = accel.GENERATED
+EMBREE = benchlib.EMBREE
 
 
 def variant(scene, budget):
@@ -50,71 +46,55 @@ def main():
     a = ap.parse_args()
     names = [n for n in a.scenes.split(",") if n]
     budgets = [b for b in a.budgets.split(",") if b]
-    missing = [n for n in names if not (GENERATED / f"{n}.json").exists()]
-    if missing:
-        accel.run([sys.executable, accel.ROOT / "scripts" / "make_scenes.py",
-                   "--only", ",".join(missing)])
-    if not accel.EMBREE.exists():
-        raise SystemExit(f"{accel.EMBREE} is not built: apt-get install libembree-dev, then "
-                         "ninja -C build embree_pt")
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
-                if l.startswith("model name")), "?")
-    print(f"CPU: {cpu}; {a.rounds} interleaved rounds, one thread\n")
-    samples = {}
-
-    def add(key, value):
-        samples.setdefault(key, []).append(value)
+    benchlib.ensure_scenes(names)
+    benchlib.require(EMBREE, f"{EMBREE} is not built: apt-get install libembree-dev, then "
+                     "ninja -C build embree_pt")
+    print(f"CPU: {benchlib.cpu_name('?')}; {a.rounds} interleaved rounds, one thread\n")
+    samples = benchlib.Samples()
+    add = samples.add
 
     with tempfile.TemporaryDirectory() as tmp:
-        scenes = {n: GENERATED / f"{n}.json" for n in names}
+        scenes = {n: benchlib.generated_scene(n) for n in names}
         variants = {(n, b): variant(s, b) for n, s in scenes.items() for b in budgets}
         rays = {}
         for n, s in scenes.items():
             rays[n] = pathlib.Path(tmp) / f"{n}.rays"
-            accel.run([accel.EMBREE, s, "--dump-rays", rays[n], "--count", 1000000])
-        builds = {}
-        for (n, b), s in variants.items():
-            stats = pathlib.Path(tmp) / "build.json"
-            accel.run([accel.CIERZO, "render", s, "--width", 1, "--height", 1, "--spp", 1,
-                       "--threads", 2, "--quiet", "--out", pathlib.Path(tmp) / "b.pfm",
-                       "--stats", stats])
-            builds[(n, b)] = json.loads(stats.read_text())["bvh"]
+            benchlib.dump_rays(s, rays[n], 1000000)
+        builds = {(n, b): benchlib.cierzo_build(tmp, s) for (n, b), s in variants.items()}
         for n, s in scenes.items():
             for q in ("medium", "high"):
-                k = accel.keys(accel.run([accel.EMBREE, s, "--width", 1, "--height", 1, "--spp", 1,
-                                          "--quality", q, "--embree-config", "threads=2"]))
+                k = benchlib.keys(benchlib.run([EMBREE, s, "--width", 1, "--height", 1, "--spp", 1,
+                                                "--quality", q, "--embree-config", "threads=2"]))
                 builds[(n, "embree-" + q)] = float(k["build_seconds"])
-        for r in range(a.rounds):
-            print(f"round {r + 1}/{a.rounds}", file=sys.stderr)
+        for r in benchlib.rounds(a.rounds):
             for n, s in scenes.items():
                 for b in budgets:
                     v = variants[(n, b)]
-                    k = accel.keys(accel.run([accel.CIERZO, "trace", v, "--rays", rays[n]]))
-                    add(("trace", n, b), float(k["rays_per_second"]))
-                    add(("render", n, b), accel.cierzo_render(tmp, v, "wavefront", 200, 4))
+                    add(("trace", n, b), benchlib.cierzo_trace(v, rays[n]))
+                    add(("render", n, b), benchlib.cierzo_render(tmp, v, "wavefront", 200, 4))
                 for q in ("medium", "high"):
-                    k = accel.keys(accel.run([accel.EMBREE, s, "--trace-rays", rays[n],
-                                              "--api", "1", "--quality", q]))
-                    add(("trace", n, "embree-" + q), float(k["rays_per_second"]))
-                add(("render", n, "embree"), accel.embree_render(tmp, s, 200, 4))
+                    add(("trace", n, "embree-" + q), benchlib.embree_trace(s, rays[n], "1", q))
+                add(("render", n, "embree"), benchlib.embree_render(tmp, s, 200, 4))
 
     med = lambda xs: statistics.median(xs) / 1e6
+    ratio = benchlib.median_ratio
     print("| scene | spatial_splits | references | bytes/triangle | build, 2 threads (s) | "
           "trace, M rays/s | / no splits | / Embree high | / Embree medium | "
           "render, M rays/s | / Embree | R mean (Embree) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in names:
-        eh, em = samples[("trace", n, "embree-high")], samples[("trace", n, "embree-medium")]
-        er = [x["rays_per_s"] for x in samples[("render", n, "embree")]]
+        eh = samples.rates(("trace", n, "embree-high"))
+        em = samples.rates(("trace", n, "embree-medium"))
+        er = samples.rates(("render", n, "embree"))
         for b in budgets:
-            t = samples[("trace", n, b)]
-            rr = [x["rays_per_s"] for x in samples[("render", n, b)]]
+            t = samples.rates(("trace", n, b))
+            rr = samples.rates(("render", n, b))
             bs = builds[(n, b)]
             print(f"| {n} | {b} | {bs['references']:,} | {bs['bytes'] / bs['primitives']:.1f} | "
                   f"{bs['build_seconds']:.3f} | {med(t):.2f} | "
-                  f"{accel.median_ratio(t, samples[('trace', n, budgets[0])]):.2f} | "
-                  f"{accel.median_ratio(t, eh):.2f} | {accel.median_ratio(t, em):.2f} | "
-                  f"{med(rr):.2f} | {accel.median_ratio(rr, er):.2f} | "
+                  f"{ratio(t, samples.rates(('trace', n, budgets[0]))):.2f} | "
+                  f"{ratio(t, eh):.2f} | {ratio(t, em):.2f} | "
+                  f"{med(rr):.2f} | {ratio(rr, er):.2f} | "
                   f"{samples[('render', n, b)][-1]['mean'][0]:.4f} "
                   f"({samples[('render', n, 'embree')][-1]['mean'][0]:.4f}) |")
         print(f"| {n} | Embree | | | high {builds[(n, 'embree-high')]:.3f}, medium "

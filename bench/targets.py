@@ -20,29 +20,27 @@ import json
 import pathlib
 import re
 import statistics
-import subprocess
 import sys
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-BUILD = ROOT / "build"
+import benchlib
+
+ROOT, BUILD, CIERZO = benchlib.ROOT, benchlib.BUILD, benchlib.CIERZO
 
 
 def bench_scenes(repetitions, scene_filter):
     """Part 1: per scene, scalar and best-ISA wavefront medians from bench_render."""
     program = BUILD / "bench" / "bench_render"
-    listing = subprocess.run([program, "--benchmark_list_tests=true"], check=True,
-                             capture_output=True, text=True).stdout.split()
+    listing = benchlib.run([program, "--benchmark_list_tests=true"]).split()
     isas = [n.split("/")[2] for n in listing if n.startswith("render/")]
     best = next(i for i in ("wavefront_avx512", "wavefront_avx2", "wavefront_sse4.2") if i in isas)
     pattern = f"^render/({scene_filter})/(scalar|{re.escape(best)})$"
-    out = subprocess.run(
+    out = benchlib.run(
         [program, f"--benchmark_filter={pattern}", f"--benchmark_repetitions={repetitions}",
          # repetitions of every benchmark interleaved in random order, so a slow spell of
          # a shared machine falls on both integrators alike
          "--benchmark_enable_random_interleaving=true",
-         "--benchmark_report_aggregates_only=true", "--benchmark_format=json"],
-        check=True, capture_output=True, text=True).stdout
+         "--benchmark_report_aggregates_only=true", "--benchmark_format=json"])
     medians = {}
     for b in json.loads(out)["benchmarks"]:
         # (one repetition reports the run itself, several their aggregates)
@@ -63,23 +61,15 @@ def bench_scenes(repetitions, scene_filter):
 
 def render_rate(integrator, threads, stats, isa="auto"):
     """One render of the default scene; returns its rays/s per thread."""
-    subprocess.run([BUILD / "cierzo", "render", ROOT / "scenes" / "cornell.json",
-                    "--integrator", integrator, "--threads", str(threads), "--isa", isa,
-                    "--quiet", "--out", stats.with_suffix(".exr"), "--stats", stats],
-                   check=True, capture_output=True)
-    return json.loads(stats.read_text())["rays_per_second_per_thread"]
-
-
-def runnable_isas():
-    """The ISAs `cierzo isas` says this CPU runs, widest first."""
-    out = subprocess.run([BUILD / "cierzo", "isas"], check=True, capture_output=True,
-                         text=True).stdout
-    return [line.split("\t")[0] for line in out.splitlines() if line.split("\t")[2] != "no"]
+    return benchlib.render_stats([CIERZO, "render", benchlib.SCENES / "cornell.json",
+                                  "--integrator", integrator, "--threads", threads, "--isa", isa,
+                                  "--quiet", "--out", stats.with_suffix(".exr"), "--stats", stats],
+                                 stats)["rays_per_second_per_thread"]
 
 
 def default_scene(rounds):
     """Part 2: alternating whole renders of cornell.json; medians of rays/s per thread."""
-    isas = runnable_isas()
+    isas = benchlib.runnable_isas(CIERZO)
     runs = {"scalar_1": [], "wavefront_2": []}
     runs.update({f"wavefront_{isa}_1": [] for isa in isas})
     with tempfile.TemporaryDirectory() as tmp:
@@ -90,8 +80,7 @@ def default_scene(rounds):
                 runs[f"wavefront_{isa}_1"].append(render_rate("wavefront", 1, stats, isa))
             runs["wavefront_2"].append(render_rate("wavefront", 2, stats))
     med = {k: statistics.median(v) for k, v in runs.items()}
-    ratios = {isa: statistics.median(w / s for w, s in zip(runs[f"wavefront_{isa}_1"],
-                                                            runs["scalar_1"]))
+    ratios = {isa: benchlib.median_ratio(runs[f"wavefront_{isa}_1"], runs["scalar_1"])
               for isa in isas}
     best = med[f"wavefront_{isas[0]}_1"]
     return {"isas": isas, "runs": runs, "median_rays_per_s_per_thread": med,
@@ -110,10 +99,9 @@ def main():
     args = ap.parse_args()
     if args.repetitions < 1 or args.rounds < 1:
         sys.exit("targets.py: --repetitions and --rounds must be at least 1")
-    for program in (BUILD / "cierzo", BUILD / "bench" / "bench_render"):
-        if not program.exists():
-            sys.exit(f"targets.py: {program} is missing; build with "
-                     "scripts/build.sh build -DCIERZO_BUILD_BENCH=ON")
+    for program in (CIERZO, BUILD / "bench" / "bench_render"):
+        benchlib.require(program, f"targets.py: {program} is missing; build with "
+                         "scripts/build.sh build -DCIERZO_BUILD_BENCH=ON")
 
     isa, rows = bench_scenes(args.repetitions, args.scene_filter)
     print(f"Every scene, 1 thread, 128x128 at 8 spp (bench_render, medians of "
@@ -143,9 +131,7 @@ def main():
         print(f"| {isa} | {m[f'wavefront_{isa}_1'] / 1e6:.1f} M | "
               f"{d['median_round_ratio_over_scalar'][isa]:.1f}x |")
     out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "targets.json").write_text(json.dumps(
-        {"isa": isa, "scenes": rows, "default_scene": d}, indent=2))
+    benchlib.write_json(out / "targets.json", {"isa": isa, "scenes": rows, "default_scene": d})
     print(f"\nwrote {out / 'targets.json'}")
 
 

@@ -14,35 +14,24 @@ RAYS: a ray file (embree_pt --dump-rays; ignored with --render). Prints M rays/s
 and the ratios; names the CPU, which every number depends on.
 """
 import argparse
-import json
 import pathlib
-import re
 import statistics
-import subprocess
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+import benchlib
 
 
 def rays_per_second(cmd):
-    out = subprocess.run([str(c) for c in cmd], check=True, capture_output=True, text=True).stdout
-    keys = dict(re.findall(r"^(\w+): (.*)$", out, re.M))
+    """Runs cmd (a trace, or a render of cierzo's or Embree's): its rays/s, and its hits
+    (trace) or image mean as text (render)."""
+    keys = benchlib.keys(benchlib.run(cmd))
     if "hits" in keys:
         return float(keys["rays_per_second"]), int(keys["hits"])
     if "mean_rgb" in keys:  # embree_pt rendering
         return float(keys["rays_per_second"]), keys["mean_rgb"]
-    stats = json.loads(pathlib.Path(cmd[cmd.index("--stats") + 1]).read_text())
-    return stats["rays_per_second_per_thread"], pfm_mean(cmd[cmd.index("--out") + 1])
-
-
-def pfm_mean(path):
-    """Mean RGB of a PFM image, as text."""
-    data = pathlib.Path(path).read_bytes()
-    header = data.split(b"\n", 3)
-    w, h = (int(x) for x in header[1].split())
-    import struct
-    floats = struct.unpack(("<" if float(header[2]) < 0 else ">") + f"{3 * w * h}f", header[3])
-    return " ".join(f"{sum(floats[c::3]) / (w * h):.5f}" for c in range(3))
+    stats = benchlib.read_stats(cmd[cmd.index("--stats") + 1])
+    mean = benchlib.pfm_mean(cmd[cmd.index("--out") + 1])
+    return stats["rays_per_second_per_thread"], " ".join(f"{m:.5f}" for m in mean)
 
 
 def main():
@@ -51,9 +40,9 @@ def main():
     p.add_argument("rays")
     p.add_argument("--rounds", type=int, default=7)
     p.add_argument("--repeat", type=int, default=3)
-    p.add_argument("--cierzo", default=str(ROOT / "build" / "cierzo"))
+    p.add_argument("--cierzo", default=str(benchlib.CIERZO))
     p.add_argument("--baseline")
-    p.add_argument("--embree", default=str(ROOT / "build" / "bench" / "peers" / "embree" / "embree_pt"))
+    p.add_argument("--embree", default=str(benchlib.EMBREE))
     p.add_argument("--isa", nargs="+", default=["auto"])
     p.add_argument("--render", type=int, metavar="SPP",
                    help="whole renders of SPP samples a pixel instead of the traversal alone")
@@ -86,25 +75,23 @@ def main():
             r, h = rays_per_second(cmd)
             samples[name].append(r)
             hits[name] = h
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
-                if l.startswith("model name")), "unknown")
+    cpu = benchlib.cpu_name("unknown")
     print(f"{a.scene}, {a.rays}: {a.rounds} interleaved rounds, --repeat {a.repeat}; CPU: {cpu}")
     print("| program | M rays/s (median) | hits (trace) or image mean (render) | / Embree (median of rounds) |")
     print("|---|---|---|---|")
     e = samples["embree rtcIntersect1"]
     result = {"cpu": cpu, "scene": a.scene, "rays": a.rays, "rounds": a.rounds, "runs": {}}
     for name, s in samples.items():
-        ratio = statistics.median(x / y for x, y in zip(s, e))
+        ratio = benchlib.median_ratio(s, e)
         print(f"| {name} | {statistics.median(s) / 1e6:.2f} | {hits[name]} | {ratio:.3f} |")
         result["runs"][name] = {"rays_per_s": s, "hits": hits[name], "vs_embree": ratio}
     if a.baseline:
         for isa in a.isa:
-            ratio = statistics.median(x / y for x, y in zip(samples[f"cierzo {isa}"],
-                                                            samples[f"baseline {isa}"]))
+            ratio = benchlib.median_ratio(samples[f"cierzo {isa}"], samples[f"baseline {isa}"])
             print(f"cierzo / baseline, {isa}: {ratio:.3f}")
             result[f"vs_baseline_{isa}"] = ratio
     if a.json:
-        pathlib.Path(a.json).write_text(json.dumps(result, indent=2) + "\n")
+        benchlib.write_json(a.json, result)
 
 
 if __name__ == "__main__":
