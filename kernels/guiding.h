@@ -1,6 +1,6 @@
 // Path guiding's sampling side: the learned distribution of the light arriving at a point,
 // as the camera paths of nee and mis sample from it (src/integrators/path_guide.h learns it
-// between passes; docs/estimators.md, "Path guiding").
+// between passes; docs/guiding.md).
 //
 // The structure is Müller, Gross and Novák's SD-tree ("Practical Path Guiding for Efficient
 // Light-Transport Simulation", EGSR 2017): a binary tree over space whose leaves (cells)
@@ -68,7 +68,7 @@ struct GuideView {
 // ½, the iteration after the first training drew half its diffuse directions from a guide
 // of 16 paths: 1.10-1.20× the error of unguided mis at equal paths on caustic, where
 // starting at 0 gives 1.04-1.05×, and 0.77-0.84× on guiding/lantern's first indirect
-// bounce, where starting at 0 gives 0.68-0.80× (docs/estimators.md, "Path guiding").
+// bounce, where starting at 0 gives 0.68-0.80× (docs/guiding.md).
 inline constexpr float kGuideFractions[] = {0.0f, 0.25f, 0.5f, 0.75f};
 inline constexpr int kGuideFractionCount = 4;
 inline constexpr float kGuideFirstFraction = 0.0f;

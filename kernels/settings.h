@@ -127,7 +127,7 @@ enum class Sampler : int32_t {
     kPmj02 = 3,        // progressive multi-jittered (0,2) tables, shuffled and scrambled
 };
 
-// Path guiding (render.guiding, --guiding; docs/estimators.md, "Path guiding").
+// Path guiding (render.guiding, --guiding; docs/guiding.md).
 enum class Guiding : int32_t {
     kNone = 0,    // directions from the material's lobes alone
     kSdTree = 1,  // an SD-tree learned between passes (Müller, Gross and Novák 2017)

@@ -185,9 +185,9 @@ int run_main(int argc, char** argv) {
          "Where the random numbers come from: " + describe_samplers() +
              "; every estimator (overrides render.sampler; docs/estimators.md, \"samplers\")")
         ->check(CLI::IsMember(sampler_names()));
-    r->add_option("--guiding", a.job.guiding,
-                  "Path guiding: " + describe_guidings() +
-                      " (overrides render.guiding; docs/estimators.md, \"Path guiding\")")
+    r->add_option(
+         "--guiding", a.job.guiding,
+         "Path guiding: " + describe_guidings() + " (overrides render.guiding; docs/guiding.md)")
         ->check(CLI::IsMember(guiding_names()));
     r->add_option("--guided-vertices", a.job.guided_vertices,
                   "A guided render's guide serves the first N Phong (diffuse or glossy) vertices "

@@ -64,7 +64,7 @@ inline constexpr double kGuideSpatialThreshold = 12000;  // c: vertices per cell
 inline constexpr uint32_t kGuideMaxCells = 1u << 14;
 // The records the trainings take before the guide stops learning: the passes after the
 // training that reaches them sample its last guide and record nothing (their records cost
-// a wavefront path about as much as the path itself; docs/estimators.md, "Path guiding")
+// a wavefront path about as much as the path itself; docs/guiding.md)
 inline constexpr uint64_t kGuideLearnRecords = uint64_t(1) << 25;
 inline constexpr uint32_t kGuideMaxNodes = 1u << 20;
 

@@ -214,7 +214,7 @@ RenderResult render(const Scene& scene, const RenderOptions& options) {
             throw InputError(scene.source.string() + ": --guiding " +
                              guiding_name(scene.settings.estimator.guiding) +
                              " with render.min_length or render.max_length runs with "
-                             "--integrator scalar only (docs/estimators.md, \"Path guiding\")");
+                             "--integrator scalar only (docs/guiding.md)");
         if (options.strategies)
             throw InputError(scene.source.string() + ": --guiding " +
                              guiding_name(scene.settings.estimator.guiding) +
