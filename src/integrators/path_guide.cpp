@@ -393,42 +393,58 @@ void PathGuide::train(int64_t spp_end) {
     if (!learning()) return;
     const int64_t spp_iteration = std::max<int64_t>(spp_end - last_end_, 1);
     last_end_ = spp_end;
-    if (!box_set_) {
-        // The box of the first iteration's vertices between the quantiles, from the bins'
-        // outer edges, a little larger (a unit box without any); vertices outside it fall in
-        // its border cells
-        for (int a = 0; a < 3; ++a) {
-            const uint64_t* bins = committed_bins_.data() + size_t(a) * kBoxBins;
-            uint64_t total = 0;
-            for (size_t b = 0; b < kBoxBins; ++b) total += bins[b];
-            float lo = -0.5f, hi = 0.5f;
-            if (total > 0) {
-                const uint64_t skip = uint64_t(kBoxQuantile * double(total));
-                size_t first = 0, last = kBoxBins - 1;
-                for (uint64_t seen = 0; first < kBoxBins; ++first)
-                    if ((seen += bins[first]) > skip) break;
-                for (uint64_t seen = 0; last > 0; --last)
-                    if ((seen += bins[last]) > skip) break;
-                // (a bin's lowest and highest floats, past the infinities' and NaNs' bins)
-                lo = from_ordered(uint32_t(first) << kBinShift);
-                hi = from_ordered((uint32_t(last) << kBinShift) | ((1u << kBinShift) - 1));
-                const float most = std::numeric_limits<float>::max() / 4;
-                lo = std::clamp(lo, -most, most), hi = std::clamp(hi, -most, most);
-                if (!(lo <= hi)) lo = -0.5f, hi = 0.5f;
-            }
-            const float pad =
-                std::max(1e-2f * (hi - lo), 1e-4f * std::max(std::abs(lo), std::abs(hi)));
-            lo_[a] = lo - pad - 1e-20f;
-            size_[a] = (hi + pad + 1e-20f) - lo_[a];
-        }
-        box_set_ = true;
-        committed_bins_ = {};
-        std::lock_guard lock(learners_mutex_);
-        for (const std::unique_ptr<Learner>& l : learners_)
-            for (std::vector<uint64_t>& b : l->bins) b = {};
-    }
+    if (!box_set_) set_box();
+    const std::vector<CellTrees> trees = trained_trees();
+    std::vector<uint64_t> counts;
+    const std::vector<float> fraction = chosen_fractions(counts);
+    std::vector<const CellTrees*> cell_trees;  // the new cells' trees
+    std::vector<float> cell_fractions;
+    rebuild_space(trees, fraction, counts, spp_iteration, cell_trees, cell_fractions);
+    install_cells(cell_trees, std::move(cell_fractions));
+    ++trainings_;
+    update_view();
+    training_seconds_.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    trained_at_.push_back(spp_end);
+}
 
-    // Each cell's exact energies: a quadrant's sum, over its subtree
+// The box of the first iteration's vertices between the quantiles, from the bins' outer
+// edges, a little larger (a unit box without any); vertices outside it fall in its border
+// cells.
+void PathGuide::set_box() {
+    for (int a = 0; a < 3; ++a) {
+        const uint64_t* bins = committed_bins_.data() + size_t(a) * kBoxBins;
+        uint64_t total = 0;
+        for (size_t b = 0; b < kBoxBins; ++b) total += bins[b];
+        float lo = -0.5f, hi = 0.5f;
+        if (total > 0) {
+            const uint64_t skip = uint64_t(kBoxQuantile * double(total));
+            size_t first = 0, last = kBoxBins - 1;
+            for (uint64_t seen = 0; first < kBoxBins; ++first)
+                if ((seen += bins[first]) > skip) break;
+            for (uint64_t seen = 0; last > 0; --last)
+                if ((seen += bins[last]) > skip) break;
+            // (a bin's lowest and highest floats, past the infinities' and NaNs' bins)
+            lo = from_ordered(uint32_t(first) << kBinShift);
+            hi = from_ordered((uint32_t(last) << kBinShift) | ((1u << kBinShift) - 1));
+            const float most = std::numeric_limits<float>::max() / 4;
+            lo = std::clamp(lo, -most, most), hi = std::clamp(hi, -most, most);
+            if (!(lo <= hi)) lo = -0.5f, hi = 0.5f;
+        }
+        const float pad = std::max(1e-2f * (hi - lo), 1e-4f * std::max(std::abs(lo), std::abs(hi)));
+        lo_[a] = lo - pad - 1e-20f;
+        size_[a] = (hi + pad + 1e-20f) - lo_[a];
+    }
+    box_set_ = true;
+    committed_bins_ = {};
+    std::lock_guard lock(learners_mutex_);
+    for (const std::unique_ptr<Learner>& l : learners_)
+        for (std::vector<uint64_t>& b : l->bins) b = {};
+}
+
+// Each cell's sampled tree (its quadrants' shares of the exact energies, a quadrant's sum
+// over its subtree) and its next learning tree (subdivided where a quadrant holds much).
+std::vector<PathGuide::CellTrees> PathGuide::trained_trees() const {
     const size_t cells = learning_roots_.size();
     std::vector<CellTrees> trees(cells);
     std::vector<U128> energy(learning_size_ * 4);
@@ -469,11 +485,15 @@ void PathGuide::train(int64_t spp_end) {
                 t.learning.nodes.push_back(s);
             }
     }
+    return trees;
+}
 
-    // Each cell's share α: the candidate of least second moment (a cell without records of
-    // it keeps its own)
+// Each cell's share α: the candidate of least second moment (a cell without records of it
+// keeps its own); `counts` gets each cell's records, which the guide's count takes.
+std::vector<float> PathGuide::chosen_fractions(std::vector<uint64_t>& counts) {
+    const size_t cells = learning_roots_.size();
     std::vector<float> fraction(cells);
-    std::vector<uint64_t> counts(cells, 0);
+    counts.assign(cells, 0);
     for (size_t c = 0; c < cells; ++c) {
         fraction[c] = fractions_[c];
         counts[c] = committed_cells_[c].count;
@@ -484,12 +504,19 @@ void PathGuide::train(int64_t spp_end) {
             if (moment(k) > 0 && (best < 0 || moment(k) < moment(best))) best = k;
         if (best >= 0) fraction[c] = kGuideFractions[best];
     }
+    return fraction;
+}
 
-    // The tree over space again, cells cut where they took many vertices
+// The tree over space again, cells cut where they took many vertices (over a threshold that
+// grows with the iteration's paths): each new cell's trees and share, in the cells' order.
+void PathGuide::rebuild_space(const std::vector<CellTrees>& trees,
+                              const std::vector<float>& fraction,
+                              const std::vector<uint64_t>& counts, int64_t spp_iteration,
+                              std::vector<const CellTrees*>& cell_trees,
+                              std::vector<float>& cell_fractions) {
+    const size_t cells = trees.size();
     const double threshold = kGuideSpatialThreshold * std::sqrt(double(spp_iteration) / 4.0);
     std::vector<GuideSpatialNode> spatial;
-    std::vector<const CellTrees*> cell_trees;  // the new cells' trees
-    std::vector<float> cell_fractions;
     uint64_t nodes = 0;
     uint32_t cells_total = uint32_t(cells);
     for (const CellTrees& t : trees) nodes += t.sampled.size() + t.learning.nodes.size();
@@ -548,8 +575,12 @@ void PathGuide::train(int64_t spp_end) {
     for (int a = 0; a < 3; ++a) whole.lo[a] = lo_[a], whole.size[a] = size_[a];
     rebuild(rebuild, 0, whole, 0);
     spatial_ = std::move(spatial);
+}
 
-    // The cells' trees, in the cells' order
+// The cells' trees, in the cells' order: the sampled ones into one array, the learning ones
+// allocated.
+void PathGuide::install_cells(const std::vector<const CellTrees*>& cell_trees,
+                              std::vector<float>&& cell_fractions) {
     directions_.clear();
     roots_.assign(cell_trees.size(), 0);
     std::vector<Shape> learning;
@@ -567,11 +598,6 @@ void PathGuide::train(int64_t spp_end) {
     }
     fractions_ = std::move(cell_fractions);
     allocate_learning(learning);
-    ++trainings_;
-    update_view();
-    training_seconds_.push_back(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    trained_at_.push_back(spp_end);
 }
 
 // ---- Saved states and ranks' sums ---------------------------------------------------------

@@ -170,6 +170,16 @@ private:
     // with lower ≤ q < upper on every axis is in the same cell
     uint32_t cell_box(const Vec3f& p, float lo[3], float size[3], float lower[3],
                       float upper[3]) const;
+    // The steps of train()
+    void set_box();
+    std::vector<CellTrees> trained_trees() const;
+    std::vector<float> chosen_fractions(std::vector<uint64_t>& counts);
+    void rebuild_space(const std::vector<CellTrees>& trees, const std::vector<float>& fraction,
+                       const std::vector<uint64_t>& counts, int64_t spp_iteration,
+                       std::vector<const CellTrees*>& cell_trees,
+                       std::vector<float>& cell_fractions);
+    void install_cells(const std::vector<const CellTrees*>& cell_trees,
+                       std::vector<float>&& cell_fractions);
     void update_view();
     void resize_sums(size_t nodes, size_t cells);  // zeroed
     void allocate_learning(const std::vector<Shape>& trees);
