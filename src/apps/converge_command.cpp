@@ -23,6 +23,7 @@
 #include "io/output_file.h"
 #include "io/image.h"
 #include "integrators/registry.h"
+#include "integrators/render.h"
 #include "scene/scene_json.h"
 
 namespace cierzo {

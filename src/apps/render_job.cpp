@@ -16,6 +16,7 @@
 #include "integrators/checkpoint.h"
 #include "integrators/distributed.h"
 #include "integrators/light_pilot.h"
+#include "integrators/render.h"
 #include "integrators/wavefront/isa.h"
 #include "integrators/wavefront/wavefront.h"
 #include "io/output_file.h"

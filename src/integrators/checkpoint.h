@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 #include "io/image.h"
 #include "scene/scene.h"
 

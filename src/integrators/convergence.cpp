@@ -1,6 +1,5 @@
 // Error metrics and convergence sweeps (see convergence.h).
 #include "integrators/convergence.h"
-#include "integrators/registry.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +8,8 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "integrators/registry.h"
+#include "integrators/render.h"
 
 namespace cierzo {
 

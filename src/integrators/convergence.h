@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 
 namespace cierzo {
 

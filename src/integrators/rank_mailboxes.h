@@ -13,7 +13,7 @@
 
 #include "integrators/distributed.h"
 #include "integrators/film.h"
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 #include "integrators/scheduler.h"
 
 namespace cierzo::rank {

@@ -3,7 +3,7 @@
 // they are measured against.
 #pragma once
 
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 
 namespace cierzo {
 

@@ -3,7 +3,7 @@
 // walk of a light subpath that light tracing and the bidirectional estimators both take.
 #pragma once
 
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 #include "kernels/bidirectional.h"
 #include "kernels/path_vertex.h"
 #include "scene/scene.h"

@@ -34,7 +34,7 @@
 #include "integrators/film.h"
 #include "integrators/path_guide.h"
 #include "integrators/progress.h"
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 #include "integrators/wavefront/wavefront.h"
 
 namespace cierzo {

@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "integrators/film.h"
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 #include "integrators/scheduler.h"
 
 namespace cierzo {

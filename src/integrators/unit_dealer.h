@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "integrators/progress.h"
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 #include "integrators/scheduler.h"
 #include "integrators/tile_owner.h"
 

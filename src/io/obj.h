@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <string_view>
 
-#include "io/mesh.h"
+#include "io/mesh_data.h"
 
 namespace cierzo {
 

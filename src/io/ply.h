@@ -7,7 +7,7 @@
 #include <string_view>
 #include <vector>
 
-#include "io/mesh.h"
+#include "io/mesh_data.h"
 
 namespace cierzo {
 

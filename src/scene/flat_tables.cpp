@@ -71,7 +71,8 @@ struct FlatTables {
     uint32_t texture_channels = 0;  // bit c: some material textures colour channel c
 };
 
-std::shared_ptr<const FlatTables> build_flat_tables(const Scene& scene) {
+void Scene::build_flat_tables() {
+    const Scene& scene = *this;
     auto t = std::make_shared<FlatTables>();
     // Analytic primitives: padded copies of the scene's SoA arrays, quadrics as 16 floats
     const Spheres& sp = scene.spheres;
@@ -126,7 +127,7 @@ std::shared_ptr<const FlatTables> build_flat_tables(const Scene& scene) {
     // Next-event estimation's emitters, per sphere and mesh the id of its (first) emitter
     t->sphere_emitter = padded(scene.emitters.sphere_id);
     t->mesh_emitter = padded(scene.emitters.mesh_first);
-    return t;
+    flat_tables = std::move(t);
 }
 
 FlatView flat_view(const Scene& scene) {

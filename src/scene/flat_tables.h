@@ -16,9 +16,9 @@ namespace cierzo {
 class Scene;
 struct FlatTables;
 
-// The tables of `scene` (Scene::finalize calls this; the scene's primitives and materials
-// must not change afterwards without calling finalize again).
-std::shared_ptr<const FlatTables> build_flat_tables(const Scene& scene);
+// (The tables themselves are built by Scene::finalize, through Scene::build_flat_tables,
+// defined in flat_tables.cpp; the scene's primitives and materials must not change
+// afterwards without calling finalize again.)
 
 // `scene` as the wavefront kernels read it: the tables built by finalize, pointers into the
 // scene's own arrays, and its camera, resolution, seed, estimator and features now. Valid

@@ -15,7 +15,6 @@
 #include "kernels/prim_id.h"
 #include "kernels/shading.h"
 #include "kernels/bvh/traverse.h"
-#include "scene/flat_tables.h"
 #include "scene/pmj02.h"
 
 namespace cierzo {
@@ -140,7 +139,7 @@ void Scene::finalize() {
     for (const PointLight& l : lights)
         light_data.insert(light_data.end(), {l.position.x, l.position.y, l.position.z,
                                              l.intensity.x, l.intensity.y, l.intensity.z});
-    flat_tables = build_flat_tables(*this);
+    build_flat_tables();
 }
 
 void Scene::build_alpha() {

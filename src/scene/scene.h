@@ -368,6 +368,8 @@ private:
     void build_emitters();
     void build_environment();
     void build_light_starts();
+    // (in scene/flat_tables.cpp, with the flat view that reads the tables)
+    void build_flat_tables();
     Vec3f color_at(const ColorSource& c, const Hit& hit) const;
 };
 

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "integrators/convergence.h"
+#include "integrators/render.h"
 #include "scene/scene_json.h"
 #include "support/emulator.h"
 

@@ -21,6 +21,7 @@
 #include "integrators/checkpoint.h"
 #include "integrators/path_guide.h"
 #include "integrators/registry.h"
+#include "integrators/render.h"
 #include "scene/estimator_options.h"
 #include "support/analytic_scenes.h"
 #include "support/emulator.h"

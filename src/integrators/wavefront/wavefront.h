@@ -5,7 +5,7 @@
 
 #include <memory>
 
-#include "integrators/render.h"
+#include "integrators/render_types.h"
 #include "integrators/wavefront/isa_entries.h"
 
 namespace cierzo {

@@ -1,0 +1,4 @@
+// The other half of the cycle of wheel.h.
+#pragma once
+
+struct Axle {};
