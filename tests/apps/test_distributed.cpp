@@ -428,14 +428,16 @@ void kill_and_resume(int ranks, const std::string& scene_file = "cornell.json",
     // (a guided render, by the scalar integrator: past the trainings at 16 and 32 paths per
     // pixel, and natively a few more)
     const bool guided = std::find(estimator.begin(), estimator.end(), "sdtree") != estimator.end();
-    // (under an emulator or a sanitizer a 32x24 pass of bidirectional paths takes a tenth of
-    // a second or more: 48 paths per pixel outlast the first checkpoint many times over)
+    // (under qemu a 32x24 pass of bidirectional paths takes a tenth of a second or more: 48
+    // paths per pixel outlast the first checkpoint many times over; under a sanitizer,
+    // tens of times faster, only 64x48 at 100 paths do)
+    const bool qemu = !cierzo::test::emulator_words().empty();
     const std::string spp = guided       ? (emulated() ? "48" : "256")
-                            : emulated() ? (heavy ? "48" : "300")
+                            : emulated() ? (heavy ? (qemu ? "48" : "100") : "300")
                             : heavy      ? "800"
                                          : "2000";
     const bool small = emulated() || heavy || guided;
-    const bool smaller = emulated() && heavy;
+    const bool smaller = qemu && heavy;
     const char* width = smaller ? "32" : small ? "64" : "160";
     const char* height = smaller ? "24" : small ? "48" : "120";
     std::vector<std::string> scene = {"--spp",    spp,    "--width",   width,
